@@ -1,0 +1,25 @@
+#pragma once
+// SIMD batch kernels for Barr operators with linear laws, dispatched at run time to the best
+// instruction set of the CPU (Highway), so one binary runs on any x86-64.
+#include <cstddef>
+
+namespace deformkit {
+
+struct BarrKernelParams {
+  int kind;                 // BarrKind
+  double M[9], m[3];        // object -> canonical
+  double B[9], t[3];        // canonical -> object
+  bool identity_placement;
+  double unlocked[3];       // 1 for a free canonical axis, 0 for a locked one
+  double offset, slope, lo, hi;  // linear law f = offset + slope * clamp(z, lo, hi) (twist/taper)
+  double k, center;         // stretch factor / bend curvature, bend centre (lo/hi: region)
+};
+
+// Processes rows [0, n); returns false if some input row was not finite.
+bool barr_kernel(const BarrKernelParams& p, const float* in, float* out, std::size_t n);
+bool barr_kernel(const BarrKernelParams& p, const double* in, double* out, std::size_t n);
+
+// Name of the instruction set the kernels dispatch to on this CPU (e.g. "AVX2").
+const char* simd_target();
+
+}  // namespace deformkit

@@ -1,0 +1,22 @@
+#pragma once
+// Composition F = F_n o ... o F_1, with the chain rule J = J_n(F_n-1(...)) ... J_1(x).
+#include "deformkit/deformer.hpp"
+
+namespace deformkit {
+
+class Stack : public Deformer {
+ public:
+  explicit Stack(std::vector<DeformerPtr> deformers);
+  const std::vector<DeformerPtr>& deformers() const { return deformers_; }
+
+ protected:
+  bool deform_impl(const float* in, float* out, std::size_t n) const override;
+  bool deform_impl(const double* in, double* out, std::size_t n) const override;
+  void jacobian_impl(const double* in, double* jac, std::size_t n) const override;
+
+ private:
+  template <class T> bool deform_any(const T* in, T* out, std::size_t n) const;
+  std::vector<DeformerPtr> deformers_;
+};
+
+}  // namespace deformkit

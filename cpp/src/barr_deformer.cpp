@@ -1,0 +1,183 @@
+#include "deformkit/barr_deformer.hpp"
+
+#include "deformkit/barr_kernels.hpp"
+#include "deformkit/parallel.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace deformkit {
+
+void barr_apply_with_jacobian(const BarrOp& op, const Vec3& c, Vec3& out, Mat3& jac) {
+  jac.setIdentity();
+  if (op.kind == BarrKind::Bend) {
+    // Barr's bend in the stable half-angle form: S/k = 2 sin(t/2) cos(t/2) / k and
+    // (1 - C)/k = 2 sin^2(t/2) / k never cancel, so k -> 0 tends to the identity.
+    if (op.is_identity_bend()) {
+      out = c;
+      return;
+    }
+    const double y_hat = std::clamp(c.y(), op.lo, op.hi);
+    const bool inside = c.y() >= op.lo && c.y() <= op.hi;
+    const double theta = op.k * (y_hat - op.center);
+    const double h = std::sin(0.5 * theta), c2 = std::cos(0.5 * theta);
+    const double s = 2.0 * h * c2, cs = 1.0 - 2.0 * h * h, q = h / op.k;
+    const double d = c.y() - y_hat;  // tangent continuation beyond the region
+    out = Vec3(c.x(), op.center + 2.0 * q * c2 - s * c.z() + cs * d, cs * c.z() + 2.0 * q * h + s * d);
+    const double a = inside ? 1.0 - op.k * c.z() : 1.0;  // lecture: J = [1 0 0; 0 C(1-k^z) -S; 0 S(1-k^z) C]
+    jac(1, 1) = cs * a;
+    jac(1, 2) = -s;
+    jac(2, 1) = s * a;
+    jac(2, 2) = cs;
+    return;
+  }
+  const double ux = op.locked[0] ? 0.0 : 1.0, uy = op.locked[1] ? 0.0 : 1.0;
+  const double qx = ux * c.x(), qy = uy * c.y(), kx = c.x() - qx, ky = c.y() - qy;
+  switch (op.kind) {
+    case BarrKind::Twist: {  // x' = x cos(t) - y sin(t), y' = x sin(t) + y cos(t), t = f(z)
+      double theta, dtheta;
+      op.profile.evaluate(c.z(), theta, dtheta);
+      const double s = std::sin(theta), cs = std::cos(theta);
+      out = Vec3(qx * cs - qy * s + kx, qx * s + qy * cs + ky, c.z());
+      jac(0, 0) = ux * cs + (1.0 - ux);
+      jac(0, 1) = -uy * s;
+      jac(0, 2) = (-qx * s - qy * cs) * dtheta;
+      jac(1, 0) = ux * s;
+      jac(1, 1) = uy * cs + (1.0 - uy);
+      jac(1, 2) = (qx * cs - qy * s) * dtheta;
+      return;
+    }
+    case BarrKind::Taper: {  // x' = r x, y' = r y, r = f(z)
+      double r, dr;
+      op.profile.evaluate(c.z(), r, dr);
+      out = Vec3(qx * r + kx, qy * r + ky, c.z());
+      jac(0, 0) = ux * r + (1.0 - ux);
+      jac(0, 2) = qx * dr;
+      jac(1, 1) = uy * r + (1.0 - uy);
+      jac(1, 2) = qy * dr;
+      return;
+    }
+    case BarrKind::Stretch: {  // Blender: s = 1 + k (z^2 - 1), x' = s x, y' = s y, z' = (1 + k) z
+      const double z_hat = std::clamp(c.z(), op.lo, op.hi);
+      const bool inside = c.z() >= op.lo && c.z() <= op.hi;
+      const double s = 1.0 + op.k * (z_hat * z_hat - 1.0), ds = inside ? 2.0 * op.k * z_hat : 0.0;
+      out = Vec3(qx * s + kx, qy * s + ky, c.z() + op.k * z_hat);
+      jac(0, 0) = ux * s + (1.0 - ux);
+      jac(0, 2) = qx * ds;
+      jac(1, 1) = uy * s + (1.0 - uy);
+      jac(1, 2) = qy * ds;
+      jac(2, 2) = inside ? 1.0 + op.k : 1.0;
+      return;
+    }
+    case BarrKind::Bend: break;
+  }
+}
+
+Vec3 barr_apply(const BarrOp& op, const Vec3& c) {
+  Vec3 out;
+  Mat3 jac;
+  barr_apply_with_jacobian(op, c, out, jac);
+  return out;
+}
+
+BarrDeformer::BarrDeformer(BarrOp op, Placement placement) : op_(std::move(op)), placement_(placement) {
+  if (!std::isfinite(op_.k) || !std::isfinite(op_.center))
+    throw std::invalid_argument("deformer: curvature, factor and center must be finite");
+  if (std::isnan(op_.lo) || std::isnan(op_.hi) || op_.lo > op_.hi)
+    throw std::invalid_argument("limits: expected lo <= hi");
+}
+
+static BarrKernelParams kernel_params(const BarrOp& op, const Placement& pl) {
+  BarrKernelParams p{};
+  p.kind = static_cast<int>(op.kind);
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      p.M[3 * r + c] = pl.to_canonical(r, c);
+      p.B[3 * r + c] = pl.to_object(r, c);
+    }
+    p.m[r] = pl.canonical_offset[r];
+    p.t[r] = pl.object_offset[r];
+    p.unlocked[r] = op.locked[r] ? 0.0 : 1.0;
+  }
+  p.identity_placement = pl.identity;
+  p.offset = op.profile.offset();
+  p.slope = op.profile.slope();
+  const bool uses_profile = op.kind == BarrKind::Twist || op.kind == BarrKind::Taper;
+  p.lo = uses_profile ? op.profile.lo() : op.lo;
+  p.hi = uses_profile ? op.profile.hi() : op.hi;
+  p.k = op.k;
+  p.center = op.center;
+  return p;
+}
+
+template <class T>
+bool BarrDeformer::deform_any(const T* in, T* out, std::size_t n) const {
+  std::atomic<bool> finite{true};
+  const bool simd = op_.profile.is_linear() && !op_.is_identity_bend();
+  const BarrKernelParams params = kernel_params(op_, placement_);
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    bool ok = true;
+    if (simd) {
+      ok = barr_kernel(params, in + 3 * begin, out + 3 * begin, end - begin);
+    } else {
+      for (std::size_t i = begin; i < end; ++i) {
+        const Vec3 p(in[3 * i], in[3 * i + 1], in[3 * i + 2]);
+        ok = ok && p.allFinite();
+        const Vec3 q = placement_.object(barr_apply(op_, placement_.canonical(p)));
+        for (int a = 0; a < 3; ++a) out[3 * i + a] = static_cast<T>(q[a]);
+      }
+    }
+    if (!ok) finite = false;
+  });
+  return finite;
+}
+
+bool BarrDeformer::deform_impl(const float* in, float* out, std::size_t n) const { return deform_any(in, out, n); }
+bool BarrDeformer::deform_impl(const double* in, double* out, std::size_t n) const { return deform_any(in, out, n); }
+
+void BarrDeformer::jacobian_impl(const double* in, double* jac, std::size_t n) const {
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      Vec3 out;
+      Mat3 jc;
+      barr_apply_with_jacobian(op_, placement_.canonical(Vec3(in[3 * i], in[3 * i + 1], in[3 * i + 2])), out, jc);
+      const Mat3 j = placement_.object_jacobian(jc);
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) jac[9 * i + 3 * r + c] = j(r, c);
+    }
+  });
+}
+
+static BarrOp twist_op(BarrKind kind, const Profile& profile) {
+  BarrOp op;
+  op.kind = kind;
+  op.profile = profile;
+  return op;
+}
+
+static BarrOp ranged_op(BarrKind kind, double k, double center, double lo, double hi) {
+  BarrOp op;
+  op.kind = kind;
+  op.k = k;
+  op.center = center;
+  op.lo = lo;
+  op.hi = hi;
+  return op;
+}
+
+Twist::Twist(const Profile& theta, int axis, const Frame& frame)
+    : BarrDeformer(twist_op(BarrKind::Twist, theta), Placement(frame, axis_to_z(axis))) {}
+
+Taper::Taper(const Profile& radius, int axis, const Frame& frame)
+    : BarrDeformer(twist_op(BarrKind::Taper, radius), Placement(frame, axis_to_z(axis))) {}
+
+Stretch::Stretch(double factor, double lo, double hi, int axis, const Frame& frame)
+    : BarrDeformer(ranged_op(BarrKind::Stretch, factor, 0.0, lo, hi), Placement(frame, axis_to_z(axis))) {}
+
+Bend::Bend(double curvature, double center, double lo, double hi, int axis, const Frame& frame)
+    : BarrDeformer(ranged_op(BarrKind::Bend, curvature, center, lo, hi), Placement(frame, axis_to_x(axis))) {}
+
+}  // namespace deformkit

@@ -1,0 +1,135 @@
+#include "deformkit/deformer.hpp"
+
+#include "deformkit/parallel.hpp"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+namespace deformkit {
+
+template <class T>
+void require_finite_rows(const T* data, std::size_t n, const char* argument) {
+  for (std::size_t i = 0; i < n; ++i) {
+    if (std::isfinite(data[3 * i]) && std::isfinite(data[3 * i + 1]) && std::isfinite(data[3 * i + 2]))
+      continue;
+    std::ostringstream msg;
+    msg << argument << ": row " << i << " is not finite (" << data[3 * i] << ", " << data[3 * i + 1] << ", "
+        << data[3 * i + 2] << ")";
+    throw std::invalid_argument(msg.str());
+  }
+}
+template void require_finite_rows<float>(const float*, std::size_t, const char*);
+template void require_finite_rows<double>(const double*, std::size_t, const char*);
+
+void Deformer::set_weights(std::vector<double> weights) {
+  for (std::size_t i = 0; i < weights.size(); ++i)
+    if (!std::isfinite(weights[i]))
+      throw std::invalid_argument("weights: entry " + std::to_string(i) + " is not finite");
+  weights_ = std::move(weights);
+}
+
+static void require_weight_count(const std::vector<double>& w, std::size_t n) {
+  if (!w.empty() && w.size() != n)
+    throw std::invalid_argument("weights: has " + std::to_string(w.size()) + " entries but points has " +
+                                std::to_string(n) + " rows");
+}
+
+template <class T>
+static void blend(const std::vector<double>& w, const T* in, T* out, std::size_t n) {
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i)
+      for (int a = 0; a < 3; ++a) {
+        const double x = in[3 * i + a];
+        out[3 * i + a] = static_cast<T>(x + w[i] * (static_cast<double>(out[3 * i + a]) - x));
+      }
+  });
+}
+
+template <class T>
+static void deform_weighted(const Deformer& self, const std::vector<double>& w, const T* in, T* out,
+                            std::size_t n, bool (*impl)(const Deformer&, const T*, T*, std::size_t)) {
+  require_weight_count(w, n);
+  if (w.empty()) {
+    if (!impl(self, in, out, n)) require_finite_rows(in, n, "points");
+    return;
+  }
+  // The blend needs the original positions, which an in-place call overwrites.
+  std::vector<T> original;
+  const T* source = in;
+  if (in == out) {
+    original.assign(in, in + 3 * n);
+    source = original.data();
+  }
+  if (!impl(self, source, out, n)) require_finite_rows(source, n, "points");
+  blend(w, source, out, n);
+}
+
+void Deformer::deform(const float* in, float* out, std::size_t n) const {
+  deform_weighted<float>(*this, weights_, in, out, n, [](const Deformer& d, const float* i, float* o, std::size_t m) {
+    return d.deform_impl(i, o, m);
+  });
+}
+void Deformer::deform(const double* in, double* out, std::size_t n) const {
+  deform_weighted<double>(*this, weights_, in, out, n, [](const Deformer& d, const double* i, double* o, std::size_t m) {
+    return d.deform_impl(i, o, m);
+  });
+}
+
+void Deformer::jacobian(const double* in, double* jac, std::size_t n) const {
+  require_weight_count(weights_, n);
+  require_finite_rows(in, n, "points");
+  jacobian_impl(in, jac, n);
+  if (weights_.empty()) return;
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i)
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) {
+          double& j = jac[9 * i + 3 * r + c];
+          j = weights_[i] * j + (r == c ? 1.0 - weights_[i] : 0.0);
+        }
+  });
+}
+
+Mat3 cofactor(const Mat3& j) {
+  // Columns of cof(J) as in the lecture: [J2 x J3, J3 x J1, J1 x J2] are the rows of det(J) J^-1.
+  Mat3 rows;
+  rows.row(0) = j.col(1).cross(j.col(2)).transpose();
+  rows.row(1) = j.col(2).cross(j.col(0)).transpose();
+  rows.row(2) = j.col(0).cross(j.col(1)).transpose();
+  return rows.transpose();
+}
+
+static Mat3 read_mat(const double* p) {
+  Mat3 m;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) m(r, c) = p[3 * r + c];
+  return m;
+}
+
+void transform_normals(const Deformer& d, const double* points, const double* normals, double* out,
+                       std::size_t n) {
+  require_finite_rows(normals, n, "normals");
+  std::vector<double> jac(9 * n);
+  d.jacobian(points, jac.data(), n);
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const Vec3 nrm(normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]);
+      Vec3 m = cofactor(read_mat(&jac[9 * i])) * nrm;
+      const double len = m.norm();
+      if (len > 0.0) m /= len;  // a collapsed point (det J = 0 on the normal's plane) keeps 0
+      for (int a = 0; a < 3; ++a) out[3 * i + a] = m[a];
+    }
+  });
+}
+
+void volume_ratio(const Deformer& d, const double* points, double* out, std::size_t n) {
+  std::vector<double> jac(9 * n);
+  d.jacobian(points, jac.data(), n);
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) out[i] = read_mat(&jac[9 * i]).determinant();
+  });
+}
+
+}  // namespace deformkit

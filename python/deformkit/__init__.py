@@ -1,0 +1,24 @@
+"""deformkit: shape deformation with exact Jacobians.
+
+Every deformer shares one interface -- ``deform(points)``, ``jacobian(points)``,
+``transform_normals(points, normals)``, ``volume_ratio(points)`` -- and deformers compose with
+:class:`Stack`.
+
+>>> import numpy as np, deformkit as dk
+>>> pts = np.random.rand(1000, 3)
+>>> out = dk.Stack([dk.Twist(rate=1.0), dk.Bend(curvature=0.5)]).deform(pts)
+"""
+
+from ._core import (
+    Bend,
+    Deformer,
+    SimpleDeform,
+    Stack,
+    Stretch,
+    Taper,
+    Twist,
+    build_info,
+)
+
+__all__ = ["Bend", "Deformer", "SimpleDeform", "Stack", "Stretch", "Taper", "Twist", "build_info"]
+__version__ = "0.1.0"

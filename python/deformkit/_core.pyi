@@ -1,0 +1,76 @@
+"""Type stubs for the native core (deformkit._core)."""
+from typing import Literal, Sequence, TypeVar, overload
+
+import numpy as np
+import numpy.typing as npt
+
+_F = TypeVar("_F", np.float32, np.float64)
+_Axis = Literal["x", "y", "z", "X", "Y", "Z", 0, 1, 2]
+_Matrix4 = npt.ArrayLike
+_Profile = tuple[npt.ArrayLike, npt.ArrayLike]
+
+class Deformer:
+    """Interface shared by every spatial deformer."""
+    def deform(self, points: np.ndarray[tuple[int, int], np.dtype[_F]], *,
+               out: np.ndarray[tuple[int, int], np.dtype[_F]] | None = None) -> np.ndarray[tuple[int, int], np.dtype[_F]]:
+        """F(x) per row of an (n, 3) array; x + w (F(x) - x) with weights."""
+    def jacobian(self, points: np.ndarray[tuple[int, int], np.dtype[_F]]) -> np.ndarray[tuple[int, int, int], np.dtype[_F]]:
+        """J = dF/dx, shape (n, 3, 3), J[i, r, c] = dF_r/dx_c (Barr 1984)."""
+    def transform_normals(self, points: np.ndarray[tuple[int, int], np.dtype[np.floating]],
+                          normals: np.ndarray[tuple[int, int], np.dtype[_F]]) -> np.ndarray[tuple[int, int], np.dtype[_F]]:
+        """Unit normals N' = det(J) J^-T N, renormalised."""
+    def volume_ratio(self, points: np.ndarray[tuple[int, int], np.dtype[_F]]) -> np.ndarray[tuple[int], np.dtype[_F]]:
+        """det(J) per point."""
+    @property
+    def weights(self) -> np.ndarray[tuple[int], np.dtype[np.float64]] | None: ...
+
+class Twist(Deformer):
+    """theta = f(z): x' = x cos - y sin, y' = x sin + y cos, z' = z (Barr 1984)."""
+    def __init__(self, rate: float | None = None, axis: _Axis = "z", limits: tuple[float, float] | None = None,
+                 profile: _Profile | None = None, extend: Literal["constant", "linear"] = "constant",
+                 frame: _Matrix4 | None = None, weights: npt.ArrayLike | None = None) -> None: ...
+
+class Taper(Deformer):
+    """r = f(z): x' = r x, y' = r y, z' = z (Barr 1984)."""
+    def __init__(self, rate: float | None = None, axis: _Axis = "z", limits: tuple[float, float] | None = None,
+                 profile: _Profile | None = None, extend: Literal["constant", "linear"] = "constant",
+                 frame: _Matrix4 | None = None, weights: npt.ArrayLike | None = None) -> None: ...
+
+class Stretch(Deformer):
+    """Blender's stretch: s = 1 + k (z^2 - 1), x' = s x, y' = s y, z' = z + k z^."""
+    def __init__(self, factor: float = 0.785398163397448, axis: _Axis = "z",
+                 limits: tuple[float, float] | None = None, frame: _Matrix4 | None = None,
+                 weights: npt.ArrayLike | None = None) -> None: ...
+
+class Bend(Deformer):
+    """Barr's bend: theta = k (clamp(y, region) - center), tangent continuation outside."""
+    def __init__(self, curvature: float = 0.785398163397448, center: float = 0.0,
+                 region: tuple[float, float] | None = None, axis: _Axis = "x", frame: _Matrix4 | None = None,
+                 weights: npt.ArrayLike | None = None) -> None: ...
+
+class SimpleDeform(Deformer):
+    """Blender's Simple Deform modifier: k = amount / (L1 - L0) over the limited extent."""
+    def __init__(self, mode: Literal["TWIST", "BEND", "TAPER", "STRETCH"] = "TWIST", angle: float | None = None,
+                 factor: float | None = None, deform_axis: _Axis = "X", origin: _Matrix4 | None = None,
+                 limits: tuple[float, float] = (0.0, 1.0), lock_x: bool = False, lock_y: bool = False,
+                 lock_z: bool = False, weights: npt.ArrayLike | None = None, invert_weights: bool = False) -> None: ...
+    @property
+    def mode(self) -> str: ...
+    @property
+    def angle(self) -> float: ...
+    @property
+    def factor(self) -> float: ...
+    @property
+    def deform_axis(self) -> str: ...
+    @property
+    def limits(self) -> tuple[float, float]: ...
+
+class Stack(Deformer):
+    """F_n o ... o F_1 with J = J_n(F_n-1(...)) ... J_1(x)."""
+    def __init__(self, deformers: Sequence[Deformer], weights: npt.ArrayLike | None = None) -> None: ...
+    def __len__(self) -> int: ...
+    @property
+    def deformers(self) -> list[Deformer]: ...
+
+def build_info() -> dict[str, str]:
+    """Library versions, the SIMD target chosen for this CPU and the thread count."""

@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# Installs whatever is missing on a fresh machine: Debian packages (apt-get) and the pinned
+# PyPI packages in .venv. Safe to run every time; it does nothing when all is in place.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+# Debian package -> upstream version prefix the project is built and tested against.
+declare -A APT_PINS=(
+  [libeigen3-dev]=3.4.0
+  [libosd-dev]=3.5.0
+  [libhwy-dev]=1.0.3
+  [libgtest-dev]=1.12.1
+  [blender]=3.4.1
+)
+# Shared libraries that the PyPI bpy wheel loads on a headless machine; numpy for Blender 3.4.
+APT_RUNTIME=(libgl1 libegl1 libglib2.0-0 libsm6 libxext6 libxrender1 libxi6 libxxf86vm1
+             libxfixes3 libxkbcommon0 build-essential python3-numpy)
+
+installed() { dpkg-query -W -f='${Status}' "$1" 2>/dev/null | grep -q 'install ok installed'; }
+
+missing=()
+for pkg in "${!APT_PINS[@]}" "${APT_RUNTIME[@]}"; do installed "$pkg" || missing+=("$pkg"); done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing Debian packages: ${missing[*]}"
+  sudo_cmd=""; [ "$(id -u)" -ne 0 ] && sudo_cmd="sudo"
+  $sudo_cmd apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -q --no-install-recommends "${missing[@]}" >/dev/null
+fi
+for pkg in "${!APT_PINS[@]}"; do
+  have=$(dpkg-query -W -f='${Version}' "$pkg")
+  case "$have" in
+    "${APT_PINS[$pkg]}"*|*:"${APT_PINS[$pkg]}"*) ;;
+    *) echo "setup: $pkg is $have, but deformkit is pinned to ${APT_PINS[$pkg]}" >&2; exit 1 ;;
+  esac
+done
+
+PYTHON=${PYTHON:-python3}
+if [ ! -x .venv/bin/python ]; then
+  echo "setup: creating .venv with $($PYTHON --version)"
+  "$PYTHON" -m venv .venv
+fi
+stamp=.venv/.requirements.sha256
+want=$(sha256sum requirements-dev.txt | cut -d' ' -f1)
+if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
+  echo "setup: installing pinned PyPI packages into .venv"
+  .venv/bin/python -m pip install -q --disable-pip-version-check -r requirements-dev.txt
+  echo "$want" > "$stamp"
+fi

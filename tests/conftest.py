@@ -1,0 +1,36 @@
+import os
+import pathlib
+
+import numpy as np
+import pytest
+
+REPO = pathlib.Path(__file__).resolve().parents[1]
+MESHES = REPO.parent / "shared" / "meshes"
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(1234)
+
+
+@pytest.fixture
+def shared_mesh():
+    """Load a mesh from ../shared/meshes, skipping with a clear message when the folder is absent."""
+    def load(name):
+        path = MESHES / name
+        if not path.exists():
+            pytest.skip(f"{path} not found: the shared test meshes are not beside this checkout")
+        import trimesh
+        return trimesh.load(path, process=False, force="mesh")
+    return load
+
+
+def random_frame(rng):
+    """A rotation times a non-uniform scale plus a translation, as a 4x4 matrix."""
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    if np.linalg.det(q) < 0:
+        q[:, 0] *= -1
+    m = np.eye(4)
+    m[:3, :3] = q @ np.diag([1.3, 0.7, 1.1])
+    m[:3, 3] = rng.uniform(-1, 1, 3)
+    return m

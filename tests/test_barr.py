@@ -1,0 +1,170 @@
+"""The Barr family through the Python module: exact Jacobians, normals, volumes, limits."""
+import numpy as np
+import pytest
+import trimesh
+
+import deformkit as dk
+from conftest import random_frame
+
+
+def fd_jacobian(d, pts, h=1e-6):
+    cols = []
+    for c in range(3):
+        e = np.zeros(3)
+        e[c] = h
+        cols.append((d.deform(pts + e) - d.deform(pts - e)) / (2 * h))
+    return np.stack(cols, axis=-1)
+
+
+def deformers(rng):
+    frame = random_frame(rng)
+    return {
+        "twist": dk.Twist(rate=1.3, axis="x", frame=frame),
+        "twist_profile": dk.Twist(profile=([-1, 0, 0.5, 1], [0.2, -0.5, 0.9, 0.3]), axis="y"),
+        "taper": dk.Taper(rate=0.4, limits=(-0.5, 0.8), frame=frame),
+        "taper_profile": dk.Taper(profile=([-1, 1], [0.5, 1.5]), extend="linear", axis=1),
+        "stretch": dk.Stretch(factor=0.3, limits=(-0.6, 0.6), axis="z", frame=frame),
+        "bend": dk.Bend(curvature=0.9, center=0.1, region=(-0.4, 0.5), axis="z", frame=frame),
+        "simple_deform": dk.SimpleDeform(mode="BEND", angle=1.2, deform_axis="Y", limits=(0.1, 0.9)),
+        "stack": dk.Stack([dk.Twist(rate=0.8), dk.Bend(curvature=0.6, region=(-0.5, 0.5), frame=frame)]),
+    }
+
+
+@pytest.mark.parametrize("name", list(deformers(np.random.default_rng(0))))
+def test_jacobian_matches_finite_differences(name, rng):
+    d = deformers(np.random.default_rng(0))[name]
+    pts = rng.uniform(-1, 1, (300, 3))
+    if name == "simple_deform":
+        # Blender measures the bounds from the input: two anchor rows fix them (limit axis z for a
+        # Y bend) while the finite-difference stencil moves the other rows.
+        anchors = np.array([[0.0, 0.0, -2.0], [0.0, 0.0, 2.0]])
+        full = np.vstack([anchors, pts])
+        jac = d.jacobian(full)[2:]
+        fd = []
+        for c in range(3):
+            e = np.zeros(3)
+            e[c] = 1e-6
+            plus, minus = full.copy(), full.copy()
+            plus[2:] += e
+            minus[2:] -= e
+            fd.append((d.deform(plus)[2:] - d.deform(minus)[2:]) / 2e-6)
+        np.testing.assert_allclose(jac, np.stack(fd, axis=-1), atol=2e-6)
+        return
+    jac = d.jacobian(pts)
+    assert jac.shape == (300, 3, 3) and jac.dtype == np.float64
+    np.testing.assert_allclose(jac, fd_jacobian(d, pts), atol=2e-6)
+
+
+def test_jacobian_dtype_follows_points():
+    pts = np.random.default_rng(1).uniform(-1, 1, (10, 3)).astype(np.float32)
+    d = dk.Twist()
+    assert d.jacobian(pts).dtype == np.float32
+    assert d.volume_ratio(pts).dtype == np.float32
+    assert d.transform_normals(pts, pts).dtype == np.float32
+
+
+def facet_normal_error(d, subdivisions):
+    sphere = trimesh.creation.icosphere(subdivisions=subdivisions)
+    deformed = trimesh.Trimesh(d.deform(sphere.vertices), sphere.faces, process=False)
+    predicted = d.transform_normals(sphere.triangles_center, sphere.face_normals)
+    truth = deformed.face_normals
+    angles = np.arctan2(np.linalg.norm(np.cross(predicted, truth), axis=1), np.einsum("ij,ij->i", predicted, truth))
+    jac = d.jacobian(sphere.triangles_center)
+    wrong = np.einsum("nij,nj->ni", jac, sphere.face_normals)  # J N: the transform for tangents, not normals
+    wrong /= np.linalg.norm(wrong, axis=1)[:, None]
+    wrong_angles = np.arccos(np.clip(np.einsum("ij,ij->i", wrong, truth), -1, 1))
+    return angles.max(), wrong_angles.max()
+
+
+# An unbounded bend: at the region ends Barr's bend has a genuine normal crease.
+@pytest.mark.parametrize("d", [dk.Bend(curvature=0.8), dk.Twist(rate=1.5), dk.Taper(rate=0.5)], ids=["bend", "twist", "taper"])
+def test_transformed_normals_match_the_deformed_mesh(d):
+    """cof(J) N against face normals recomputed from the deformed mesh (an independent truth):
+    the gap is the facets' discretisation, so it must halve as the edges halve."""
+    coarse, _ = facet_normal_error(d, 4)
+    fine, wrong = facet_normal_error(d, 5)
+    assert fine < 0.05 and coarse / fine > 1.7, (coarse, fine)
+    assert wrong > 5 * fine
+
+
+def test_twist_preserves_enclosed_volume():
+    sphere = trimesh.creation.icosphere(subdivisions=5)
+    before = sphere.volume
+    d = dk.Twist(rate=2.0)
+    after = trimesh.Trimesh(d.deform(sphere.vertices), sphere.faces, process=False).volume
+    assert abs(after / before - 1) < 2e-3  # det J = 1; the residual is the facet discretisation
+    np.testing.assert_allclose(d.volume_ratio(sphere.vertices), 1.0, atol=1e-13)
+
+
+def test_taper_volume_is_the_integral_of_r_squared():
+    # Unit ball tapered by r = 1 + a z: V' = pi * (4/3 + 4 a^2 / 15).
+    a = 0.5
+    sphere = trimesh.creation.icosphere(subdivisions=5)
+    exact_ball = sphere.volume / (4 / 3 * np.pi)  # facet loss of the ball itself
+    tapered = trimesh.Trimesh(dk.Taper(rate=a).deform(sphere.vertices), sphere.faces, process=False).volume
+    np.testing.assert_allclose(tapered, np.pi * (4 / 3 + 4 * a * a / 15) * exact_ball, rtol=2e-3)
+
+
+def test_bend_is_continuous_across_region_ends(rng):
+    d = dk.Bend(curvature=1.1, region=(-0.3, 0.4))
+    for end in (-0.3, 0.4):
+        pts = rng.uniform(-1, 1, (50, 3))
+        below, above = pts.copy(), pts.copy()
+        below[:, 1] = end - 1e-9
+        above[:, 1] = end + 1e-9
+        assert np.abs(d.deform(below) - d.deform(above)).max() < 1e-8
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_bend_tends_to_identity_as_curvature_vanishes(dtype, rng):
+    pts = rng.uniform(-2, 2, (1000, 3)).astype(dtype)
+    errors = []
+    for k in (1e-2, 1e-4, 1e-8, 1e-15, 0.0):
+        out = dk.Bend(curvature=k, region=(-1, 1)).deform(pts)
+        assert np.isfinite(out).all()
+        errors.append(np.abs(out.astype(np.float64) - pts).max())
+    assert errors[0] > errors[1] > 0 and errors[-1] == 0.0
+    assert errors[2] <= 1e-6  # O(k |x|^2), plus float32 rounding
+
+
+def test_profile_passes_through_its_samples():
+    z = np.array([-1.0, -0.2, 0.4, 1.0])
+    theta = np.array([0.3, -0.6, 1.2, 0.1])
+    d = dk.Twist(profile=(z, theta))
+    pts = np.stack([np.ones_like(z), np.zeros_like(z), z], axis=1)
+    out = d.deform(pts)
+    np.testing.assert_allclose(np.arctan2(out[:, 1], out[:, 0]), theta, atol=1e-14)
+
+
+def test_stack_composes_in_order(rng):
+    a, b = dk.Twist(rate=0.9, axis="y"), dk.Bend(curvature=0.5, frame=random_frame(rng))
+    pts = rng.uniform(-1, 1, (100, 3))
+    np.testing.assert_allclose(dk.Stack([a, b]).deform(pts), b.deform(a.deform(pts)), atol=1e-14)
+    np.testing.assert_allclose(dk.Stack([dk.Stack([a]), b]).deform(pts), b.deform(a.deform(pts)), atol=1e-14)
+    assert len(dk.Stack([a, b])) == 2
+
+
+def test_defaults_visibly_deform(rng):
+    pts = rng.uniform(-1, 1, (100, 3))
+    for cls in (dk.Twist, dk.Taper, dk.Bend, dk.Stretch, dk.SimpleDeform):
+        assert np.abs(cls().deform(pts) - pts).max() > 0.1, cls.__name__
+
+
+def test_weights_blend(rng):
+    pts = rng.uniform(-1, 1, (20, 3))
+    w = rng.uniform(0, 1, 20)
+    full = dk.Twist().deform(pts)
+    np.testing.assert_allclose(dk.Twist(weights=w).deform(pts), pts + w[:, None] * (full - pts), atol=1e-14)
+
+
+def test_float32_and_float64_agree(rng):
+    pts = rng.uniform(-1, 1, (10000, 3))
+    for d in deformers(np.random.default_rng(0)).values():
+        out32 = d.deform(pts.astype(np.float32))
+        assert out32.dtype == np.float32
+        np.testing.assert_allclose(out32, d.deform(pts), atol=5e-6)
+
+
+def test_build_info_reports_runtime_simd():
+    info = dk.build_info()
+    assert info["simd_target"] and info["eigen"].startswith("3.4") and info["opensubdiv"].startswith("3.5")
