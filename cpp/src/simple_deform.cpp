@@ -1,5 +1,6 @@
 #include "deformkit/simple_deform.hpp"
 
+#include "deformkit/extent_kernel.hpp"
 #include "deformkit/parallel.hpp"
 
 #include <algorithm>
@@ -43,24 +44,18 @@ template <class T>
 std::shared_ptr<BarrDeformer> SimpleDeform::resolve(const T* points, std::size_t n) const {
   const auto& s = settings_;
   const int axis = simple_deform_limit_axis(s);
-  const Eigen::RowVector3d row = s.origin.inverse_linear.row(axis);
-  const double shift = row.dot(s.origin.translation);
+  const double row[3] = {s.origin.inverse_linear(axis, 0), s.origin.inverse_linear(axis, 1),
+                         s.origin.inverse_linear(axis, 2)};
+  const double shift = s.origin.inverse_linear.row(axis).dot(s.origin.translation);
   double lower = std::numeric_limits<double>::infinity(), upper = -lower;
   bool finite = true;
   std::mutex merge;
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-    bool ok = true;
-    for (std::size_t i = begin; i < end; ++i) {
-      const double v = row[0] * points[3 * i] + row[1] * points[3 * i + 1] + row[2] * points[3 * i + 2] - shift;
-      ok = ok && std::isfinite(v);
-      lo = std::min(lo, v);
-      hi = std::max(hi, v);
-    }
+    const Extent e = coordinate_extent(row, shift, points + 3 * begin, end - begin);
     std::lock_guard<std::mutex> lock(merge);
-    lower = std::min(lower, lo);
-    upper = std::max(upper, hi);
-    finite = finite && ok;
+    lower = std::min(lower, e.lo);
+    upper = std::max(upper, e.hi);
+    finite = finite && e.finite;
   });
   if (!finite) require_finite_rows(points, n, "points");
   // MOD_simpledeform: the amount is spread over the limited extent.

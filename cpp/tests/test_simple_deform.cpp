@@ -2,6 +2,8 @@
 // (MOD_simpledeform as described in blender_modifiers.md 1.2-1.4), computed in float as Blender does.
 #include "test_util.hpp"
 
+#include "deformkit/extent_kernel.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cfloat>
@@ -214,4 +216,27 @@ TEST(SimpleDeform, BadSettingsAreRejected) {
   s.factor = 1.0;
   s.deform_axis = 3;
   EXPECT_THROW(SimpleDeform{s}, std::invalid_argument);
+}
+
+TEST(SimpleDeform, ExtentKernelMatchesAScalarPass) {
+  const double row[3] = {0.3, -1.2, 0.7};
+  for (std::size_t n : {1u, 2u, 5u, 8u, 15u, 16u, 17u, 31u, 33u, 1001u}) {
+    auto pts = random_points(n, -2.0, 2.0, 100 + n);
+    double lo = INFINITY, hi = -INFINITY;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double v = row[0] * pts[3 * i] + row[1] * pts[3 * i + 1] + row[2] * pts[3 * i + 2] - 0.25;
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+    const Extent e = coordinate_extent(row, 0.25, pts.data(), n);
+    EXPECT_TRUE(e.finite);
+    EXPECT_NEAR(e.lo, lo, 1e-14) << n;
+    EXPECT_NEAR(e.hi, hi, 1e-14) << n;
+    std::vector<float> p32(pts.begin(), pts.end());
+    const Extent f = coordinate_extent(row, 0.25, p32.data(), n);
+    EXPECT_NEAR(f.lo, lo, 1e-5);
+    EXPECT_NEAR(f.hi, hi, 1e-5);
+    pts[3 * (n - 1) + 2] = NAN;  // in the tail or in a full vector, depending on n
+    EXPECT_FALSE(coordinate_extent(row, 0.25, pts.data(), n).finite) << n;
+  }
 }

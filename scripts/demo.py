@@ -1,0 +1,250 @@
+"""Deform a real mesh with a twist followed by a bend, headlessly, and show the result.
+
+    .venv/bin/python scripts/demo.py --out demo_out [--mesh PATH]
+
+Writes <out>/<name>_twist_bend.obj (deformed positions, normals carried through the map by
+transform_normals, same vertex order as loaded) and <out>/<name>_twist_bend.png (before and after
+side by side), and prints a summary. The mesh defaults to ../shared/meshes/ogre.obj (else spot.obj)
+from the repository root; without that folder a subdivided square bar is generated instead.
+"""
+import argparse
+import math
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import trimesh  # noqa: E402
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
+
+import deformkit as dk  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+SHARED = (ROOT.parent / "shared").resolve()
+MESHES = SHARED / "meshes"
+PREFERRED = ("ogre.obj", "spot.obj")  # the ogre shows a twist and a bend best
+TWIST_DEG, BEND_DEG = 90.0, 100.0  # over the mesh's length; the bend is capped to avoid folds
+MIN_DET = 0.35  # the bend's curvature is limited so that det J = 1 - k z stays above this
+MAX_DRAWN_FACES = 150_000  # the ogre (124k) draws in about a second
+TO_PLOT = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])  # OBJ is y-up, matplotlib z-up
+
+
+def load_mesh(path):
+    """(mesh, path or name, note). process=False keeps the file's vertices and their order."""
+    if path is not None:
+        return trimesh.load(path, process=False, force="mesh"), Path(path), None
+    for name in PREFERRED:
+        if (MESHES / name).is_file():
+            return trimesh.load(MESHES / name, process=False, force="mesh"), MESHES / name, None
+    # No shared meshes (a fresh clone): a square bar along y, finely subdivided so it bends smoothly.
+    bar = trimesh.creation.box(extents=(0.5, 3.0, 0.5))
+    for _ in range(5):
+        bar = bar.subdivide()
+    return bar, Path("bar"), f"{MESHES} not found: using a generated bar (trimesh.creation.box, subdivided 5 times)"
+
+
+def welded(mesh):
+    """Positions merged across UV seams: for closedness, volume and smooth normals."""
+    uniq, inverse = np.unique(mesh.vertices, axis=0, return_inverse=True)
+    return trimesh.Trimesh(uniq, inverse.reshape(-1)[mesh.faces], process=False), inverse.reshape(-1)
+
+
+def welded_positions(moved, weld, count):
+    """Deformed positions of the welded mesh's vertices (all copies of a vertex move alike)."""
+    pos = np.empty((count, 3))
+    pos[weld] = moved
+    return pos
+
+
+def vertex_normals(mesh):
+    """trimesh's angle-weighted vertex normals (Trimesh.vertex_normals), summed with numpy: without
+    scipy (not in the project's requirements) trimesh falls back to a loop that is O(vertices * faces)."""
+    acc = np.zeros((len(mesh.vertices), 3))
+    np.add.at(acc, mesh.faces, mesh.face_angles[:, :, None] * mesh.face_normals[:, None, :])
+    return acc / np.maximum(np.linalg.norm(acc, axis=1, keepdims=True), 1e-300)
+
+
+def placement(vertices):
+    """Frame at the bounding-box centre: local y = the longest axis (twist and bend length), local z =
+    the bend direction (up, y, unless y is the longest axis; then the thinner of the other two)."""
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    ext = hi - lo
+    a = int(np.argmax(ext))
+    b = 1 if a != 1 else min((i for i in range(3) if i != a), key=lambda i: ext[i])
+    c = 3 - a - b
+    cols = np.eye(3)[:, [c, a, b]]
+    if np.linalg.det(cols) < 0:
+        cols[:, 0] *= -1
+    frame = np.eye(4)
+    frame[:3, :3], frame[:3, 3] = cols, (lo + hi) / 2
+    return frame, a, b, ext[a] / 2
+
+
+def camera(frame):
+    """Elevation and azimuth of a three-quarter view: mostly along the bend's kept axis (where the
+    bend shows best), turned toward the front (+z in OBJ's convention, else the bend direction)
+    and a little from above (+y)."""
+    c, b = np.abs(frame[:3, 0]), frame[:3, 2]
+    v = c + 0.6 * (np.array([0, 0, 1.0]) if c[2] < 0.5 else b) + 0.4 * np.array([0, 1.0, 0]) * (c[1] < 0.5)
+    v = TO_PLOT @ (v / np.linalg.norm(v))
+    return math.degrees(math.asin(v[2])), math.degrees(math.atan2(v[1], v[0]))
+
+
+def build_stack(vertices):
+    """Twist about the long axis, then bend along it, both over the whole length (local y in +-h)."""
+    frame, long_axis, bend_axis, h = placement(vertices)
+    rate = math.radians(TWIST_DEG) / (2 * h)
+    twist = dk.Twist(rate=rate, axis="y", limits=(-h, h), frame=frame)
+    # Bend (axis='x': keeps local x, bends local y toward local z). det J = 1 - k z, so the largest
+    # local z of the twisted points bounds the curvature before the surface would fold over.
+    z_top = ((twist.deform(vertices) - frame[:3, 3]) @ frame[:3, 2]).max()
+    k = min(math.radians(BEND_DEG) / (2 * h), (1 - MIN_DET) / max(z_top, 1e-12))
+    bend = dk.Bend(curvature=k, center=0.0, region=(-h, h), axis="x", frame=frame)
+    pm, deg = "\N{PLUS-MINUS SIGN}", "\N{DEGREE SIGN}"
+    desc = (f"Twist {TWIST_DEG:.0f}{deg} about {'xyz'[long_axis]} (rate {rate:.3g}/unit, limits {pm}{h:.3g}) "
+            f"then Bend {math.degrees(2 * h * k):.0f}{deg} toward +{'xyz'[bend_axis]} "
+            f"(curvature {k:.3g}, radius {1 / k:.3g}, region {pm}{h:.3g})")
+    return dk.Stack([twist, bend]), desc, frame
+
+
+def decimate(vertices, faces, max_faces):
+    """Vertex clustering for drawing only: returns (kept vertex ids, faces into them)."""
+    if len(faces) <= max_faces:
+        return np.arange(len(vertices)), faces
+    lo, size = vertices.min(axis=0), np.ptp(vertices, axis=0).max() / 200
+    while True:
+        cells = np.floor((vertices - lo) / size).astype(np.int64)
+        _, rep, inverse = np.unique(cells, axis=0, return_index=True, return_inverse=True)
+        f = inverse.reshape(-1)[faces]
+        f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])]
+        f = f[np.unique(np.sort(f, axis=1), axis=0, return_index=True)[1]]
+        if len(f) <= max_faces:
+            return rep, f
+        size *= 1.2
+
+
+def draw(ax, vertices, faces, color, view, light, limits, title):
+    tri = (vertices @ TO_PLOT.T)[faces]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+    front = n @ view > 0  # back faces are hidden anyway; culling them helps the painter's sort
+    shade = 0.3 + 0.7 * np.clip(n[front] @ light, 0, 1)
+    rgb = np.clip(np.outer(shade, color), 0, 1)
+    ax.add_collection3d(Poly3DCollection(tri[front], facecolors=rgb, edgecolors=rgb, linewidths=0.15))
+    for set_lim, (a, b) in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), limits):
+        set_lim(a, b)
+    ax.set_box_aspect((1, 1, 1), zoom=1.45)
+    ax.set_axis_off()
+    ax.set_title(title, fontsize=11)
+
+
+def render(path, before, after, faces, mesh_label, desc, elev, azim):
+    keep, f = decimate(before, faces, MAX_DRAWN_FACES)
+    both = np.vstack([before, after]) @ TO_PLOT.T
+    mid, half = (both.min(axis=0) + both.max(axis=0)) / 2, np.ptp(both, axis=0).max() / 2 * 1.02
+    limits = [(m - half, m + half) for m in mid]
+    e, a = math.radians(elev), math.radians(azim)
+    view = np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
+    light = view + np.array([0.0, 0.0, 1.0]) + 0.6 * np.cross([0.0, 0.0, 1.0], view)
+    light /= np.linalg.norm(light)
+    fig = plt.figure(figsize=(13, 6.8), dpi=100)
+    drawn = f"{len(f):,} faces drawn" + ("" if len(f) == len(faces) else f" of {len(faces):,}")
+    for i, (v, color, title) in enumerate(((before, (0.55, 0.65, 0.85), f"before: {mesh_label}"),
+                                           (after, (0.95, 0.62, 0.35), "after: twist, then bend"))):
+        ax = fig.add_subplot(1, 2, i + 1, projection="3d", proj_type="ortho")
+        ax.view_init(elev=elev, azim=azim)
+        draw(ax, v[keep], f, np.array(color), view, light, limits, title)
+    fig.suptitle("deformkit Stack: " + desc.replace(" then ", "\nthen ") + f"\n({drawn})", fontsize=10)
+    fig.subplots_adjust(left=0, right=1, bottom=0, top=0.86, wspace=0)
+    atomic_write(path, lambda fh: fig.savefig(fh, format="png"))
+    plt.close(fig)
+
+
+def atomic_write(path, write):
+    """Write to a temporary file in the same directory, then rename over `path`."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            write(fh)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the usual permissions
+        os.replace(tmp, path)
+    except BaseException:
+        os.unlink(tmp)
+        raise
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="demo_out", help="output directory (created if missing)")
+    ap.add_argument("--mesh", help="mesh file to deform instead of ../shared/meshes/ogre.obj")
+    args = ap.parse_args()
+    out = Path(args.out).resolve()
+    if out == SHARED or SHARED in out.parents:
+        sys.exit(f"demo: refusing to write into {SHARED} (shared, read-only data); choose another --out")
+    out.mkdir(parents=True, exist_ok=True)
+
+    mesh, source, note = load_mesh(args.mesh)
+    name = source.name
+    if note:
+        print("note:", note)
+    solid, weld = welded(mesh)
+    uses = np.unique(solid.edges_sorted, axis=0, return_counts=True)[1]
+    closed = solid.is_watertight and solid.is_winding_consistent
+    why = f"{(uses == 1).sum()} boundary, {(uses > 2).sum()} non-manifold edges" + (
+        "" if solid.is_winding_consistent else ", inconsistent winding")
+    points = np.ascontiguousarray(mesh.vertices, dtype=np.float64)
+    stack, desc, frame = build_stack(points)
+
+    t0 = time.perf_counter()
+    moved = stack.deform(points)
+    t_deform = time.perf_counter() - t0
+    # Smooth normals of the original surface (welded across UV seams), carried through the map.
+    normals = stack.transform_normals(points, vertex_normals(solid)[weld])
+    ratio = stack.volume_ratio(points)
+
+    result = trimesh.Trimesh(moved, mesh.faces, process=False)
+    result.vertex_normals = normals  # stored in the cache; export writes these, not recomputed ones
+    stem = source.stem
+    obj_path, png_path = out / f"{stem}_twist_bend.obj", out / f"{stem}_twist_bend.png"
+    text = trimesh.exchange.obj.export_obj(result, include_normals=True, include_texture=False,
+                                           header=f"deformkit demo: {desc}")
+    atomic_write(obj_path, lambda fh: fh.write(text.encode()))
+    t0 = time.perf_counter()
+    render(png_path, points, moved, mesh.faces, f"{name} ({len(points):,} vertices)", desc,
+           *camera(frame))
+    t_render = time.perf_counter() - t0
+
+    # Check of the written file and of transform_normals against normals of the deformed surface.
+    back = trimesh.load(obj_path, process=False, force="mesh")
+    assert np.allclose(back.vertices, moved, atol=1e-6) and np.array_equal(back.faces, mesh.faces)
+    written = np.array([line.split()[1:] for line in text.splitlines() if line.startswith("vn ")], dtype=float)
+    assert np.allclose(written, normals, atol=1e-6), "the OBJ's vn lines are not the transformed normals"
+    solid_after = trimesh.Trimesh(welded_positions(moved, weld, len(solid.vertices)), solid.faces, process=False)
+    recomputed = vertex_normals(solid_after)[weld]
+    angle = np.degrees(np.arccos(np.clip(np.sum(normals * recomputed, axis=1), -1, 1)))
+
+    print(f"mesh:          {source}: {len(points):,} vertices, {len(mesh.faces):,} faces, "
+          + ("closed" if closed else f"not closed ({why})")
+          + f", extents {np.round(np.ptp(points, axis=0), 3).tolist()}")
+    print(f"deformers:     {desc}")
+    print(f"deform:        {t_deform * 1e3:.2f} ms for {len(points):,} points (float64, one call)")
+    v0, v1 = solid.volume, solid_after.volume
+    print(f"volume:        before {v0:.6g}, after {v1:.6g} (x{v1 / v0:.4f})"
+          + ("" if closed else "  [approximate: the mesh is not closed]"))
+    print(f"volume_ratio:  det J at the vertices: min {ratio.min():.4f}, max {ratio.max():.4f}")
+    print(f"normals:       transform_normals vs normals recomputed on the deformed mesh: "
+          f"median {np.median(angle):.2f} deg, 99th percentile {np.percentile(angle, 99):.2f} deg")
+    print(f"render:        {t_render:.1f} s")
+    print(f"wrote:         {obj_path}\n               {png_path}")
+
+
+if __name__ == "__main__":
+    main()
