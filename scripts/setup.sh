@@ -12,8 +12,8 @@ declare -A APT_PINS=(
   [libgtest-dev]=1.12.1
   [blender]=3.4.1
 )
-# Shared libraries that the PyPI bpy wheel loads on a headless machine; numpy for Blender 3.4.
-APT_RUNTIME=(libgl1 libegl1 libglib2.0-0 libsm6 libxext6 libxrender1 libxi6 libxxf86vm1
+# Shared libraries that the PyPI bpy wheel loads on a headless machine; numpy and pytest for Blender 3.4.
+APT_RUNTIME=(python3-pytest libgl1 libegl1 libglib2.0-0 libsm6 libxext6 libxrender1 libxi6 libxxf86vm1
              libxfixes3 libxkbcommon0 build-essential python3-numpy)
 
 installed() { dpkg-query -W -f='${Status}' "$1" 2>/dev/null | grep -q 'install ok installed'; }

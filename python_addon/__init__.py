@@ -1,0 +1,37 @@
+"""deformkit for Blender: Barr deformers (and later lattices, Laplacian editing) as
+non-destructive entries beside the modifier stack, plus headless batch processing."""
+
+bl_info = {
+    "name": "deformkit",
+    "author": "deformkit developers",
+    "version": (0, 1, 0),
+    "blender": (3, 4, 0),
+    "location": "Properties > Modifiers > deformkit",
+    "description": "Barr's twist, bend, taper and stretch with exact Jacobians, as non-destructive entries",
+    "category": "Object",
+}
+
+if "bpy" in locals():  # F8 / script reload
+    import importlib
+    for _m in (native, properties, evaluation, api, operators, ui, handlers):  # noqa: F821
+        importlib.reload(_m)
+else:
+    from . import api, evaluation, handlers, native, operators, properties, ui
+
+import bpy  # noqa: E402
+
+classes = properties.classes + operators.classes + ui.classes
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    properties.register()
+    handlers.register()
+
+
+def unregister():
+    handlers.unregister()
+    properties.unregister()
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,292 @@
+"""Evaluation: turn an object's deformkit stack into positions and hand them to Blender.
+
+The base mesh is never written. The stack's result is stored as per-point offset attributes
+(one for the viewport, one for renders) that a Geometry Nodes modifier named "deformkit" adds to
+the positions, so the result takes part in Blender's own modifier stack, saves with the file and
+survives with the add-on disabled; removing every entry removes the modifier and the attributes,
+which gives back the original mesh bit for bit.
+"""
+import zlib
+
+import bpy
+import numpy as np
+
+from . import native
+
+MODIFIER_NAME = "deformkit"
+NODE_GROUP_NAME = "deformkit_offsets"
+ATTR_VIEWPORT = "deformkit_offset"
+ATTR_RENDER = "deformkit_offset_render"
+ATTR_VOLUME = "deformkit_volume_ratio"
+OUTPUT_ATTRIBUTES = (ATTR_VIEWPORT, ATTR_RENDER, ATTR_VOLUME)
+
+_evaluating = set()  # session_uids being evaluated: writes below re-enter through handlers
+_last_inputs = {}    # session_uid -> fingerprint of the inputs last written
+
+
+def _cache_key(obj):
+    # session_uid (Blender 3.5+) survives renames; 3.4 has only the name.
+    return getattr(obj, "session_uid", None) or obj.name_full
+
+
+class EntryError(ValueError):
+    """A problem with one entry's settings, shown on the entry."""
+
+
+def object_problem(obj):
+    """Why deformkit cannot run on `obj`, or '' if it can."""
+    if obj.type != "MESH":
+        return f"'{obj.name}' is not a mesh; deformkit entries work on meshes"
+    if obj.data.shape_keys is not None:
+        return "objects with shape keys are not supported yet (shape keys are evaluated before modifiers)"
+    if len(obj.data.vertices) == 0:
+        return "the mesh has no vertices"
+    if not native.available():
+        return native.IMPORT_ERROR
+    return ""
+
+
+def base_positions(mesh):
+    co = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get("co", co)
+    return co.reshape(-1, 3)
+
+
+def vertex_group_weights(obj, name):
+    group = obj.vertex_groups.get(name)
+    if group is None:
+        raise EntryError(f"vertex group '{name}' not found")
+    index = group.index
+    weights = np.zeros(len(obj.data.vertices))
+    for v in obj.data.vertices:
+        for g in v.groups:
+            if g.group == index:
+                weights[v.index] = g.weight
+                break
+    return weights
+
+
+def origin_matrix(obj, entry):
+    """The origin object's frame in `obj`'s local space, as Simple Deform uses it."""
+    if entry.origin is None:
+        if entry.origin_name:
+            raise EntryError(f"origin object '{entry.origin_name}' no longer exists")
+        return None
+    if entry.origin == obj:  # Blender ignores an object that is its own origin
+        return None
+    return np.array(obj.matrix_world.inverted() @ entry.origin.matrix_world)
+
+
+def entry_deformer(obj, entry):
+    """The deformkit deformer equivalent to Simple Deform with this entry's settings."""
+    weights = vertex_group_weights(obj, entry.vertex_group) if entry.vertex_group else None
+    lo, hi = entry.limits
+    return native.dk.SimpleDeform(
+        mode=entry.type, angle=entry.amount, deform_axis=entry.deform_axis,
+        origin=origin_matrix(obj, entry),
+        limits=(min(lo, hi), hi),  # Blender clamps the lower limit to the upper one
+        lock_x=entry.lock_x, lock_y=entry.lock_y, lock_z=entry.lock_z, weights=weights,
+        invert_weights=bool(weights is not None and entry.invert_vertex_group))
+
+
+def _fingerprint(obj, entry, deformer):
+    origin = None if entry.origin is None else tuple(map(tuple, obj.matrix_world.inverted() @ entry.origin.matrix_world))
+    weights = deformer.weights
+    return (entry.type, entry.show_viewport, entry.show_render, entry.amount, entry.deform_axis,
+            tuple(entry.limits), entry.lock_x, entry.lock_y, entry.lock_z, entry.invert_vertex_group, origin,
+            None if weights is None else zlib.crc32(weights.tobytes()))
+
+
+def _set_if_changed(owner, prop, value):
+    if getattr(owner, prop) != value:
+        setattr(owner, prop, value)
+
+
+def evaluate(obj, force=False):
+    """Recompute `obj`'s deformkit result. Returns True if it wrote a new result.
+
+    On any problem the message goes on the stack or the entry and the mesh is left as it was."""
+    uid = _cache_key(obj)
+    if uid in _evaluating or obj.mode == "EDIT":  # in edit mode the base mesh is stale until exit
+        return False
+    stack = obj.deformkit
+    problem = object_problem(obj)
+    _set_if_changed(stack, "error", problem)
+    if problem:
+        return False
+    _evaluating.add(uid)
+    try:
+        if len(stack.entries) == 0:
+            remove_outputs(obj)
+            _last_inputs.pop(uid, None)
+            return True
+        base = base_positions(obj.data)
+        built, key, failed = [], [len(base), zlib.crc32(base.tobytes()), stack.show_volume_ratio], False
+        for entry in stack.entries:
+            try:
+                deformer = entry_deformer(obj, entry)
+            except ValueError as exc:
+                _set_if_changed(entry, "error", str(exc))
+                failed = True
+                continue
+            _set_if_changed(entry, "error", "")
+            built.append((entry, deformer))
+            key.append(_fingerprint(obj, entry, deformer))
+        if failed:
+            return False
+        key = tuple(key)
+        if not force and _last_inputs.get(uid) == key and outputs_present(obj):
+            return False
+        viewport = [d for e, d in built if e.show_viewport]
+        render = [d for e, d in built if e.show_render]
+        try:
+            offsets = _offsets(viewport, base)
+            render_offsets = offsets if render == viewport else _offsets(render, base)
+        except ValueError as exc:
+            _set_if_changed(stack, "error", str(exc))
+            return False
+        mesh = obj.data
+        write_vector_attribute(mesh, ATTR_VIEWPORT, offsets)
+        write_vector_attribute(mesh, ATTR_RENDER, render_offsets)
+        if stack.show_volume_ratio and viewport:
+            write_volume_colors(mesh, native.dk.Stack(viewport).volume_ratio(base))
+        elif ATTR_VOLUME in mesh.attributes:
+            mesh.attributes.remove(mesh.attributes[ATTR_VOLUME])
+        ensure_modifier(obj)
+        mesh.update()
+        _last_inputs[uid] = key
+        return True
+    finally:
+        _evaluating.discard(uid)
+
+
+def _offsets(deformers, base):
+    if not deformers:
+        return np.zeros_like(base)
+    return native.dk.Stack(deformers).deform(base) - base
+
+
+def request_update(obj):
+    """Called by property updates: re-evaluate at once (parameter edits, keyframes, drivers)."""
+    if isinstance(obj, bpy.types.Object) and obj.type == "MESH":
+        evaluate(obj)
+
+
+def forget(obj=None):
+    """Drop cached fingerprints (after undo or file load, when they may be stale)."""
+    if obj is None:
+        _last_inputs.clear()
+    else:
+        _last_inputs.pop(_cache_key(obj), None)
+
+
+def write_vector_attribute(mesh, name, values):
+    attr = mesh.attributes.get(name)
+    if attr is not None and (attr.data_type != "FLOAT_VECTOR" or attr.domain != "POINT"):
+        mesh.attributes.remove(attr)
+        attr = None
+    if attr is None:
+        attr = mesh.attributes.new(name, "FLOAT_VECTOR", "POINT")
+    attr.data.foreach_set("vector", np.ascontiguousarray(values, np.float32).ravel())
+
+
+def write_volume_colors(mesh, ratio):
+    """det J as a color: 1 is white, stretch (> 1) goes red, compression (< 1) blue."""
+    t = np.clip(np.log2(np.maximum(ratio, 1e-6)), -1.0, 1.0).astype(np.float32)
+    rgba = np.ones((len(t), 4), np.float32)
+    rgba[:, 1] = 1.0 - np.abs(t)
+    rgba[:, 0] = np.where(t < 0, 1.0 + t, 1.0)
+    rgba[:, 2] = np.where(t > 0, 1.0 - t, 1.0)
+    attr = mesh.attributes.get(ATTR_VOLUME)
+    if attr is None:
+        attr = mesh.attributes.new(ATTR_VOLUME, "FLOAT_COLOR", "POINT")
+    attr.data.foreach_set("color", rgba.ravel())
+
+
+def outputs_present(obj):
+    mod = obj.modifiers.get(MODIFIER_NAME)
+    return (mod is not None and mod.type == "NODES" and mod.node_group is not None
+            and ATTR_VIEWPORT in obj.data.attributes and ATTR_RENDER in obj.data.attributes)
+
+
+def node_group():
+    """Geometry Nodes: add the viewport offsets in the viewport and the render offsets in renders."""
+    group = bpy.data.node_groups.get(NODE_GROUP_NAME)
+    if group is not None and group.get("deformkit_node_group") == 1:
+        return group
+    group = bpy.data.node_groups.new(NODE_GROUP_NAME, "GeometryNodeTree")
+    group["deformkit_node_group"] = 1
+    if hasattr(group, "interface"):  # Blender 4.0+
+        group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+        group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    else:
+        group.inputs.new("NodeSocketGeometry", "Geometry")
+        group.outputs.new("NodeSocketGeometry", "Geometry")
+    nodes, links = group.nodes, group.links
+    source, sink = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
+    is_viewport = nodes.new("GeometryNodeIsViewport")
+    not_viewport = nodes.new("FunctionNodeBooleanMath")
+    not_viewport.operation = "NOT"
+    links.new(is_viewport.outputs[0], not_viewport.inputs[0])
+    geometry = source.outputs[0]
+    for attribute, selection in ((ATTR_VIEWPORT, is_viewport.outputs[0]), (ATTR_RENDER, not_viewport.outputs[0])):
+        named = nodes.new("GeometryNodeInputNamedAttribute")
+        named.data_type = "FLOAT_VECTOR"
+        named.inputs["Name"].default_value = attribute
+        set_position = nodes.new("GeometryNodeSetPosition")
+        links.new(geometry, set_position.inputs["Geometry"])
+        links.new(selection, set_position.inputs["Selection"])
+        links.new([o for o in named.outputs if o.enabled][0], set_position.inputs["Offset"])
+        geometry = set_position.outputs[0]
+    links.new(geometry, sink.inputs[0])
+    return group
+
+
+def ensure_modifier(obj):
+    mod = obj.modifiers.get(MODIFIER_NAME)
+    if mod is not None and mod.type != "NODES":
+        raise EntryError(f"a modifier named '{MODIFIER_NAME}' of another type is in the way")
+    if mod is None:
+        mod = obj.modifiers.new(MODIFIER_NAME, "NODES")
+        # First in the stack: the offsets were computed from the base mesh.
+        with bpy.context.temp_override(object=obj, active_object=obj):
+            bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=0)
+    if mod.node_group is None or mod.node_group.name != NODE_GROUP_NAME:
+        mod.node_group = node_group()
+    return mod
+
+
+def remove_outputs(obj):
+    mod = obj.modifiers.get(MODIFIER_NAME)
+    if mod is not None and mod.type == "NODES":
+        obj.modifiers.remove(mod)
+    mesh = obj.data
+    for name in OUTPUT_ATTRIBUTES:
+        attr = mesh.attributes.get(name)
+        if attr is not None:
+            mesh.attributes.remove(attr)
+    mesh.update()
+
+
+def apply_entry(obj, index):
+    """Bake entry `index` into the base mesh and remove it. Returns a warning or ''."""
+    stack = obj.deformkit
+    entry = stack.entries[index]
+    base = base_positions(obj.data)
+    deformed = entry_deformer(obj, entry).deform(base)
+    obj.data.vertices.foreach_set("co", deformed.ravel())
+    stack.entries.remove(index)
+    stack.active_index = min(stack.active_index, max(0, len(stack.entries) - 1))
+    evaluate(obj, force=True)
+    return "" if index == 0 else "Applied entry was not first, result may not be as expected"
+
+
+def evaluated_positions(obj, depsgraph=None):
+    """Positions of the fully evaluated object (all modifiers), as float32 (n, 3)."""
+    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        return base_positions(mesh)
+    finally:
+        evaluated.to_mesh_clear()

@@ -1,0 +1,58 @@
+"""App handlers: playback, scrubbing, base-mesh edits, undo and file load re-evaluate stacks.
+
+Every evaluation is skipped when its inputs (parameters, origin frames, weights, base positions)
+are unchanged, which is also what stops the handlers from re-entering on their own writes."""
+import bpy
+from bpy.app.handlers import persistent
+
+from . import evaluation
+
+
+def _stack_objects(scene):
+    return [o for o in scene.objects if o.type == "MESH" and len(o.deformkit.entries) > 0]
+
+
+@persistent
+def on_frame_change(scene, depsgraph=None):
+    for obj in _stack_objects(scene):
+        evaluation.evaluate(obj)
+
+
+@persistent
+def on_depsgraph_update(scene, depsgraph):
+    changed = {u.id.original for u in depsgraph.updates if isinstance(u.id, (bpy.types.Object, bpy.types.Mesh))}
+    if not changed:
+        return
+    for obj in _stack_objects(scene):
+        origins = {e.origin for e in obj.deformkit.entries if e.origin is not None}
+        if obj in changed or obj.data in changed or origins & changed:
+            evaluation.evaluate(obj)
+
+
+@persistent
+def on_reload(*_args):
+    evaluation.forget()
+    for scene in bpy.data.scenes:
+        for obj in _stack_objects(scene):
+            evaluation.evaluate(obj)
+
+
+HANDLERS = (
+    (bpy.app.handlers.frame_change_post, on_frame_change),
+    (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
+    (bpy.app.handlers.undo_post, on_reload),
+    (bpy.app.handlers.redo_post, on_reload),
+    (bpy.app.handlers.load_post, on_reload),
+)
+
+
+def register():
+    for handler_list, fn in HANDLERS:
+        if fn not in handler_list:
+            handler_list.append(fn)
+
+
+def unregister():
+    for handler_list, fn in HANDLERS:
+        if fn in handler_list:
+            handler_list.remove(fn)

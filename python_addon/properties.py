@@ -1,0 +1,77 @@
+"""Data: the per-object deformkit stack and its entries, stored as RNA so that they save with the
+file, undo, and can be keyframed and driven (data path `deformkit.entries[i].<param>`)."""
+import math
+
+import bpy
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
+                       FloatVectorProperty, IntProperty, PointerProperty, StringProperty)
+
+# Types available now; Lattice and Laplacian entries come with their issues.
+ENTRY_TYPES = [
+    ("TWIST", "Twist", "Rotate around the deform axis (Barr's twist)", "MOD_SIMPLEDEFORM", 0),
+    ("BEND", "Bend", "Bend around the deform axis (Barr's bend)", "MOD_SIMPLEDEFORM", 1),
+    ("TAPER", "Taper", "Scale linearly along the deform axis (Barr's taper)", "MOD_SIMPLEDEFORM", 2),
+    ("STRETCH", "Stretch", "Stretch along the deform axis (Blender's stretch)", "MOD_SIMPLEDEFORM", 3),
+]
+AXES = [("X", "X", ""), ("Y", "Y", ""), ("Z", "Z", "")]
+
+
+def _changed(self, context):
+    from . import evaluation
+    evaluation.request_update(self.id_data)
+
+
+def _origin_changed(self, context):
+    # Remember the name so that a later deletion can be told apart from "no origin".
+    self.origin_name = self.origin.name if self.origin else ""
+    _changed(self, context)
+
+
+class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
+    name: StringProperty(name="Name", default="Twist")
+    type: EnumProperty(name="Type", items=ENTRY_TYPES, default="TWIST", update=_changed)
+    show_viewport: BoolProperty(name="Viewport", description="Display in the viewport", default=True,
+                                update=_changed)
+    show_render: BoolProperty(name="Render", description="Use in renders", default=True, update=_changed)
+    show_expanded: BoolProperty(name="Expanded", default=True)
+    angle: FloatProperty(name="Angle", subtype="ANGLE", default=math.radians(45.0), update=_changed,
+                         description="Twist or bend angle over the limited extent (as Simple Deform)")
+    factor: FloatProperty(name="Factor", default=0.785398, soft_min=-10.0, soft_max=10.0, update=_changed,
+                          description="Taper or stretch amount (as Simple Deform)")
+    deform_axis: EnumProperty(name="Axis", items=AXES, default="X", update=_changed)
+    origin: PointerProperty(name="Origin", type=bpy.types.Object, update=_origin_changed,
+                            description="Object whose frame places the deformation")
+    origin_name: StringProperty(options={"HIDDEN"})
+    limits: FloatVectorProperty(name="Limits", size=2, default=(0.0, 1.0), min=0.0, max=1.0, precision=3,
+                                update=_changed, description="Lower and upper limits as fractions of the extent")
+    lock_x: BoolProperty(name="Lock X", update=_changed)
+    lock_y: BoolProperty(name="Lock Y", update=_changed)
+    lock_z: BoolProperty(name="Lock Z", update=_changed)
+    vertex_group: StringProperty(name="Vertex Group", update=_changed)
+    invert_vertex_group: BoolProperty(name="Invert", update=_changed)
+    error: StringProperty(options={"HIDDEN", "SKIP_SAVE"})
+
+    @property
+    def amount(self):
+        """The one value Simple Deform uses: the angle for twist and bend, the factor otherwise."""
+        return self.angle if self.type in {"TWIST", "BEND"} else self.factor
+
+
+class DEFORMKIT_PG_stack(bpy.types.PropertyGroup):
+    entries: CollectionProperty(type=DEFORMKIT_PG_entry)
+    active_index: IntProperty(name="Active Entry")
+    show_volume_ratio: BoolProperty(
+        name="Volume Colors", default=False, update=_changed,
+        description="Write a color attribute with det(J): stretch red, compression blue")
+    error: StringProperty(options={"HIDDEN", "SKIP_SAVE"})
+
+
+classes = (DEFORMKIT_PG_entry, DEFORMKIT_PG_stack)
+
+
+def register():
+    bpy.types.Object.deformkit = PointerProperty(type=DEFORMKIT_PG_stack)
+
+
+def unregister():
+    del bpy.types.Object.deformkit
