@@ -8,8 +8,22 @@ SOURCES := $(shell find cpp python -type f -not -name '*.pyc' 2>/dev/null) CMake
 
 .PHONY: demo test setup build test-cpp test-cpp-asan test-python bench wheel clean
 
-demo: build
-	$(PY) scripts/demo.py --out demo_out
+BLENDER := blender
+FIXTURES := blend_fixtures/.fixtures-made
+
+# The main job: the batch command over the .blend fixtures (twist, then bend, on every mesh), with
+# the outputs, report.json and a before/after PNG per file in demo_out/batch; and the core library
+# on a real mesh (OBJ + PNG in demo_out/core).
+demo: build $(FIXTURES)
+	scripts/deformkit-batch 'blend_fixtures/*.blend' --recipe blend_fixtures/demo_recipe.json \
+	    --out demo_out/batch --jobs $(JOBS) --preview
+	$(PY) scripts/demo.py --out demo_out/core
+
+$(FIXTURES): blend_fixtures/make_fixtures.py $(VENV)/.deformkit-installed
+	@mkdir -p build
+	$(BLENDER) -b --factory-startup --python-exit-code 1 -P blend_fixtures/make_fixtures.py -- blend_fixtures \
+	    > build/fixtures.log 2>&1 || (cat build/fixtures.log; exit 1)
+	@touch $@
 
 test: build test-cpp test-cpp-asan test-python
 
@@ -48,4 +62,4 @@ wheel: setup
 	$(PY) -m pip wheel --no-build-isolation --no-deps -w dist .
 
 clean:
-	rm -rf build dist demo_out $(VENV)/.deformkit-installed
+	rm -rf build dist demo_out $(VENV)/.deformkit-installed blend_fixtures/*.blend $(FIXTURES)

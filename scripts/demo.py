@@ -9,21 +9,15 @@ from the repository root; without that folder a subdivided square bar is generat
 """
 import argparse
 import math
-import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import trimesh
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import trimesh  # noqa: E402
-from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
-
-import deformkit as dk  # noqa: E402
+import deformkit as dk
+from deformkit.preview import Y_UP, atomic_write, render_before_after
 
 ROOT = Path(__file__).resolve().parent.parent
 SHARED = (ROOT.parent / "shared").resolve()
@@ -31,8 +25,6 @@ MESHES = SHARED / "meshes"
 PREFERRED = ("ogre.obj", "spot.obj")  # the ogre shows a twist and a bend best
 TWIST_DEG, BEND_DEG = 90.0, 100.0  # over the mesh's length; the bend is capped to avoid folds
 MIN_DET = 0.35  # the bend's curvature is limited so that det J = 1 - k z stays above this
-MAX_DRAWN_FACES = 150_000  # the ogre (124k) draws in about a second
-TO_PLOT = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])  # OBJ is y-up, matplotlib z-up
 
 
 def load_mesh(path):
@@ -92,7 +84,7 @@ def camera(frame):
     and a little from above (+y)."""
     c, b = np.abs(frame[:3, 0]), frame[:3, 2]
     v = c + 0.6 * (np.array([0, 0, 1.0]) if c[2] < 0.5 else b) + 0.4 * np.array([0, 1.0, 0]) * (c[1] < 0.5)
-    v = TO_PLOT @ (v / np.linalg.norm(v))
+    v = Y_UP @ (v / np.linalg.norm(v))
     return math.degrees(math.asin(v[2])), math.degrees(math.atan2(v[1], v[0]))
 
 
@@ -111,74 +103,6 @@ def build_stack(vertices):
             f"then Bend {math.degrees(2 * h * k):.0f}{deg} toward +{'xyz'[bend_axis]} "
             f"(curvature {k:.3g}, radius {1 / k:.3g}, region {pm}{h:.3g})")
     return dk.Stack([twist, bend]), desc, frame
-
-
-def decimate(vertices, faces, max_faces):
-    """Vertex clustering for drawing only: returns (kept vertex ids, faces into them)."""
-    if len(faces) <= max_faces:
-        return np.arange(len(vertices)), faces
-    lo, size = vertices.min(axis=0), np.ptp(vertices, axis=0).max() / 200
-    while True:
-        cells = np.floor((vertices - lo) / size).astype(np.int64)
-        _, rep, inverse = np.unique(cells, axis=0, return_index=True, return_inverse=True)
-        f = inverse.reshape(-1)[faces]
-        f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])]
-        f = f[np.unique(np.sort(f, axis=1), axis=0, return_index=True)[1]]
-        if len(f) <= max_faces:
-            return rep, f
-        size *= 1.2
-
-
-def draw(ax, vertices, faces, color, view, light, limits, title):
-    tri = (vertices @ TO_PLOT.T)[faces]
-    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
-    front = n @ view > 0  # back faces are hidden anyway; culling them helps the painter's sort
-    shade = 0.3 + 0.7 * np.clip(n[front] @ light, 0, 1)
-    rgb = np.clip(np.outer(shade, color), 0, 1)
-    ax.add_collection3d(Poly3DCollection(tri[front], facecolors=rgb, edgecolors=rgb, linewidths=0.15))
-    for set_lim, (a, b) in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), limits):
-        set_lim(a, b)
-    ax.set_box_aspect((1, 1, 1), zoom=1.45)
-    ax.set_axis_off()
-    ax.set_title(title, fontsize=11)
-
-
-def render(path, before, after, faces, mesh_label, desc, elev, azim):
-    keep, f = decimate(before, faces, MAX_DRAWN_FACES)
-    both = np.vstack([before, after]) @ TO_PLOT.T
-    mid, half = (both.min(axis=0) + both.max(axis=0)) / 2, np.ptp(both, axis=0).max() / 2 * 1.02
-    limits = [(m - half, m + half) for m in mid]
-    e, a = math.radians(elev), math.radians(azim)
-    view = np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
-    light = view + np.array([0.0, 0.0, 1.0]) + 0.6 * np.cross([0.0, 0.0, 1.0], view)
-    light /= np.linalg.norm(light)
-    fig = plt.figure(figsize=(13, 6.8), dpi=100)
-    drawn = f"{len(f):,} faces drawn" + ("" if len(f) == len(faces) else f" of {len(faces):,}")
-    for i, (v, color, title) in enumerate(((before, (0.55, 0.65, 0.85), f"before: {mesh_label}"),
-                                           (after, (0.95, 0.62, 0.35), "after: twist, then bend"))):
-        ax = fig.add_subplot(1, 2, i + 1, projection="3d", proj_type="ortho")
-        ax.view_init(elev=elev, azim=azim)
-        draw(ax, v[keep], f, np.array(color), view, light, limits, title)
-    fig.suptitle("deformkit Stack: " + desc.replace(" then ", "\nthen ") + f"\n({drawn})", fontsize=10)
-    fig.subplots_adjust(left=0, right=1, bottom=0, top=0.86, wspace=0)
-    atomic_write(path, lambda fh: fig.savefig(fh, format="png"))
-    plt.close(fig)
-
-
-def atomic_write(path, write):
-    """Write to a temporary file in the same directory, then rename over `path`."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            write(fh)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the usual permissions
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
 
 
 def main():
@@ -218,8 +142,8 @@ def main():
                                            header=f"deformkit demo: {desc}")
     atomic_write(obj_path, lambda fh: fh.write(text.encode()))
     t0 = time.perf_counter()
-    render(png_path, points, moved, mesh.faces, f"{name} ({len(points):,} vertices)", desc,
-           *camera(frame))
+    render_before_after(png_path, points, moved, mesh.faces, "deformkit Stack: " + desc.replace(" then ", "\nthen "),
+                        (f"before: {name} ({len(points):,} vertices)", "after: twist, then bend"), *camera(frame))
     t_render = time.perf_counter() - t0
 
     # Check of the written file and of transform_normals against normals of the deformed surface.

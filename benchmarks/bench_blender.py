@@ -1,0 +1,173 @@
+"""Parameter change -> updated evaluated mesh: a deformkit Twist entry vs Blender's Simple Deform.
+
+    .venv/bin/python benchmarks/bench_blender.py [--vertices N] [--repeats R] [--json PATH] [--addon DIR]
+
+One Blender (bpy) process, two identical displaced grids: A has a deformkit Twist entry (Z axis),
+B a Simple Deform modifier (TWIST, Z). Each iteration sets a new angle on both, alternating which
+goes first: time = set the angle (deformkit: the add-on's update callback) + depsgraph update +
+evaluated vertex count. "+read" adds a foreach_get of the evaluated positions, on both sides. The
+deformkit side is broken down with timers monkeypatched around the add-on's functions ("set" is
+the property callback; "depsgraph" includes the add-on's depsgraph handler re-check).
+"""
+import argparse, json, math, pathlib, statistics, sys, tempfile, time, types, zlib
+import numpy as np
+
+ap = argparse.ArgumentParser()
+ap.add_argument("--vertices", type=int, default=1_000_000)
+ap.add_argument("--repeats", type=int, default=15)
+ap.add_argument("--warmup", type=int, default=3)
+ap.add_argument("--json")
+ap.add_argument("--addon", default=str(pathlib.Path(__file__).resolve().parents[1] / "python_addon"))
+args = ap.parse_args()
+
+
+def cpu_ticks():
+    v = list(map(int, open("/proc/stat").readline().split()[1:]))
+    return sum(v), v[3] + v[4]  # total, idle + iowait
+
+
+(t0, i0), _, (t1, i1) = cpu_ticks(), time.sleep(0.5), cpu_ticks()
+busy = 1 - (i1 - i0) / max(t1 - t0, 1)
+addons = pathlib.Path(tempfile.mkdtemp())
+(addons / "deformkit_addon").symlink_to(args.addon, target_is_directory=True)
+sys.path.insert(0, str(addons))
+import bpy  # noqa: E402
+bpy.ops.wm.read_factory_settings(use_empty=True)
+import deformkit_addon  # noqa: E402
+if not hasattr(bpy.types.Object, "deformkit"):
+    deformkit_addon.register()
+from deformkit_addon import api, evaluation, native  # noqa: E402
+dk = native.dk
+
+# Two identical meshes: a grid with a smooth z displacement (so the Z twist has an extent).
+s = max(2, round(math.sqrt(args.vertices)) - 1)
+bpy.ops.mesh.primitive_grid_add(x_subdivisions=s, y_subdivisions=s, size=2)
+A = bpy.context.active_object
+co = evaluation.base_positions(A.data)
+co[:, 2] = 0.3 * np.sin(3 * co[:, 0]) * np.cos(2 * co[:, 1])
+A.data.vertices.foreach_set("co", co.ravel())
+A.data.update()
+B = A.copy()  # identical object B, before A gets its entry
+B.data = A.data.copy()
+bpy.context.scene.collection.objects.link(B)
+A.name, B.name = "deformkit", "blender"
+nverts, size = len(co), float(np.ptp(co, axis=0).max())
+mod = B.modifiers.new("SimpleDeform", "SIMPLE_DEFORM")
+mod.deform_method, mod.deform_axis, mod.angle = "TWIST", "Z", 0.5
+api.add_entry(A, "TWIST", angle=0.5, deform_axis="Z")
+
+
+def eval_positions(obj, dg, out):  # the position attribute: ~20x faster than vertices.foreach_get("co")
+    obj.evaluated_get(dg).data.attributes["position"].data.foreach_get("vector", out)
+    return out
+
+
+# Apples to apples: same evaluated positions (and the evaluated mesh is not the base mesh).
+dg = bpy.context.evaluated_depsgraph_get()
+buf = np.empty(nverts * 3, np.float32)
+pa, pb = eval_positions(A, dg, buf.copy()), eval_positions(B, dg, buf.copy())
+diff, moved = float(np.abs(pa - pb).max()), float(np.abs(pa - co.ravel()).max())
+via_to_mesh = float(np.abs(api.evaluated_positions(A, dg).ravel() - pa).max())
+assert diff < 1e-4 * size and moved > 1e-3 * size and via_to_mesh == 0, (diff, moved, via_to_mesh)
+
+# Timers around the add-on's internals, keyed by phase ("set" = property callback, "dg" = depsgraph).
+T, phase = {}, ["set"]
+
+
+def timed(name, fn):
+    def wrapper(*a, **k):
+        t0 = time.perf_counter()
+        try:
+            return fn(*a, **k)
+        finally:
+            T[f"{phase[0]}:{name}"] = T.get(f"{phase[0]}:{name}", 0.0) + time.perf_counter() - t0
+    return wrapper
+
+
+for name in ("evaluate", "base_positions", "write_vector_attribute", "_offsets", "ensure_modifier"):
+    setattr(evaluation, name, timed(name, getattr(evaluation, name)))
+evaluation.zlib = types.SimpleNamespace(crc32=timed("crc32", zlib.crc32))
+
+
+class TimedStack:
+    def __init__(self, deformers):
+        self._s = dk.Stack(deformers)
+        self.deform = timed("deform", self._s.deform)
+
+    def __getattr__(self, n):
+        return getattr(self._s, n)
+
+
+native.dk = types.SimpleNamespace(**{**{n: getattr(dk, n) for n in dir(dk) if n[0] != "_"}, "Stack": TimedStack})
+
+runs = {"deformkit": [], "blender": []}
+for i in range(args.warmup + args.repeats):
+    angle = 0.3 + 0.0137 * i  # a new angle every iteration: nothing can be cached
+    for side in (("deformkit", "blender") if i % 2 == 0 else ("blender", "deformkit")):
+        obj = A if side == "deformkit" else B
+        T.clear()
+        phase[0] = "set"
+        t0 = time.perf_counter()
+        if side == "deformkit":
+            obj.deformkit.entries[0].angle = angle
+        else:
+            obj.modifiers["SimpleDeform"].angle = angle
+        t1 = time.perf_counter()
+        phase[0] = "dg"
+        (dg := bpy.context.evaluated_depsgraph_get()).update()
+        t2 = time.perf_counter()
+        assert len(obj.evaluated_get(dg).data.vertices) == nverts
+        t3 = time.perf_counter()
+        eval_positions(obj, dg, buf)
+        t4 = time.perf_counter()
+        if i >= args.warmup:
+            runs[side].append({"total": t3 - t0, "set": t1 - t0, "depsgraph": t2 - t1, "count": t3 - t2,
+                               "read": t4 - t3, "total+read": t4 - t0, **T})
+dg = bpy.context.evaluated_depsgraph_get()  # after the last change both sides must still agree
+final_diff = float(np.abs(eval_positions(A, dg, buf.copy()) - eval_positions(B, dg, buf.copy())).max())
+assert final_diff < 1e-4 * size, final_diff
+for r in runs["deformkit"]:  # derived parts
+    parts = ("base_positions", "crc32", "_offsets", "write_vector_attribute", "ensure_modifier")
+    r["set:other"] = r["set"] - sum(r.get(f"set:{k}", 0) for k in parts)
+    r["set:offsets-base"] = r.get("set:_offsets", 0) - r.get("set:deform", 0)
+    r["dg:GN+rest"] = r["depsgraph"] - r.get("dg:evaluate", 0)
+
+
+def stat(side, key):
+    v = [r.get(key, 0.0) * 1e3 for r in runs[side]]
+    return statistics.median(v), min(v)
+
+
+ROWS = [(side, key, label) for side, rows in (
+    ("deformkit", [("total", "deformkit total (set + depsgraph + count)"),
+                   ("set", "  set angle: property callback -> evaluate()"),
+                   ("set:base_positions", "    base_positions (vertices.foreach_get co)"),
+                   ("set:crc32", "    zlib.crc32 of base positions"),
+                   ("set:deform", "    dk.Stack.deform"), ("set:offsets-base", "    deformed - base"),
+                   ("set:write_vector_attribute", "    write_vector_attribute x2 (foreach_set)"),
+                   ("set:ensure_modifier", "    ensure_modifier"),
+                   ("set:other", "    other (base.tobytes() for crc, mesh.update())"),
+                   ("depsgraph", "  depsgraph update"),
+                   ("dg:evaluate", "    handler re-check: evaluate() (no write)"),
+                   ("dg:base_positions", "      base_positions"), ("dg:crc32", "      zlib.crc32"),
+                   ("dg:GN+rest", "    Geometry Nodes modifier + rest"), ("count", "  evaluated vertex count")]),
+    ("blender", [("total", "Blender total (set + depsgraph + count)"), ("set", "  set angle"),
+                 ("depsgraph", "  depsgraph update (Simple Deform)"), ("count", "  evaluated vertex count")]),
+    ("deformkit", [("total+read", "deformkit total + read evaluated positions")]),
+    ("blender", [("total+read", "Blender total + read evaluated positions")])) for key, label in rows]
+summary = {f"{side}:{key}": dict(zip(("median_ms", "min_ms"), stat(side, key))) for side, key, _ in ROWS}
+print(f"deformkit {dk.build_info()}  |  bpy {bpy.app.version_string}  |  add-on {args.addon}")
+print(f"CPU busy before run: {busy:.0%} (2 cores: > ~10% means the numbers are noisy)")
+print(f"mesh: {nverts:,} vertices, extent {size:.3f}; |A - B| max {diff:.2e} at start, {final_diff:.2e} "
+      f"at end (tolerance {1e-4 * size:.1e}); {args.repeats} changes per side after {args.warmup} warm-up")
+print(f"\n{'':50s}{'median ms':>11s}{'min ms':>10s}")
+for side, key, label in ROWS:
+    print(f"{label:50s}{stat(side, key)[0]:11.2f}{stat(side, key)[1]:10.2f}")
+for key in ("total", "total+read"):
+    (dm, dn), (bm, bn) = stat("deformkit", key), stat("blender", key)
+    summary[f"ratio:{key}"] = {"median": dm / bm, "min": dn / bn}
+    print(f"ratio deformkit / Blender ({key}): median {dm / bm:.2f}, min {dn / bn:.2f}  (target <= 1.0)")
+if args.json:
+    pathlib.Path(args.json).write_text(json.dumps({
+        "build_info": dk.build_info(), "blender": bpy.app.version_string, "cpu_busy": busy, "vertices": nverts,
+        "max_abs_diff": [diff, final_diff], "summary": summary, "runs": runs}, indent=1))

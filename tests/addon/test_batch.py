@@ -1,0 +1,119 @@
+"""The batch command on good and broken files: outputs, report, exit status, inputs untouched."""
+import hashlib
+import json
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from addon_helpers import IN_BLENDER_BINARY, REPO, positions
+
+pytestmark = pytest.mark.skipif(IN_BLENDER_BINARY, reason="the batch tests start Blender themselves")
+BLENDER = "/usr/bin/blender"
+RECIPE = {"objects": ["*"], "deformers": [{"type": "TWIST", "angle": 1.2, "deform_axis": "Z"},
+                                          {"type": "BEND", "angle": 0.9, "deform_axis": "X"}]}
+
+
+@pytest.fixture(scope="module")
+def fixtures(tmp_path_factory):
+    out = tmp_path_factory.mktemp("fixtures")
+    proc = subprocess.run([BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "-P",
+                           str(REPO / "blend_fixtures/make_fixtures.py"), "--", str(out)],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    return out
+
+
+def run_batch(*args):
+    proc = subprocess.run([sys.executable, str(REPO / "python_addon/cli.py"), "--blender", BLENDER, *map(str, args)],
+                          capture_output=True, text=True, timeout=600)
+    return proc
+
+
+def digest(path):
+    return hashlib.sha256(pathlib.Path(path).read_bytes()).hexdigest()
+
+
+def test_good_and_broken_files(fixtures, tmp_path):
+    inputs = tmp_path / "in"
+    inputs.mkdir()
+    for name in ("monkey", "column", "torus"):
+        shutil.copy(fixtures / f"{name}.blend", inputs)
+    (inputs / "corrupt.blend").write_bytes(b"BLENDER-v304RENDH" + os.urandom(4000))
+    (inputs / "notes.blend").write_text("not a blend file at all")
+    recipe = tmp_path / "recipe.json"
+    recipe.write_text(json.dumps({**RECIPE, "objects": ["Suzanne"]}))  # only monkey.blend has it
+    before = {p.name: digest(p) for p in inputs.iterdir()}
+    out = tmp_path / "out"
+    proc = run_batch(inputs / "*.blend", inputs / "missing.blend", "--recipe", recipe, "--out", out,
+                     "--jobs", 2, "--preview")
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    report = json.loads((out / "report.json").read_text())
+    status = {pathlib.Path(f["file"]).name: (f["status"], f["error"]) for f in report["files"]}
+    assert status["monkey.blend"] == ("ok", "")
+    assert status["column.blend"] == ("failed", "object 'Suzanne' not found in the file")
+    assert status["torus.blend"][1] == "object 'Suzanne' not found in the file"
+    assert status["corrupt.blend"][0] == "failed" and "cannot open" in status["corrupt.blend"][1]
+    assert status["notes.blend"] == ("failed", "not a .blend file (no BLENDER header)")
+    assert status["missing.blend"] == ("failed", "file not found")
+    assert report["ok"] == 1 and report["failed"] == 5
+    assert sorted(p.name for p in out.iterdir()) == ["monkey.blend", "monkey.png", "report.json"]  # no temp files
+    assert {p.name: digest(p) for p in inputs.iterdir()} == before  # inputs untouched
+    monkey = next(f for f in report["files"] if f["file"].endswith("monkey.blend"))
+    assert monkey["objects"][0]["name"] == "Suzanne" and monkey["objects"][0]["vertices"] > 1000
+    assert "[6/6]" in proc.stdout and "1 ok, 5 failed" in proc.stdout
+
+
+def test_outputs_hold_the_deformed_meshes(fixtures, tmp_path, scene):
+    import bpy
+    from deformkit_addon import api
+    import deformkit as dk
+    recipe = tmp_path / "recipe.toml"
+    recipe.write_text('objects = ["*"]\n[[deformers]]\ntype = "TWIST"\nangle = 1.2\ndeform_axis = "Z"\n'
+                      '[[deformers]]\ntype = "BEND"\nangle = 0.9\ndeform_axis = "X"\n')
+    proc = run_batch(fixtures / "column.blend", fixtures / "saved_stack.blend", "--recipe", recipe,
+                     "--out", tmp_path / "out", "--jobs", 1)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "out" / "column.blend"))
+    obj = bpy.data.objects["Column"]
+    base = positions(obj.data)
+    expected = dk.Stack([dk.SimpleDeform(mode="TWIST", angle=1.2, deform_axis="Z"),
+                         dk.SimpleDeform(mode="BEND", angle=0.9, deform_axis="X")]).deform(base)
+    assert np.abs(api.evaluated_positions(obj) - expected).max() < 1e-5
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "out" / "saved_stack.blend"))  # saved stack + recipe
+    assert [e.type for e in bpy.data.objects["Twisted"].deformkit.entries] == ["TWIST", "TAPER", "TWIST", "BEND"]
+
+
+def test_evaluate_saved_and_never_overwrite(fixtures, tmp_path, scene):
+    import bpy
+    from deformkit_addon import api
+    import deformkit as dk
+    work = tmp_path / "work"
+    work.mkdir()
+    shutil.copy(fixtures / "saved_stack.blend", work)
+    original = digest(work / "saved_stack.blend")
+    proc = run_batch(work / "saved_stack.blend", "--evaluate-saved", "--out", work)  # output == input
+    assert proc.returncode == 1 and "refusing to write" in proc.stdout
+    assert digest(work / "saved_stack.blend") == original
+    proc = run_batch(work / "saved_stack.blend", "--evaluate-saved", "--out", tmp_path / "out")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "out" / "saved_stack.blend"))
+    obj = bpy.data.objects["Twisted"]
+    expected = dk.Stack([dk.SimpleDeform(mode="TWIST", angle=2.0, deform_axis="Z"),
+                         dk.SimpleDeform(mode="TAPER", factor=-0.5, deform_axis="Z")]).deform(positions(obj.data))
+    assert np.abs(api.evaluated_positions(obj) - expected).max() < 1e-5
+
+
+def test_bad_command_lines(tmp_path):
+    assert run_batch("x.blend", "--out", tmp_path).returncode == 2  # neither --recipe nor --evaluate-saved
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"deformers": []}')
+    proc = run_batch("x.blend", "--recipe", bad, "--out", tmp_path)
+    assert proc.returncode != 0 and "needs a non-empty 'deformers' list" in proc.stderr
+    proc = subprocess.run([sys.executable, str(REPO / "python_addon/cli.py"), "x.blend", "--evaluate-saved",
+                           "--out", str(tmp_path), "--blender", "/nonexistent/blender"], capture_output=True, text=True)
+    assert proc.returncode == 2 and "not found" in proc.stderr
