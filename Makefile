@@ -6,7 +6,7 @@ CMAKE := $(VENV)/bin/cmake
 JOBS := 2
 SOURCES := $(shell find cpp python -type f -not -name '*.pyc' 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: demo test setup build test-cpp test-cpp-asan test-python bench wheel clean
+.PHONY: demo test setup build test-cpp test-cpp-asan test-python bench wheel addon-zips clean
 
 BLENDER := blender
 FIXTURES := blend_fixtures/.fixtures-made
@@ -59,7 +59,11 @@ bench: build
 	$(PY) benchmarks/bench_barr.py
 
 wheel: setup
-	$(PY) -m pip wheel --no-build-isolation --no-deps -w dist .
+	$(PY) -m pip wheel -q --disable-pip-version-check --no-build-isolation --no-deps -w dist .
+
+# dist/deformkit-<v>-extension.zip (Blender 4.2+) and dist/deformkit_addon-<v>-legacy.zip (3.x).
+addon-zips: wheel
+	$(PY) scripts/package_addon.py dist/deformkit-0.1.0-cp311-cp311-linux_x86_64.whl dist
 
 clean:
 	rm -rf build dist demo_out $(VENV)/.deformkit-installed blend_fixtures/*.blend $(FIXTURES)

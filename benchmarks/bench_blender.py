@@ -5,29 +5,54 @@
 One Blender (bpy) process, two identical displaced grids: A has a deformkit Twist entry (Z axis),
 B a Simple Deform modifier (TWIST, Z). Each iteration sets a new angle on both, alternating which
 goes first: time = set the angle (deformkit: the add-on's update callback) + depsgraph update +
-evaluated vertex count. "+read" adds a foreach_get of the evaluated positions, on both sides. The
-deformkit side is broken down with timers monkeypatched around the add-on's functions ("set" is
-the property callback; "depsgraph" includes the add-on's depsgraph handler re-check).
+evaluated vertex count; "+read" adds a foreach_get of the evaluated positions on both sides. The
+deformkit side is broken down by timers monkeypatched around the add-on's functions ("set" is the
+property callback; "depsgraph" includes the add-on's depsgraph handler re-check). --addon DIR runs
+a (patched) copy of the add-on instead.
 """
 import argparse, json, math, pathlib, statistics, sys, tempfile, time, types, zlib
 import numpy as np
 
 ap = argparse.ArgumentParser()
-ap.add_argument("--vertices", type=int, default=1_000_000)
-ap.add_argument("--repeats", type=int, default=15)
-ap.add_argument("--warmup", type=int, default=3)
+for option, default in (("--vertices", 1_000_000), ("--repeats", 15), ("--warmup", 3)):
+    ap.add_argument(option, type=int, default=default)
 ap.add_argument("--json")
 ap.add_argument("--addon", default=str(pathlib.Path(__file__).resolve().parents[1] / "python_addon"))
 args = ap.parse_args()
 
 
-def cpu_ticks():
+def cpu_ticks():  # (total, idle + iowait) from /proc/stat
     v = list(map(int, open("/proc/stat").readline().split()[1:]))
-    return sum(v), v[3] + v[4]  # total, idle + iowait
+    return sum(v), v[3] + v[4]
 
 
-(t0, i0), _, (t1, i1) = cpu_ticks(), time.sleep(0.5), cpu_ticks()
-busy = 1 - (i1 - i0) / max(t1 - t0, 1)
+def eval_positions(obj, dg, out):  # the position attribute: ~20x faster than vertices.foreach_get("co")
+    obj.evaluated_get(dg).data.attributes["position"].data.foreach_get("vector", out)
+    return out
+
+
+def timed(name, fn):  # accumulate into T under "<phase>:<name>"
+    def wrapper(*a, **k):
+        t0 = time.perf_counter()
+        try:
+            return fn(*a, **k)
+        finally:
+            T[f"{phase[0]}:{name}"] = T.get(f"{phase[0]}:{name}", 0.0) + time.perf_counter() - t0
+    return wrapper
+
+
+def timed_stack(deformers):
+    stack = dk.Stack(deformers)
+    return types.SimpleNamespace(deform=timed("deform", stack.deform), volume_ratio=stack.volume_ratio)
+
+
+def stat(side, key):
+    v = [r.get(key, 0.0) * 1e3 for r in runs[side]]
+    return statistics.median(v), min(v)
+
+
+(c0, i0), _, (c1, i1) = cpu_ticks(), time.sleep(0.5), cpu_ticks()
+busy = 1 - (i1 - i0) / max(c1 - c0, 1)  # CPU busy fraction before the run
 addons = pathlib.Path(tempfile.mkdtemp())
 (addons / "deformkit_addon").symlink_to(args.addon, target_is_directory=True)
 sys.path.insert(0, str(addons))
@@ -56,12 +81,6 @@ mod = B.modifiers.new("SimpleDeform", "SIMPLE_DEFORM")
 mod.deform_method, mod.deform_axis, mod.angle = "TWIST", "Z", 0.5
 api.add_entry(A, "TWIST", angle=0.5, deform_axis="Z")
 
-
-def eval_positions(obj, dg, out):  # the position attribute: ~20x faster than vertices.foreach_get("co")
-    obj.evaluated_get(dg).data.attributes["position"].data.foreach_get("vector", out)
-    return out
-
-
 # Apples to apples: same evaluated positions (and the evaluated mesh is not the base mesh).
 dg = bpy.context.evaluated_depsgraph_get()
 buf = np.empty(nverts * 3, np.float32)
@@ -72,33 +91,10 @@ assert diff < 1e-4 * size and moved > 1e-3 * size and via_to_mesh == 0, (diff, m
 
 # Timers around the add-on's internals, keyed by phase ("set" = property callback, "dg" = depsgraph).
 T, phase = {}, ["set"]
-
-
-def timed(name, fn):
-    def wrapper(*a, **k):
-        t0 = time.perf_counter()
-        try:
-            return fn(*a, **k)
-        finally:
-            T[f"{phase[0]}:{name}"] = T.get(f"{phase[0]}:{name}", 0.0) + time.perf_counter() - t0
-    return wrapper
-
-
 for name in ("evaluate", "base_positions", "write_vector_attribute", "_offsets", "ensure_modifier"):
     setattr(evaluation, name, timed(name, getattr(evaluation, name)))
 evaluation.zlib = types.SimpleNamespace(crc32=timed("crc32", zlib.crc32))
-
-
-class TimedStack:
-    def __init__(self, deformers):
-        self._s = dk.Stack(deformers)
-        self.deform = timed("deform", self._s.deform)
-
-    def __getattr__(self, n):
-        return getattr(self._s, n)
-
-
-native.dk = types.SimpleNamespace(**{**{n: getattr(dk, n) for n in dir(dk) if n[0] != "_"}, "Stack": TimedStack})
+native.dk = types.SimpleNamespace(**{**{n: getattr(dk, n) for n in dir(dk) if n[0] != "_"}, "Stack": timed_stack})
 
 runs = {"deformkit": [], "blender": []}
 for i in range(args.warmup + args.repeats):
@@ -131,24 +127,15 @@ for r in runs["deformkit"]:  # derived parts
     r["set:other"] = r["set"] - sum(r.get(f"set:{k}", 0) for k in parts)
     r["set:offsets-base"] = r.get("set:_offsets", 0) - r.get("set:deform", 0)
     r["dg:GN+rest"] = r["depsgraph"] - r.get("dg:evaluate", 0)
-
-
-def stat(side, key):
-    v = [r.get(key, 0.0) * 1e3 for r in runs[side]]
-    return statistics.median(v), min(v)
-
-
 ROWS = [(side, key, label) for side, rows in (
     ("deformkit", [("total", "deformkit total (set + depsgraph + count)"),
                    ("set", "  set angle: property callback -> evaluate()"),
-                   ("set:base_positions", "    base_positions (vertices.foreach_get co)"),
-                   ("set:crc32", "    zlib.crc32 of base positions"),
+                   ("set:base_positions", "    base_positions (foreach_get)"), ("set:crc32", "    zlib.crc32"),
                    ("set:deform", "    dk.Stack.deform"), ("set:offsets-base", "    deformed - base"),
-                   ("set:write_vector_attribute", "    write_vector_attribute x2 (foreach_set)"),
+                   ("set:write_vector_attribute", "    write_vector_attribute (foreach_set)"),
                    ("set:ensure_modifier", "    ensure_modifier"),
                    ("set:other", "    other (base.tobytes() for crc, mesh.update())"),
-                   ("depsgraph", "  depsgraph update"),
-                   ("dg:evaluate", "    handler re-check: evaluate() (no write)"),
+                   ("depsgraph", "  depsgraph update"), ("dg:evaluate", "    handler re-check: evaluate()"),
                    ("dg:base_positions", "      base_positions"), ("dg:crc32", "      zlib.crc32"),
                    ("dg:GN+rest", "    Geometry Nodes modifier + rest"), ("count", "  evaluated vertex count")]),
     ("blender", [("total", "Blender total (set + depsgraph + count)"), ("set", "  set angle"),

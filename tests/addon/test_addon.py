@@ -268,3 +268,30 @@ def test_missing_module_still_loads(scene, addon):
     with pytest.raises(ValueError, match="make build"):
         api.add_entry(obj, "TWIST")
     assert not bpy.ops.deformkit.entry_add.poll()
+
+
+def test_undo_and_redo(scene):
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    base = evaluated(obj).copy()
+    bpy.ops.ed.undo_push(message="start")
+    api.add_entry(obj, "TWIST", angle=1.0, deform_axis="Z")
+    bpy.ops.ed.undo_push(message="add twist")
+    after_add = evaluated(obj).copy()
+    obj.deformkit.entries[0].angle = 2.0
+    bpy.ops.ed.undo_push(message="angle")
+    after_angle = evaluated(obj).copy()
+    assert not close(after_add, after_angle)
+    bpy.ops.ed.undo()
+    obj = bpy.data.objects["Obj"]  # undo rebuilds the data: look the object up again
+    assert abs(obj.deformkit.entries[0].angle - 1.0) < 1e-6
+    assert close(evaluated(obj), after_add)
+    bpy.ops.ed.undo()
+    obj = bpy.data.objects["Obj"]
+    assert len(obj.deformkit.entries) == 0
+    np.testing.assert_array_equal(evaluated(obj), base)
+    bpy.ops.ed.redo()
+    bpy.ops.ed.redo()
+    obj = bpy.data.objects["Obj"]
+    assert close(evaluated(obj), after_angle)
