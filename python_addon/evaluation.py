@@ -14,14 +14,15 @@ import numpy as np
 from . import native
 
 MODIFIER_NAME = "deformkit"
-NODE_GROUP_NAME = "deformkit_offsets"
+NODE_GROUP_NAME = "deformkit_offsets"            # one offsets attribute for viewport and render
+SPLIT_NODE_GROUP_NAME = "deformkit_offsets_split"  # different offsets in the viewport and in renders
 ATTR_VIEWPORT = "deformkit_offset"
 ATTR_RENDER = "deformkit_offset_render"
 ATTR_VOLUME = "deformkit_volume_ratio"
 OUTPUT_ATTRIBUTES = (ATTR_VIEWPORT, ATTR_RENDER, ATTR_VOLUME)
 
 _evaluating = set()  # session_uids being evaluated: writes below re-enter through handlers
-_last_inputs = {}    # session_uid -> fingerprint of the inputs last written
+_last_inputs = {}    # cache key -> (fingerprint of the settings, base positions) last written
 
 
 def _cache_key(obj):
@@ -48,7 +49,11 @@ def object_problem(obj):
 
 def base_positions(mesh):
     co = np.empty(len(mesh.vertices) * 3, np.float32)
-    mesh.vertices.foreach_get("co", co)
+    position = mesh.attributes.get("position")  # Blender 3.5+: a plain memcpy, ~20x faster than "co"
+    if position is not None and position.data_type == "FLOAT_VECTOR" and position.domain == "POINT":
+        position.data.foreach_get("vector", co)
+    else:
+        mesh.vertices.foreach_get("co", co)
     return co.reshape(-1, 3)
 
 
@@ -102,10 +107,12 @@ def _set_if_changed(owner, prop, value):
         setattr(owner, prop, value)
 
 
-def evaluate(obj, force=False):
+def evaluate(obj, force=False, reuse_base=False):
     """Recompute `obj`'s deformkit result. Returns True if it wrote a new result.
 
-    On any problem the message goes on the stack or the entry and the mesh is left as it was."""
+    With reuse_base, the base positions of the last evaluation are used when the settings changed
+    (a parameter edit); the depsgraph handler's next pass re-reads them. On any problem the
+    message goes on the stack or the entry and the mesh is left as it was."""
     uid = _cache_key(obj)
     if uid in _evaluating or obj.mode == "EDIT":  # in edit mode the base mesh is stale until exit
         return False
@@ -120,8 +127,12 @@ def evaluate(obj, force=False):
             remove_outputs(obj)
             _last_inputs.pop(uid, None)
             return True
-        base = base_positions(obj.data)
-        built, key, failed = [], [len(base), zlib.crc32(base.tobytes()), stack.show_volume_ratio], False
+        cached = _last_inputs.get(uid)
+        if reuse_base and cached is not None and len(cached[1]) == len(obj.data.vertices):
+            base = cached[1]
+        else:
+            base = base_positions(obj.data)
+        built, key, failed = [], [len(base), stack.show_volume_ratio], False
         for entry in stack.entries:
             try:
                 deformer = entry_deformer(obj, entry)
@@ -135,7 +146,8 @@ def evaluate(obj, force=False):
         if failed:
             return False
         key = tuple(key)
-        if not force and _last_inputs.get(uid) == key and outputs_present(obj):
+        if (not force and cached is not None and cached[0] == key and np.array_equal(cached[1], base)
+                and outputs_present(obj)):
             return False
         viewport = [d for e, d in built if e.show_viewport]
         render = [d for e, d in built if e.show_render]
@@ -146,15 +158,19 @@ def evaluate(obj, force=False):
             _set_if_changed(stack, "error", str(exc))
             return False
         mesh = obj.data
+        split = render_offsets is not offsets
         write_vector_attribute(mesh, ATTR_VIEWPORT, offsets)
-        write_vector_attribute(mesh, ATTR_RENDER, render_offsets)
+        if split:
+            write_vector_attribute(mesh, ATTR_RENDER, render_offsets)
+        elif ATTR_RENDER in mesh.attributes:
+            mesh.attributes.remove(mesh.attributes[ATTR_RENDER])
         if stack.show_volume_ratio and viewport:
             write_volume_colors(mesh, native.dk.Stack(viewport).volume_ratio(base))
         elif ATTR_VOLUME in mesh.attributes:
             mesh.attributes.remove(mesh.attributes[ATTR_VOLUME])
-        ensure_modifier(obj)
+        ensure_modifier(obj, split)
         mesh.update()
-        _last_inputs[uid] = key
+        _last_inputs[uid] = (key, base)
         return True
     finally:
         _evaluating.discard(uid)
@@ -163,13 +179,14 @@ def evaluate(obj, force=False):
 def _offsets(deformers, base):
     if not deformers:
         return np.zeros_like(base)
-    return native.dk.Stack(deformers).deform(base) - base
+    out = native.dk.Stack(deformers).deform(base)
+    return np.subtract(out, base, out=out)
 
 
 def request_update(obj):
     """Called by property updates: re-evaluate at once (parameter edits, keyframes, drivers)."""
     if isinstance(obj, bpy.types.Object) and obj.type == "MESH":
-        evaluate(obj)
+        evaluate(obj, reuse_base=True)
 
 
 def forget(obj=None):
@@ -205,16 +222,20 @@ def write_volume_colors(mesh, ratio):
 
 def outputs_present(obj):
     mod = obj.modifiers.get(MODIFIER_NAME)
-    return (mod is not None and mod.type == "NODES" and mod.node_group is not None
-            and ATTR_VIEWPORT in obj.data.attributes and ATTR_RENDER in obj.data.attributes)
+    if mod is None or mod.type != "NODES" or mod.node_group is None:
+        return False
+    split = mod.node_group.name == SPLIT_NODE_GROUP_NAME
+    return ATTR_VIEWPORT in obj.data.attributes and (not split or ATTR_RENDER in obj.data.attributes)
 
 
-def node_group():
-    """Geometry Nodes: add the viewport offsets in the viewport and the render offsets in renders."""
-    group = bpy.data.node_groups.get(NODE_GROUP_NAME)
+def node_group(split):
+    """Geometry Nodes that add the offsets: with `split`, the viewport offsets in the viewport and
+    the render offsets in renders; otherwise one offsets attribute everywhere."""
+    name = SPLIT_NODE_GROUP_NAME if split else NODE_GROUP_NAME
+    group = bpy.data.node_groups.get(name)
     if group is not None and group.get("deformkit_node_group") == 1:
         return group
-    group = bpy.data.node_groups.new(NODE_GROUP_NAME, "GeometryNodeTree")
+    group = bpy.data.node_groups.new(name, "GeometryNodeTree")
     group["deformkit_node_group"] = 1
     if hasattr(group, "interface"):  # Blender 4.0+
         group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
@@ -229,20 +250,23 @@ def node_group():
     not_viewport.operation = "NOT"
     links.new(is_viewport.outputs[0], not_viewport.inputs[0])
     geometry = source.outputs[0]
-    for attribute, selection in ((ATTR_VIEWPORT, is_viewport.outputs[0]), (ATTR_RENDER, not_viewport.outputs[0])):
+    passes = ((ATTR_VIEWPORT, is_viewport.outputs[0]), (ATTR_RENDER, not_viewport.outputs[0])) if split \
+        else ((ATTR_VIEWPORT, None),)
+    for attribute, selection in passes:
         named = nodes.new("GeometryNodeInputNamedAttribute")
         named.data_type = "FLOAT_VECTOR"
         named.inputs["Name"].default_value = attribute
         set_position = nodes.new("GeometryNodeSetPosition")
         links.new(geometry, set_position.inputs["Geometry"])
-        links.new(selection, set_position.inputs["Selection"])
+        if selection is not None:
+            links.new(selection, set_position.inputs["Selection"])
         links.new([o for o in named.outputs if o.enabled][0], set_position.inputs["Offset"])
         geometry = set_position.outputs[0]
     links.new(geometry, sink.inputs[0])
     return group
 
 
-def ensure_modifier(obj):
+def ensure_modifier(obj, split=False):
     mod = obj.modifiers.get(MODIFIER_NAME)
     if mod is not None and mod.type != "NODES":
         raise EntryError(f"a modifier named '{MODIFIER_NAME}' of another type is in the way")
@@ -251,8 +275,9 @@ def ensure_modifier(obj):
         # First in the stack: the offsets were computed from the base mesh.
         with bpy.context.temp_override(object=obj, active_object=obj):
             bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=0)
-    if mod.node_group is None or mod.node_group.name != NODE_GROUP_NAME:
-        mod.node_group = node_group()
+    wanted = SPLIT_NODE_GROUP_NAME if split else NODE_GROUP_NAME
+    if mod.node_group is None or mod.node_group.name != wanted:
+        mod.node_group = node_group(split)
     return mod
 
 
@@ -282,7 +307,11 @@ def apply_entry(obj, index):
 
 
 def evaluated_positions(obj, depsgraph=None):
-    """Positions of the fully evaluated object (all modifiers), as float32 (n, 3)."""
+    """Positions of the fully evaluated object (all modifiers), as float32 (n, 3). The stack is
+    brought up to date first, so a script that just edited the base mesh reads a current result."""
+    stack = getattr(obj, "deformkit", None)  # None while the add-on is unregistered
+    if depsgraph is None and obj.type == "MESH" and stack is not None and len(stack.entries) > 0:
+        evaluate(obj)
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     evaluated = obj.evaluated_get(depsgraph)
     mesh = evaluated.to_mesh()
