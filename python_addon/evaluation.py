@@ -1,11 +1,12 @@
 """Evaluation: turn an object's deformkit stack into positions and hand them to Blender.
 
-The base mesh is never written. The stack's result is stored as per-point offset attributes
-(one for the viewport, one for renders) that a Geometry Nodes modifier named "deformkit" adds to
-the positions, so the result takes part in Blender's own modifier stack, saves with the file and
-survives with the add-on disabled; removing every entry removes the modifier and the attributes,
-which gives back the original mesh bit for bit.
+The base mesh is never written. The stack's result is stored as a per-point position attribute
+(and a second one for renders when an entry is hidden in one of them) that a Geometry Nodes
+modifier named "deformkit" stores into the positions, so the result takes part in Blender's own
+modifier stack, saves with the file and survives with the add-on disabled; removing every entry
+removes the modifier and the attributes, which gives back the original mesh bit for bit.
 """
+import time
 import zlib
 
 import bpy
@@ -14,15 +15,17 @@ import numpy as np
 from . import native
 
 MODIFIER_NAME = "deformkit"
-NODE_GROUP_NAME = "deformkit_offsets"            # one offsets attribute for viewport and render
-SPLIT_NODE_GROUP_NAME = "deformkit_offsets_split"  # different offsets in the viewport and in renders
-ATTR_VIEWPORT = "deformkit_offset"
-ATTR_RENDER = "deformkit_offset_render"
+NODE_GROUP_NAME = "deformkit_positions"            # one result for viewport and render
+SPLIT_NODE_GROUP_NAME = "deformkit_positions_split"  # different results in the viewport and in renders
+ATTR_VIEWPORT = "deformkit_position"
+ATTR_RENDER = "deformkit_position_render"
 ATTR_VOLUME = "deformkit_volume_ratio"
 OUTPUT_ATTRIBUTES = (ATTR_VIEWPORT, ATTR_RENDER, ATTR_VOLUME)
 
 _evaluating = set()  # session_uids being evaluated: writes below re-enter through handlers
 _last_inputs = {}    # cache key -> (fingerprint of the settings, base positions) last written
+_own_writes = {}     # cache key -> time of the add-on's last write, whose depsgraph echo is expected
+ECHO_WINDOW = 1.0    # seconds within which a depsgraph update of the mesh counts as that echo
 
 
 def _cache_key(obj):
@@ -152,8 +155,8 @@ def evaluate(obj, force=False, reuse_base=False):
         viewport = [d for e, d in built if e.show_viewport]
         render = [d for e, d in built if e.show_render]
         try:
-            offsets = _offsets(viewport, base)
-            render_offsets = offsets if render == viewport else _offsets(render, base)
+            offsets = _deformed(viewport, base)
+            render_offsets = offsets if render == viewport else _deformed(render, base)
         except ValueError as exc:
             _set_if_changed(stack, "error", str(exc))
             return False
@@ -171,16 +174,32 @@ def evaluate(obj, force=False, reuse_base=False):
         ensure_modifier(obj, split)
         mesh.update()
         _last_inputs[uid] = (key, base)
+        _own_writes[uid] = time.monotonic()
         return True
     finally:
         _evaluating.discard(uid)
 
 
-def _offsets(deformers, base):
+def _deformed(deformers, base):
     if not deformers:
-        return np.zeros_like(base)
-    out = native.dk.Stack(deformers).deform(base)
-    return np.subtract(out, base, out=out)
+        return base.copy()
+    return native.dk.Stack(deformers).deform(base)
+
+
+def is_echo_of_own_write(obj):
+    """True when a depsgraph update of obj's mesh is the echo of the add-on's own attribute write
+    (within ECHO_WINDOW of it, with the vertex count unchanged), so the base need not be re-read.
+
+    Any Python read of the positions makes Blender copy them out of their shared storage, which on
+    a large mesh costs as much as Blender's own Simple Deform, so the echo is judged without one.
+    The one case this misses: a script that changes a parameter and then edits base positions
+    before any depsgraph update. Such scripts should call api.evaluate(obj); api.evaluated_positions,
+    frame changes, undo, redo and file load compare every position anyway."""
+    uid = _cache_key(obj)
+    written, cached = _own_writes.pop(uid, None), _last_inputs.get(uid)
+    if written is None or cached is None or time.monotonic() - written > ECHO_WINDOW:
+        return False
+    return len(obj.data.vertices) == len(cached[1])
 
 
 def request_update(obj):
@@ -193,8 +212,10 @@ def forget(obj=None):
     """Drop cached fingerprints (after undo or file load, when they may be stale)."""
     if obj is None:
         _last_inputs.clear()
+        _own_writes.clear()
     else:
         _last_inputs.pop(_cache_key(obj), None)
+        _own_writes.pop(_cache_key(obj), None)
 
 
 def write_vector_attribute(mesh, name, values):
@@ -229,8 +250,9 @@ def outputs_present(obj):
 
 
 def node_group(split):
-    """Geometry Nodes that add the offsets: with `split`, the viewport offsets in the viewport and
-    the render offsets in renders; otherwise one offsets attribute everywhere."""
+    """Geometry Nodes that take the stored positions: with `split`, the viewport attribute in the
+    viewport and the render attribute in renders; otherwise one attribute everywhere (a Store
+    Named Attribute into "position": cheaper than Set Position on large meshes)."""
     name = SPLIT_NODE_GROUP_NAME if split else NODE_GROUP_NAME
     group = bpy.data.node_groups.get(name)
     if group is not None and group.get("deformkit_node_group") == 1:
@@ -245,25 +267,39 @@ def node_group(split):
         group.outputs.new("NodeSocketGeometry", "Geometry")
     nodes, links = group.nodes, group.links
     source, sink = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
+    if not split:
+        named = nodes.new("GeometryNodeInputNamedAttribute")
+        named.data_type = "FLOAT_VECTOR"
+        named.inputs["Name"].default_value = ATTR_VIEWPORT
+        store = nodes.new("GeometryNodeStoreNamedAttribute")
+        store.data_type = "FLOAT_VECTOR"
+        store.domain = "POINT"
+        store.inputs["Name"].default_value = "position"
+        links.new(source.outputs[0], store.inputs["Geometry"])
+        links.new(_output(named), [i for i in store.inputs if i.name == "Value" and i.enabled][0])
+        links.new(store.outputs[0], sink.inputs[0])
+        return group
     is_viewport = nodes.new("GeometryNodeIsViewport")
     not_viewport = nodes.new("FunctionNodeBooleanMath")
     not_viewport.operation = "NOT"
     links.new(is_viewport.outputs[0], not_viewport.inputs[0])
     geometry = source.outputs[0]
-    passes = ((ATTR_VIEWPORT, is_viewport.outputs[0]), (ATTR_RENDER, not_viewport.outputs[0])) if split \
-        else ((ATTR_VIEWPORT, None),)
-    for attribute, selection in passes:
+    for attribute, selection in ((ATTR_VIEWPORT, is_viewport.outputs[0]), (ATTR_RENDER, not_viewport.outputs[0])):
         named = nodes.new("GeometryNodeInputNamedAttribute")
         named.data_type = "FLOAT_VECTOR"
         named.inputs["Name"].default_value = attribute
         set_position = nodes.new("GeometryNodeSetPosition")
         links.new(geometry, set_position.inputs["Geometry"])
-        if selection is not None:
-            links.new(selection, set_position.inputs["Selection"])
-        links.new([o for o in named.outputs if o.enabled][0], set_position.inputs["Offset"])
+        links.new(selection, set_position.inputs["Selection"])
+        links.new(_output(named), set_position.inputs["Position"])
         geometry = set_position.outputs[0]
     links.new(geometry, sink.inputs[0])
     return group
+
+
+def _output(named_attribute_node):
+    # Blender 3.4 lists one "Attribute" output per data type; the enabled one is the vector.
+    return [o for o in named_attribute_node.outputs if o.enabled][0]
 
 
 def ensure_modifier(obj, split=False):
@@ -272,7 +308,7 @@ def ensure_modifier(obj, split=False):
         raise EntryError(f"a modifier named '{MODIFIER_NAME}' of another type is in the way")
     if mod is None:
         mod = obj.modifiers.new(MODIFIER_NAME, "NODES")
-        # First in the stack: the offsets were computed from the base mesh.
+        # First in the stack: the positions were computed from the base mesh.
         with bpy.context.temp_override(object=obj, active_object=obj):
             bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=0)
     wanted = SPLIT_NODE_GROUP_NAME if split else NODE_GROUP_NAME

@@ -20,13 +20,17 @@ def on_frame_change(scene, depsgraph=None):
 
 @persistent
 def on_depsgraph_update(scene, depsgraph):
-    changed = {u.id.original for u in depsgraph.updates if isinstance(u.id, (bpy.types.Object, bpy.types.Mesh))}
-    if not changed:
+    updates = [u for u in depsgraph.updates if isinstance(u.id, (bpy.types.Object, bpy.types.Mesh))]
+    if not updates:
         return
+    changed = {u.id.original for u in updates}
+    moved = {u.id.original for u in updates if u.is_updated_transform}
     for obj in _stack_objects(scene):
         origins = {e.origin for e in obj.deformkit.entries if e.origin is not None}
-        if obj in changed or obj.data in changed or origins & changed:
-            evaluation.evaluate(obj)
+        if origins & changed or (origins and obj in moved):
+            evaluation.evaluate(obj)  # the origin frame in object space changed
+        elif obj.data in changed and not evaluation.is_echo_of_own_write(obj):
+            evaluation.evaluate(obj)  # the base mesh may have been edited
 
 
 @persistent

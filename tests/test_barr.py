@@ -168,3 +168,16 @@ def test_float32_and_float64_agree(rng):
 def test_build_info_reports_runtime_simd():
     info = dk.build_info()
     assert info["simd_target"] and info["eigen"].startswith("3.4") and info["opensubdiv"].startswith("3.5")
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_displacement_is_deform_minus_points(dtype, rng):
+    pts = rng.uniform(-1, 1, (5000, 3)).astype(dtype)
+    d = dk.Stack([dk.Twist(weights=rng.uniform(0, 1, 5000)), dk.Bend()])
+    disp = d.displacement(pts)
+    assert disp.dtype == dtype
+    np.testing.assert_allclose(disp, d.deform(pts) - pts, atol=1e-6 if dtype == np.float32 else 1e-15)
+    out = np.empty_like(pts)
+    assert d.displacement(pts, out=out) is out
+    with pytest.raises(ValueError, match="out: displacement cannot be written over points"):
+        d.displacement(pts, out=pts)

@@ -122,8 +122,10 @@ void apply_weights(Deformer& d, const py::object& weights) {
   if (!weights.is_none()) d.set_weights(parse_vector(weights, "weights"));
 }
 
+enum class Output { Positions, Displacement };
+
 template <class T>
-py::array deform_typed(const Deformer& d, const py::array& pts, const py::object& out) {
+py::array deform_typed(const Deformer& d, const py::array& pts, const py::object& out, Output what) {
   const auto n = static_cast<std::size_t>(pts.shape(0));
   py::array_t<T> result;
   if (out.is_none()) {
@@ -142,16 +144,25 @@ py::array deform_typed(const Deformer& d, const py::array& pts, const py::object
   T* dst = result.mutable_data();
   {
     py::gil_scoped_release release;
-    d.deform(in, dst, n);
+    if (what == Output::Positions) d.deform(in, dst, n);
+    else d.displacement(in, dst, n);
   }
   return std::move(result);
 }
 
-py::array py_deform(const Deformer& d, const py::object& points, const py::object& out) {
+py::array deform_or_displace(const Deformer& d, const py::object& points, const py::object& out, Output what) {
   if (!out.is_none() && !py::isinstance<py::array>(out)) throw py::type_error("out: expected a numpy array or None");
   const py::array pts = points_array(points, "points");
-  if (pts.dtype().is(py::dtype::of<float>())) return deform_typed<float>(d, pts, out);
-  return deform_typed<double>(d, pts, out);
+  if (pts.dtype().is(py::dtype::of<float>())) return deform_typed<float>(d, pts, out, what);
+  return deform_typed<double>(d, pts, out, what);
+}
+
+py::array py_deform(const Deformer& d, const py::object& points, const py::object& out) {
+  return deform_or_displace(d, points, out, Output::Positions);
+}
+
+py::array py_displacement(const Deformer& d, const py::object& points, const py::object& out) {
+  return deform_or_displace(d, points, out, Output::Displacement);
 }
 
 py::array cast_like(py::array_t<double> result, const py::array& like) {
@@ -233,6 +244,9 @@ const char* kDeformDoc = R"(Deform points: returns F(x) for each row of `points`
 The result has the dtype of `points`; the input is never modified. Pass `out=` (same shape and
 dtype, C-contiguous; it may be `points` itself) to write in place. With weights w, the result is
 x + w (F(x) - x).)";
+const char* kDisplacementDoc = R"(Displacement F(x) - x for each row of `points`, as `deform` returns positions.
+
+Same dtype rules and `out=` as `deform`, except that `out` may not be `points` itself.)";
 const char* kJacobianDoc = R"(Jacobian J = dF/dx at each point, shape (n, 3, 3), J[i, r, c] = dF_r/dx_c (Barr 1984, eq. for J(X)).)";
 const char* kNormalsDoc = R"(Carry unit normals through the map: N' = det(J) J^-T N (the cofactor matrix), renormalised.)";
 const char* kVolumeDoc = R"(Local volume ratio det(J) at each point.)";
@@ -245,6 +259,7 @@ PYBIND11_MODULE(_core, m) {
   py::class_<Deformer, std::shared_ptr<Deformer>>(m, "Deformer",
                                                   "Interface shared by every spatial deformer.")
       .def("deform", &py_deform, "points"_a, py::kw_only(), "out"_a = py::none(), kDeformDoc)
+      .def("displacement", &py_displacement, "points"_a, py::kw_only(), "out"_a = py::none(), kDisplacementDoc)
       .def("jacobian", &py_jacobian, "points"_a, kJacobianDoc)
       .def("transform_normals", &py_normals, "points"_a, "normals"_a, kNormalsDoc)
       .def("volume_ratio", &py_volume_ratio, "points"_a, kVolumeDoc)

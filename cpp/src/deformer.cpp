@@ -77,6 +77,24 @@ void Deformer::deform(const double* in, double* out, std::size_t n) const {
   });
 }
 
+template <class T>
+static void subtract_input(const T* in, T* out, std::size_t n) {
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = 3 * begin; i < 3 * end; ++i) out[i] -= in[i];
+  });
+}
+
+void Deformer::displacement(const float* in, float* out, std::size_t n) const {
+  if (in == out) throw std::invalid_argument("out: displacement cannot be written over points");
+  deform(in, out, n);
+  subtract_input(in, out, n);
+}
+void Deformer::displacement(const double* in, double* out, std::size_t n) const {
+  if (in == out) throw std::invalid_argument("out: displacement cannot be written over points");
+  deform(in, out, n);
+  subtract_input(in, out, n);
+}
+
 void Deformer::jacobian(const double* in, double* jac, std::size_t n) const {
   require_weight_count(weights_, n);
   require_finite_rows(in, n, "points");

@@ -14,6 +14,9 @@ class Deformer:
     def deform(self, points: np.ndarray[tuple[int, int], np.dtype[_F]], *,
                out: np.ndarray[tuple[int, int], np.dtype[_F]] | None = None) -> np.ndarray[tuple[int, int], np.dtype[_F]]:
         """F(x) per row of an (n, 3) array; x + w (F(x) - x) with weights."""
+    def displacement(self, points: np.ndarray[tuple[int, int], np.dtype[_F]], *,
+                     out: np.ndarray[tuple[int, int], np.dtype[_F]] | None = None) -> np.ndarray[tuple[int, int], np.dtype[_F]]:
+        """F(x) - x per row (what an offset attribute adds); out may not be points."""
     def jacobian(self, points: np.ndarray[tuple[int, int], np.dtype[_F]]) -> np.ndarray[tuple[int, int, int], np.dtype[_F]]:
         """J = dF/dx, shape (n, 3, 3), J[i, r, c] = dF_r/dx_c (Barr 1984)."""
     def transform_normals(self, points: np.ndarray[tuple[int, int], np.dtype[np.floating]],

@@ -295,3 +295,27 @@ def test_undo_and_redo(scene):
     bpy.ops.ed.redo()
     obj = bpy.data.objects["Obj"]
     assert close(evaluated(obj), after_angle)
+
+
+def test_script_edits_of_the_base_mesh(scene):
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    entry = api.add_entry(obj, "TWIST", angle=1.1, deform_axis="Z")
+    bpy.context.view_layer.update()  # the echo of the add-on's write has passed
+    co = positions(obj.data)
+    co[:, 1] += 0.3 * co[:, 2]
+    obj.data.vertices.foreach_set("co", co.ravel())
+    obj.data.update()
+    bpy.context.view_layer.update()  # the handler sees a base edit and re-evaluates
+    twin = twin_with_simple_deform(bpy, obj, deform_method="TWIST", angle=1.1, deform_axis="Z")
+    assert close(evaluated(obj), evaluated(twin))
+    entry.angle = 0.4  # a parameter edit, then a base edit before any depsgraph update:
+    co[:, 0] -= 0.2 * co[:, 2]
+    obj.data.vertices.foreach_set("co", co.ravel())
+    obj.data.update()
+    twin.modifiers[0].angle = 0.4
+    twin.data.vertices.foreach_set("co", co.ravel())
+    twin.data.update()
+    api.evaluate(obj)  # what the documentation asks scripts to do in that case
+    assert close(evaluated(obj), evaluated(twin))

@@ -16,6 +16,9 @@ class Deformer {
   void deform(const float* in, float* out, std::size_t n) const;
   void deform(const double* in, double* out, std::size_t n) const;
   void jacobian(const double* in, double* jac, std::size_t n) const;
+  // F(x) - x: what an offset-based consumer (Blender's Geometry Nodes) adds to the points.
+  void displacement(const float* in, float* out, std::size_t n) const;
+  void displacement(const double* in, double* out, std::size_t n) const;
 
   // Per-point blend between the original and the deformed position (Blender's vertex group):
   // x' = x + w (F(x) - x), so J' = (1 - w) I + w J.
