@@ -27,9 +27,10 @@ def add_entry(obj, type="TWIST", **params):
     if kind not in TYPES:
         raise ValueError(f"type: expected one of {', '.join(TYPES)}, got {type!r}")
     stack = obj.deformkit
+    name = _unique_name(stack, kind.title())  # before add(): the new entry has a default name
     entry = stack.entries.add()
     entry.type = kind
-    entry.name = _unique_name(stack, kind.title())
+    entry.name = name
     stack.active_index = len(stack.entries) - 1
     set_params(entry, **params)
     evaluation.evaluate(obj)

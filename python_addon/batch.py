@@ -115,7 +115,8 @@ def process(input_path, output_path, recipe=None, preview_path=None):
     t0 = time.perf_counter()
     result = {"file": input_path, "output": output_path, "status": "failed", "error": "", "objects": []}
     try:
-        if os.path.abspath(input_path) == os.path.abspath(output_path):
+        if os.path.realpath(input_path) == os.path.realpath(output_path) or (
+                os.path.exists(output_path) and os.path.samefile(input_path, output_path)):
             raise BatchError("the output would overwrite the input")
         try:
             bpy.ops.wm.open_mainfile(filepath=input_path, load_ui=False)

@@ -47,6 +47,14 @@ def expand_inputs(patterns):
     return list(dict.fromkeys(os.path.abspath(p) for p in paths))
 
 
+def same_file(a, b):
+    """True when a and b are the same file, through symbolic links and hard links too."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one does not exist (yet): compare the resolved paths
+        return os.path.realpath(a) == os.path.realpath(b)
+
+
 def input_problem(path):
     if not os.path.exists(path):
         return "file not found"
@@ -171,6 +179,8 @@ def main(argv=None):
     os.makedirs(out_dir, exist_ok=True)
     outputs = output_names(inputs, out_dir)
     report_path = args.report or os.path.join(out_dir, "report.json")
+    if any(same_file(report_path, p) for p in inputs):
+        ap.error(f"--report: {report_path} is one of the inputs")
 
     started = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
     results, lock, done = [None] * len(inputs), threading.Lock(), [0]
@@ -180,11 +190,14 @@ def main(argv=None):
         def job(i):
             src, dst = inputs[i], outputs[i]
             preview = os.path.join(work, f"{i}.npz") if args.preview else None
-            if os.path.abspath(dst) in inputs:
+            if any(same_file(dst, other) for other in inputs):
                 result = {"file": src, "output": dst, "status": "failed", "objects": [], "seconds": 0.0,
                           "error": f"refusing to write {dst}: it is one of the inputs"}
             else:
                 result = run_one(blender, paths, src, dst, recipe, preview, args.timeout, work)
+            if result["status"] != "ok":  # a Blender killed mid-save leaves its temporary file
+                for leftover in glob.glob(glob.escape(dst) + ".tmp*") + glob.glob(glob.escape(dst) + "@"):
+                    os.unlink(leftover)
             if result["status"] == "ok" and preview and os.path.exists(preview):
                 png = os.path.splitext(dst)[0] + ".png"
                 try:

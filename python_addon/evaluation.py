@@ -45,6 +45,12 @@ def object_problem(obj):
         return "objects with shape keys are not supported yet (shape keys are evaluated before modifiers)"
     if len(obj.data.vertices) == 0:
         return "the mesh has no vertices"
+    if obj.data.users > 1 + int(obj.data.use_fake_user):
+        return (f"the mesh '{obj.data.name}' is shared by {obj.data.users} users; deformkit stores its result "
+                "in the mesh, so make it single user (Object > Relations > Make Single User)")
+    mod = obj.modifiers.get(MODIFIER_NAME)
+    if mod is not None and mod.type != "NODES":
+        return f"a {mod.type.lower()} modifier named '{MODIFIER_NAME}' is in the way; rename it"
     if not native.available():
         return native.IMPORT_ERROR
     return ""
@@ -82,6 +88,8 @@ def origin_matrix(obj, entry):
         return None
     if entry.origin == obj:  # Blender ignores an object that is its own origin
         return None
+    if not entry.origin.users_scene:  # deleted in the UI: unlinked, but still referenced here
+        raise EntryError(f"origin object '{entry.origin.name}' was deleted (it is in no scene)")
     return np.array(obj.matrix_world.inverted() @ entry.origin.matrix_world)
 
 
@@ -110,11 +118,12 @@ def _set_if_changed(owner, prop, value):
         setattr(owner, prop, value)
 
 
-def evaluate(obj, force=False, reuse_base=False):
+def evaluate(obj, force=False, reuse_base=False, expect_echo=False):
     """Recompute `obj`'s deformkit result. Returns True if it wrote a new result.
 
     With reuse_base, the base positions of the last evaluation are used when the settings changed
-    (a parameter edit); the depsgraph handler's next pass re-reads them. On any problem the
+    (a parameter edit); with expect_echo, the depsgraph update this write causes is recognised as
+    its echo (see is_echo_of_own_write). On any problem the
     message goes on the stack or the entry and the mesh is left as it was."""
     uid = _cache_key(obj)
     if uid in _evaluating or obj.mode == "EDIT":  # in edit mode the base mesh is stale until exit
@@ -174,7 +183,8 @@ def evaluate(obj, force=False, reuse_base=False):
         ensure_modifier(obj, split)
         mesh.update()
         _last_inputs[uid] = (key, base)
-        _own_writes[uid] = time.monotonic()
+        if expect_echo:
+            _own_writes[uid] = time.monotonic()
         return True
     finally:
         _evaluating.discard(uid)
@@ -202,10 +212,16 @@ def is_echo_of_own_write(obj):
     return len(obj.data.vertices) == len(cached[1])
 
 
+def forget_echoes():
+    """A frame change evaluates without passing through depsgraph_update_post, so an echo still
+    expected then would be mistaken for the next real edit of the mesh."""
+    _own_writes.clear()
+
+
 def request_update(obj):
     """Called by property updates: re-evaluate at once (parameter edits, keyframes, drivers)."""
     if isinstance(obj, bpy.types.Object) and obj.type == "MESH":
-        evaluate(obj, reuse_base=True)
+        evaluate(obj, reuse_base=True, expect_echo=True)
 
 
 def forget(obj=None):
@@ -245,20 +261,21 @@ def outputs_present(obj):
     mod = obj.modifiers.get(MODIFIER_NAME)
     if mod is None or mod.type != "NODES" or mod.node_group is None:
         return False
-    split = mod.node_group.name == SPLIT_NODE_GROUP_NAME
+    split = mod.node_group.get("deformkit_node_group") == "split"
     return ATTR_VIEWPORT in obj.data.attributes and (not split or ATTR_RENDER in obj.data.attributes)
 
 
 def node_group(split):
     """Geometry Nodes that take the stored positions: with `split`, the viewport attribute in the
     viewport and the render attribute in renders; otherwise one attribute everywhere (a Store
-    Named Attribute into "position": cheaper than Set Position on large meshes)."""
-    name = SPLIT_NODE_GROUP_NAME if split else NODE_GROUP_NAME
-    group = bpy.data.node_groups.get(name)
-    if group is not None and group.get("deformkit_node_group") == 1:
-        return group
-    group = bpy.data.node_groups.new(name, "GeometryNodeTree")
-    group["deformkit_node_group"] = 1
+    Named Attribute into "position": cheaper than Set Position on large meshes). Found by a
+    marker, not by name, so a user's group of the same name is left alone."""
+    kind = "split" if split else "single"
+    for group in bpy.data.node_groups:
+        if group.get("deformkit_node_group") == kind:
+            return group
+    group = bpy.data.node_groups.new(SPLIT_NODE_GROUP_NAME if split else NODE_GROUP_NAME, "GeometryNodeTree")
+    group["deformkit_node_group"] = kind
     if hasattr(group, "interface"):  # Blender 4.0+
         group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
         group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
@@ -311,8 +328,7 @@ def ensure_modifier(obj, split=False):
         # First in the stack: the positions were computed from the base mesh.
         with bpy.context.temp_override(object=obj, active_object=obj):
             bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=0)
-    wanted = SPLIT_NODE_GROUP_NAME if split else NODE_GROUP_NAME
-    if mod.node_group is None or mod.node_group.name != wanted:
+    if mod.node_group is None or mod.node_group.get("deformkit_node_group") != ("split" if split else "single"):
         mod.node_group = node_group(split)
     return mod
 
@@ -332,6 +348,8 @@ def remove_outputs(obj):
 def apply_entry(obj, index):
     """Bake entry `index` into the base mesh and remove it. Returns a warning or ''."""
     stack = obj.deformkit
+    if obj.mode == "EDIT":
+        raise EntryError("apply: leave edit mode first (edit mode holds its own copy of the mesh)")
     entry = stack.entries[index]
     base = base_positions(obj.data)
     deformed = entry_deformer(obj, entry).deform(base)

@@ -14,6 +14,7 @@ def _stack_objects(scene):
 
 @persistent
 def on_frame_change(scene, depsgraph=None):
+    evaluation.forget_echoes()
     for obj in _stack_objects(scene):
         evaluation.evaluate(obj)
 

@@ -76,6 +76,15 @@ class DEFORMKIT_OT_entry_apply(_EntryOperator, bpy.types.Operator):
     bl_idname = "deformkit.entry_apply"
     bl_label = "Apply deformkit Entry"
 
+    @classmethod
+    def poll(cls, context):
+        if not super().poll(context):
+            return False
+        if context.object.mode == "EDIT":
+            cls.poll_message_set("Leave edit mode to apply")
+            return False
+        return True
+
     def execute(self, context):
         try:
             warning = api.apply(context.object, self.entry_index(context))

@@ -33,7 +33,7 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
     show_viewport: BoolProperty(name="Viewport", description="Display in the viewport", default=True,
                                 update=_changed)
     show_render: BoolProperty(name="Render", description="Use in renders", default=True, update=_changed)
-    show_expanded: BoolProperty(name="Expanded", default=True)
+    show_expanded: BoolProperty(name="Expanded", default=True, description="Show the entry's settings")
     angle: FloatProperty(name="Angle", subtype="ANGLE", default=math.radians(45.0), update=_changed,
                          description="Twist or bend angle over the limited extent (as Simple Deform)")
     factor: FloatProperty(name="Factor", default=0.785398, soft_min=-10.0, soft_max=10.0, update=_changed,
@@ -42,7 +42,7 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
     origin: PointerProperty(name="Origin", type=bpy.types.Object, update=_origin_changed,
                             description="Object whose frame places the deformation")
     origin_name: StringProperty(options={"HIDDEN"})
-    limits: FloatVectorProperty(name="Limits", size=2, default=(0.0, 1.0), min=0.0, max=1.0, precision=3,
+    limits: FloatVectorProperty(name="Limits", size=2, default=(0.0, 1.0), min=0.0, max=1.0, precision=2,
                                 update=_changed, description="Lower and upper limits as fractions of the extent")
     lock_x: BoolProperty(name="Lock X", update=_changed)
     lock_y: BoolProperty(name="Lock Y", update=_changed)
@@ -62,7 +62,8 @@ class DEFORMKIT_PG_stack(bpy.types.PropertyGroup):
     active_index: IntProperty(name="Active Entry")
     show_volume_ratio: BoolProperty(
         name="Volume Colors", default=False, update=_changed,
-        description="Write a color attribute with det(J): stretch red, compression blue")
+        description="Write a color attribute with det(J), stretch red and compression blue "
+                    "(shown with Viewport Shading > Color > Attribute)")
     error: StringProperty(options={"HIDDEN", "SKIP_SAVE"})
 
 

@@ -14,6 +14,28 @@ class DEFORMKIT_MT_add(bpy.types.Menu):
             self.layout.operator("deformkit.entry_add", text=label, icon=icon).type = kind
 
 
+class DEFORMKIT_MT_entry_specials(bpy.types.Menu):
+    """The drop-down of an entry's header, like a modifier's: apply and move."""
+    bl_label = "deformkit Entry"
+    bl_idname = "DEFORMKIT_MT_entry_specials"
+
+    def draw(self, context):
+        entry = getattr(context, "deformkit_entry", None)
+        if entry is None:
+            return
+        stack = context.object.deformkit
+        index = list(stack.entries).index(entry)
+        layout = self.layout
+        layout.operator("deformkit.entry_apply", text="Apply", icon="CHECKMARK").index = index
+        layout.separator()
+        for label, direction, icon, enabled in (("Move Up", "UP", "TRIA_UP", index > 0),
+                                                ("Move Down", "DOWN", "TRIA_DOWN", index < len(stack.entries) - 1)):
+            sub = layout.column()
+            sub.enabled = enabled
+            op = sub.operator("deformkit.entry_move", text=label, icon=icon)
+            op.index, op.direction = index, direction
+
+
 class DEFORMKIT_PT_stack(bpy.types.Panel):
     bl_label = "deformkit"
     bl_space_type = "PROPERTIES"
@@ -32,46 +54,50 @@ class DEFORMKIT_PT_stack(bpy.types.Panel):
             layout.alert = True
             layout.label(text=native.IMPORT_ERROR, icon="ERROR")
             return
-        layout.menu(DEFORMKIT_MT_add.bl_idname, icon="ADD")
-        if stack.error:
+        row = layout.row()
+        row.menu(DEFORMKIT_MT_add.bl_idname, icon="ADD")
+        row.prop(stack, "show_volume_ratio", text="", icon="COLOR")
+        broken = [e.name for e in stack.entries if e.error]
+        for message in ([stack.error] if stack.error else []) + (
+                [f"Result not updated until {', '.join(broken)} is fixed"] if broken else []):
             box = layout.box()
             box.alert = True
-            box.label(text=stack.error, icon="ERROR")
-        layout.prop(stack, "show_volume_ratio")
-        for index, entry in enumerate(stack.entries):
-            draw_entry(layout.box(), obj, entry, index, len(stack.entries))
+            box.label(text=message, icon="ERROR")
+        mod = obj.modifiers.get("deformkit")
+        if len(stack.entries) and mod is not None and not mod.show_viewport:
+            layout.label(text="The 'deformkit' modifier, which shows the result, is hidden", icon="INFO")
+        for entry in stack.entries:
+            draw_entry(layout.box(), obj, entry)
 
 
-def draw_entry(box, obj, entry, index, count):
-    row = box.row(align=True)
+def draw_entry(box, obj, entry):
+    """Laid out like Blender's Simple Deform panel: header, mode, amount, origin, axis, restrictions."""
+    row = box.row()
+    row.context_pointer_set("deformkit_entry", entry)
     row.prop(entry, "show_expanded", text="", emboss=False,
-             icon="DISCLOSURE_TRI_DOWN" if entry.show_expanded else "DISCLOSURE_TRI_RIGHT")
-    row.label(icon="MOD_SIMPLEDEFORM")
+             icon="DOWNARROW_HLT" if entry.show_expanded else "RIGHTARROW")
+    row.label(text="", icon="MOD_SIMPLEDEFORM")
     row.prop(entry, "name", text="")
-    row.prop(entry, "show_viewport", text="", icon="RESTRICT_VIEW_OFF" if entry.show_viewport else "RESTRICT_VIEW_ON")
-    row.prop(entry, "show_render", text="", icon="RESTRICT_RENDER_OFF" if entry.show_render else "RESTRICT_RENDER_ON")
-    sub = row.row(align=True)
-    sub.enabled = index > 0
-    op = sub.operator("deformkit.entry_move", text="", icon="TRIA_UP")
-    op.index, op.direction = index, "UP"
-    sub = row.row(align=True)
-    sub.enabled = index < count - 1
-    op = sub.operator("deformkit.entry_move", text="", icon="TRIA_DOWN")
-    op.index, op.direction = index, "DOWN"
-    row.operator("deformkit.entry_apply", text="", icon="CHECKMARK").index = index
-    row.operator("deformkit.entry_remove", text="", icon="X").index = index
+    toggles = row.row(align=True)
+    toggles.prop(entry, "show_viewport", text="", icon="RESTRICT_VIEW_OFF" if entry.show_viewport else "RESTRICT_VIEW_ON")
+    toggles.prop(entry, "show_render", text="", icon="RESTRICT_RENDER_OFF" if entry.show_render else "RESTRICT_RENDER_ON")
+    row.menu(DEFORMKIT_MT_entry_specials.bl_idname, text="", icon="DOWNARROW_HLT")
+    row.operator("deformkit.entry_remove", text="", icon="X", emboss=False).index = list(
+        obj.deformkit.entries).index(entry)
     if entry.error:
         alert = box.row()
         alert.alert = True
         alert.label(text=entry.error, icon="ERROR")
     if not entry.show_expanded:
         return
+    box.row().prop(entry, "type", expand=True)
     col = box.column()
     col.use_property_split = True
-    col.prop(entry, "type")
     col.prop(entry, "angle" if entry.type in {"TWIST", "BEND"} else "factor")
-    col.prop(entry, "deform_axis", expand=True)
     col.prop(entry, "origin")
+    col.row().prop(entry, "deform_axis", expand=True)
+    col.separator()
+    col.label(text="Restrictions")
     col.prop(entry, "limits", slider=True)
     if entry.type != "BEND":
         row = col.row(heading="Lock", align=True)
@@ -80,7 +106,9 @@ def draw_entry(box, obj, entry, index, count):
                 row.prop(entry, f"lock_{axis}", text=axis.upper(), toggle=True)
     row = col.row(align=True)
     row.prop_search(entry, "vertex_group", obj, "vertex_groups", text="Vertex Group")
-    row.prop(entry, "invert_vertex_group", text="", icon="ARROW_LEFTRIGHT")
+    sub = row.row(align=True)
+    sub.active = bool(entry.vertex_group)
+    sub.prop(entry, "invert_vertex_group", text="", icon="ARROW_LEFTRIGHT")
 
 
-classes = (DEFORMKIT_MT_add, DEFORMKIT_PT_stack)
+classes = (DEFORMKIT_MT_add, DEFORMKIT_MT_entry_specials, DEFORMKIT_PT_stack)

@@ -147,3 +147,42 @@ def test_gil_is_released_during_deform():
     t.join()
     inside = [s for s in stamps if window["start"] < s < window["end"]]
     assert len(inside) > 10, (len(inside), window["end"] - window["start"])
+
+
+def test_in_place_with_a_bad_row_leaves_the_array_alone():
+    pts = PTS.copy()
+    pts[7, 0] = np.nan
+    before = pts.copy()
+    for d in (dk.Taper(), dk.Twist(weights=np.full(50, 0.5)), dk.Stack([dk.Twist(), dk.Bend()])):
+        with pytest.raises(ValueError, match=r"points: row 7 is not finite \(nan"):
+            d.deform(pts, out=pts)
+        np.testing.assert_array_equal(pts, before)
+
+
+def test_overlapping_out_is_refused():
+    buf = np.random.default_rng(0).uniform(-1, 1, (41, 3))
+    with pytest.raises(ValueError, match="out: overlaps points without being the same array"):
+        dk.Twist().deform(buf[:-1], out=buf[1:])
+    with pytest.raises(ValueError, match="out: overlaps points"):
+        dk.Twist().displacement(buf[1:], out=buf[:-1])
+
+
+def test_parameters_that_overflow_are_reported():
+    with pytest.raises(ValueError, match="row 0 maps to a non-finite position"):
+        dk.Taper(rate=1.0).deform(np.array([[1e308, 1e308, 1.0]]))
+    with pytest.raises(ValueError, match="non-finite position"):
+        dk.Taper(rate=1e39).deform(PTS.astype(np.float32))
+    with pytest.raises(ValueError, match="limits: expected lo <= hi with lo < \\+inf"):
+        dk.Twist(limits=(np.inf, np.inf))
+    with pytest.raises(ValueError, match="profile: the spline through these samples overflows"):
+        dk.Twist(profile=([0, 1e-320, 1], [0, 1, 0]))
+    with pytest.raises(ValueError, match="weights: is empty"):
+        dk.Twist(weights=[])
+    with pytest.raises(TypeError, match="frame: expected real numbers, got complex128"):
+        dk.Twist(frame=np.eye(4) * (1 + 1j))
+    with pytest.raises(ValueError, match="axis: expected"):
+        dk.Twist(axis=True)
+    assert dk.Twist(axis=np.int64(1)).deform(PTS).shape == (50, 3)
+    scaled = dk.Twist(frame=np.diag([1e-100, 1e-100, 1e-100, 1.0]), rate=1e-100)  # tiny but regular
+    np.testing.assert_allclose(scaled.deform(PTS), dk.Twist(rate=1e-100 * 1e100).deform(PTS), atol=1e-12)
+    np.testing.assert_array_equal(dk.Twist().deform(PTS.astype(">f8")), dk.Twist().deform(PTS))

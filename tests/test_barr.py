@@ -181,3 +181,20 @@ def test_displacement_is_deform_minus_points(dtype, rng):
     assert d.displacement(pts, out=out) is out
     with pytest.raises(ValueError, match="out: displacement cannot be written over points"):
         d.displacement(pts, out=pts)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_multithreaded_results_match_the_formula(dtype, rng):
+    """Large enough for both threads and every SIMD tail: against a plain numpy twist and bend."""
+    n = 100_003
+    pts = rng.uniform(-1, 1, (n, 3)).astype(dtype)
+    x, y, z = (pts[:, i].astype(np.float64) for i in range(3))
+    t = 1.3 * np.clip(z, -0.7, 0.8)
+    twist = np.stack([x * np.cos(t) - y * np.sin(t), x * np.sin(t) + y * np.cos(t), z], axis=1)
+    tol = 2e-6 if dtype == np.float32 else 1e-13
+    np.testing.assert_allclose(dk.Twist(rate=1.3, limits=(-0.7, 0.8)).deform(pts), twist, atol=tol)
+    k, yh = 0.9, np.clip(y, -0.5, 0.6)
+    th = k * yh
+    bend = np.stack([x, -np.sin(th) * (z - 1 / k) + np.cos(th) * (y - yh),
+                     np.cos(th) * (z - 1 / k) + 1 / k + np.sin(th) * (y - yh)], axis=1)
+    np.testing.assert_allclose(dk.Bend(curvature=k, region=(-0.5, 0.6)).deform(pts), bend, atol=tol)

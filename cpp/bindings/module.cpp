@@ -29,7 +29,8 @@ py::array points_array(const py::handle& obj, const char* name) {
                          std::string(py::str(py::type::of(obj).attr("__name__"))));
   auto a = py::reinterpret_borrow<py::array>(obj);
   const auto kind = a.dtype().kind();
-  const bool f32 = a.dtype().is(py::dtype::of<float>()), f64 = a.dtype().is(py::dtype::of<double>());
+  // By kind and size, so that byte-swapped or metadata-carrying float dtypes are accepted too.
+  const bool f32 = kind == 'f' && a.itemsize() == 4, f64 = kind == 'f' && a.itemsize() == 8;
   if (!f32 && !f64)
     throw py::type_error(std::string(name) + ": expected float32 or float64, got " +
                          std::string(py::str(a.dtype())) + (kind == 'f' ? "" : " (convert with .astype(np.float64))"));
@@ -50,9 +51,10 @@ int parse_axis(const py::object& axis, const char* name) {
     if (s == "x" || s == "X") return 0;
     if (s == "y" || s == "Y") return 1;
     if (s == "z" || s == "Z") return 2;
-  } else if (py::isinstance<py::int_>(axis)) {
-    const int i = axis.cast<int>();
-    if (i >= 0 && i <= 2) return i;
+  } else if (!py::isinstance<py::bool_>(axis) && PyIndex_Check(axis.ptr())) {  // int, numpy integers
+    const long long i = PyNumber_AsSsize_t(axis.ptr(), nullptr);  // saturates instead of overflowing
+    if (PyErr_Occurred()) PyErr_Clear();
+    else if (i >= 0 && i <= 2) return static_cast<int>(i);
   }
   throw py::value_error(std::string(name) + ": expected 'x', 'y', 'z' or 0, 1, 2, got " +
                         std::string(py::repr(axis)));
@@ -63,8 +65,16 @@ double finite_param(double v, const char* name) {
   return v;
 }
 
+// Real numbers only: forcecast would silently drop an imaginary part or call into objects.
+void require_real(const py::object& obj, const char* name) {
+  const py::array a = py::array::ensure(obj);
+  if (a && (a.dtype().kind() == 'c' || a.dtype().kind() == 'O' || a.dtype().kind() == 'U' || a.dtype().kind() == 'S'))
+    throw py::type_error(std::string(name) + ": expected real numbers, got " + std::string(py::str(a.dtype())));
+}
+
 Frame parse_frame(const py::object& obj, const char* name) {
   if (obj.is_none()) return Frame{};
+  require_real(obj, name);
   py::array_t<double, py::array::c_style | py::array::forcecast> a;
   try {
     a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
@@ -82,6 +92,7 @@ std::pair<double, double> parse_range(const py::object& obj, const char* name) {
   const double inf = std::numeric_limits<double>::infinity();
   if (obj.is_none()) return {-inf, inf};
   std::vector<double> v;
+  require_real(obj, name);
   try {
     v = obj.cast<std::vector<double>>();
   } catch (const py::cast_error&) {
@@ -93,6 +104,7 @@ std::pair<double, double> parse_range(const py::object& obj, const char* name) {
 }
 
 std::vector<double> parse_vector(const py::object& obj, const char* name) {
+  require_real(obj, name);
   auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
   if (!a || a.ndim() != 1) throw py::value_error(std::string(name) + ": expected a 1-D sequence of numbers");
   return std::vector<double>(a.data(), a.data() + a.size());
@@ -138,6 +150,10 @@ py::array deform_typed(const Deformer& d, const py::array& pts, const py::object
       throw py::value_error("out: expected shape " + shape_of(pts) + ", got " + shape_of(o));
     if (!(o.flags() & py::array::c_style) || !o.writeable())
       throw py::value_error("out: must be a writeable C-contiguous array");
+    const auto* a0 = static_cast<const char*>(pts.data());
+    const auto* b0 = static_cast<const char*>(o.data());
+    if (a0 != b0 && a0 < b0 + o.nbytes() && b0 < a0 + pts.nbytes())
+      throw py::value_error("out: overlaps points without being the same array (pass points itself for in place)");
     result = py::reinterpret_borrow<py::array_t<T>>(o);
   }
   const T* in = static_cast<const T*>(pts.data());

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <limits>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -86,8 +87,9 @@ Vec3 barr_apply(const BarrOp& op, const Vec3& c) {
 BarrDeformer::BarrDeformer(BarrOp op, Placement placement) : op_(std::move(op)), placement_(placement) {
   if (!std::isfinite(op_.k) || !std::isfinite(op_.center))
     throw std::invalid_argument("deformer: curvature, factor and center must be finite");
-  if (std::isnan(op_.lo) || std::isnan(op_.hi) || op_.lo > op_.hi)
-    throw std::invalid_argument("limits: expected lo <= hi");
+  const double inf = std::numeric_limits<double>::infinity();
+  if (std::isnan(op_.lo) || std::isnan(op_.hi) || op_.lo > op_.hi || op_.lo == inf || op_.hi == -inf)
+    throw std::invalid_argument("limits: expected lo <= hi with lo < +inf and hi > -inf");
 }
 
 static BarrKernelParams kernel_params(const BarrOp& op, const Placement& pl) {
@@ -113,11 +115,22 @@ static BarrKernelParams kernel_params(const BarrOp& op, const Placement& pl) {
   return p;
 }
 
+// The float32 kernels compute in float: every coefficient must be representable there.
+static bool fits_float(const BarrKernelParams& p) {
+  const double values[] = {p.M[0], p.M[1], p.M[2], p.M[3], p.M[4], p.M[5], p.M[6], p.M[7], p.M[8],
+                           p.B[0], p.B[1], p.B[2], p.B[3], p.B[4], p.B[5], p.B[6], p.B[7], p.B[8],
+                           p.m[0], p.m[1], p.m[2], p.t[0], p.t[1], p.t[2], p.offset, p.slope, p.k, p.center};
+  for (double v : values)
+    if (!(std::abs(v) <= 1e37)) return false;
+  return true;
+}
+
 template <class T>
 bool BarrDeformer::deform_any(const T* in, T* out, std::size_t n) const {
   std::atomic<bool> finite{true};
-  const bool simd = op_.profile.is_linear() && !op_.is_identity_bend();
   const BarrKernelParams params = kernel_params(op_, placement_);
+  const bool simd = op_.profile.is_linear() && !op_.is_identity_bend() &&
+                    (sizeof(T) == sizeof(double) || fits_float(params));
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     bool ok = true;
     if (simd) {
@@ -128,6 +141,7 @@ bool BarrDeformer::deform_any(const T* in, T* out, std::size_t n) const {
         ok = ok && p.allFinite();
         const Vec3 q = placement_.object(barr_apply(op_, placement_.canonical(p)));
         for (int a = 0; a < 3; ++a) out[3 * i + a] = static_cast<T>(q[a]);
+        ok = ok && std::isfinite(out[3 * i]) && std::isfinite(out[3 * i + 1]) && std::isfinite(out[3 * i + 2]);
       }
     }
     if (!ok) finite = false;

@@ -56,8 +56,8 @@ HWY_INLINE bool Run(const BarrKernelParams& p, const T* in, T* out, size_t n) {
   auto step = [&](const T* src, T* dst) HWY_ATTR {
     V x, y, z;
     hn::LoadInterleaved3(d, src, x, y, z);
-    // 0 * v is NaN exactly when v is NaN or infinite.
-    bad = hn::MulAdd(hn::Zero(d), hn::Add(x, hn::Add(y, z)), bad);
+    // 0 * v is NaN exactly when v is NaN or infinite (per coordinate: a sum could overflow).
+    bad = hn::MulAdd(hn::Zero(d), x, hn::MulAdd(hn::Zero(d), y, hn::MulAdd(hn::Zero(d), z, bad)));
     if (!kIdentity) {
       const V px = x, py = y, pz = z;
       x = hn::MulAdd(M0, px, hn::MulAdd(M1, py, hn::MulAdd(M2, pz, m0)));
@@ -103,6 +103,7 @@ HWY_INLINE bool Run(const BarrKernelParams& p, const T* in, T* out, size_t n) {
       oy = hn::MulAdd(B3, cx, hn::MulAdd(B4, cy, hn::MulAdd(B5, cz, t1)));
       oz = hn::MulAdd(B6, cx, hn::MulAdd(B7, cy, hn::MulAdd(B8, cz, t2)));
     }
+    bad = hn::MulAdd(hn::Zero(d), ox, hn::MulAdd(hn::Zero(d), oy, hn::MulAdd(hn::Zero(d), oz, bad)));
     hn::StoreInterleaved3(ox, oy, oz, d, dst);
   };
 

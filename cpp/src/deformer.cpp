@@ -2,6 +2,7 @@
 
 #include "deformkit/parallel.hpp"
 
+#include <atomic>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -23,7 +24,21 @@ void require_finite_rows(const T* data, std::size_t n, const char* argument) {
 template void require_finite_rows<float>(const float*, std::size_t, const char*);
 template void require_finite_rows<double>(const double*, std::size_t, const char*);
 
+// 0 * v is NaN exactly when v is NaN or infinite; the simd reduction lets this vectorise.
+template <class T>
+static bool all_finite(const T* data, std::size_t count) {
+  std::atomic<bool> finite{true};
+  parallel_blocks(count / 3, [&](std::size_t begin, std::size_t end) {
+    T acc = 0;
+#pragma omp simd reduction(+ : acc)
+    for (std::size_t i = 3 * begin; i < 3 * end; ++i) acc += data[i] * T(0);
+    if (acc != acc) finite = false;
+  });
+  return finite;
+}
+
 void Deformer::set_weights(std::vector<double> weights) {
+  if (weights.empty()) throw std::invalid_argument("weights: is empty (pass None for no weights)");
   for (std::size_t i = 0; i < weights.size(); ++i)
     if (!std::isfinite(weights[i]))
       throw std::invalid_argument("weights: entry " + std::to_string(i) + " is not finite");
@@ -47,12 +62,25 @@ static void blend(const std::vector<double>& w, const T* in, T* out, std::size_t
   });
 }
 
+// After an implementation reported a non-finite row: blame the input if it is the culprit,
+// otherwise the parameters, which made a finite point overflow.
+template <class T>
+static void report_non_finite(const T* in, const T* out, std::size_t n) {
+  require_finite_rows(in, n, "points");
+  for (std::size_t i = 0; i < n; ++i)
+    if (!std::isfinite(out[3 * i]) || !std::isfinite(out[3 * i + 1]) || !std::isfinite(out[3 * i + 2]))
+      throw std::invalid_argument("deformer: row " + std::to_string(i) +
+                                  " maps to a non-finite position: the parameters overflow there");
+}
+
 template <class T>
 static void deform_weighted(const Deformer& self, const std::vector<double>& w, const T* in, T* out,
-                            std::size_t n, bool (*impl)(const Deformer&, const T*, T*, std::size_t)) {
+                            std::size_t n, bool verified, bool (*impl)(const Deformer&, const T*, T*, std::size_t)) {
   require_weight_count(w, n);
+  // In place, a non-finite row must be reported before anything is overwritten.
+  if (in == out && !verified && !all_finite(in, 3 * n)) require_finite_rows(in, n, "points");
   if (w.empty()) {
-    if (!impl(self, in, out, n)) require_finite_rows(in, n, "points");
+    if (!impl(self, in, out, n)) report_non_finite(in, out, n);
     return;
   }
   // The blend needs the original positions, which an in-place call overwrites.
@@ -62,17 +90,27 @@ static void deform_weighted(const Deformer& self, const std::vector<double>& w, 
     original.assign(in, in + 3 * n);
     source = original.data();
   }
-  if (!impl(self, source, out, n)) require_finite_rows(source, n, "points");
+  if (!impl(self, source, out, n)) report_non_finite(source, out, n);
   blend(w, source, out, n);
 }
 
 void Deformer::deform(const float* in, float* out, std::size_t n) const {
-  deform_weighted<float>(*this, weights_, in, out, n, [](const Deformer& d, const float* i, float* o, std::size_t m) {
+  deform_weighted<float>(*this, weights_, in, out, n, false, [](const Deformer& d, const float* i, float* o, std::size_t m) {
     return d.deform_impl(i, o, m);
   });
 }
 void Deformer::deform(const double* in, double* out, std::size_t n) const {
-  deform_weighted<double>(*this, weights_, in, out, n, [](const Deformer& d, const double* i, double* o, std::size_t m) {
+  deform_weighted<double>(*this, weights_, in, out, n, false, [](const Deformer& d, const double* i, double* o, std::size_t m) {
+    return d.deform_impl(i, o, m);
+  });
+}
+void Deformer::deform_verified(const float* in, float* out, std::size_t n) const {
+  deform_weighted<float>(*this, weights_, in, out, n, true, [](const Deformer& d, const float* i, float* o, std::size_t m) {
+    return d.deform_impl(i, o, m);
+  });
+}
+void Deformer::deform_verified(const double* in, double* out, std::size_t n) const {
+  deform_weighted<double>(*this, weights_, in, out, n, true, [](const Deformer& d, const double* i, double* o, std::size_t m) {
     return d.deform_impl(i, o, m);
   });
 }

@@ -26,7 +26,7 @@ HWY_INLINE Extent ExtentOf(const double* row, double shift, const T* in, size_t 
   for (; i + N <= n; i += N) {
     V x, y, z;
     hn::LoadInterleaved3(d, in + 3 * i, x, y, z);
-    bad = hn::MulAdd(hn::Zero(d), hn::Add(x, hn::Add(y, z)), bad);  // NaN iff a lane was not finite
+    bad = hn::MulAdd(hn::Zero(d), x, hn::MulAdd(hn::Zero(d), y, hn::MulAdd(hn::Zero(d), z, bad)));  // NaN iff not finite
     const V v = hn::MulAdd(r0, x, hn::MulAdd(r1, y, hn::MulSub(r2, z, sh)));
     lo = hn::Min(lo, v);
     hi = hn::Max(hi, v);

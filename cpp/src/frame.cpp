@@ -16,11 +16,12 @@ Frame Frame::from_matrix(const Mat4& m, const char* argument) {
   Frame f;
   f.linear = m.topLeftCorner<3, 3>();
   f.translation = m.topRightCorner<3, 1>();
-  // Relative test: a frame scaled to 1e-3 is fine, a flattened one is not.
-  const double det = f.linear.determinant();
-  const double scale = f.linear.colwise().norm().prod();
-  if (!(std::abs(det) > 1e-12 * scale))
-    throw std::invalid_argument(name + ": matrix is singular (determinant " + std::to_string(det) + ")");
+  // Scale-free test on unit columns: a frame scaled to 1e-100 is fine, a flattened one is not.
+  const Eigen::RowVector3d norms = f.linear.colwise().norm();
+  const bool zero_column = !(norms.minCoeff() > 0.0) || !std::isfinite(norms.maxCoeff());
+  const double det = zero_column ? 0.0 : (f.linear * norms.cwiseInverse().asDiagonal()).determinant();
+  if (!(std::abs(det) > 1e-12))
+    throw std::invalid_argument(name + ": matrix is singular (its axes span no volume)");
   f.inverse_linear = f.linear.inverse();
   return f;
 }

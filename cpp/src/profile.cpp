@@ -10,9 +10,10 @@ namespace deformkit {
 Profile Profile::linear(double offset, double slope, double lo, double hi) {
   if (!std::isfinite(offset) || !std::isfinite(slope))
     throw std::invalid_argument("profile: offset and slope must be finite");
-  if (std::isnan(lo) || std::isnan(hi) || lo > hi)
-    throw std::invalid_argument("limits: expected lo <= hi, got (" + std::to_string(lo) + ", " +
-                                std::to_string(hi) + ")");
+  if (std::isnan(lo) || std::isnan(hi) || lo > hi || lo == std::numeric_limits<double>::infinity() ||
+      hi == -std::numeric_limits<double>::infinity())
+    throw std::invalid_argument("limits: expected lo <= hi with lo < +inf and hi > -inf, got (" + std::to_string(lo) +
+                                ", " + std::to_string(hi) + ")");
   Profile p;
   p.offset_ = offset;
   p.slope_ = slope;
@@ -54,6 +55,10 @@ Profile Profile::spline(std::vector<double> z, std::vector<double> f, Extend ext
       m[i] = (rhs[i] - upper) / diag[i];
     }
   }
+  for (std::size_t i = 0; i < n; ++i)
+    if (!std::isfinite(m[i]))
+      throw std::invalid_argument("profile: the spline through these samples overflows (sample " + std::to_string(i) +
+                                  "); spread the positions or scale the values");
   Profile p;
   p.knots_ = std::move(z);
   p.values_ = std::move(f);

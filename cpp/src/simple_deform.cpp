@@ -58,6 +58,8 @@ std::shared_ptr<BarrDeformer> SimpleDeform::resolve(const T* points, std::size_t
     finite = finite && e.finite;
   });
   if (!finite) require_finite_rows(points, n, "points");
+  if (!std::isfinite(upper - lower))
+    throw std::invalid_argument("points: their extent along the limit axis overflows a double");
   // MOD_simpledeform: the amount is spread over the limited extent.
   const double l0 = lower + (upper - lower) * s.limit_lo, l1 = lower + (upper - lower) * s.limit_hi;
   const double k = s.factor / std::max<double>(FLT_EPSILON, l1 - l0);

@@ -9,7 +9,7 @@ namespace deformkit {
 
 Stack::Stack(std::vector<DeformerPtr> deformers) : deformers_(std::move(deformers)) {
   for (std::size_t i = 0; i < deformers_.size(); ++i)
-    if (!deformers_[i]) throw std::invalid_argument("deformers: entry " + std::to_string(i) + " is None");
+    if (!deformers_[i]) throw std::invalid_argument("deformers: entry " + std::to_string(i) + " is None, not a deformer");
 }
 
 template <class T>
@@ -20,7 +20,7 @@ bool Stack::deform_any(const T* in, T* out, std::size_t n) const {
     return true;
   }
   deformers_.front()->deform(in, out, n);
-  for (std::size_t i = 1; i < deformers_.size(); ++i) deformers_[i]->deform(out, out, n);
+  for (std::size_t i = 1; i < deformers_.size(); ++i) deformers_[i]->deform_verified(out, out, n);
   return true;
 }
 
@@ -41,7 +41,7 @@ void Stack::jacobian_impl(const double* in, double* jac, std::size_t n) const {
         total = (js * total).eval();
       }
     });
-    if (s + 1 < deformers_.size()) deformers_[s]->deform(points.data(), points.data(), n);
+    if (s + 1 < deformers_.size()) deformers_[s]->deform_verified(points.data(), points.data(), n);
   }
 }
 

@@ -9,8 +9,11 @@ from addon_helpers import make_object, positions, twin_with_simple_deform
 
 
 def evaluated(obj):
-    from deformkit_addon import api
-    return api.evaluated_positions(obj)
+    """What Blender shows: the depsgraph's result, read without asking the add-on to re-evaluate,
+    so that property updates and app handlers are what keeps it current."""
+    import bpy
+    from deformkit_addon import evaluation
+    return evaluation.evaluated_positions(obj, bpy.context.evaluated_depsgraph_get())
 
 
 def close(a, b, scale=1.0):
@@ -180,7 +183,8 @@ def test_save_reload_and_disabled_addon(scene, tmp_path, addon):
         addon.register()
 
 
-@pytest.mark.parametrize("problem", ["vertex_group", "origin", "shape_keys", "limits"])
+@pytest.mark.parametrize("problem", ["vertex_group", "origin", "origin_unlinked", "shape_keys", "shared_mesh",
+                                     "modifier_name", "limits"])
 def test_bad_settings_leave_the_mesh_alone(scene, problem):
     import bpy
     from deformkit_addon import api
@@ -198,10 +202,25 @@ def test_bad_settings_leave_the_mesh_alone(scene, problem):
         bpy.data.objects.remove(empty)
         entry.angle = 2.0
         assert entry.error == "origin object 'Empty' no longer exists"
+    elif problem == "origin_unlinked":  # what deleting in the viewport does while we hold a reference
+        bpy.context.scene.collection.objects.unlink(empty)
+        entry.angle = 2.0
+        assert entry.error == "origin object 'Empty' was deleted (it is in no scene)"
     elif problem == "shape_keys":
         obj.shape_key_add(name="Basis")
         entry.angle = 2.0
         assert "shape keys" in obj.deformkit.error
+    elif problem == "shared_mesh":
+        other = bpy.data.objects.new("Other", obj.data)
+        bpy.context.scene.collection.objects.link(other)
+        entry.angle = 2.0
+        assert "is shared by 2 users" in obj.deformkit.error
+    elif problem == "modifier_name":
+        obj.modifiers.remove(obj.modifiers["deformkit"])
+        obj.modifiers.new("deformkit", "SUBSURF").levels = 0
+        before = evaluated(obj).copy()
+        entry.angle = 2.0
+        assert "modifier named 'deformkit' is in the way" in obj.deformkit.error
     else:  # limits the user inverted: Blender clamps, and so do we
         entry.limits = (0.8, 0.3)
         assert entry.error == ""
@@ -228,6 +247,55 @@ def test_scripting_api_rejects_bad_calls(scene):
     scene.collection.objects.link(empty_mesh)
     with pytest.raises(ValueError, match="no vertices"):
         api.add_entry(empty_mesh, "TWIST")
+
+
+def test_apply_is_refused_in_edit_mode(scene):
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    api.add_entry(obj, "TWIST", angle=1.0, deform_axis="Z")
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode="EDIT")
+    with pytest.raises(ValueError, match="leave edit mode first"):
+        api.apply(obj, 0)
+    with bpy.context.temp_override(object=obj, active_object=obj):
+        assert not bpy.ops.deformkit.entry_apply.poll()
+    bpy.ops.object.mode_set(mode="OBJECT")
+    assert len(obj.deformkit.entries) == 1
+
+
+def test_names_and_a_users_node_group_of_the_same_name(scene):
+    import bpy
+    from deformkit_addon import api, evaluation
+    theirs = bpy.data.node_groups.new(evaluation.NODE_GROUP_NAME, "GeometryNodeTree")
+    obj = make_object(bpy)
+    first = api.add_entry(obj, "TWIST", angle=1.0, deform_axis="Z")
+    second = api.add_entry(obj, "TWIST", angle=0.5, deform_axis="Z")
+    assert (first.name, second.name) == ("Twist", "Twist.001")
+    groups = len(bpy.data.node_groups)
+    for angle in (0.1, 0.2, 0.3):
+        first.angle = angle
+    assert len(bpy.data.node_groups) == groups  # found by its marker, not re-created
+    assert obj.modifiers["deformkit"].node_group != theirs
+
+
+def test_frame_changes_then_base_edits(scene):
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    entry = api.add_entry(obj, "TWIST", angle=0.0, deform_axis="Z")
+    entry.keyframe_insert("angle", frame=1)
+    entry.angle = 1.5
+    entry.keyframe_insert("angle", frame=5)
+    scene.frame_set(3)
+    co = positions(obj.data)
+    co[:, 2] += 0.2 * co[:, 0]
+    obj.data.vertices.foreach_set("co", co.ravel())
+    obj.data.update()
+    bpy.context.view_layer.update()
+    twin = twin_with_simple_deform(bpy, obj, deform_method="TWIST", angle=obj.deformkit.entries[0].angle,
+                                   deform_axis="Z")
+    assert close(evaluated(obj), evaluated(twin))
 
 
 def test_volume_ratio_colors(scene):

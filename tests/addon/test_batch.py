@@ -108,6 +108,42 @@ def test_evaluate_saved_and_never_overwrite(fixtures, tmp_path, scene):
     assert np.abs(api.evaluated_positions(obj) - expected).max() < 1e-5
 
 
+def test_saved_results_show_without_the_addon(fixtures, tmp_path):
+    """The output file itself holds the result: Blender 3.4 without the add-on shows it."""
+    import deformkit as dk
+    (tmp_path / "r.json").write_text(json.dumps(RECIPE))
+    proc = run_batch(fixtures / "column.blend", "--recipe", tmp_path / "r.json", "--out", tmp_path / "out")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    script = tmp_path / "read.py"
+    script.write_text(
+        "import bpy, sys, numpy as np\n"
+        "o = bpy.data.objects['Column']\n"
+        "dg = bpy.context.evaluated_depsgraph_get()\n"
+        "me = o.evaluated_get(dg).to_mesh()\n"
+        "ev = np.empty(len(me.vertices) * 3, np.float32); me.vertices.foreach_get('co', ev)\n"
+        "base = np.empty(len(o.data.vertices) * 3, np.float32); o.data.vertices.foreach_get('co', base)\n"
+        "np.save(sys.argv[-1] + '_ev.npy', ev.reshape(-1, 3)); np.save(sys.argv[-1] + '_base.npy', base.reshape(-1, 3))\n"
+        "print('ADDON', hasattr(bpy.types.Object, 'deformkit'))\n")
+    out = subprocess.run([BLENDER, "-b", "--factory-startup", str(tmp_path / "out" / "column.blend"),
+                          "--python-exit-code", "1", "-P", str(script), "--", str(tmp_path / "r")],
+                         capture_output=True, text=True, timeout=120)
+    assert "ADDON False" in out.stdout, out.stdout[-2000:] + out.stderr[-2000:]
+    ev, base = np.load(tmp_path / "r_ev.npy"), np.load(tmp_path / "r_base.npy")
+    expected = dk.Stack([dk.SimpleDeform(mode=d["type"], angle=d["angle"], deform_axis=d["deform_axis"])
+                         for d in RECIPE["deformers"]]).deform(base)
+    assert np.abs(ev - expected).max() < 1e-5 and np.abs(ev - base).max() > 0.1
+
+
+def test_symlinked_output_folder_cannot_overwrite_inputs(fixtures, tmp_path):
+    (tmp_path / "in").mkdir()
+    shutil.copy(fixtures / "column.blend", tmp_path / "in")
+    (tmp_path / "out").symlink_to(tmp_path / "in", target_is_directory=True)
+    original = digest(tmp_path / "in" / "column.blend")
+    proc = run_batch(tmp_path / "in" / "column.blend", "--evaluate-saved", "--out", tmp_path / "out")
+    assert proc.returncode == 1 and "refusing to write" in proc.stdout
+    assert digest(tmp_path / "in" / "column.blend") == original
+
+
 def test_bad_command_lines(tmp_path):
     assert run_batch("x.blend", "--out", tmp_path).returncode == 2  # neither --recipe nor --evaluate-saved
     bad = tmp_path / "bad.json"

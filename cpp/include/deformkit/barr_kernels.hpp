@@ -15,7 +15,7 @@ struct BarrKernelParams {
   double k, center;         // stretch factor / bend curvature, bend centre (lo/hi: region)
 };
 
-// Processes rows [0, n); returns false if some input row was not finite.
+// Processes rows [0, n); returns false if some input or output row was not finite.
 bool barr_kernel(const BarrKernelParams& p, const float* in, float* out, std::size_t n);
 bool barr_kernel(const BarrKernelParams& p, const double* in, double* out, std::size_t n);
 

@@ -12,9 +12,14 @@ class Deformer {
  public:
   virtual ~Deformer() = default;
 
-  // out may alias in. Throws std::invalid_argument naming `points` when a row is not finite.
+  // out may alias in. Throws std::invalid_argument naming `points` when a row is not finite, and
+  // when a finite row maps to a non-finite position (parameters that overflow there).
   void deform(const float* in, float* out, std::size_t n) const;
   void deform(const double* in, double* out, std::size_t n) const;
+  // As deform, for input already known to be finite (a previous stage's output): an in-place
+  // call then skips the check that must otherwise precede overwriting the input.
+  void deform_verified(const float* in, float* out, std::size_t n) const;
+  void deform_verified(const double* in, double* out, std::size_t n) const;
   void jacobian(const double* in, double* jac, std::size_t n) const;
   // F(x) - x: what an offset-based consumer (Blender's Geometry Nodes) adds to the points.
   void displacement(const float* in, float* out, std::size_t n) const;
@@ -26,7 +31,7 @@ class Deformer {
   const std::vector<double>& weights() const { return weights_; }
 
  protected:
-  // Return false when some input row is not finite (the output is then unspecified).
+  // Return false when some input or output row is not finite (the output is then unspecified).
   virtual bool deform_impl(const float* in, float* out, std::size_t n) const = 0;
   virtual bool deform_impl(const double* in, double* out, std::size_t n) const = 0;
   virtual void jacobian_impl(const double* in, double* jac, std::size_t n) const = 0;
