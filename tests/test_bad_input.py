@@ -186,3 +186,23 @@ def test_parameters_that_overflow_are_reported():
     scaled = dk.Twist(frame=np.diag([1e-100, 1e-100, 1e-100, 1.0]), rate=1e-100)  # tiny but regular
     np.testing.assert_allclose(scaled.deform(PTS), dk.Twist(rate=1e-100 * 1e100).deform(PTS), atol=1e-12)
     np.testing.assert_array_equal(dk.Twist().deform(PTS.astype(">f8")), dk.Twist().deform(PTS))
+
+
+def _deform_in_child(queue):
+    pts = np.random.default_rng(1).uniform(-1, 1, (200_000, 3))
+    queue.put(float(np.abs(dk.Twist().deform(pts)).max()))
+
+
+def test_forked_child_does_not_hang():
+    """OpenMP's thread pool does not survive fork(); a forked child must still work."""
+    import multiprocessing
+    dk.Twist().deform(np.random.default_rng(0).uniform(-1, 1, (200_000, 3)))  # start the pool
+    ctx = multiprocessing.get_context("fork")
+    queue = ctx.Queue()
+    child = ctx.Process(target=_deform_in_child, args=(queue,))
+    child.start()
+    child.join(timeout=60)
+    if child.is_alive():
+        child.kill()
+        pytest.fail("the forked child hung in deform")
+    assert child.exitcode == 0 and queue.get(timeout=5) > 0.5
