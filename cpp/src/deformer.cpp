@@ -74,13 +74,13 @@ static void report_non_finite(const T* in, const T* out, std::size_t n) {
 }
 
 template <class T>
-static void deform_weighted(const Deformer& self, const std::vector<double>& w, const T* in, T* out,
-                            std::size_t n, bool verified, bool (*impl)(const Deformer&, const T*, T*, std::size_t)) {
+void Deformer::deform_checked(const T* in, T* out, std::size_t n, bool input_verified) const {
+  const std::vector<double>& w = weights_;
   require_weight_count(w, n);
   // In place, a non-finite row must be reported before anything is overwritten.
-  if (in == out && !verified && !all_finite(in, 3 * n)) require_finite_rows(in, n, "points");
+  if (in == out && !input_verified && !all_finite(in, 3 * n)) require_finite_rows(in, n, "points");
   if (w.empty()) {
-    if (!impl(self, in, out, n)) report_non_finite(in, out, n);
+    if (!deform_impl(in, out, n)) report_non_finite(in, out, n);
     return;
   }
   // The blend needs the original positions, which an in-place call overwrites.
@@ -90,48 +90,26 @@ static void deform_weighted(const Deformer& self, const std::vector<double>& w, 
     original.assign(in, in + 3 * n);
     source = original.data();
   }
-  if (!impl(self, source, out, n)) report_non_finite(source, out, n);
+  if (!deform_impl(source, out, n)) report_non_finite(source, out, n);
   blend(w, source, out, n);
 }
 
-void Deformer::deform(const float* in, float* out, std::size_t n) const {
-  deform_weighted<float>(*this, weights_, in, out, n, false, [](const Deformer& d, const float* i, float* o, std::size_t m) {
-    return d.deform_impl(i, o, m);
-  });
-}
-void Deformer::deform(const double* in, double* out, std::size_t n) const {
-  deform_weighted<double>(*this, weights_, in, out, n, false, [](const Deformer& d, const double* i, double* o, std::size_t m) {
-    return d.deform_impl(i, o, m);
-  });
-}
-void Deformer::deform_verified(const float* in, float* out, std::size_t n) const {
-  deform_weighted<float>(*this, weights_, in, out, n, true, [](const Deformer& d, const float* i, float* o, std::size_t m) {
-    return d.deform_impl(i, o, m);
-  });
-}
-void Deformer::deform_verified(const double* in, double* out, std::size_t n) const {
-  deform_weighted<double>(*this, weights_, in, out, n, true, [](const Deformer& d, const double* i, double* o, std::size_t m) {
-    return d.deform_impl(i, o, m);
-  });
-}
+void Deformer::deform(const float* in, float* out, std::size_t n) const { deform_checked(in, out, n, false); }
+void Deformer::deform(const double* in, double* out, std::size_t n) const { deform_checked(in, out, n, false); }
+void Deformer::deform_verified(const float* in, float* out, std::size_t n) const { deform_checked(in, out, n, true); }
+void Deformer::deform_verified(const double* in, double* out, std::size_t n) const { deform_checked(in, out, n, true); }
 
 template <class T>
-static void subtract_input(const T* in, T* out, std::size_t n) {
+static void displace(const Deformer& d, const T* in, T* out, std::size_t n) {
+  if (in == out) throw std::invalid_argument("out: displacement cannot be written over points");
+  d.deform(in, out, n);
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = 3 * begin; i < 3 * end; ++i) out[i] -= in[i];
   });
 }
 
-void Deformer::displacement(const float* in, float* out, std::size_t n) const {
-  if (in == out) throw std::invalid_argument("out: displacement cannot be written over points");
-  deform(in, out, n);
-  subtract_input(in, out, n);
-}
-void Deformer::displacement(const double* in, double* out, std::size_t n) const {
-  if (in == out) throw std::invalid_argument("out: displacement cannot be written over points");
-  deform(in, out, n);
-  subtract_input(in, out, n);
-}
+void Deformer::displacement(const float* in, float* out, std::size_t n) const { displace(*this, in, out, n); }
+void Deformer::displacement(const double* in, double* out, std::size_t n) const { displace(*this, in, out, n); }
 
 void Deformer::jacobian(const double* in, double* jac, std::size_t n) const {
   require_weight_count(weights_, n);

@@ -37,6 +37,8 @@ class Deformer {
   virtual void jacobian_impl(const double* in, double* jac, std::size_t n) const = 0;
 
  private:
+  template <class T>
+  void deform_checked(const T* in, T* out, std::size_t n, bool input_verified) const;
   std::vector<double> weights_;
 };
 
