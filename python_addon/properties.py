@@ -6,12 +6,13 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
                        FloatVectorProperty, IntProperty, PointerProperty, StringProperty)
 
-# Types available now; Lattice and Laplacian entries come with their issues.
+# Types available now; Lattice and Laplacian entries come with their issues. No icons: the Type
+# row shows text only, like Simple Deform's, and stays readable in a narrow editor.
 ENTRY_TYPES = [
-    ("TWIST", "Twist", "Rotate around the deform axis (Barr's twist)", "MOD_SIMPLEDEFORM", 0),
-    ("BEND", "Bend", "Bend around the deform axis (Barr's bend)", "MOD_SIMPLEDEFORM", 1),
-    ("TAPER", "Taper", "Scale linearly along the deform axis (Barr's taper)", "MOD_SIMPLEDEFORM", 2),
-    ("STRETCH", "Stretch", "Stretch along the deform axis (Blender's stretch)", "MOD_SIMPLEDEFORM", 3),
+    ("TWIST", "Twist", "Rotate around the deform axis (Barr's twist)", "NONE", 0),
+    ("BEND", "Bend", "Bend around the deform axis (Barr's bend)", "NONE", 1),
+    ("TAPER", "Taper", "Scale linearly along the deform axis (Barr's taper)", "NONE", 2),
+    ("STRETCH", "Stretch", "Stretch along the deform axis (Blender's stretch)", "NONE", 3),
 ]
 AXES = [("X", "X", ""), ("Y", "Y", ""), ("Z", "Z", "")]
 

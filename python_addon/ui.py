@@ -10,8 +10,8 @@ class DEFORMKIT_MT_add(bpy.types.Menu):
     bl_idname = "DEFORMKIT_MT_add"
 
     def draw(self, context):
-        for kind, label, _description, icon, _n in ENTRY_TYPES:
-            self.layout.operator("deformkit.entry_add", text=label, icon=icon).type = kind
+        for kind, label, _description, _icon, _n in ENTRY_TYPES:
+            self.layout.operator("deformkit.entry_add", text=label, icon="MOD_SIMPLEDEFORM").type = kind
 
 
 class DEFORMKIT_MT_entry_specials(bpy.types.Menu):
