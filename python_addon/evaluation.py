@@ -25,6 +25,7 @@ OUTPUT_ATTRIBUTES = (ATTR_VIEWPORT, ATTR_RENDER, ATTR_VOLUME)
 _evaluating = set()  # session_uids being evaluated: writes below re-enter through handlers
 _last_inputs = {}    # cache key -> (fingerprint of the settings, base positions) last written
 _own_writes = {}     # cache key -> time of the add-on's last write, whose depsgraph echo is expected
+_weights = {}        # (cache key, vertex group) -> weights read from the mesh (a slow Python loop)
 ECHO_WINDOW = 1.0    # seconds within which a depsgraph update of the mesh counts as that echo
 
 
@@ -93,9 +94,19 @@ def origin_matrix(obj, entry):
     return np.array(obj.matrix_world.inverted() @ entry.origin.matrix_world)
 
 
-def entry_deformer(obj, entry):
-    """The deformkit deformer equivalent to Simple Deform with this entry's settings."""
-    weights = vertex_group_weights(obj, entry.vertex_group) if entry.vertex_group else None
+def entry_deformer(obj, entry, reuse_weights=False):
+    """The deformkit deformer equivalent to Simple Deform with this entry's settings. Vertex-group
+    weights are read by a per-vertex loop; with reuse_weights, those read last time are used
+    (parameter edits and frame changes do not change them; edits of the mesh re-read them)."""
+    weights = None
+    if entry.vertex_group:
+        key = (_cache_key(obj), entry.vertex_group)
+        cached = _weights.get(key)
+        if reuse_weights and cached is not None and len(cached) == len(obj.data.vertices) \
+                and obj.vertex_groups.get(entry.vertex_group) is not None:
+            weights = cached
+        else:
+            weights = _weights[key] = vertex_group_weights(obj, entry.vertex_group)
     lo, hi = entry.limits
     return native.dk.SimpleDeform(
         mode=entry.type, angle=entry.amount, deform_axis=entry.deform_axis,
@@ -118,12 +129,13 @@ def _set_if_changed(owner, prop, value):
         setattr(owner, prop, value)
 
 
-def evaluate(obj, force=False, reuse_base=False, expect_echo=False):
+def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weights=None):
     """Recompute `obj`'s deformkit result. Returns True if it wrote a new result.
 
     With reuse_base, the base positions of the last evaluation are used when the settings changed
     (a parameter edit); with expect_echo, the depsgraph update this write causes is recognised as
-    its echo (see is_echo_of_own_write). On any problem the
+    its echo (see is_echo_of_own_write). reuse_weights (default: as reuse_base) keeps the
+    vertex-group weights read last time. On any problem the
     message goes on the stack or the entry and the mesh is left as it was."""
     uid = _cache_key(obj)
     if uid in _evaluating or obj.mode == "EDIT":  # in edit mode the base mesh is stale until exit
@@ -147,7 +159,7 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False):
         built, key, failed = [], [len(base), stack.show_volume_ratio], False
         for entry in stack.entries:
             try:
-                deformer = entry_deformer(obj, entry)
+                deformer = entry_deformer(obj, entry, reuse_base if reuse_weights is None else reuse_weights)
             except ValueError as exc:
                 _set_if_changed(entry, "error", str(exc))
                 failed = True
@@ -229,9 +241,13 @@ def forget(obj=None):
     if obj is None:
         _last_inputs.clear()
         _own_writes.clear()
+        _weights.clear()
     else:
-        _last_inputs.pop(_cache_key(obj), None)
-        _own_writes.pop(_cache_key(obj), None)
+        key = _cache_key(obj)
+        _last_inputs.pop(key, None)
+        _own_writes.pop(key, None)
+        for cached in [k for k in _weights if k[0] == key]:
+            del _weights[cached]
 
 
 def write_vector_attribute(mesh, name, values):

@@ -16,7 +16,7 @@ def _stack_objects(scene):
 def on_frame_change(scene, depsgraph=None):
     evaluation.forget_echoes()
     for obj in _stack_objects(scene):
-        evaluation.evaluate(obj)
+        evaluation.evaluate(obj, reuse_weights=True)
 
 
 @persistent

@@ -249,6 +249,21 @@ def test_scripting_api_rejects_bad_calls(scene):
         api.add_entry(empty_mesh, "TWIST")
 
 
+def test_weight_edits_are_picked_up(scene):
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    entry = api.add_entry(obj, "TWIST", angle=1.0, deform_axis="Z", vertex_group="Upper")
+    entry.angle = 1.4  # a parameter edit reuses the weights read before
+    twin = twin_with_simple_deform(bpy, obj, deform_method="TWIST", angle=1.4, deform_axis="Z", vertex_group="Upper")
+    assert close(evaluated(obj), evaluated(twin))
+    for o in (obj, twin):  # weight painting: the mesh changes, so the weights are read again
+        o.vertex_groups["Upper"].add(list(range(0, len(o.data.vertices), 3)), 1.0, "REPLACE")
+        o.data.update()
+    bpy.context.view_layer.update()
+    assert close(evaluated(obj), evaluated(twin))
+
+
 def test_apply_is_refused_in_edit_mode(scene):
     import bpy
     from deformkit_addon import api
