@@ -176,16 +176,16 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         viewport = [d for e, d in built if e.show_viewport]
         render = [d for e, d in built if e.show_render]
         try:
-            offsets = _deformed(viewport, base)
-            render_offsets = offsets if render == viewport else _deformed(render, base)
+            positions = _deformed(viewport, base)
+            render_positions = positions if render == viewport else _deformed(render, base)
         except ValueError as exc:
             _set_if_changed(stack, "error", str(exc))
             return False
         mesh = obj.data
-        split = render_offsets is not offsets
-        write_vector_attribute(mesh, ATTR_VIEWPORT, offsets)
+        split = render_positions is not positions
+        write_vector_attribute(mesh, ATTR_VIEWPORT, positions)
         if split:
-            write_vector_attribute(mesh, ATTR_RENDER, render_offsets)
+            write_vector_attribute(mesh, ATTR_RENDER, render_positions)
         elif ATTR_RENDER in mesh.attributes:
             mesh.attributes.remove(mesh.attributes[ATTR_RENDER])
         if stack.show_volume_ratio and viewport:
