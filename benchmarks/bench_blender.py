@@ -10,7 +10,7 @@ deformkit side is broken down by timers monkeypatched around the add-on's functi
 property callback; "depsgraph" includes the add-on's depsgraph handler re-check). --addon DIR runs
 a (patched) copy of the add-on instead.
 """
-import argparse, json, math, pathlib, statistics, sys, tempfile, time, types, zlib
+import argparse, json, math, pathlib, statistics, sys, tempfile, time, types
 import numpy as np
 
 ap = argparse.ArgumentParser()

@@ -1,5 +1,5 @@
 """Type stubs for the native core (deformkit._core)."""
-from typing import Literal, Sequence, TypeVar, overload
+from typing import Literal, Sequence, TypeVar
 
 import numpy as np
 import numpy.typing as npt

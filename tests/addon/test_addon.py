@@ -1,6 +1,5 @@
 """deformkit entries in Blender, against Blender's own Simple Deform and the base mesh."""
 import math
-import os
 
 import numpy as np
 import pytest
