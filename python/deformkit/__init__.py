@@ -2,7 +2,10 @@
 
 Every deformer shares one interface -- ``deform(points)``, ``jacobian(points)``,
 ``transform_normals(points, normals)``, ``volume_ratio(points)`` -- and deformers compose with
-:class:`Stack`.
+:class:`Stack`. Lattices (:class:`FFD`, :class:`BezierFFD`, :class:`BSplineLattice`,
+:class:`BlenderLattice`, :class:`ExtendedFFD`) add ``bind(points)`` / ``deform_bound(binding)``
+for deforming the same points again after their control points move, and
+``direct_manipulation(points, targets)``.
 
 >>> import numpy as np, deformkit as dk
 >>> pts = np.random.rand(1000, 3)
@@ -11,7 +14,15 @@ Every deformer shares one interface -- ``deform(points)``, ``jacobian(points)``,
 
 from ._core import (
     Bend,
+    BezierFFD,
+    BlenderLattice,
+    BSplineLattice,
     Deformer,
+    DirectManipulation,
+    ExtendedFFD,
+    FFD,
+    Lattice,
+    LatticeBinding,
     SimpleDeform,
     Stack,
     Stretch,
@@ -20,5 +31,8 @@ from ._core import (
     build_info,
 )
 
-__all__ = ["Bend", "Deformer", "SimpleDeform", "Stack", "Stretch", "Taper", "Twist", "build_info"]
+__all__ = [
+    "BSplineLattice", "Bend", "BezierFFD", "BlenderLattice", "Deformer", "DirectManipulation", "ExtendedFFD",
+    "FFD", "Lattice", "LatticeBinding", "SimpleDeform", "Stack", "Stretch", "Taper", "Twist", "build_info",
+]
 __version__ = "0.1.0"

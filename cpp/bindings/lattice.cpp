@@ -1,0 +1,389 @@
+// Python bindings of the lattice family: argument conversion and checking only.
+#include "common.hpp"
+
+#include <cmath>
+#include <memory>
+
+namespace deformkit_py {
+
+using namespace pybind11::literals;
+
+namespace {
+
+// A binding remembers its lattice: its weights are the lattice's bases at the bound coordinates.
+struct PyBinding {
+  std::shared_ptr<LatticeBinding> binding;
+  std::shared_ptr<const ControlLattice> lattice;
+};
+
+struct PyDirect {
+  py::array control_points, displacement, residual;
+  double max_residual = 0.0;
+  int rank = 0;
+};
+
+std::array<int, 3> parse_counts(const py::object& obj, const char* name) {
+  auto as_int = [&](const py::handle& h) -> int {
+    if (py::isinstance<py::bool_>(h) || !PyIndex_Check(h.ptr()))
+      throw py::type_error(std::string(name) + ": expected an int or three ints, got " + std::string(py::repr(obj)));
+    const long long v = PyNumber_AsSsize_t(h.ptr(), nullptr);
+    if (PyErr_Occurred()) PyErr_Clear();
+    return static_cast<int>(std::clamp<long long>(v, -1, 1 << 20));
+  };
+  if (!py::isinstance<py::str>(obj) && py::isinstance<py::sequence>(obj)) {
+    const auto seq = py::reinterpret_borrow<py::sequence>(obj);
+    if (py::len(seq) != 3) throw py::value_error(std::string(name) + ": expected an int or three ints");
+    return {as_int(seq[0]), as_int(seq[1]), as_int(seq[2])};
+  }
+  const int v = as_int(obj);
+  return {v, v, v};
+}
+
+Vec3 parse_vec3(const py::object& obj, const char* name) {
+  const auto v = parse_vector(obj, name);
+  if (v.size() != 3) throw py::value_error(std::string(name) + ": expected 3 numbers");
+  return Vec3(v[0], v[1], v[2]);
+}
+
+LatticeBox parse_box(const py::object& origin, const py::object& edges, const py::object& frame) {
+  if (!frame.is_none()) {
+    if (!origin.is_none() || !edges.is_none())
+      throw py::value_error("frame: give either frame or origin/edges, not both");
+    require_real(frame, "frame");
+    auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(frame);
+    if (!a || a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)
+      throw py::value_error("frame: expected a 4x4 matrix");
+    Mat4 m;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) m(r, c) = a.at(r, c);
+    return LatticeBox::from_matrix(m, "frame");
+  }
+  const Vec3 o = origin.is_none() ? Vec3::Zero() : parse_vec3(origin, "origin");
+  Mat3 e = Mat3::Identity();
+  if (!edges.is_none()) {
+    require_real(edges, "edges");
+    auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(edges);
+    if (!a || a.ndim() != 2 || a.shape(0) != 3 || a.shape(1) != 3)
+      throw py::value_error("edges: expected three edge vectors S, T, U as a 3x3 array (one per row)");
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) e(c, r) = a.at(r, c);
+  }
+  return LatticeBox::from_edges(o, e, "edges");
+}
+
+Outside parse_outside(const std::string& s) {
+  if (s == "clamp") return Outside::Clamp;
+  if (s == "unchanged") return Outside::Unchanged;
+  if (s == "extrapolate") return Outside::Extrapolate;
+  throw py::value_error("outside: expected 'clamp', 'unchanged' or 'extrapolate', got '" + s + "'");
+}
+
+const char* outside_name(Outside o) {
+  return o == Outside::Clamp ? "clamp" : o == Outside::Unchanged ? "unchanged" : "extrapolate";
+}
+
+BasisKind parse_interpolation_one(const py::handle& h) {
+  if (!py::isinstance<py::str>(h))
+    throw py::type_error("interpolation: expected a string or three strings, got " + std::string(py::repr(h)));
+  std::string s = h.cast<std::string>();
+  if (s.rfind("KEY_", 0) == 0) s = s.substr(4);
+  for (auto& c : s) c = static_cast<char>(std::tolower(c));
+  if (s == "linear") return BasisKind::BlenderLinear;
+  if (s == "cardinal") return BasisKind::BlenderCardinal;
+  if (s == "catmull_rom") return BasisKind::BlenderCatmullRom;
+  if (s == "bspline") return BasisKind::BlenderBSpline;
+  throw py::value_error("interpolation: expected 'linear', 'cardinal', 'catmull_rom' or 'bspline', got '" +
+                        h.cast<std::string>() + "'");
+}
+
+std::array<BasisKind, 3> parse_interpolation(const py::object& obj) {
+  if (py::isinstance<py::str>(obj)) {
+    const BasisKind k = parse_interpolation_one(obj);
+    return {k, k, k};
+  }
+  if (!py::isinstance<py::sequence>(obj) || py::len(obj) != 3)
+    throw py::value_error("interpolation: expected a string or three strings (u, v, w)");
+  const auto seq = py::reinterpret_borrow<py::sequence>(obj);
+  return {parse_interpolation_one(seq[0]), parse_interpolation_one(seq[1]), parse_interpolation_one(seq[2])};
+}
+
+const char* interpolation_name(BasisKind k) {
+  switch (k) {
+    case BasisKind::BlenderLinear: return "linear";
+    case BasisKind::BlenderCardinal: return "cardinal";
+    case BasisKind::BlenderCatmullRom: return "catmull_rom";
+    default: return "bspline";
+  }
+}
+
+// A (nu, nv, nw, 3) grid as a flat vector, checked against the lattice's resolution.
+std::vector<double> parse_grid(const py::object& obj, std::array<int, 3> res, const char* name) {
+  require_real(obj, name);
+  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  const std::string want = "(" + std::to_string(res[0]) + ", " + std::to_string(res[1]) + ", " +
+                           std::to_string(res[2]) + ", 3)";
+  if (!a || a.ndim() != 4 || a.shape(0) != res[0] || a.shape(1) != res[1] || a.shape(2) != res[2] || a.shape(3) != 3)
+    throw py::value_error(std::string(name) + ": expected shape " + want + (a ? ", got " + shape_of(a) : ""));
+  return std::vector<double>(a.data(), a.data() + a.size());
+}
+
+py::array grid_array(const std::vector<double>& g, std::array<int, 3> res) {
+  py::array_t<double> a({py::ssize_t(res[0]), py::ssize_t(res[1]), py::ssize_t(res[2]), py::ssize_t(3)});
+  std::copy(g.begin(), g.end(), a.mutable_data());
+  return std::move(a);
+}
+
+template <class L>
+std::shared_ptr<L> finish(std::shared_ptr<L> lat, const py::object& control_points, const py::object& weights) {
+  if (!control_points.is_none()) lat->set_control_points(parse_grid(control_points, lat->resolution(), "control_points"));
+  apply_weights(*lat, weights);
+  return lat;
+}
+
+PyBinding py_bind(const std::shared_ptr<ControlLattice>& lat, const py::object& points) {
+  const py::array pts = points_array(points, "points");
+  const auto n = static_cast<std::size_t>(pts.shape(0));
+  auto b = std::make_shared<LatticeBinding>();
+  {
+    py::gil_scoped_release release;
+    if (pts.dtype().is(py::dtype::of<float>())) *b = lat->bind(static_cast<const float*>(pts.data()), n);
+    else *b = lat->bind(static_cast<const double*>(pts.data()), n);
+  }
+  return PyBinding{b, lat};
+}
+
+py::array py_deform_bound(const ControlLattice& lat, const PyBinding& pb, const py::object& out) {
+  const LatticeBinding& b = *pb.binding;
+  const py::dtype dtype = b.single_precision ? py::dtype::of<float>() : py::dtype::of<double>();
+  py::array result = output_array(out, py::ssize_t(b.size()), dtype, nullptr);
+  {
+    py::gil_scoped_release release;
+    if (b.single_precision) lat.deform_bound(b, static_cast<float*>(result.mutable_data()));
+    else lat.deform_bound(b, static_cast<double*>(result.mutable_data()));
+  }
+  return result;
+}
+
+py::tuple py_weights(const PyBinding& pb) {
+  SparseWeights w;
+  {
+    py::gil_scoped_release release;
+    w = pb.lattice->weights_matrix(*pb.binding);
+  }
+  py::array_t<std::int64_t> indptr(py::ssize_t(w.indptr.size()), w.indptr.data());
+  py::array_t<std::int32_t> indices(py::ssize_t(w.indices.size()), w.indices.data());
+  py::array_t<double> values(py::ssize_t(w.values.size()), w.values.data());
+  return py::make_tuple(indptr, indices, values);
+}
+
+PyDirect py_direct(const ControlLattice& lat, const py::object& points, const py::object& targets) {
+  const auto p = as_double(points_array(points, "points"));
+  const auto t = as_double(points_array(targets, "targets"));
+  if (t.shape(0) != p.shape(0))
+    throw py::value_error("targets: has " + std::to_string(t.shape(0)) + " rows but points has " +
+                          std::to_string(p.shape(0)));
+  DirectManipulationResult r;
+  {
+    py::gil_scoped_release release;
+    r = direct_manipulation(lat, p.data(), t.data(), std::size_t(p.shape(0)));
+  }
+  PyDirect d;
+  d.control_points = grid_array(r.control_points, lat.resolution());
+  d.displacement = grid_array(r.displacement, lat.resolution());
+  d.residual = py::array_t<double>(py::ssize_t(r.residual.size()), r.residual.data());
+  for (double x : r.residual) d.max_residual = std::max(d.max_residual, x);
+  d.rank = r.rank;
+  return d;
+}
+
+const char* kPlacementDoc = R"(
+
+Placement: `origin` and `edges` (rows S, T, U) give the box X0 + s S + t T + u U, any
+parallelepiped; or `frame`, a 4x4 matrix from lattice-local space, where the box is Blender's
+rest cube [-1/2, 1/2]^3, into the points' space; neither: the unit cube. `control_points`
+(nu, nv, nw, 3) are in the points' space; None is the rest lattice. The map is
+F(x) = x + strength * sum w(x) (P - R) with R the rest control points, so the rest lattice is
+the identity. `outside`: 'clamp' (default) holds the boundary's displacement outside the box,
+so the map stays continuous, as Blender's Lattice modifier does; 'unchanged' leaves outside
+points where they are (a jump where boundary control points moved); 'extrapolate' continues
+the polynomials.)";
+
+}  // namespace
+
+void bind_lattice(py::module_& m) {
+  py::class_<PyBinding>(m, "LatticeBinding", R"(Points bound to a lattice: their lattice coordinates, found once.
+
+`lattice.deform_bound(binding)` then deforms them with the lattice's current control points.)")
+      .def("__len__", [](const PyBinding& b) { return b.binding->size(); })
+      .def_property_readonly("status", [](const PyBinding& b) {
+        return py::array_t<std::uint8_t>(py::ssize_t(b.binding->size()), b.binding->status.data());
+      }, "Per point: 0 inside the lattice, 1 outside (the outside policy applies), 2 not placed (extended "
+         "FFD: Newton did not converge; left unchanged).")
+      .def_property_readonly("parameters", [](const PyBinding& b) {
+        py::array_t<double> a({py::ssize_t(b.binding->size()), py::ssize_t(3)});
+        std::copy(b.binding->parameters.begin(), b.binding->parameters.end(), a.mutable_data());
+        return a;
+      }, "Normalised lattice coordinates (s, t, u), (n, 3).")
+      .def("weights", &py_weights, R"(The sparse weight matrix W as CSR (indptr, indices, data).
+
+Columns are flattened control points (i * nv + j) * nw + k; deform = x + strength * W (P - R).
+Rows of points the lattice leaves unchanged are empty.)");
+
+  py::class_<PyDirect>(m, "DirectManipulation", "Result of Lattice.direct_manipulation.")
+      .def_readonly("control_points", &PyDirect::control_points, "The new control points (nu, nv, nw, 3).")
+      .def_readonly("displacement", &PyDirect::displacement, "New minus old control points.")
+      .def_readonly("residual", &PyDirect::residual, "Distance from each deformed point to its target.")
+      .def_readonly("max_residual", &PyDirect::max_residual)
+      .def_readonly("rank", &PyDirect::rank, "Rank of the constraint matrix.");
+
+  py::class_<ControlLattice, Deformer, std::shared_ptr<ControlLattice>>(m, "Lattice", "Interface of the lattice deformers.")
+      .def_property("control_points",
+                    [](const ControlLattice& l) { return grid_array(l.control_points(), l.resolution()); },
+                    [](ControlLattice& l, const py::object& g) {
+                      l.set_control_points(parse_grid(g, l.resolution(), "control_points"));
+                    }, "Control points (nu, nv, nw, 3) in the points' space; assigning validates and copies.")
+      .def_property_readonly("rest_control_points",
+                             [](const ControlLattice& l) { return grid_array(l.rest_control_points(), l.resolution()); })
+      .def_property_readonly("resolution", [](const ControlLattice& l) {
+        const auto r = l.resolution();
+        return py::make_tuple(r[0], r[1], r[2]);
+      })
+      .def_property_readonly("strength", &ControlLattice::strength)
+      .def_property_readonly("outside", [](const ControlLattice& l) { return outside_name(l.outside()); })
+      .def_property_readonly("handle_index", [](const ControlLattice& l) {
+        const auto r = l.resolution();
+        py::array_t<int> a({py::ssize_t(r[0]), py::ssize_t(r[1]), py::ssize_t(r[2])});
+        std::copy(l.handle_of().begin(), l.handle_of().end(), a.mutable_data());
+        return a;
+      }, "For each control point, the handle it belongs to (merged control points share one).")
+      .def_property_readonly("handles", &ControlLattice::handle_count)
+      .def("bind", &py_bind, "points"_a, "Bind points: find their lattice coordinates once (LatticeBinding).")
+      .def("deform_bound", &py_deform_bound, "binding"_a, py::kw_only(), "out"_a = py::none(),
+           "Deform bound points with the current control points; equals deform(points). The dtype is that of "
+           "the bound points.")
+      .def("lattice_coordinates", [](const std::shared_ptr<ControlLattice>& l, const py::object& points) {
+        return py::cast(py_bind(l, points)).attr("parameters");
+      }, "points"_a, "Normalised lattice coordinates (s, t, u) of each point (the lecture's cross-product formulas).")
+      .def("direct_manipulation", &py_direct, "points"_a, "targets"_a,
+           R"(Smallest control-point change that moves `points` to `targets` (Hsu, Hughes, Kaufman 1992).
+
+Minimum-norm least squares over the control points (merged ones move together): exact when the
+constraints allow it, otherwise the least-squares compromise, whose distances are `residual`.
+Returns a DirectManipulation; the lattice is not modified (assign result.control_points).)");
+
+  py::class_<FFD, ControlLattice, std::shared_ptr<FFD>>(m, "FFD", (std::string(R"(Sederberg-Parry free-form deformation.
+
+One trivariate Bernstein polynomial of degree (l, m, n) (1..15 each), (l+1)(m+1)(n+1) control
+points (Sederberg and Parry 1986).)") + kPlacementDoc).c_str())
+      .def(py::init([](const py::object& degree, const py::object& origin, const py::object& edges,
+                       const py::object& frame, const py::object& cps, const std::string& outside, double strength,
+                       const py::object& weights) {
+             return finish(std::make_shared<FFD>(parse_box(origin, edges, frame), parse_counts(degree, "degree"),
+                                                 parse_outside(outside), finite_param(strength, "strength")),
+                           cps, weights);
+           }),
+           "degree"_a = 3, py::kw_only(), "origin"_a = py::none(), "edges"_a = py::none(), "frame"_a = py::none(),
+           "control_points"_a = py::none(), "outside"_a = "clamp", "strength"_a = 1.0, "weights"_a = py::none())
+      .def_property_readonly("degree", [](const FFD& l) {
+        const auto r = l.resolution();
+        return py::make_tuple(r[0] - 1, r[1] - 1, r[2] - 1);
+      });
+
+  py::class_<BezierFFD, ControlLattice, std::shared_ptr<BezierFFD>>(m, "BezierFFD", (std::string(R"(Piecewise tricubic Bezier FFD blocks.
+
+blocks (a, b, c) give (3a+1, 3b+1, 3c+1) control points; neighbouring blocks share a face
+layer (C0); C1 holds where the three control points across a face are collinear and evenly
+spaced. A point's block is floor(s * blocks), its local coordinate the fraction.)") + kPlacementDoc).c_str())
+      .def(py::init([](const py::object& blocks, const py::object& origin, const py::object& edges,
+                       const py::object& frame, const py::object& cps, const std::string& outside, double strength,
+                       const py::object& weights) {
+             return finish(std::make_shared<BezierFFD>(parse_box(origin, edges, frame), parse_counts(blocks, "blocks"),
+                                                       parse_outside(outside), finite_param(strength, "strength")),
+                           cps, weights);
+           }),
+           "blocks"_a = 1, py::kw_only(), "origin"_a = py::none(), "edges"_a = py::none(), "frame"_a = py::none(),
+           "control_points"_a = py::none(), "outside"_a = "clamp", "strength"_a = 1.0, "weights"_a = py::none());
+
+  py::class_<BSplineLattice, ControlLattice, std::shared_ptr<BSplineLattice>>(m, "BSplineLattice", (std::string(R"(Uniform cubic B-spline FFD (C2 everywhere).
+
+resolution >= 4 control points per axis, evenly spaced over the box at rest; the spline covers
+the box's inner part, s in [1/(n-1), (n-2)/(n-1)] per axis, and `outside` applies beyond it.)") +
+                                                                                             kPlacementDoc).c_str())
+      .def(py::init([](const py::object& resolution, const py::object& origin, const py::object& edges,
+                       const py::object& frame, const py::object& cps, const std::string& outside, double strength,
+                       const py::object& weights) {
+             return finish(std::make_shared<BSplineLattice>(parse_box(origin, edges, frame),
+                                                            parse_counts(resolution, "resolution"),
+                                                            parse_outside(outside), finite_param(strength, "strength")),
+                           cps, weights);
+           }),
+           "resolution"_a = 4, py::kw_only(), "origin"_a = py::none(), "edges"_a = py::none(), "frame"_a = py::none(),
+           "control_points"_a = py::none(), "outside"_a = "clamp", "strength"_a = 1.0, "weights"_a = py::none());
+
+  py::class_<BlenderLattice, ControlLattice, std::shared_ptr<BlenderLattice>>(m, "BlenderLattice", (std::string(R"(Blender's Lattice modifier, reproduced.
+
+resolution 1..64 per axis (points_u/v/w), interpolation 'linear', 'cardinal', 'catmull_rom' or
+'bspline' (or Blender's 'KEY_...' names), one for all axes or (u, v, w). For a Lattice object
+`lat` on mesh object `obj`: frame = inverse(obj.matrix_world) @ lat.matrix_world, and the
+control points are co_deform mapped by frame. strength and weights (the modifier's vertex
+group) as in Blender. Outside the lattice Blender clamps control-point indices, so outside
+points take the boundary's displacement ('clamp', the default); 'unchanged' is also offered.)") +
+                                                                                             kPlacementDoc).c_str())
+      .def(py::init([](const py::object& resolution, const py::object& interpolation, const py::object& origin,
+                       const py::object& edges, const py::object& frame, const py::object& cps,
+                       const std::string& outside, double strength, const py::object& weights) {
+             return finish(std::make_shared<BlenderLattice>(parse_box(origin, edges, frame),
+                                                            parse_counts(resolution, "resolution"),
+                                                            parse_interpolation(interpolation), parse_outside(outside),
+                                                            finite_param(strength, "strength")),
+                           cps, weights);
+           }),
+           "resolution"_a = 2, "interpolation"_a = "bspline", py::kw_only(), "origin"_a = py::none(),
+           "edges"_a = py::none(), "frame"_a = py::none(), "control_points"_a = py::none(), "outside"_a = "clamp",
+           "strength"_a = 1.0, "weights"_a = py::none())
+      .def_property_readonly("interpolation", [](const BlenderLattice& l) {
+        return py::make_tuple(interpolation_name(l.axes()[0].kind), interpolation_name(l.axes()[1].kind),
+                              interpolation_name(l.axes()[2].kind));
+      });
+
+  auto make_effd = [](const py::object& rest, const py::object& cps, double strength, const py::object& weights,
+                      double tolerance, int max_iterations) {
+    require_real(rest, "rest_control_points");
+    auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(rest);
+    if (!a || a.ndim() != 4 || a.shape(3) != 3)
+      throw py::value_error("rest_control_points: expected shape (3a+1, 3b+1, 3c+1, 3)" +
+                            (a ? ", got " + shape_of(a) : std::string()));
+    const std::array<int, 3> counts{int(a.shape(0)), int(a.shape(1)), int(a.shape(2))};
+    NewtonSettings newton{finite_param(tolerance, "tolerance"), max_iterations};
+    auto l = std::make_shared<ExtendedFFD>(counts, std::vector<double>(a.data(), a.data() + a.size()),
+                                           finite_param(strength, "strength"), newton);
+    return finish(l, cps, weights);
+  };
+  py::class_<ExtendedFFD, ControlLattice, std::shared_ptr<ExtendedFFD>>(m, "ExtendedFFD", R"(Coquillart's extended FFD.
+
+A grid of tricubic Bezier blocks, rest_control_points (3a+1, 3b+1, 3c+1, 3), of any shape.
+Each point is located by a bounding-box (convex hull) test and Newton iteration from
+(0.5, 0.5, 0.5) in the blocks that may hold it, restarting from the octant centres; binding
+reports status 1 for points outside every block and 2 where Newton did not converge, and both
+are left unchanged. Control points that coincide at rest are merged into one handle and must
+move together (handle_index).)")
+      .def(py::init(make_effd), "rest_control_points"_a, py::kw_only(), "control_points"_a = py::none(),
+           "strength"_a = 1.0, "weights"_a = py::none(), "tolerance"_a = 1e-10, "max_iterations"_a = 30)
+      .def_static("cylinder", [make_effd](double radius, double height, const py::object& blocks, const py::object& center,
+                                          const py::object& axis, double strength, const py::object& weights,
+                                          double tolerance, int max_iterations) {
+        const auto b = parse_counts(blocks, "blocks");
+        const Vec3 c = center.is_none() ? Vec3::Zero() : parse_vec3(center, "center");
+        const auto grid = ExtendedFFD::cylinder_grid(finite_param(radius, "radius"), finite_param(height, "height"), b, c,
+                                                     parse_axis(axis, "axis"));
+        const std::array<int, 3> counts{3 * b[0] + 1, 3 * b[1] + 1, 3 * b[2] + 1};
+        return make_effd(grid_array(grid, counts), py::none(), strength, weights, tolerance, max_iterations);
+      }, "radius"_a = 1.0, "height"_a = 1.0, "blocks"_a = py::make_tuple(1, 4, 1), "center"_a = py::none(),
+         "axis"_a = "z", "strength"_a = 1.0, "weights"_a = py::none(), "tolerance"_a = 1e-10, "max_iterations"_a = 30,
+         R"(A cylindrical lattice: s runs from the axis out to `radius`, t once around (cubic Bezier arcs, blocks[1] >= 3),
+u along the axis over `height`, centred at `center`. The seam and the axis are merged handles.)")
+      .def_property_readonly("tolerance", [](const ExtendedFFD& l) { return l.newton().tolerance; })
+      .def_property_readonly("max_iterations", [](const ExtendedFFD& l) { return l.newton().max_iterations; });
+}
+
+}  // namespace deformkit_py

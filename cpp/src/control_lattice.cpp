@@ -1,0 +1,284 @@
+#include "deformkit/control_lattice.hpp"
+
+#include "deformkit/parallel.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+namespace deformkit {
+
+namespace {
+
+struct AxisWeights {
+  double w[kMaxAxisWidth], dw[kMaxAxisWidth];
+  int index[kMaxAxisWidth];
+  int width;
+};
+
+std::string grid_index(int flat, const std::array<int, 3>& res) {
+  const int k = flat % res[2], j = (flat / res[2]) % res[1], i = flat / (res[1] * res[2]);
+  return "[" + std::to_string(i) + ", " + std::to_string(j) + ", " + std::to_string(k) + "]";
+}
+
+}  // namespace
+
+ControlLattice::ControlLattice(const LatticeAxes& axes, std::vector<double> rest, Outside outside, double strength)
+    : axes_(axes), rest_(std::move(rest)), outside_(outside), strength_(strength) {
+  if (!std::isfinite(strength)) throw std::invalid_argument("strength: is not finite");
+  control_ = rest_;
+  offset_.assign(rest_.size(), 0.0);
+  handle_count_ = static_cast<int>(control_count());
+  handle_of_.resize(handle_count_);
+  for (int i = 0; i < handle_count_; ++i) handle_of_[i] = i;
+}
+
+void ControlLattice::merge_coincident_control_points(double tolerance) {
+  const int n = static_cast<int>(control_count());
+  std::vector<int> representative(n, -1);
+  handle_count_ = 0;
+  std::vector<int> handle_rep;
+  for (int a = 0; a < n; ++a) {
+    for (int r : handle_rep) {
+      const double d = std::hypot(rest_[3 * a] - rest_[3 * r], rest_[3 * a + 1] - rest_[3 * r + 1],
+                                  rest_[3 * a + 2] - rest_[3 * r + 2]);
+      if (d <= tolerance) {
+        representative[a] = r;
+        break;
+      }
+    }
+    if (representative[a] < 0) {
+      representative[a] = a;
+      handle_rep.push_back(a);
+    }
+  }
+  handle_count_ = static_cast<int>(handle_rep.size());
+  std::vector<int> handle_id(n, -1);
+  for (int h = 0; h < handle_count_; ++h) handle_id[handle_rep[h]] = h;
+  for (int a = 0; a < n; ++a) handle_of_[a] = handle_id[representative[a]];
+}
+
+void ControlLattice::set_control_points(std::vector<double> grid) {
+  const auto res = resolution();
+  if (grid.size() != rest_.size())
+    throw std::invalid_argument("control_points: expected " + std::to_string(control_count()) + " points (" +
+                                std::to_string(res[0]) + " x " + std::to_string(res[1]) + " x " +
+                                std::to_string(res[2]) + "), got " + std::to_string(grid.size() / 3));
+  for (std::size_t i = 0; i < grid.size(); ++i)
+    if (!std::isfinite(grid[i]))
+      throw std::invalid_argument("control_points: point " + grid_index(int(i / 3), res) + " is not finite");
+  // Merged points are one handle: moving them apart would tear the lattice (a cylinder's seam).
+  std::vector<int> first(handle_count_, -1);
+  for (int a = 0; a < int(control_count()); ++a) {
+    int& f = first[handle_of_[a]];
+    if (f < 0) {
+      f = a;
+      continue;
+    }
+    const double d = std::hypot(grid[3 * a] - grid[3 * f], grid[3 * a + 1] - grid[3 * f + 1],
+                                grid[3 * a + 2] - grid[3 * f + 2]);
+    const double scale = 1.0 + std::abs(grid[3 * f]) + std::abs(grid[3 * f + 1]) + std::abs(grid[3 * f + 2]);
+    if (d > 1e-9 * scale)
+      throw std::invalid_argument("control_points: points " + grid_index(f, res) + " and " + grid_index(a, res) +
+                                  " coincide at rest and are one merged handle; move them together");
+  }
+  control_ = std::move(grid);
+  for (std::size_t i = 0; i < control_.size(); ++i) offset_[i] = control_[i] - rest_[i];
+}
+
+std::uint64_t ControlLattice::layout() const {
+  // FNV-1a over the bases and the rest grid: a binding depends on both.
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](const void* p, std::size_t bytes) {
+    const auto* c = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < bytes; ++i) h = (h ^ c[i]) * 1099511628211ull;
+  };
+  for (const auto& a : axes_) {
+    mix(&a.kind, sizeof a.kind);
+    mix(&a.count, sizeof a.count);
+  }
+  mix(rest_.data(), rest_.size() * sizeof(double));
+  return h;
+}
+
+Vec3 ControlLattice::contract(const std::vector<double>& grid, const Vec3& p, Mat3* derivative) const {
+  AxisWeights ax[3];
+  for (int a = 0; a < 3; ++a) {
+    axes_[a].evaluate(axes_[a].locate(p[a], outside_), ax[a].w, derivative ? ax[a].dw : nullptr, ax[a].index);
+    ax[a].width = axes_[a].width();
+  }
+  const int nv = axes_[1].count, nw = axes_[2].count;
+  const double* g = grid.data();
+  double acc[3] = {0, 0, 0};
+  if (!derivative) {
+    for (int i = 0; i < ax[0].width; ++i)
+      for (int j = 0; j < ax[1].width; ++j) {
+        const double wij = ax[0].w[i] * ax[1].w[j];
+        const double* row = g + 3 * std::size_t(ax[0].index[i] * nv + ax[1].index[j]) * nw;
+        double r[3] = {0, 0, 0};
+        for (int k = 0; k < ax[2].width; ++k) {
+          const double* c = row + 3 * ax[2].index[k];
+          const double wk = ax[2].w[k];
+          r[0] += wk * c[0], r[1] += wk * c[1], r[2] += wk * c[2];
+        }
+        acc[0] += wij * r[0], acc[1] += wij * r[1], acc[2] += wij * r[2];
+      }
+    return Vec3(acc[0], acc[1], acc[2]);
+  }
+  Mat3 d = Mat3::Zero();
+  for (int i = 0; i < ax[0].width; ++i)
+    for (int j = 0; j < ax[1].width; ++j) {
+      const double* row = g + 3 * std::size_t(ax[0].index[i] * nv + ax[1].index[j]) * nw;
+      for (int k = 0; k < ax[2].width; ++k) {
+        const Vec3 c(row[3 * ax[2].index[k]], row[3 * ax[2].index[k] + 1], row[3 * ax[2].index[k] + 2]);
+        const double w = ax[0].w[i] * ax[1].w[j] * ax[2].w[k];
+        acc[0] += w * c[0], acc[1] += w * c[1], acc[2] += w * c[2];
+        d.col(0) += ax[0].dw[i] * ax[1].w[j] * ax[2].w[k] * c;
+        d.col(1) += ax[0].w[i] * ax[1].dw[j] * ax[2].w[k] * c;
+        d.col(2) += ax[0].w[i] * ax[1].w[j] * ax[2].dw[k] * c;
+      }
+    }
+  *derivative = d;
+  return Vec3(acc[0], acc[1], acc[2]);
+}
+
+Vec3 ControlLattice::displacement_at(const Vec3& parameters, Mat3* derivative) const {
+  return contract(offset_, parameters, derivative);
+}
+
+Vec3 ControlLattice::rest_map(const Vec3& parameters, Mat3* derivative) const {
+  return contract(rest_, parameters, derivative);
+}
+
+template <class T>
+bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
+  std::atomic<bool> finite{true};
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    bool ok = true;
+    for (std::size_t i = begin; i < end; ++i) {
+      const Vec3 x(in[3 * i], in[3 * i + 1], in[3 * i + 2]);
+      if (!x.allFinite()) {
+        ok = false;
+        continue;
+      }
+      Vec3 p;
+      Vec3 y = x;
+      if (displaces(locate(x, p))) y += strength_ * displacement_at(p, nullptr);
+      for (int a = 0; a < 3; ++a) out[3 * i + a] = static_cast<T>(y[a]);
+      ok = ok && std::isfinite(out[3 * i]) && std::isfinite(out[3 * i + 1]) && std::isfinite(out[3 * i + 2]);
+    }
+    if (!ok) finite = false;
+  });
+  return finite;
+}
+
+bool ControlLattice::deform_impl(const float* in, float* out, std::size_t n) const { return deform_points(in, out, n); }
+bool ControlLattice::deform_impl(const double* in, double* out, std::size_t n) const {
+  return deform_points(in, out, n);
+}
+
+void ControlLattice::jacobian_impl(const double* in, double* jac, std::size_t n) const {
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const Vec3 x(in[3 * i], in[3 * i + 1], in[3 * i + 2]);
+      Vec3 p;
+      Mat3 j = Mat3::Identity();
+      if (displaces(locate(x, p))) {
+        Mat3 d;
+        displacement_at(p, &d);
+        j += strength_ * d * parameter_jacobian(p);
+      }
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) jac[9 * i + 3 * r + c] = j(r, c);
+    }
+  });
+}
+
+template <class T>
+LatticeBinding ControlLattice::bind_points(const T* in, std::size_t n) const {
+  require_finite_rows(in, n, "points");
+  LatticeBinding b;
+  b.resolution = resolution();
+  b.layout = layout();
+  b.single_precision = std::is_same<T, float>::value;
+  b.points.resize(3 * n);
+  b.parameters.resize(3 * n);
+  b.status.resize(n);
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const Vec3 x(in[3 * i], in[3 * i + 1], in[3 * i + 2]);
+      Vec3 p;
+      b.status[i] = static_cast<std::uint8_t>(locate(x, p));
+      for (int a = 0; a < 3; ++a) {
+        b.points[3 * i + a] = x[a];
+        b.parameters[3 * i + a] = p[a];
+      }
+    }
+  });
+  return b;
+}
+
+LatticeBinding ControlLattice::bind(const double* points, std::size_t n) const { return bind_points(points, n); }
+LatticeBinding ControlLattice::bind(const float* points, std::size_t n) const { return bind_points(points, n); }
+
+template <class T>
+void ControlLattice::deform_bound_points(const LatticeBinding& b, T* out) const {
+  if (b.layout != layout())
+    throw std::invalid_argument("binding: was made by a lattice with another basis, resolution or rest placement; "
+                                "bind the points to this lattice");
+  parallel_blocks(b.size(), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const double* x = &b.points[3 * i];
+      Vec3 d = Vec3::Zero();
+      if (displaces(static_cast<PointStatus>(b.status[i])))
+        d = strength_ * displacement_at(Vec3(b.parameters[3 * i], b.parameters[3 * i + 1], b.parameters[3 * i + 2]),
+                                        nullptr);
+      for (int a = 0; a < 3; ++a) out[3 * i + a] = static_cast<T>(x[a] + d[a]);
+    }
+  });
+}
+
+void ControlLattice::deform_bound(const LatticeBinding& b, double* out) const { deform_bound_points(b, out); }
+void ControlLattice::deform_bound(const LatticeBinding& b, float* out) const { deform_bound_points(b, out); }
+
+SparseWeights ControlLattice::weights_matrix(const LatticeBinding& b) const {
+  if (b.layout != layout())
+    throw std::invalid_argument("binding: was made by a lattice with another basis, resolution or rest placement");
+  SparseWeights m;
+  m.indptr.reserve(b.size() + 1);
+  m.indptr.push_back(0);
+  const int nv = axes_[1].count, nw = axes_[2].count;
+  std::vector<std::pair<std::int32_t, double>> row;
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    row.clear();
+    if (displaces(static_cast<PointStatus>(b.status[i]))) {
+      AxisWeights ax[3];
+      for (int a = 0; a < 3; ++a) {
+        axes_[a].evaluate(axes_[a].locate(b.parameters[3 * i + a], outside_), ax[a].w, nullptr, ax[a].index);
+        ax[a].width = axes_[a].width();
+      }
+      for (int p = 0; p < ax[0].width; ++p)
+        for (int q = 0; q < ax[1].width; ++q)
+          for (int r = 0; r < ax[2].width; ++r) {
+            const double w = ax[0].w[p] * ax[1].w[q] * ax[2].w[r];
+            if (w != 0.0) row.emplace_back((ax[0].index[p] * nv + ax[1].index[q]) * nw + ax[2].index[r], w);
+          }
+      std::sort(row.begin(), row.end());
+    }
+    for (std::size_t k = 0; k < row.size(); ++k) {
+      if (!m.indices.empty() && m.indptr.back() < std::int64_t(m.indices.size()) && m.indices.back() == row[k].first)
+        m.values.back() += row[k].second;
+      else {
+        m.indices.push_back(row[k].first);
+        m.values.push_back(row[k].second);
+      }
+    }
+    m.indptr.push_back(static_cast<std::int64_t>(m.indices.size()));
+  }
+  return m;
+}
+
+}  // namespace deformkit

@@ -1,0 +1,54 @@
+#include "deformkit/direct_manipulation.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace deformkit {
+
+DirectManipulationResult direct_manipulation(const ControlLattice& lattice, const double* points,
+                                             const double* targets, std::size_t m) {
+  if (m == 0) throw std::invalid_argument("points: no points to move");
+  require_finite_rows(points, m, "points");
+  require_finite_rows(targets, m, "targets");
+  if (lattice.strength() == 0.0)
+    throw std::invalid_argument("strength: is 0, so no change of the control points can move the points");
+  const int handles = lattice.handle_count();
+  // A dense solve keeps rank-deficient and contradicting constraints exact; bound its size.
+  if (double(m) * handles > 2.5e7)
+    throw std::invalid_argument("points: " + std::to_string(m) + " constraints on " + std::to_string(handles) +
+                                " control points is too large for the dense least-squares solve");
+  const LatticeBinding binding = lattice.bind(points, m);
+  std::vector<double> current(3 * m);
+  lattice.deform_bound(binding, current.data());
+  const SparseWeights w = lattice.weights_matrix(binding);
+
+  Eigen::MatrixXd b = Eigen::MatrixXd::Zero(Eigen::Index(m), handles);
+  for (std::size_t r = 0; r < m; ++r)
+    for (std::int64_t e = w.indptr[r]; e < w.indptr[r + 1]; ++e) b(Eigen::Index(r), lattice.handle_of()[w.indices[e]]) += w.values[e];
+  Eigen::MatrixXd dq(Eigen::Index(m), 3);
+  for (std::size_t r = 0; r < m; ++r)
+    for (int a = 0; a < 3; ++a) dq(Eigen::Index(r), a) = (targets[3 * r + a] - current[3 * r + a]) / lattice.strength();
+
+  // Minimum-norm least squares: B^+ dQ (B^T (B B^T)^-1 dQ at full row rank), algorithms.md B.3.
+  const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(b);
+  const Eigen::MatrixXd dp = cod.solve(dq);
+  const Eigen::MatrixXd reached = b * dp;
+
+  DirectManipulationResult result;
+  result.rank = static_cast<int>(cod.rank());
+  result.residual.resize(m);
+  for (std::size_t r = 0; r < m; ++r)
+    result.residual[r] = lattice.strength() * (reached.row(Eigen::Index(r)) - dq.row(Eigen::Index(r))).norm();
+  const auto& grid = lattice.control_points();
+  result.control_points = grid;
+  result.displacement.assign(grid.size(), 0.0);
+  for (std::size_t g = 0; g < lattice.control_count(); ++g)
+    for (int a = 0; a < 3; ++a) {
+      result.displacement[3 * g + a] = dp(lattice.handle_of()[g], a);
+      result.control_points[3 * g + a] += dp(lattice.handle_of()[g], a);
+    }
+  return result;
+}
+
+}  // namespace deformkit

@@ -1,0 +1,186 @@
+#include "deformkit/extended_ffd.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace deformkit {
+
+namespace {
+
+LatticeAxes bezier_axes(std::array<int, 3> counts) {
+  for (int c : counts)
+    if (c < 4 || (c - 1) % 3 != 0)
+      throw std::invalid_argument("rest_control_points: an extended FFD grid needs 3k+1 >= 4 points per axis, got " +
+                                  std::to_string(counts[0]) + " x " + std::to_string(counts[1]) + " x " +
+                                  std::to_string(counts[2]));
+  if (double(counts[0]) * counts[1] * counts[2] > double(kMaxControlPoints))
+    throw std::invalid_argument("rest_control_points: more control points than the limit of " +
+                                std::to_string(kMaxControlPoints));
+  return {AxisBasis::make(BasisKind::BezierBlocks, counts[0], "rest_control_points"),
+          AxisBasis::make(BasisKind::BezierBlocks, counts[1], "rest_control_points"),
+          AxisBasis::make(BasisKind::BezierBlocks, counts[2], "rest_control_points")};
+}
+
+const std::vector<double>& finite_grid(const std::vector<double>& rest) {
+  for (double v : rest)
+    if (!std::isfinite(v)) throw std::invalid_argument("rest_control_points: contains a non-finite value");
+  return rest;
+}
+
+}  // namespace
+
+ExtendedFFD::ExtendedFFD(std::array<int, 3> counts, std::vector<double> rest, double strength,
+                         NewtonSettings newton)
+    : ControlLattice(bezier_axes(counts), finite_grid(rest), Outside::Unchanged, strength), newton_(newton) {
+  if (!(newton.tolerance > 0.0) || !std::isfinite(newton.tolerance))
+    throw std::invalid_argument("tolerance: must be a positive number");
+  if (newton.max_iterations < 1 || newton.max_iterations > 1000)
+    throw std::invalid_argument("max_iterations: must be 1..1000");
+  Eigen::AlignedBox3d all;
+  for (std::size_t i = 0; i < control_count(); ++i) all.extend(Vec3(rest[3 * i], rest[3 * i + 1], rest[3 * i + 2]));
+  size_ = all.diagonal().norm();
+  if (!(size_ > 0.0)) throw std::invalid_argument("rest_control_points: all control points coincide");
+  merge_coincident_control_points(1e-9 * size_);
+  for (int a = 0; a < 3; ++a) blocks_[a] = (counts[a] - 1) / 3;
+  for (int bi = 0; bi < blocks_[0]; ++bi)
+    for (int bj = 0; bj < blocks_[1]; ++bj)
+      for (int bk = 0; bk < blocks_[2]; ++bk) {
+        Eigen::AlignedBox3d box;
+        for (int i = 0; i < 4; ++i)
+          for (int j = 0; j < 4; ++j)
+            for (int k = 0; k < 4; ++k) {
+              const std::size_t f = (std::size_t(3 * bi + i) * counts[1] + 3 * bj + j) * counts[2] + 3 * bk + k;
+              box.extend(Vec3(rest[3 * f], rest[3 * f + 1], rest[3 * f + 2]));
+            }
+        const double pad = 1e-9 * size_;
+        box.min().array() -= pad;
+        box.max().array() += pad;
+        bounds_.push_back(box);
+      }
+}
+
+Vec3 ExtendedFFD::block_point(int block, const Vec3& local, Mat3* derivative) const {
+  const int bk = block % blocks_[2], bj = (block / blocks_[2]) % blocks_[1], bi = block / (blocks_[1] * blocks_[2]);
+  double w[3][4], dw[3][4];
+  for (int a = 0; a < 3; ++a) bernstein_basis(3, local[a], w[a], dw[a]);
+  const auto res = resolution();
+  const auto& rest = rest_control_points();
+  Vec3 x = Vec3::Zero();
+  Mat3 d = Mat3::Zero();
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j)
+      for (int k = 0; k < 4; ++k) {
+        const std::size_t f = (std::size_t(3 * bi + i) * res[1] + 3 * bj + j) * res[2] + 3 * bk + k;
+        const Vec3 p(rest[3 * f], rest[3 * f + 1], rest[3 * f + 2]);
+        x += w[0][i] * w[1][j] * w[2][k] * p;
+        d.col(0) += dw[0][i] * w[1][j] * w[2][k] * p;
+        d.col(1) += w[0][i] * dw[1][j] * w[2][k] * p;
+        d.col(2) += w[0][i] * w[1][j] * dw[2][k] * p;
+      }
+  if (derivative) *derivative = d;
+  return x;
+}
+
+// Solve J step = f; near-singular J (a wedge block on a cylinder's axis) takes the minimum-norm step.
+static Vec3 newton_step(const Mat3& j, const Vec3& f) {
+  const double scale = j.cwiseAbs().maxCoeff();
+  if (std::abs(j.determinant()) > 1e-12 * scale * scale * scale) return j.partialPivLu().solve(f);
+  return j.completeOrthogonalDecomposition().solve(f);
+}
+
+ExtendedFFD::Placement ExtendedFFD::invert_block(int block, const Vec3& x, Vec3& local) const {
+  constexpr double kAccept = 1e-7;  // a point on a shared face may land a rounding error outside
+  const double goal = newton_.tolerance * size_;
+  bool ended_inside = false;
+  for (int start = 0; start < 9; ++start) {
+    Vec3 s = start == 0 ? Vec3(0.5, 0.5, 0.5)
+                        : Vec3(start & 1 ? 0.75 : 0.25, start & 2 ? 0.75 : 0.25, start & 4 ? 0.75 : 0.25);
+    Mat3 j;
+    Vec3 f = block_point(block, s, &j) - x;
+    double err = f.norm();
+    for (int it = 0; it < newton_.max_iterations && err > goal; ++it) {
+      const Vec3 step = newton_step(j, f);
+      // Damped: halve the step until the residual decreases (algorithms.md B.2, robustness).
+      double lambda = 1.0;
+      bool improved = false;
+      for (int h = 0; h < 30 && !improved; ++h, lambda *= 0.5) {
+        const Vec3 trial = (s - lambda * step).cwiseMax(-0.5).cwiseMin(1.5);
+        Mat3 jt;
+        const Vec3 ft = block_point(block, trial, &jt) - x;
+        if (ft.norm() < err) {
+          s = trial, f = ft, j = jt, err = ft.norm();
+          improved = true;
+        }
+      }
+      if (!improved) break;
+    }
+    if (err <= goal) {
+      if ((s.array() >= -kAccept).all() && (s.array() <= 1.0 + kAccept).all()) {
+        local = s.cwiseMax(0.0).cwiseMin(1.0);
+        return Placement::Inside;
+      }
+      return Placement::Outside;
+    }
+    if ((s.array() >= -0.05).all() && (s.array() <= 1.05).all()) ended_inside = true;
+  }
+  // Stuck well outside the block: the point is outside it; stuck inside: Newton failed.
+  return ended_inside ? Placement::Failed : Placement::Outside;
+}
+
+PointStatus ExtendedFFD::locate(const Vec3& x, Vec3& parameters) const {
+  parameters = Vec3::Constant(-1.0);
+  bool failed = false;
+  for (int b = 0; b < int(bounds_.size()); ++b) {
+    if (!bounds_[b].contains(x)) continue;  // outside the control points' hull box: outside the block
+    Vec3 local;
+    const Placement p = invert_block(b, x, local);
+    if (p == Placement::Inside) {
+      const int bk = b % blocks_[2], bj = (b / blocks_[2]) % blocks_[1], bi = b / (blocks_[1] * blocks_[2]);
+      parameters = Vec3((bi + local[0]) / blocks_[0], (bj + local[1]) / blocks_[1], (bk + local[2]) / blocks_[2]);
+      return PointStatus::Inside;
+    }
+    failed = failed || p == Placement::Failed;
+  }
+  return failed ? PointStatus::NotPlaced : PointStatus::Outside;
+}
+
+Mat3 ExtendedFFD::parameter_jacobian(const Vec3& parameters) const {
+  Mat3 d;
+  rest_map(parameters, &d);
+  // On a degenerate wedge (the cylinder's axis) d is singular; the pseudo-inverse stays finite.
+  return d.completeOrthogonalDecomposition().pseudoInverse();
+}
+
+std::vector<double> ExtendedFFD::cylinder_grid(double radius, double height, std::array<int, 3> blocks,
+                                               const Vec3& center, int axis) {
+  if (!(radius > 0.0) || !std::isfinite(radius)) throw std::invalid_argument("radius: must be a positive number");
+  if (!(height > 0.0) || !std::isfinite(height)) throw std::invalid_argument("height: must be a positive number");
+  if (!center.allFinite()) throw std::invalid_argument("center: is not finite");
+  if (blocks[0] < 1 || blocks[2] < 1 || blocks[1] < 3 || blocks[0] > 64 || blocks[1] > 256 || blocks[2] > 256)
+    throw std::invalid_argument("blocks: a cylinder needs 1..64 radial, 3..256 angular and 1..256 axial blocks");
+  const int nr = 3 * blocks[0] + 1, na = 3 * blocks[1] + 1, nh = 3 * blocks[2] + 1;
+  const double step = 2.0 * M_PI / blocks[1];
+  const double kappa = 4.0 / 3.0 * std::tan(step / 4.0);  // cubic Bezier arc handle length
+  std::vector<double> grid;
+  grid.reserve(3 * std::size_t(nr) * na * nh);
+  for (int i = 0; i < nr; ++i)
+    for (int j = 0; j < na; ++j)
+      for (int k = 0; k < nh; ++k) {
+        const double r = radius * i / (nr - 1);
+        const int b = j / 3, q = j % 3;
+        const double a0 = step * b, a1 = step * (b + 1);
+        double x, y;
+        if (q == 0) x = std::cos(a0), y = std::sin(a0);
+        else if (q == 1) x = std::cos(a0) - kappa * std::sin(a0), y = std::sin(a0) + kappa * std::cos(a0);
+        else x = std::cos(a1) + kappa * std::sin(a1), y = std::sin(a1) - kappa * std::cos(a1);
+        const Vec3 local(r * x, r * y, height * (double(k) / (nh - 1) - 0.5));
+        // Cyclic so that the cylinder's axis lands on `axis` with a right-handed frame.
+        const Vec3 p = center + Vec3(local[(2 - axis) % 3], local[(3 - axis) % 3], local[(4 - axis) % 3]);
+        grid.insert(grid.end(), {p[0], p[1], p[2]});
+      }
+  return grid;
+}
+
+}  // namespace deformkit
