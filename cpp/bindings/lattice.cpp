@@ -152,6 +152,12 @@ PyBinding py_bind(const std::shared_ptr<ControlLattice>& lat, const py::object& 
   return PyBinding{b, lat};
 }
 
+py::array parameters_array(const LatticeBinding& b) {
+  py::array_t<double> a({py::ssize_t(b.size()), py::ssize_t(3)});
+  std::copy(b.parameters.begin(), b.parameters.end(), a.mutable_data());
+  return std::move(a);
+}
+
 py::array py_deform_bound(const ControlLattice& lat, const PyBinding& pb, const py::object& out) {
   const LatticeBinding& b = *pb.binding;
   const py::dtype dtype = b.single_precision ? py::dtype::of<float>() : py::dtype::of<double>();
@@ -219,15 +225,13 @@ void bind_lattice(py::module_& m) {
         return py::array_t<std::uint8_t>(py::ssize_t(b.binding->size()), b.binding->status.data());
       }, "Per point: 0 inside the lattice, 1 outside (the outside policy applies), 2 not placed (extended "
          "FFD: Newton did not converge; left unchanged).")
-      .def_property_readonly("parameters", [](const PyBinding& b) {
-        py::array_t<double> a({py::ssize_t(b.binding->size()), py::ssize_t(3)});
-        std::copy(b.binding->parameters.begin(), b.binding->parameters.end(), a.mutable_data());
-        return a;
-      }, "Normalised lattice coordinates (s, t, u), (n, 3).")
+      .def_property_readonly("parameters", [](const PyBinding& b) { return parameters_array(*b.binding); },
+                             "Normalised lattice coordinates (s, t, u), (n, 3).")
       .def("weights", &py_weights, R"(The sparse weight matrix W as CSR (indptr, indices, data).
 
-Columns are flattened control points (i * nv + j) * nw + k; deform = x + strength * W (P - R).
-Rows of points the lattice leaves unchanged are empty.)");
+Columns are flattened control points (i * nv + j) * nw + k; deform = x + strength * W (P - R)
+(then blended by the lattice's per-point weights, if any). Rows of points the lattice leaves
+unchanged are empty.)");
 
   py::class_<PyDirect>(m, "DirectManipulation", "Result of Lattice.direct_manipulation.")
       .def_readonly("control_points", &PyDirect::control_points, "The new control points (nu, nv, nw, 3).")
@@ -262,7 +266,7 @@ Rows of points the lattice leaves unchanged are empty.)");
            "Deform bound points with the current control points; equals deform(points). The dtype is that of "
            "the bound points.")
       .def("lattice_coordinates", [](const std::shared_ptr<ControlLattice>& l, const py::object& points) {
-        return py::cast(py_bind(l, points)).attr("parameters");
+        return parameters_array(*py_bind(l, points).binding);
       }, "points"_a, "Normalised lattice coordinates (s, t, u) of each point (the lecture's cross-product formulas).")
       .def("direct_manipulation", &py_direct, "points"_a, "targets"_a,
            R"(Smallest control-point change that moves `points` to `targets` (Hsu, Hughes, Kaufman 1992).

@@ -1,13 +1,16 @@
 #include "deformkit/control_lattice.hpp"
 
+#include "deformkit/lattice_kernel.hpp"
 #include "deformkit/parallel.hpp"
 
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 namespace deformkit {
 
@@ -153,24 +156,18 @@ Vec3 ControlLattice::rest_map(const Vec3& parameters, Mat3* derivative) const {
   return contract(rest_, parameters, derivative);
 }
 
+// Unbound points take the same path as bound ones: bind, then the cell-sorted SIMD kernel.
 template <class T>
 bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
+  for (std::size_t i = 0; i < 3 * n; ++i)
+    if (!std::isfinite(in[i])) return false;
+  const LatticeBinding b = bind_points(in, n);
+  deform_bound_points(b, out);
   std::atomic<bool> finite{true};
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    bool ok = true;
-    for (std::size_t i = begin; i < end; ++i) {
-      const Vec3 x(in[3 * i], in[3 * i + 1], in[3 * i + 2]);
-      if (!x.allFinite()) {
-        ok = false;
-        continue;
-      }
-      Vec3 p;
-      Vec3 y = x;
-      if (displaces(locate(x, p))) y += strength_ * displacement_at(p, nullptr);
-      for (int a = 0; a < 3; ++a) out[3 * i + a] = static_cast<T>(y[a]);
-      ok = ok && std::isfinite(out[3 * i]) && std::isfinite(out[3 * i + 1]) && std::isfinite(out[3 * i + 2]);
-    }
-    if (!ok) finite = false;
+    T acc = 0;
+    for (std::size_t i = 3 * begin; i < 3 * end; ++i) acc += out[i] * T(0);
+    if (acc != acc) finite = false;
   });
   return finite;
 }
@@ -197,27 +194,57 @@ void ControlLattice::jacobian_impl(const double* in, double* jac, std::size_t n)
   });
 }
 
+namespace {
+
+// The kernel's view of an axis, and the control points a piece touches in that view.
+KernelAxis kernel_axis(const AxisBasis& a) {
+  switch (a.kind) {
+    case BasisKind::Bernstein: return {KernelBasis::Bernstein, a.count, 0.0};
+    case BasisKind::BezierBlocks: return {KernelBasis::Bernstein, 4, 0.0};
+    case BasisKind::UniformBSpline:
+    case BasisKind::BlenderBSpline: return {a.count == 1 ? KernelBasis::Constant : KernelBasis::CubicBSpline,
+                                            a.count == 1 ? 1 : 4, 0.0};
+    case BasisKind::BlenderLinear: return {a.count == 1 ? KernelBasis::Constant : KernelBasis::Linear,
+                                           a.count == 1 ? 1 : 2, 0.0};
+    case BasisKind::BlenderCardinal: return {a.count == 1 ? KernelBasis::Constant : KernelBasis::Cardinal,
+                                             a.count == 1 ? 1 : 4, 0.71};
+    case BasisKind::BlenderCatmullRom: return {a.count == 1 ? KernelBasis::Constant : KernelBasis::Cardinal,
+                                               a.count == 1 ? 1 : 4, 0.5};
+  }
+  return {};
+}
+
+void kernel_indices(const AxisBasis& a, int piece, int* index) {
+  double w[kMaxAxisWidth];
+  int all[kMaxAxisWidth];
+  AxisSpan span;
+  span.piece = piece;
+  a.evaluate(span, w, nullptr, all);
+  // Linear uses the middle two of Blender's four indices; a single-point axis only the second.
+  const int first = a.kind == BasisKind::BlenderLinear || a.count == 1 ? (is_blender(a.kind) ? 1 : 0) : 0;
+  for (int k = 0; k < kernel_axis(a).width; ++k) index[k] = all[first + k];
+}
+
+}  // namespace
+
 template <class T>
 LatticeBinding ControlLattice::bind_points(const T* in, std::size_t n) const {
   require_finite_rows(in, n, "points");
+  if (n >= (std::size_t(1) << 32)) throw std::invalid_argument("points: more than 2^32 - 1 rows");
   LatticeBinding b;
   b.resolution = resolution();
   b.layout = layout();
   b.single_precision = std::is_same<T, float>::value;
-  b.points.resize(3 * n);
   b.parameters.resize(3 * n);
   b.status.resize(n);
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
-      const Vec3 x(in[3 * i], in[3 * i + 1], in[3 * i + 2]);
       Vec3 p;
-      b.status[i] = static_cast<std::uint8_t>(locate(x, p));
-      for (int a = 0; a < 3; ++a) {
-        b.points[3 * i + a] = x[a];
-        b.parameters[3 * i + a] = p[a];
-      }
+      b.status[i] = static_cast<std::uint8_t>(locate(Vec3(in[3 * i], in[3 * i + 1], in[3 * i + 2]), p));
+      for (int a = 0; a < 3; ++a) b.parameters[3 * i + a] = p[a];
     }
   });
+  sort_by_cell(b, in);
   return b;
 }
 
@@ -225,24 +252,138 @@ LatticeBinding ControlLattice::bind(const double* points, std::size_t n) const {
 LatticeBinding ControlLattice::bind(const float* points, std::size_t n) const { return bind_points(points, n); }
 
 template <class T>
-void ControlLattice::deform_bound_points(const LatticeBinding& b, T* out) const {
-  if (b.layout != layout())
-    throw std::invalid_argument("binding: was made by a lattice with another basis, resolution or rest placement; "
-                                "bind the points to this lattice");
-  parallel_blocks(b.size(), [&](std::size_t begin, std::size_t end) {
+void ControlLattice::sort_by_cell(LatticeBinding& b, const T* in) const {
+  const std::size_t n = b.size();
+  // Cell key: pieces offset by 2 (Blender's run from -2 to count); one extra key for points
+  // left where they are.
+  const std::uint64_t r0 = axes_[0].count + 4, r1 = axes_[1].count + 4, r2 = axes_[2].count + 4;
+  const std::uint64_t still = r0 * r1 * r2;
+  // Scratch left uninitialised: zero-filling tens of megabytes costs as much as the work.
+  std::unique_ptr<std::uint64_t[]> key(new std::uint64_t[n]);
+  std::unique_ptr<double[]> td(new double[3 * n]);
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
-      const double* x = &b.points[3 * i];
-      Vec3 d = Vec3::Zero();
-      if (displaces(static_cast<PointStatus>(b.status[i])))
-        d = strength_ * displacement_at(Vec3(b.parameters[3 * i], b.parameters[3 * i + 1], b.parameters[3 * i + 2]),
-                                        nullptr);
-      for (int a = 0; a < 3; ++a) out[3 * i + a] = static_cast<T>(x[a] + d[a]);
+      if (!displaces(static_cast<PointStatus>(b.status[i]))) {
+        key[i] = still;
+        continue;
+      }
+      std::uint64_t k = 0;
+      const std::uint64_t range[3] = {r0, r1, r2};
+      for (int a = 0; a < 3; ++a) {
+        const AxisSpan span = axes_[a].locate(b.parameters[3 * i + a], outside_);
+        td[3 * i + a] = span.t;
+        k = k * range[a] + std::uint64_t(span.piece + 2);
+      }
+      key[i] = k;
+    }
+  });
+  b.order.resize(n);
+  if (still + 1 <= (std::uint64_t(1) << 22)) {  // counting sort: linear, and stable
+    std::vector<std::uint32_t> start(still + 2, 0);
+    for (std::size_t i = 0; i < n; ++i) ++start[key[i] + 1];
+    for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+    for (std::size_t i = 0; i < n; ++i) b.order[start[key[i]]++] = static_cast<std::uint32_t>(i);
+  } else {
+    for (std::size_t i = 0; i < n; ++i) b.order[i] = static_cast<std::uint32_t>(i);
+    std::stable_sort(b.order.begin(), b.order.end(), [&](std::uint32_t x, std::uint32_t y) { return key[x] < key[y]; });
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint64_t k = key[b.order[i]];
+    if (i > 0 && k == key[b.order[i - 1]]) continue;
+    b.run_begin.push_back(static_cast<std::uint32_t>(i));
+    b.run_moves.push_back(k != still);
+    b.run_cell.push_back({int(k / (r1 * r2) % r0) - 2, int(k / r2 % r1) - 2, int(k % r2) - 2});
+  }
+  b.run_begin.push_back(static_cast<std::uint32_t>(n));
+  std::vector<T>& sorted = [&]() -> std::vector<T>& {
+    if constexpr (std::is_same<T, float>::value) return b.sorted_f;
+    else return b.sorted_d;
+  }();
+  sorted.resize(6 * n);
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const std::size_t p = b.order[i];
+      for (int a = 0; a < 3; ++a) {
+        sorted[a * n + i] = static_cast<T>(td[3 * p + a]);
+        sorted[(3 + a) * n + i] = in[3 * p + a];
+      }
     }
   });
 }
 
-void ControlLattice::deform_bound(const LatticeBinding& b, double* out) const { deform_bound_points(b, out); }
-void ControlLattice::deform_bound(const LatticeBinding& b, float* out) const { deform_bound_points(b, out); }
+template <class T>
+void ControlLattice::deform_bound_points(const LatticeBinding& b, T* out) const {
+  if (b.layout != layout())
+    throw std::invalid_argument("binding: was made by a lattice with another basis, resolution or rest placement; "
+                                "bind the points to this lattice");
+  const std::vector<T>& sorted = [&]() -> const std::vector<T>& {
+    if constexpr (std::is_same<T, float>::value) return b.sorted_f;
+    else return b.sorted_d;
+  }();
+  if (sorted.size() != 6 * b.size())
+    throw std::invalid_argument(std::string("binding: holds ") + (b.single_precision ? "float32" : "float64") +
+                                " points; deform them into an array of that dtype");
+  const std::size_t n = b.size();
+  const KernelAxis kaxes[3] = {kernel_axis(axes_[0]), kernel_axis(axes_[1]), kernel_axis(axes_[2])};
+  const int nv = axes_[1].count, nw = axes_[2].count;
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    std::vector<T> block(3 * std::size_t(kaxes[0].width) * kaxes[1].width * kaxes[2].width);
+    std::size_t r = std::upper_bound(b.run_begin.begin(), b.run_begin.end(), begin) - b.run_begin.begin() - 1;
+    for (; r + 1 < b.run_begin.size() && b.run_begin[r] < end; ++r) {
+      const std::size_t lo = std::max<std::size_t>(begin, b.run_begin[r]), hi = std::min<std::size_t>(end, b.run_begin[r + 1]);
+      if (!b.run_moves[r]) {
+        for (std::size_t i = lo; i < hi; ++i)
+          for (int a = 0; a < 3; ++a) out[3 * std::size_t(b.order[i]) + a] = sorted[(3 + a) * n + i];
+        continue;
+      }
+      int index[3][kMaxAxisWidth];
+      for (int a = 0; a < 3; ++a) kernel_indices(axes_[a], b.run_cell[r][a], index[a]);
+      std::size_t e = 0;
+      for (int i = 0; i < kaxes[0].width; ++i)
+        for (int j = 0; j < kaxes[1].width; ++j)
+          for (int k = 0; k < kaxes[2].width; ++k) {
+            const double* c = &offset_[3 * ((std::size_t(index[0][i]) * nv + index[1][j]) * nw + index[2][k])];
+            for (int a = 0; a < 3; ++a) block[e++] = static_cast<T>(strength_ * c[a]);
+          }
+      const T* t[3] = {&sorted[lo], &sorted[n + lo], &sorted[2 * n + lo]};
+      const T* x[3] = {&sorted[3 * n + lo], &sorted[4 * n + lo], &sorted[5 * n + lo]};
+      lattice_cell_kernel(kaxes, block.data(), t, x, &b.order[lo], hi - lo, out);
+    }
+  });
+}
+
+// deform() blends the per-point weights in the Deformer base; the bound path must do the same.
+template <class T>
+static void blend_bound(const LatticeBinding& b, const std::vector<double>& w, const std::vector<T>& sorted, T* out) {
+  const std::size_t n = b.size();
+  if (w.empty()) return;
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const std::size_t p = b.order[i];
+      for (int a = 0; a < 3; ++a) {
+        const double x = sorted[(3 + a) * n + i];
+        out[3 * p + a] = static_cast<T>(x + w[p] * (static_cast<double>(out[3 * p + a]) - x));
+      }
+    }
+  });
+}
+
+static void require_bound_weights(const std::vector<double>& w, const LatticeBinding& b) {
+  if (!w.empty() && w.size() != b.size())
+    throw std::invalid_argument("weights: has " + std::to_string(w.size()) + " entries but the binding has " +
+                                std::to_string(b.size()) + " points");
+}
+
+void ControlLattice::deform_bound(const LatticeBinding& b, double* out) const {
+  require_bound_weights(weights(), b);
+  deform_bound_points(b, out);
+  blend_bound(b, weights(), b.sorted_d, out);
+}
+void ControlLattice::deform_bound(const LatticeBinding& b, float* out) const {
+  require_bound_weights(weights(), b);
+  deform_bound_points(b, out);
+  blend_bound(b, weights(), b.sorted_f, out);
+}
 
 SparseWeights ControlLattice::weights_matrix(const LatticeBinding& b) const {
   if (b.layout != layout())

@@ -19,9 +19,16 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
     throw std::invalid_argument("points: " + std::to_string(m) + " constraints on " + std::to_string(handles) +
                                 " control points is too large for the dense least-squares solve");
   const LatticeBinding binding = lattice.bind(points, m);
-  std::vector<double> current(3 * m);
-  lattice.deform_bound(binding, current.data());
   const SparseWeights w = lattice.weights_matrix(binding);
+  // Where the points are now, x + strength W (P - R): the lattice's own per-point weights belong
+  // to the points it deforms, not to these constraints.
+  const auto& control = lattice.control_points();
+  const auto& rest = lattice.rest_control_points();
+  std::vector<double> current(points, points + 3 * m);
+  for (std::size_t r = 0; r < m; ++r)
+    for (std::int64_t e = w.indptr[r]; e < w.indptr[r + 1]; ++e)
+      for (int a = 0; a < 3; ++a)
+        current[3 * r + a] += lattice.strength() * w.values[e] * (control[3 * w.indices[e] + a] - rest[3 * w.indices[e] + a]);
 
   Eigen::MatrixXd b = Eigen::MatrixXd::Zero(Eigen::Index(m), handles);
   for (std::size_t r = 0; r < m; ++r)

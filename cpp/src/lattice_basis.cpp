@@ -7,11 +7,6 @@
 
 namespace deformkit {
 
-bool is_blender(BasisKind kind) {
-  return kind == BasisKind::BlenderLinear || kind == BasisKind::BlenderCardinal ||
-         kind == BasisKind::BlenderCatmullRom || kind == BasisKind::BlenderBSpline;
-}
-
 void bernstein_basis(int degree, double t, double* value, double* derivative) {
   // B_i^d = C(d,i) t^i (1-t)^(d-i); dB_i^d/dt = d (B_{i-1}^{d-1} - B_i^{d-1}) (algorithms.md B.1).
   double lower[kMaxAxisWidth + 1];
@@ -100,55 +95,6 @@ AxisBasis AxisBasis::make(BasisKind kind, int count, const char* argument) {
                                     " points per axis, got " + std::to_string(count));
   }
   return AxisBasis{kind, count};
-}
-
-int AxisBasis::pieces() const {
-  switch (kind) {
-    case BasisKind::Bernstein: return 1;
-    case BasisKind::BezierBlocks: return (count - 1) / 3;
-    case BasisKind::UniformBSpline: return count - 3;
-    default: return std::max(1, count - 1);
-  }
-}
-
-int AxisBasis::width() const { return kind == BasisKind::Bernstein ? count : 4; }
-
-double AxisBasis::domain_lo() const { return kind == BasisKind::UniformBSpline ? 1.0 / (count - 1) : 0.0; }
-double AxisBasis::domain_hi() const {
-  return kind == BasisKind::UniformBSpline ? (count - 2.0) / (count - 1) : 1.0;
-}
-double AxisBasis::scale() const { return pieces() / (domain_hi() - domain_lo()); }
-
-double AxisBasis::rest_coordinate(int j) const { return count == 1 ? 0.5 : double(j) / (count - 1); }
-
-AxisSpan AxisBasis::locate(double s, Outside outside) const {
-  AxisSpan span;
-  constexpr double kSlack = 1e-12;  // rest points on a face must count as inside despite rounding
-  const double lo = domain_lo(), hi = domain_hi();
-  span.inside = s >= lo - kSlack && s <= hi + kSlack;
-  if (is_blender(kind)) {
-    if (count == 1) {
-      span.frozen = true;
-      return span;
-    }
-    // lattice_deform.cc: i = floor(s (n-1)); indices i-1..i+2 clamped (edge repeat). Beyond two
-    // cells all four clamp to the same point, so i is limited without changing the result.
-    const double g = s * (count - 1);
-    const double i = std::floor(g);
-    span.t = g - i;
-    span.piece = static_cast<std::int32_t>(std::clamp(i, -2.0, double(count)));
-    span.frozen = i <= -2.0 || i >= count;
-    return span;
-  }
-  double c = s;
-  if (outside != Outside::Extrapolate && !span.inside) {
-    c = std::clamp(s, lo, hi);
-    span.frozen = true;
-  }
-  const double g = (c - lo) * scale();
-  span.piece = static_cast<std::int32_t>(std::clamp(std::floor(g), 0.0, double(pieces() - 1)));
-  span.t = g - span.piece;
-  return span;
 }
 
 void AxisBasis::evaluate(const AxisSpan& span, double* w, double* dw, int* index) const {

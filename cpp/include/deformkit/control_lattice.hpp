@@ -18,20 +18,29 @@ enum class PointStatus : std::uint8_t {
 };
 
 // Each point's lattice coordinates, found once; deforming after control points move needs
-// nothing else. The weights are regenerated from the coordinates in registers, which is cheaper
-// than streaming 64 stored weights per point from memory.
+// nothing else. Points are sorted by lattice cell so that a cell's control points are loaded
+// once and its points fill the SIMD lanes; the weights are regenerated from the coordinates in
+// registers, which is cheaper than streaming 64 stored weights per point from memory.
 struct LatticeBinding {
   std::array<int, 3> resolution{};
   std::uint64_t layout = 0;          // identifies the lattice's bases and resolution
   bool single_precision = false;     // points were float32: deform_bound returns float32
-  std::vector<double> points;        // 3n, the bound positions
   std::vector<double> parameters;    // 3n, normalised lattice coordinates
   std::vector<std::uint8_t> status;  // n, PointStatus
   std::size_t size() const { return status.size(); }
+
+  // Sorted by cell: sorted position i is point order[i]; run r is [run_begin[r], run_begin[r+1]).
+  std::vector<std::uint32_t> order, run_begin;
+  std::vector<std::array<std::int32_t, 3>> run_cell;  // the cell's piece per axis
+  std::vector<std::uint8_t> run_moves;                // 0: the run's points are left unchanged
+  // Structure of arrays in sorted order: local t0, t1, t2 then x, y, z (one of the two is used).
+  std::vector<float> sorted_f;
+  std::vector<double> sorted_d;
 };
 
-// Rows of the sparse weight matrix W (deform = x + strength W (P - R)), over flattened control
-// points (i * nv + j) * nw + k; duplicate columns (Blender's index clamping) merged.
+// Rows of the sparse weight matrix W (deform = x + strength W (P - R), before any per-point
+// blend weights), over flattened control points (i * nv + j) * nw + k; duplicate columns
+// (Blender's index clamping) merged.
 struct SparseWeights {
   std::vector<std::int64_t> indptr;
   std::vector<std::int32_t> indices;
@@ -58,6 +67,7 @@ class ControlLattice : public Deformer {
   LatticeBinding bind(const double* points, std::size_t n) const;
   LatticeBinding bind(const float* points, std::size_t n) const;
   // Throws std::invalid_argument naming `binding` when it was made by a lattice of another layout.
+  // Per-point weights, if set, blend as in deform() and must match the bound points.
   void deform_bound(const LatticeBinding& binding, double* out) const;
   void deform_bound(const LatticeBinding& binding, float* out) const;
   SparseWeights weights_matrix(const LatticeBinding& binding) const;
@@ -89,6 +99,8 @@ class ControlLattice : public Deformer {
   LatticeBinding bind_points(const T* in, std::size_t n) const;
   template <class T>
   void deform_bound_points(const LatticeBinding& b, T* out) const;
+  template <class T>
+  void sort_by_cell(LatticeBinding& b, const T* in) const;
   Vec3 contract(const std::vector<double>& grid, const Vec3& parameters, Mat3* derivative) const;
 
   LatticeAxes axes_;

@@ -1,6 +1,8 @@
 #pragma once
 // One axis of a tensor-product lattice: which control points a coordinate touches, and how much.
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 
 namespace deformkit {
@@ -26,7 +28,10 @@ constexpr int kMaxAxisWidth = 16;  // Bernstein degree <= 15
 constexpr int kMaxBlenderResolution = 64;
 constexpr long kMaxControlPoints = 1L << 22;
 
-bool is_blender(BasisKind kind);
+inline bool is_blender(BasisKind kind) {
+  return kind == BasisKind::BlenderLinear || kind == BasisKind::BlenderCardinal ||
+         kind == BasisKind::BlenderCatmullRom || kind == BasisKind::BlenderBSpline;
+}
 
 // Bernstein polynomials B_i^d(t) = C(d,i) t^i (1-t)^(d-i), i = 0..d, and d/dt (Sederberg-Parry 1986 eq. 1).
 void bernstein_basis(int degree, double t, double* value, double* derivative);
@@ -49,20 +54,58 @@ struct AxisBasis {
   // Throws std::invalid_argument naming `argument` when count does not suit the kind.
   static AxisBasis make(BasisKind kind, int count, const char* argument);
 
-  int pieces() const;
-  int width() const;  // weights per point along this axis
+  // Inline: called per point and coordinate when binding millions of points.
+  int pieces() const {
+    switch (kind) {
+      case BasisKind::Bernstein: return 1;
+      case BasisKind::BezierBlocks: return (count - 1) / 3;
+      case BasisKind::UniformBSpline: return count - 3;
+      default: return count > 1 ? count - 1 : 1;
+    }
+  }
+  int width() const { return kind == BasisKind::Bernstein ? count : 4; }  // weights per point along this axis
   // The domain in normalised box coordinates s (0 and 1 are the box faces).
-  double domain_lo() const;
-  double domain_hi() const;
+  double domain_lo() const { return kind == BasisKind::UniformBSpline ? 1.0 / (count - 1) : 0.0; }
+  double domain_hi() const { return kind == BasisKind::UniformBSpline ? (count - 2.0) / (count - 1) : 1.0; }
   // d(local t)/ds inside a piece.
-  double scale() const;
+  double scale() const { return pieces() / (domain_hi() - domain_lo()); }
   // Rest position of control point j in normalised box coordinates.
-  double rest_coordinate(int j) const;
+  double rest_coordinate(int j) const { return count == 1 ? 0.5 : double(j) / (count - 1); }
 
   AxisSpan locate(double s, Outside outside) const;
   // Weights and d/ds (frozen spans give 0) of the control points touched: index[0..width()).
   void evaluate(const AxisSpan& span, double* weight, double* derivative, int* index) const;
 };
+
+inline AxisSpan AxisBasis::locate(double s, Outside outside) const {
+  AxisSpan span;
+  constexpr double kSlack = 1e-12;  // rest points on a face must count as inside despite rounding
+  const double lo = domain_lo(), hi = domain_hi();
+  span.inside = s >= lo - kSlack && s <= hi + kSlack;
+  if (is_blender(kind)) {
+    if (count == 1) {
+      span.frozen = true;
+      return span;
+    }
+    // lattice_deform.cc: i = floor(s (n-1)); indices i-1..i+2 clamped (edge repeat). Beyond two
+    // cells all four clamp to the same point, so i is limited without changing the result.
+    const double g = s * (count - 1);
+    const double i = std::floor(g);
+    span.t = g - i;
+    span.piece = static_cast<std::int32_t>(std::clamp(i, -2.0, double(count)));
+    span.frozen = i <= -2.0 || i >= count;
+    return span;
+  }
+  double c = s;
+  if (outside != Outside::Extrapolate && !span.inside) {
+    c = std::clamp(s, lo, hi);
+    span.frozen = true;
+  }
+  const double g = (c - lo) * scale();
+  span.piece = static_cast<std::int32_t>(std::clamp(std::floor(g), 0.0, double(pieces() - 1)));
+  span.t = g - span.piece;
+  return span;
+}
 
 using LatticeAxes = std::array<AxisBasis, 3>;
 
