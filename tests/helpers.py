@@ -11,3 +11,170 @@ def random_frame(rng):
     m[:3, :3] = q @ np.diag([1.3, 0.7, 1.1])
     m[:3, 3] = rng.uniform(-1, 1, 3)
     return m
+
+
+# --- Independent numpy references for the lattice deformers (the formulas of algorithms.md B.1-B.3) ---
+import math  # noqa: E402
+
+
+def bernstein(degree, t):
+    """B_i^d(t) = C(d, i) t^i (1 - t)^(d - i), as (n, d + 1); any t (the polynomial continued)."""
+    i = np.arange(degree + 1)
+    binom = np.array([math.comb(degree, k) for k in i], float)
+    t = np.asarray(t, float)[:, None]
+    return binom * t ** i * (1 - t) ** (degree - i)
+
+
+def bezier_blocks_basis(count, t):
+    """Piecewise cubic Bezier over (count - 1) / 3 equal blocks; the end blocks continue outside."""
+    blocks = (count - 1) // 3
+    g = np.asarray(t, float) * blocks
+    block = np.clip(np.floor(g), 0, blocks - 1).astype(int)
+    out = np.zeros((len(g), count))
+    local = bernstein(3, g - block)
+    for a in range(4):
+        out[np.arange(len(g)), 3 * block + a] = local[:, a]
+    return out
+
+
+def bspline_basis(count, t):
+    """Uniform cubic B-spline, knots at j / (count - 1); the first and last spans continue outside."""
+    g = np.asarray(t, float) * (count - 1)
+    span = np.clip(np.floor(g), 1, count - 3).astype(int)
+    f = g - span
+    n = [(1 - f) ** 3 / 6, (3 * f ** 3 - 6 * f ** 2 + 4) / 6, (-3 * f ** 3 + 3 * f ** 2 + 3 * f + 1) / 6, f ** 3 / 6]
+    out = np.zeros((len(g), count))
+    for a in range(4):
+        out[np.arange(len(g)), span - 1 + a] = n[a]
+    return out
+
+
+def blender_key_weights(kind, f):
+    """Blender's key_curve_position_weights (key.cc) with its float constants."""
+    f2, f3 = f * f, f * f * f
+    if kind == "linear":
+        z = np.zeros_like(f)
+        return [z, 1 - f, f, z]
+    if kind == "bspline":
+        c, d = float(np.float32(0.16666666)), float(np.float32(0.66666666))
+        return [-c * f3 + 0.5 * f2 - 0.5 * f + c, 0.5 * f3 - f2 + d, -0.5 * f3 + 0.5 * f2 + 0.5 * f + c, c * f3]
+    fc = {"cardinal": float(np.float32(0.71)), "catmull_rom": 0.5}[kind]
+    return [-fc * f3 + 2 * fc * f2 - fc * f, (2 - fc) * f3 + (fc - 3) * f2 + 1,
+            (fc - 2) * f3 + (3 - 2 * fc) * f2 + fc * f, fc * f3 - fc * f2]
+
+
+def blender_basis(count, kind, t):
+    """BKE_lattice_deform_data_eval_co along one axis: u = t (count - 1), indices clamped (edge repeat)."""
+    t = np.asarray(t, float)
+    out = np.zeros((len(t), count))
+    if count == 1:
+        out[:, 0] = 1.0
+        return out
+    g = t * (count - 1)
+    cell = np.floor(g).astype(int)
+    w = blender_key_weights(kind, g - cell)
+    for a in range(4):
+        np.add.at(out, (np.arange(len(t)), np.clip(cell - 1 + a, 0, count - 1)), w[a])
+    return out
+
+
+def tensor_weights(bu, bv, bw):
+    """Dense rows of W over flattened control points (i * nv + j) * nw + k."""
+    return np.einsum("ni,nj,nk->nijk", bu, bv, bw).reshape(len(bu), bu.shape[1] * bv.shape[1] * bw.shape[1])
+
+
+def box_coordinates(points, origin, edges):
+    """The lecture's cross products: s = (T x U).(X - X0) / ((T x U).S), t and u alike."""
+    s_, t_, u_ = (np.asarray(e, float) for e in edges)
+    d = np.asarray(points, float) - np.asarray(origin, float)
+    cols = []
+    for a, b, c in ((t_, u_, s_), (s_, u_, t_), (s_, t_, u_)):
+        n = np.cross(a, b)
+        cols.append(d @ n / (n @ c))
+    return np.stack(cols, axis=1)
+
+
+def box_point(stu, origin, edges):
+    return np.asarray(origin, float) + np.asarray(stu, float) @ np.asarray(edges, float)
+
+
+def box_grid(counts, origin, edges):
+    """Rest control points evenly spaced over the box including its faces (one point: the centre)."""
+    axes = [np.linspace(0, 1, n) if n > 1 else np.array([0.5]) for n in counts]
+    stu = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+    return box_point(stu.reshape(-1, 3), origin, edges).reshape(*counts, 3)
+
+
+def frame_box(frame):
+    """origin and edges of Blender's rest cube [-1/2, 1/2]^3 mapped by a 4x4 frame."""
+    frame = np.asarray(frame, float)
+    return frame[:3, :3] @ np.full(3, -0.5) + frame[:3, 3], frame[:3, :3].T.copy()
+
+
+def bezier_grid_eval(grid, params):
+    """Position-form evaluation of a grid of tricubic Bezier blocks at global parameters in [0, 1]^3."""
+    nu, nv, nw = grid.shape[:3]
+    w = tensor_weights(*(bezier_blocks_basis(n, params[:, a]) for a, n in enumerate((nu, nv, nw))))
+    return w @ grid.reshape(-1, 3)
+
+
+def fd_jacobian(f, pts, h=1e-6):
+    """Central differences, J[n, r, c] = dF_r / dx_c."""
+    cols = []
+    for c in range(3):
+        e = np.zeros(3)
+        e[c] = h
+        cols.append((f(pts + e) - f(pts - e)) / (2 * h))
+    return np.stack(cols, axis=-1)
+
+
+def cofactor_normals(jac, normals):
+    """cof(J) N = det(J) J^-T N, normalised."""
+    cof = np.linalg.det(jac)[:, None, None] * np.linalg.inv(jac).transpose(0, 2, 1)
+    out = np.einsum("nij,nj->ni", cof, normals)
+    return out / np.linalg.norm(out, axis=1)[:, None]
+
+
+def csr_dense(csr, columns):
+    indptr, indices, data = csr
+    dense = np.zeros((len(indptr) - 1, columns))
+    for r in range(len(indptr) - 1):
+        np.add.at(dense[r], indices[indptr[r]:indptr[r + 1]], data[indptr[r]:indptr[r + 1]])
+    return dense
+
+
+def box_surface(n):
+    """Closed, outward-oriented triangle mesh of the unit cube's surface, n x n quads per face."""
+    g = np.linspace(0, 1, n + 1)
+    a, b = (x.ravel() for x in np.meshgrid(g, g, indexing="ij"))
+    q = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).ravel()
+    quads = np.stack([q, q + n + 1, q + n + 2, q + 1], axis=1)
+    verts, faces = [], []
+    for axis in range(3):
+        for side in (0.0, 1.0):
+            p = np.zeros((len(a), 3))
+            p[:, axis], p[:, (axis + 1) % 3], p[:, (axis + 2) % 3] = side, a, b
+            tris = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+            if side == 0.0:
+                tris = tris[:, ::-1]
+            faces.append(tris + sum(len(v) for v in verts))
+            verts.append(p)
+    return np.concatenate(verts), np.concatenate(faces)
+
+
+def mesh_volume(verts, faces):
+    v = verts[faces]
+    return np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2])).sum() / 6
+
+
+def gauss_box(breaks, order=6):
+    """Tensor Gauss-Legendre nodes and weights over a box, one rule per piece between breakpoints."""
+    x, w = np.polynomial.legendre.leggauss(order)
+    axes = []
+    for br in breaks:
+        br = np.asarray(br, float)
+        lo, hi = br[:-1, None], br[1:, None]
+        axes.append(((((hi - lo) * x + hi + lo) / 2).ravel(), ((hi - lo) / 2 * w).ravel()))
+    grid = np.stack(np.meshgrid(*(a[0] for a in axes), indexing="ij"), -1).reshape(-1, 3)
+    weights = np.einsum("i,j,k->ijk", *(a[1] for a in axes)).ravel()
+    return grid, weights
