@@ -75,5 +75,95 @@ class Stack(Deformer):
     @property
     def deformers(self) -> list[Deformer]: ...
 
+_Vector3 = Sequence[float] | npt.NDArray[np.floating]
+_Counts = int | tuple[int, int, int]
+_Outside = Literal["clamp", "unchanged", "extrapolate"]
+_Interpolation = Literal["linear", "cardinal", "catmull_rom", "bspline",
+                         "KEY_LINEAR", "KEY_CARDINAL", "KEY_CATMULL_ROM", "KEY_BSPLINE"]
+
+class LatticeBinding:
+    """Points bound to a lattice: their lattice coordinates, found once."""
+    def __len__(self) -> int: ...
+    @property
+    def status(self) -> npt.NDArray[np.uint8]:
+        """0 inside, 1 outside (the outside policy applies), 2 not placed (EFFD Newton failed)."""
+    @property
+    def parameters(self) -> npt.NDArray[np.float64]: ...
+    def weights(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int32], npt.NDArray[np.float64]]:
+        """CSR rows (indptr, indices, data) of W: deform = x + strength * W (P - R)."""
+
+class DirectManipulation:
+    control_points: npt.NDArray[np.float64]
+    displacement: npt.NDArray[np.float64]
+    residual: npt.NDArray[np.float64]
+    max_residual: float
+    rank: int
+
+class Lattice(Deformer):
+    """Interface of the lattice deformers: F(x) = x + strength * sum w(x) (P - R)."""
+    control_points: npt.NDArray[np.float64]
+    @property
+    def rest_control_points(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def resolution(self) -> tuple[int, int, int]: ...
+    @property
+    def strength(self) -> float: ...
+    @property
+    def outside(self) -> str: ...
+    @property
+    def handle_index(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def handles(self) -> int: ...
+    def bind(self, points: npt.ArrayLike) -> LatticeBinding: ...
+    def deform_bound(self, binding: LatticeBinding, *, out: npt.NDArray[np.floating] | None = None
+                     ) -> npt.NDArray[np.floating]: ...
+    def lattice_coordinates(self, points: npt.ArrayLike) -> npt.NDArray[np.float64]: ...
+    def direct_manipulation(self, points: npt.ArrayLike, targets: npt.ArrayLike) -> DirectManipulation: ...
+
+class FFD(Lattice):
+    """Sederberg-Parry FFD: one trivariate Bernstein polynomial of degree (l, m, n)."""
+    def __init__(self, degree: _Counts = 3, *, origin: _Vector3 | None = None, edges: npt.ArrayLike | None = None,
+                 frame: _Matrix4 | None = None, control_points: npt.ArrayLike | None = None,
+                 outside: _Outside = "clamp", strength: float = 1.0, weights: npt.ArrayLike | None = None) -> None: ...
+    @property
+    def degree(self) -> tuple[int, int, int]: ...
+
+class BezierFFD(Lattice):
+    """Piecewise tricubic Bezier FFD blocks, (3a+1, 3b+1, 3c+1) control points."""
+    def __init__(self, blocks: _Counts = 1, *, origin: _Vector3 | None = None, edges: npt.ArrayLike | None = None,
+                 frame: _Matrix4 | None = None, control_points: npt.ArrayLike | None = None,
+                 outside: _Outside = "clamp", strength: float = 1.0, weights: npt.ArrayLike | None = None) -> None: ...
+
+class BSplineLattice(Lattice):
+    """Uniform cubic B-spline FFD over the box's inner part."""
+    def __init__(self, resolution: _Counts = 4, *, origin: _Vector3 | None = None, edges: npt.ArrayLike | None = None,
+                 frame: _Matrix4 | None = None, control_points: npt.ArrayLike | None = None,
+                 outside: _Outside = "clamp", strength: float = 1.0, weights: npt.ArrayLike | None = None) -> None: ...
+
+class BlenderLattice(Lattice):
+    """Blender's Lattice modifier, reproduced (interpolation per axis, index clamping outside)."""
+    def __init__(self, resolution: _Counts = 2, interpolation: _Interpolation | Sequence[_Interpolation] = "bspline",
+                 *, origin: _Vector3 | None = None, edges: npt.ArrayLike | None = None,
+                 frame: _Matrix4 | None = None, control_points: npt.ArrayLike | None = None,
+                 outside: Literal["clamp", "unchanged"] = "clamp", strength: float = 1.0,
+                 weights: npt.ArrayLike | None = None) -> None: ...
+    @property
+    def interpolation(self) -> tuple[str, str, str]: ...
+
+class ExtendedFFD(Lattice):
+    """Coquillart's extended FFD: Bezier blocks of any rest shape, points placed by Newton iteration."""
+    def __init__(self, rest_control_points: npt.ArrayLike, *, control_points: npt.ArrayLike | None = None,
+                 strength: float = 1.0, weights: npt.ArrayLike | None = None, tolerance: float = 1e-10,
+                 max_iterations: int = 30) -> None: ...
+    @staticmethod
+    def cylinder(radius: float = 1.0, height: float = 1.0, blocks: _Counts = (1, 4, 1),
+                 center: _Vector3 | None = None, axis: _Axis = "z", strength: float = 1.0,
+                 weights: npt.ArrayLike | None = None, tolerance: float = 1e-10,
+                 max_iterations: int = 30) -> ExtendedFFD: ...
+    @property
+    def tolerance(self) -> float: ...
+    @property
+    def max_iterations(self) -> int: ...
+
 def build_info() -> dict[str, str]:
     """Library versions, the SIMD target chosen for this CPU and the thread count."""
