@@ -29,10 +29,12 @@ from ._core import (
     Taper,
     Twist,
     build_info,
+    mesh_volume,
 )
 
 __all__ = [
     "BSplineLattice", "Bend", "BezierFFD", "BlenderLattice", "Deformer", "DirectManipulation", "ExtendedFFD",
     "FFD", "Lattice", "LatticeBinding", "SimpleDeform", "Stack", "Stretch", "Taper", "Twist", "build_info",
+    "mesh_volume",
 ]
 __version__ = "0.1.0"

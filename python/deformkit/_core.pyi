@@ -165,5 +165,8 @@ class ExtendedFFD(Lattice):
     @property
     def max_iterations(self) -> int: ...
 
+def mesh_volume(points: npt.ArrayLike, faces: npt.ArrayLike) -> float:
+    """Signed volume of a closed mesh (divergence theorem); faces (m, k), polygons fanned."""
+
 def build_info() -> dict[str, str]:
     """Library versions, the SIMD target chosen for this CPU and the thread count."""

@@ -13,3 +13,4 @@
 #include "deformkit/extended_ffd.hpp"
 #include "deformkit/lattice_basis.hpp"
 #include "deformkit/lattice_box.hpp"
+#include "deformkit/mesh_volume.hpp"
