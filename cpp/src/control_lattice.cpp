@@ -278,7 +278,21 @@ void ControlLattice::sort_by_cell(LatticeBinding& b, const T* in) const {
     }
   });
   b.order.resize(n);
-  if (still + 1 <= (std::uint64_t(1) << 22)) {  // counting sort: linear, and stable
+  if (still + 1 <= (std::uint64_t(1) << 14)) {
+    // Counting sort (linear, stable) within chunks of points: the kernel's scattered writes then
+    // stay inside one chunk's output, which fits in the L2 cache, whatever the point order.
+    constexpr std::size_t kChunk = 16384;
+    parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+      std::vector<std::uint32_t> start(still + 2);
+      for (std::size_t c = (begin + kChunk - 1) / kChunk * kChunk; c < end; c += kChunk) {
+        const std::size_t stop = std::min(n, c + kChunk);
+        std::fill(start.begin(), start.end(), 0u);
+        for (std::size_t i = c; i < stop; ++i) ++start[key[i] + 1];
+        for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+        for (std::size_t i = c; i < stop; ++i) b.order[c + start[key[i]]++] = static_cast<std::uint32_t>(i);
+      }
+    });
+  } else if (still + 1 <= (std::uint64_t(1) << 22)) {  // large lattices: one global counting sort
     std::vector<std::uint32_t> start(still + 2, 0);
     for (std::size_t i = 0; i < n; ++i) ++start[key[i] + 1];
     for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
