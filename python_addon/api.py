@@ -5,13 +5,24 @@
     api.set_params(entry, limits=(0.2, 0.8))
     api.evaluate(obj)
     api.apply(obj, 0)
+
+    entry = api.add_lattice(obj, resolution=(4, 4, 4), basis="BLENDER")  # a fitted Lattice object
+    api.direct_manipulation(obj, 1, [12, 40], [(0, 0, 1.2), (0.3, 0, 1)])
 """
-from . import evaluation
-from .properties import ENTRY_TYPES
+from collections import namedtuple
+
+import bpy
+import numpy as np
+from mathutils import Matrix
+
+from . import evaluation, lattices
+from .properties import ENTRY_TYPES, LATTICE_BASES
 
 TYPES = tuple(t[0] for t in ENTRY_TYPES)
+BASES = tuple(b[0] for b in LATTICE_BASES)
 PARAMS = ("name", "show_viewport", "show_render", "angle", "factor", "deform_axis", "origin", "limits",
-          "lock_x", "lock_y", "lock_z", "vertex_group", "invert_vertex_group")
+          "lock_x", "lock_y", "lock_z", "vertex_group", "invert_vertex_group",
+          "lattice", "lattice_basis", "strength", "outside")
 
 
 def _require_mesh(obj):
@@ -21,7 +32,7 @@ def _require_mesh(obj):
 
 
 def add_entry(obj, type="TWIST", **params):
-    """Append an entry of `type` (Twist, Taper, Bend, Stretch; case-insensitive) and evaluate."""
+    """Append an entry of `type` (Twist, Taper, Bend, Stretch, Lattice; case-insensitive) and evaluate."""
     _require_mesh(obj)
     kind = str(type).upper()
     if kind not in TYPES:
@@ -48,7 +59,8 @@ def _unique_name(stack, base):
 
 
 def set_params(entry, **params):
-    """Set entry parameters by name (as on Blender's Simple Deform where they overlap)."""
+    """Set entry parameters by name (as on Blender's Simple Deform and Lattice modifiers where they
+    overlap)."""
     for key, value in params.items():
         if key not in PARAMS:
             raise ValueError(f"{key}: not a deformkit entry parameter (expected one of {', '.join(PARAMS)})")
@@ -101,3 +113,158 @@ def apply(obj, index=0):
 
 def evaluated_positions(obj, depsgraph=None):
     return evaluation.evaluated_positions(obj, depsgraph)
+
+
+# Lattice entries ------------------------------------------------------------------------------
+
+Bound = namedtuple("Bound", "inside outside not_placed")
+Manipulated = namedtuple("Manipulated", "max_residual residual rank")
+
+
+def lattice_entry(obj, index):
+    """Entry `index` of obj's stack, which must be a Lattice entry."""
+    stack = obj.deformkit
+    if not 0 <= index < len(stack.entries):
+        raise IndexError(f"index: {index} is out of range for {len(stack.entries)} entries")
+    entry = stack.entries[index]
+    if entry.type != "LATTICE":
+        raise ValueError(f"entry '{entry.name}' is a {entry.type.title()} entry, not a Lattice entry")
+    return entry
+
+
+def add_lattice(obj, resolution=(4, 4, 4), basis="BLENDER", selected_only=False, margin=1e-4):
+    """Add a Lattice object fitted to the bounding box of the mesh (as the stack leaves it; with
+    selected_only, of its selected vertices) in its local frame, widened by `margin` of the box's
+    largest side so that no vertex lies outside by rounding, and a Lattice entry using it."""
+    _require_mesh(obj)
+    resolution = tuple(int(n) for n in resolution)
+    if len(resolution) != 3 or not all(1 <= n <= 64 for n in resolution):
+        raise ValueError(f"resolution: expected three counts in 1..64, got {resolution}")
+    basis = str(basis).upper()
+    if basis not in BASES:
+        raise ValueError(f"basis: expected one of {', '.join(BASES)}, got {basis!r}")
+    lattices.check_basis(basis, "CLAMP", resolution, "the resolution")
+    if obj.mode == "EDIT":
+        obj.update_from_editmode()  # edit mode keeps the selection and positions in its own copy
+    entries = obj.deformkit.entries
+    points = evaluation.entry_input(obj, len(entries)) if len(entries) else evaluation.base_positions(obj.data)
+    if selected_only:
+        selected = np.zeros(len(obj.data.vertices), bool)
+        obj.data.vertices.foreach_get("select", selected)
+        if not selected.any():
+            raise ValueError("no vertices are selected")
+        points = points[selected]
+    lo, hi = points.min(axis=0).astype(np.float64), points.max(axis=0).astype(np.float64)
+    size = hi - lo
+    largest = float(size.max()) or 1.0  # one vertex: a unit box around it
+    size = np.where(size > 1e-6 * largest, size, 0.01 * largest) + 2 * margin * largest  # flat meshes
+    box = Matrix.Diagonal((*size, 1.0))
+    box.translation = (lo + hi) / 2
+    data = bpy.data.lattices.new(f"{obj.name} Lattice")
+    lat = bpy.data.objects.new(data.name, data)
+    # With its object present, a resize keeps the box [-1/2, 1/2]; without, it spaces points 1 apart.
+    data.points_u, data.points_v, data.points_w = resolution
+    lattices.reset(lat)  # the resize deforms the new points by the old grid: start exactly at rest
+    for collection in obj.users_collection or (bpy.context.scene.collection,):
+        collection.objects.link(lat)
+    lat.matrix_world = obj.matrix_world @ box
+    return add_entry(obj, "LATTICE", lattice=lat, lattice_basis=basis)
+
+
+def bind_lattice(obj, index):
+    """Bind the mesh to the lattice of entry `index` again (deformkit also does this by itself
+    when the mesh, the frame, the resolution or the basis change); returns the vertex counts."""
+    entry = lattice_entry(obj, index)
+    _require_mesh(obj)
+    key = evaluation.cache_key(obj)
+    lattices.forget(key)
+    points = evaluation.entry_input(obj, index)
+    lattice = evaluation.entry_setup(obj, entry)[2]
+    counts = lattices.bind((key, index, "viewport"), lattice, points)[3]
+    evaluation.evaluate(obj, force=True)
+    return Bound(*counts)
+
+
+def reset_lattice(lattice_obj):
+    """Put every point of the lattice back where it rests (co_deform = co) and re-evaluate its users."""
+    if lattice_obj is None or lattice_obj.type != "LATTICE":
+        raise ValueError(f"'{getattr(lattice_obj, 'name', lattice_obj)}' is not a lattice object")
+    lattices.reset(lattice_obj)
+    _evaluate_users(lattice_obj)
+
+
+def lattice_users(lattice_obj):
+    """(mesh object, entry index) of every Lattice entry that uses lattice_obj."""
+    return lattices.users(lattice_obj, bpy.data.objects)
+
+
+def _evaluate_users(lattice_obj):
+    for obj in {o for o, _ in lattice_users(lattice_obj)}:
+        evaluation.evaluate(obj, expect_echo=True)
+
+
+def _entry_output(obj, index, vertex_indices):
+    """At the given vertices: the lattice entry's input points, its current output, each vertex's
+    influence (strength * weight), and the entry's lattice at strength 1 without weights."""
+    entry = lattice_entry(obj, index)
+    vertex_indices = np.asarray(vertex_indices, np.int64).ravel()
+    if len(vertex_indices) == 0:
+        raise ValueError("no vertices are selected")
+    if vertex_indices.min() < 0 or vertex_indices.max() >= len(obj.data.vertices):
+        raise IndexError(f"vertex_indices: out of range for {len(obj.data.vertices)} vertices")
+    points = evaluation.entry_input(obj, index)[vertex_indices].astype(np.float64)
+    weights = evaluation.entry_weights(obj, entry)
+    influence = np.full(len(points), float(entry.strength))
+    if weights is not None:
+        influence *= (1.0 - weights if entry.invert_vertex_group else weights)[vertex_indices]
+    plain = lattices.setup(obj, entry, strength=1.0)
+    return points, points + influence[:, None] * (plain.deformer.deform(points) - points), influence, plain
+
+
+def manipulation_targets(obj, index, vertex_indices, mode, cursor=None, empties=()):
+    """(vertex indices, targets in obj's local space) for direct manipulation. 'CURSOR': the
+    vertices' centroid (as the entry deforms them) goes to `cursor` (world space), every vertex by
+    the same offset. 'EMPTIES': for each empty, the nearest of the vertices goes to it."""
+    _, current, _, _ = _entry_output(obj, index, vertex_indices)
+    vertex_indices = np.asarray(vertex_indices, np.int64).ravel()
+    to_local = np.array(obj.matrix_world.inverted())
+
+    def local(p):
+        return to_local[:3, :3] @ np.asarray(p, np.float64) + to_local[:3, 3]
+
+    if mode == "CURSOR":
+        if cursor is None:
+            raise ValueError("cursor: a location is needed")
+        return vertex_indices, current + (local(cursor) - current.mean(axis=0))
+    if mode != "EMPTIES":
+        raise ValueError(f"mode: expected 'CURSOR' or 'EMPTIES', got {mode!r}")
+    if not empties:
+        raise ValueError("select one or more empties as targets")
+    world = np.array(obj.matrix_world)
+    current_world = current @ world[:3, :3].T + world[:3, 3]
+    picked, targets = [], []
+    for empty in empties:
+        at = np.array(empty.matrix_world.translation)
+        picked.append(vertex_indices[np.argmin(((current_world - at) ** 2).sum(axis=1))])
+        targets.append(local(at))
+    return np.array(picked), np.array(targets)
+
+
+def direct_manipulation(obj, index, vertex_indices, targets):
+    """Move the points of entry `index`'s lattice (the least change, Hsu-Hughes-Kaufman) so that
+    the entry takes the vertices `vertex_indices` to `targets` ((m, 3), obj's local space), and
+    write them to the Lattice object. Returns the distances left (after the float32 round trip
+    through co_deform) and the rank of the constraints."""
+    points, _, influence, plain = _entry_output(obj, index, vertex_indices)
+    targets = np.asarray(targets, np.float64).reshape(-1, 3)
+    if len(targets) != len(points):
+        raise ValueError(f"targets: {len(targets)} rows for {len(points)} vertices")
+    if (influence <= 0).any():
+        raise ValueError("some of the vertices have no lattice influence (strength or vertex-group weight 0)")
+    # The entry moves a vertex by influence * (lattice displacement): aim the plain lattice further.
+    result = plain.deformer.direct_manipulation(points, points + (targets - points) / influence[:, None])
+    lattices.write_control_points(plain, result.control_points)
+    _evaluate_users(plain.lattice)
+    written = lattices.setup(obj, lattice_entry(obj, index), strength=1.0).deformer.deform(points)
+    residual = np.linalg.norm(points + influence[:, None] * (written - points) - targets, axis=1)
+    return Manipulated(float(residual.max()), residual, int(result.rank))

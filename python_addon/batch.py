@@ -41,11 +41,12 @@ def apply_recipe(recipe):
             kind = spec.pop("type", None)
             if kind is None:
                 raise BatchError("recipe: every deformer needs a 'type'")
-            if "origin" in spec:
-                origin = bpy.data.objects.get(spec["origin"])
-                if origin is None:
-                    raise BatchError(f"recipe: origin object '{spec['origin']}' not found")
-                spec["origin"] = origin
+            for prop in ("origin", "lattice"):  # objects are named in the recipe
+                if prop in spec:
+                    found = bpy.data.objects.get(spec[prop])
+                    if found is None:
+                        raise BatchError(f"recipe: {prop} object '{spec[prop]}' not found")
+                    spec[prop] = found
             try:
                 api.add_entry(obj, kind, **spec)
             except (ValueError, TypeError) as exc:

@@ -12,15 +12,11 @@ import zlib
 import bpy
 import numpy as np
 
-from . import native
+from . import lattices, native
+from .outputs import (ATTR_RENDER, ATTR_VIEWPORT, ATTR_VOLUME, MODIFIER_NAME, NODE_GROUP_NAME,  # noqa: F401
+                      EntryError, ensure_modifier, outputs_present, remove_outputs, write_vector_attribute,
+                      write_volume_colors)
 
-MODIFIER_NAME = "deformkit"
-NODE_GROUP_NAME = "deformkit_positions"            # one result for viewport and render
-SPLIT_NODE_GROUP_NAME = "deformkit_positions_split"  # different results in the viewport and in renders
-ATTR_VIEWPORT = "deformkit_position"
-ATTR_RENDER = "deformkit_position_render"
-ATTR_VOLUME = "deformkit_volume_ratio"
-OUTPUT_ATTRIBUTES = (ATTR_VIEWPORT, ATTR_RENDER, ATTR_VOLUME)
 
 _evaluating = set()  # session_uids being evaluated: writes below re-enter through handlers
 _last_inputs = {}    # cache key -> (fingerprint of the settings, base positions) last written
@@ -29,13 +25,9 @@ _weights = {}        # (cache key, vertex group) -> weights read from the mesh (
 ECHO_WINDOW = 1.0    # seconds within which a depsgraph update of the mesh counts as that echo
 
 
-def _cache_key(obj):
+def cache_key(obj):
     # session_uid (Blender 3.5+) survives renames; 3.4 has only the name.
     return getattr(obj, "session_uid", None) or obj.name_full
-
-
-class EntryError(ValueError):
-    """A problem with one entry's settings, shown on the entry."""
 
 
 def object_problem(obj):
@@ -94,26 +86,42 @@ def origin_matrix(obj, entry):
     return np.array(obj.matrix_world.inverted() @ entry.origin.matrix_world)
 
 
-def entry_deformer(obj, entry, reuse_weights=False):
-    """The deformkit deformer equivalent to Simple Deform with this entry's settings. Vertex-group
-    weights are read by a per-vertex loop; with reuse_weights, those read last time are used
-    (parameter edits and frame changes do not change them; edits of the mesh re-read them)."""
-    weights = None
-    if entry.vertex_group:
-        key = (_cache_key(obj), entry.vertex_group)
-        cached = _weights.get(key)
-        if reuse_weights and cached is not None and len(cached) == len(obj.data.vertices) \
-                and obj.vertex_groups.get(entry.vertex_group) is not None:
-            weights = cached
-        else:
-            weights = _weights[key] = vertex_group_weights(obj, entry.vertex_group)
+def entry_weights(obj, entry, reuse_weights=False):
+    """The entry's vertex-group weights, or None. They are read by a per-vertex loop; with
+    reuse_weights, those read last time are used (parameter edits and frame changes do not change
+    them; edits of the mesh re-read them)."""
+    if not entry.vertex_group:
+        return None
+    key = (cache_key(obj), entry.vertex_group)
+    cached = _weights.get(key)
+    if reuse_weights and cached is not None and len(cached) == len(obj.data.vertices) \
+            and obj.vertex_groups.get(entry.vertex_group) is not None:
+        return cached
+    weights = _weights[key] = vertex_group_weights(obj, entry.vertex_group)
+    return weights
+
+
+def entry_setup(obj, entry, reuse_weights=False):
+    """(deformer, fingerprint of its settings, lattices.Setup or None) for one entry."""
+    weights = entry_weights(obj, entry, reuse_weights)
+    if entry.type == "LATTICE":
+        if weights is not None and entry.invert_vertex_group:
+            weights = 1.0 - weights  # the Lattice modifier's inversion; ungrouped vertices get 1
+        lattice = lattices.setup(obj, entry, weights)
+        return lattice.deformer, (entry.type, entry.show_viewport, entry.show_render, lattice.fingerprint), lattice
     lo, hi = entry.limits
-    return native.dk.SimpleDeform(
+    deformer = native.dk.SimpleDeform(
         mode=entry.type, angle=entry.amount, deform_axis=entry.deform_axis,
         origin=origin_matrix(obj, entry),
         limits=(min(lo, hi), hi),  # Blender clamps the lower limit to the upper one
         lock_x=entry.lock_x, lock_y=entry.lock_y, lock_z=entry.lock_z, weights=weights,
         invert_weights=bool(weights is not None and entry.invert_vertex_group))
+    return deformer, _fingerprint(obj, entry, deformer), None
+
+
+def entry_deformer(obj, entry, reuse_weights=False):
+    """The deformkit deformer for this entry: Simple Deform's map, or the entry's lattice."""
+    return entry_setup(obj, entry, reuse_weights)[0]
 
 
 def _fingerprint(obj, entry, deformer):
@@ -137,7 +145,7 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
     its echo (see is_echo_of_own_write). reuse_weights (default: as reuse_base) keeps the
     vertex-group weights read last time. On any problem the
     message goes on the stack or the entry and the mesh is left as it was."""
-    uid = _cache_key(obj)
+    uid = cache_key(obj)
     if uid in _evaluating or obj.mode == "EDIT":  # in edit mode the base mesh is stale until exit
         return False
     stack = obj.deformkit
@@ -157,27 +165,29 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         else:
             base = base_positions(obj.data)
         built, key, failed = [], [len(base), stack.show_volume_ratio], False
-        for entry in stack.entries:
+        for index, entry in enumerate(stack.entries):
             try:
-                deformer = entry_deformer(obj, entry, reuse_base if reuse_weights is None else reuse_weights)
+                deformer, fingerprint, lattice = entry_setup(
+                    obj, entry, reuse_base if reuse_weights is None else reuse_weights)
             except ValueError as exc:
                 _set_if_changed(entry, "error", str(exc))
                 failed = True
                 continue
             _set_if_changed(entry, "error", "")
-            built.append((entry, deformer))
-            key.append(_fingerprint(obj, entry, deformer))
+            built.append((index, entry, deformer, lattice))
+            key.append(fingerprint)
         if failed:
             return False
         key = tuple(key)
         if (not force and cached is not None and cached[0] == key and np.array_equal(cached[1], base)
                 and outputs_present(obj)):
             return False
-        viewport = [d for e, d in built if e.show_viewport]
-        render = [d for e, d in built if e.show_render]
+        viewport = [b for b in built if b[1].show_viewport]
+        render = [b for b in built if b[1].show_render]
         try:
-            positions = _deformed(viewport, base)
-            render_positions = positions if render == viewport else _deformed(render, base)
+            positions = _deformed(uid, "viewport", viewport, base)
+            same = [b[0] for b in render] == [b[0] for b in viewport]
+            render_positions = positions if same else _deformed(uid, "render", render, base)
         except ValueError as exc:
             _set_if_changed(stack, "error", str(exc))
             return False
@@ -189,7 +199,7 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         elif ATTR_RENDER in mesh.attributes:
             mesh.attributes.remove(mesh.attributes[ATTR_RENDER])
         if stack.show_volume_ratio and viewport:
-            write_volume_colors(mesh, native.dk.Stack(viewport).volume_ratio(base))
+            write_volume_colors(mesh, native.dk.Stack([b[2] for b in viewport]).volume_ratio(base))
         elif ATTR_VOLUME in mesh.attributes:
             mesh.attributes.remove(mesh.attributes[ATTR_VOLUME])
         ensure_modifier(obj, split)
@@ -202,10 +212,34 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         _evaluating.discard(uid)
 
 
-def _deformed(deformers, base):
-    if not deformers:
-        return base.copy()
-    return native.dk.Stack(deformers).deform(base)
+def _deformed(uid, kind, built, base):
+    """Run the entries in order: runs of Barr entries as one dk.Stack, each lattice entry through
+    its binding (kept per object, entry and viewport/render, see lattices.deform)."""
+    points, pending = base, []
+    for index, _entry, deformer, lattice in built:
+        if lattice is None:
+            pending.append(deformer)
+            continue
+        if pending:
+            points, pending = native.dk.Stack(pending).deform(points), []
+        points = lattices.deform((uid, index, kind), lattice, points)
+    if pending:
+        points = native.dk.Stack(pending).deform(points)
+    return base.copy() if points is base else points
+
+
+def entry_input(obj, index, kind="viewport"):
+    """The points entry `index` deforms: the base mesh through the earlier entries shown in the
+    viewport (or render), in the object's space. Raises EntryError for a problem on the way."""
+    built = []
+    for i, entry in enumerate(obj.deformkit.entries[:index]):
+        if (entry.show_viewport if kind == "viewport" else entry.show_render):
+            try:
+                deformer, _, lattice = entry_setup(obj, entry, reuse_weights=True)
+            except ValueError as exc:
+                raise EntryError(f"{entry.name}: {exc}") from exc
+            built.append((i, entry, deformer, lattice))
+    return _deformed(cache_key(obj), kind, built, base_positions(obj.data))
 
 
 def is_echo_of_own_write(obj):
@@ -217,7 +251,7 @@ def is_echo_of_own_write(obj):
     The one case this misses: a script that changes a parameter and then edits base positions
     before any depsgraph update. Such scripts should call api.evaluate(obj); api.evaluated_positions,
     frame changes, undo, redo and file load compare every position anyway."""
-    uid = _cache_key(obj)
+    uid = cache_key(obj)
     written, cached = _own_writes.pop(uid, None), _last_inputs.get(uid)
     if written is None or cached is None or time.monotonic() - written > ECHO_WINDOW:
         return False
@@ -237,128 +271,19 @@ def request_update(obj):
 
 
 def forget(obj=None):
-    """Drop cached fingerprints (after undo or file load, when they may be stale)."""
+    """Drop cached fingerprints, weights and lattice bindings (after undo or file load, when they
+    may be stale)."""
     if obj is None:
         _last_inputs.clear()
         _own_writes.clear()
         _weights.clear()
     else:
-        key = _cache_key(obj)
+        key = cache_key(obj)
         _last_inputs.pop(key, None)
         _own_writes.pop(key, None)
         for cached in [k for k in _weights if k[0] == key]:
             del _weights[cached]
-
-
-def write_vector_attribute(mesh, name, values):
-    attr = mesh.attributes.get(name)
-    if attr is not None and (attr.data_type != "FLOAT_VECTOR" or attr.domain != "POINT"):
-        mesh.attributes.remove(attr)
-        attr = None
-    if attr is None:
-        attr = mesh.attributes.new(name, "FLOAT_VECTOR", "POINT")
-    attr.data.foreach_set("vector", np.ascontiguousarray(values, np.float32).ravel())
-
-
-def write_volume_colors(mesh, ratio):
-    """det J as a color: 1 is white, stretch (> 1) goes red, compression (< 1) blue."""
-    t = np.clip(np.log2(np.maximum(ratio, 1e-6)), -1.0, 1.0).astype(np.float32)
-    rgba = np.ones((len(t), 4), np.float32)
-    rgba[:, 1] = 1.0 - np.abs(t)
-    rgba[:, 0] = np.where(t < 0, 1.0 + t, 1.0)
-    rgba[:, 2] = np.where(t > 0, 1.0 - t, 1.0)
-    attr = mesh.attributes.get(ATTR_VOLUME)
-    if attr is None:
-        attr = mesh.attributes.new(ATTR_VOLUME, "FLOAT_COLOR", "POINT")
-    attr.data.foreach_set("color", rgba.ravel())
-
-
-def outputs_present(obj):
-    mod = obj.modifiers.get(MODIFIER_NAME)
-    if mod is None or mod.type != "NODES" or mod.node_group is None:
-        return False
-    split = mod.node_group.get("deformkit_node_group") == "split"
-    return ATTR_VIEWPORT in obj.data.attributes and (not split or ATTR_RENDER in obj.data.attributes)
-
-
-def node_group(split):
-    """Geometry Nodes that take the stored positions: with `split`, the viewport attribute in the
-    viewport and the render attribute in renders; otherwise one attribute everywhere (a Store
-    Named Attribute into "position": cheaper than Set Position on large meshes). Found by a
-    marker, not by name, so a user's group of the same name is left alone."""
-    kind = "split" if split else "single"
-    for group in bpy.data.node_groups:
-        if group.get("deformkit_node_group") == kind:
-            return group
-    group = bpy.data.node_groups.new(SPLIT_NODE_GROUP_NAME if split else NODE_GROUP_NAME, "GeometryNodeTree")
-    group["deformkit_node_group"] = kind
-    if hasattr(group, "interface"):  # Blender 4.0+
-        group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-        group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    else:
-        group.inputs.new("NodeSocketGeometry", "Geometry")
-        group.outputs.new("NodeSocketGeometry", "Geometry")
-    nodes, links = group.nodes, group.links
-    source, sink = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
-    if not split:
-        named = nodes.new("GeometryNodeInputNamedAttribute")
-        named.data_type = "FLOAT_VECTOR"
-        named.inputs["Name"].default_value = ATTR_VIEWPORT
-        store = nodes.new("GeometryNodeStoreNamedAttribute")
-        store.data_type = "FLOAT_VECTOR"
-        store.domain = "POINT"
-        store.inputs["Name"].default_value = "position"
-        links.new(source.outputs[0], store.inputs["Geometry"])
-        links.new(_output(named), [i for i in store.inputs if i.name == "Value" and i.enabled][0])
-        links.new(store.outputs[0], sink.inputs[0])
-        return group
-    is_viewport = nodes.new("GeometryNodeIsViewport")
-    not_viewport = nodes.new("FunctionNodeBooleanMath")
-    not_viewport.operation = "NOT"
-    links.new(is_viewport.outputs[0], not_viewport.inputs[0])
-    geometry = source.outputs[0]
-    for attribute, selection in ((ATTR_VIEWPORT, is_viewport.outputs[0]), (ATTR_RENDER, not_viewport.outputs[0])):
-        named = nodes.new("GeometryNodeInputNamedAttribute")
-        named.data_type = "FLOAT_VECTOR"
-        named.inputs["Name"].default_value = attribute
-        set_position = nodes.new("GeometryNodeSetPosition")
-        links.new(geometry, set_position.inputs["Geometry"])
-        links.new(selection, set_position.inputs["Selection"])
-        links.new(_output(named), set_position.inputs["Position"])
-        geometry = set_position.outputs[0]
-    links.new(geometry, sink.inputs[0])
-    return group
-
-
-def _output(named_attribute_node):
-    # Blender 3.4 lists one "Attribute" output per data type; the enabled one is the vector.
-    return [o for o in named_attribute_node.outputs if o.enabled][0]
-
-
-def ensure_modifier(obj, split=False):
-    mod = obj.modifiers.get(MODIFIER_NAME)
-    if mod is not None and mod.type != "NODES":
-        raise EntryError(f"a modifier named '{MODIFIER_NAME}' of another type is in the way")
-    if mod is None:
-        mod = obj.modifiers.new(MODIFIER_NAME, "NODES")
-        # First in the stack: the positions were computed from the base mesh.
-        with bpy.context.temp_override(object=obj, active_object=obj):
-            bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=0)
-    if mod.node_group is None or mod.node_group.get("deformkit_node_group") != ("split" if split else "single"):
-        mod.node_group = node_group(split)
-    return mod
-
-
-def remove_outputs(obj):
-    mod = obj.modifiers.get(MODIFIER_NAME)
-    if mod is not None and mod.type == "NODES":
-        obj.modifiers.remove(mod)
-    mesh = obj.data
-    for name in OUTPUT_ATTRIBUTES:
-        attr = mesh.attributes.get(name)
-        if attr is not None:
-            mesh.attributes.remove(attr)
-    mesh.update()
+    lattices.forget(None if obj is None else cache_key(obj))
 
 
 def apply_entry(obj, index):

@@ -1,11 +1,14 @@
-"""App handlers: playback, scrubbing, base-mesh edits, undo and file load re-evaluate stacks.
+"""App handlers: playback, scrubbing, base-mesh edits, origin and lattice edits, undo and file
+load re-evaluate stacks.
 
 Every evaluation is skipped when its inputs (parameters, origin frames, weights, base positions)
 are unchanged, which is also what stops the handlers from re-entering on their own writes."""
 import bpy
 from bpy.app.handlers import persistent
 
-from . import evaluation
+from . import evaluation, lattices
+
+WATCHED = (bpy.types.Object, bpy.types.Mesh, bpy.types.Lattice, bpy.types.Collection)
 
 
 def _stack_objects(scene):
@@ -19,27 +22,62 @@ def on_frame_change(scene, depsgraph=None):
         evaluation.evaluate(obj, reuse_weights=True)
 
 
+def _lattices(obj):
+    return {e.lattice for e in obj.deformkit.entries if e.type == "LATTICE" and e.lattice is not None}
+
+
+def _lattice_gone(obj):
+    """A Lattice entry whose lattice was deleted or unlinked, and which does not say so yet (or
+    one that says so, in case the lattice came back)."""
+    for e in obj.deformkit.entries:
+        if e.type == "LATTICE" and (e.lattice_name or e.lattice is not None):
+            missing = e.lattice is None or not e.lattice.users_scene
+            if missing != bool(e.error):
+                return True
+    return False
+
+
 @persistent
 def on_depsgraph_update(scene, depsgraph):
-    updates = [u for u in depsgraph.updates if isinstance(u.id, (bpy.types.Object, bpy.types.Mesh))]
+    updates = [u for u in depsgraph.updates if isinstance(u.id, WATCHED)]
     if not updates:
         return
     changed = {u.id.original for u in updates}
     moved = {u.id.original for u in updates if u.is_updated_transform}
+    relinked = any(isinstance(u.id, bpy.types.Collection) for u in updates)  # objects deleted or linked
     for obj in _stack_objects(scene):
-        origins = {e.origin for e in obj.deformkit.entries if e.origin is not None}
-        if origins & changed or (origins and obj in moved):
-            evaluation.evaluate(obj)  # the origin frame in object space changed
+        used = _lattices(obj)
+        # Lattice edits show as an update of the Lattice object and of its data.
+        watched = {e.origin for e in obj.deformkit.entries if e.origin is not None} | used \
+            | {lat.data for lat in used}
+        if watched & changed or (watched and obj in moved):
+            # The origin frame or the lattice changed. The base is read again only if the mesh
+            # changed too; either way the mesh update that this write causes needs no second look.
+            evaluation.evaluate(obj, reuse_base=obj.data not in changed, expect_echo=True)
         elif obj.data in changed and not evaluation.is_echo_of_own_write(obj):
             evaluation.evaluate(obj)  # the base mesh may have been edited
+        elif relinked and _lattice_gone(obj):
+            evaluation.evaluate(obj)  # show (or clear) the entry's message
 
 
 @persistent
 def on_reload(*_args):
     evaluation.forget()
     for scene in bpy.data.scenes:
-        for obj in _stack_objects(scene):
+        objects = _stack_objects(scene)
+        if any(e.origin is not None or e.lattice is not None for o in objects for e in o.deformkit.entries):
+            # Blender 4+ does not save world matrices: at load_post they are unset until the
+            # depsgraph runs, and origin and lattice frames are made of them.
+            with bpy.context.temp_override(scene=scene, view_layer=scene.view_layers[0]):
+                bpy.context.evaluated_depsgraph_get()
+        for obj in objects:
             evaluation.evaluate(obj)
+
+
+@persistent
+def on_load(*args):
+    lattices.forget_rest_grids()
+    on_reload(*args)
 
 
 HANDLERS = (
@@ -47,7 +85,7 @@ HANDLERS = (
     (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
     (bpy.app.handlers.undo_post, on_reload),
     (bpy.app.handlers.redo_post, on_reload),
-    (bpy.app.handlers.load_post, on_reload),
+    (bpy.app.handlers.load_post, on_load),
 )
 
 

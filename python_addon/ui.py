@@ -1,7 +1,7 @@
 """Panel in the Modifiers tab, laid out like Blender's own modifier panels."""
 import bpy
 
-from . import native
+from . import evaluation, lattices, native
 from .properties import ENTRY_TYPES
 
 
@@ -11,7 +11,10 @@ class DEFORMKIT_MT_add(bpy.types.Menu):
 
     def draw(self, context):
         for kind, label, _description, _icon, _n in ENTRY_TYPES:
-            self.layout.operator("deformkit.entry_add", text=label, icon="MOD_SIMPLEDEFORM").type = kind
+            icon = "MOD_LATTICE" if kind == "LATTICE" else "MOD_SIMPLEDEFORM"
+            self.layout.operator("deformkit.entry_add", text=label, icon=icon).type = kind
+        self.layout.separator()
+        self.layout.operator("object.deformkit_add_lattice", icon="OUTLINER_OB_LATTICE")
 
 
 class DEFORMKIT_MT_entry_specials(bpy.types.Menu):
@@ -76,7 +79,7 @@ def draw_entry(box, obj, entry):
     row.context_pointer_set("deformkit_entry", entry)
     row.prop(entry, "show_expanded", text="", emboss=False,
              icon="DOWNARROW_HLT" if entry.show_expanded else "RIGHTARROW")
-    row.label(text="", icon="MOD_SIMPLEDEFORM")
+    row.label(text="", icon="MOD_LATTICE" if entry.type == "LATTICE" else "MOD_SIMPLEDEFORM")
     row.prop(entry, "name", text="")
     toggles = row.row(align=True)
     toggles.prop(entry, "show_viewport", text="", icon="RESTRICT_VIEW_OFF" if entry.show_viewport else "RESTRICT_VIEW_ON")
@@ -93,6 +96,9 @@ def draw_entry(box, obj, entry):
     box.row().prop(entry, "type", expand=True)
     col = box.column()
     col.use_property_split = True
+    if entry.type == "LATTICE":
+        draw_lattice(col, obj, entry)
+        return
     col.prop(entry, "angle" if entry.type in {"TWIST", "BEND"} else "factor")
     col.prop(entry, "origin")
     col.row().prop(entry, "deform_axis", expand=True)
@@ -104,11 +110,41 @@ def draw_entry(box, obj, entry):
         for axis in "xyz":
             if axis.upper() != entry.deform_axis:
                 row.prop(entry, f"lock_{axis}", text=axis.upper(), toggle=True)
+    draw_vertex_group(col, obj, entry)
+
+
+def draw_vertex_group(col, obj, entry):
     row = col.row(align=True)
     row.prop_search(entry, "vertex_group", obj, "vertex_groups", text="Vertex Group")
     sub = row.row(align=True)
     sub.active = bool(entry.vertex_group)
     sub.prop(entry, "invert_vertex_group", text="", icon="ARROW_LEFTRIGHT")
+
+
+def draw_lattice(col, obj, entry):
+    """Laid out like Blender's Lattice modifier panel, then the binding and the lattice tools."""
+    index = list(obj.deformkit.entries).index(entry)
+    col.prop(entry, "lattice", text="Object")
+    col.prop(entry, "lattice_basis")
+    col.prop(entry, "outside")
+    col.prop(entry, "strength", slider=True)
+    draw_vertex_group(col, obj, entry)
+    col.separator()
+    bound = lattices.binding_counts(evaluation.cache_key(obj), index)
+    if bound is None:
+        col.label(text="Not bound yet", icon="UNLINKED")
+    else:
+        unplaced = f", {bound[2]} not placed" if bound[2] else ""
+        col.label(text=f"Bound: {bound[0]} vertices inside, {bound[1]} outside{unplaced}", icon="LINKED")
+    row = col.row(align=True)
+    row.operator("object.deformkit_lattice_bind", text="Rebind" if bound else "Bind",
+                 icon="FILE_REFRESH").index = index
+    row.operator("object.deformkit_lattice_reset", text="Reset", icon="LOOP_BACK").index = index
+    row = col.row(align=True)
+    for targets, label, icon in (("CURSOR", "Selection to Cursor", "PIVOT_CURSOR"),
+                                 ("EMPTIES", "Selection to Empties", "EMPTY_AXIS")):
+        op = row.operator("object.deformkit_lattice_direct", text=label, icon=icon)
+        op.index, op.targets = index, targets
 
 
 classes = (DEFORMKIT_MT_add, DEFORMKIT_MT_entry_specials, DEFORMKIT_PT_stack)

@@ -1,0 +1,221 @@
+"""Lattice entries: a Blender Lattice object as the control grid of one of deformkit's lattices.
+
+A Lattice object keeps its rest grid (`co`: fu + i du per axis, in lattice-local space) and its
+edited points (`co_deform`). Blender's Lattice modifier moves each vertex by a blend of the offsets
+co_deform - co, turned into the object's space. The entry does the same: its frame maps deformkit's
+rest cube [-1/2, 1/2]^3 onto the box of the rest grid, and its control points are deformkit's rest
+control points plus those offsets, so a lattice at rest is the identity bit for bit, in every basis.
+"""
+import functools
+import zlib
+from collections import namedtuple
+
+import numpy as np
+
+from . import native
+from .outputs import EntryError
+
+CLASSES = {"BLENDER": "BlenderLattice", "BERNSTEIN": "FFD", "BEZIER": "BezierFFD", "BSPLINE": "BSplineLattice"}
+
+
+# deformer: the dk lattice; layout: what a binding depends on; local: lattice-local -> object space
+# (4x4); co: the rest grid as Blender stores it (u fastest).
+Setup = namedtuple("Setup", "deformer fingerprint layout lattice local co")
+
+_bindings = {}  # (object cache key, entry index, "viewport"/"render") -> (layout, bound points, binding, counts)
+_rest = {}      # Lattice data (session_uid or name) -> (resolution, rest grid `co`) read outside edit mode
+
+
+def lattice_object(entry):
+    """The entry's Lattice object, or EntryError saying why it cannot be used."""
+    lat = entry.lattice
+    if lat is None:
+        if entry.lattice_name:
+            raise EntryError(f"lattice object '{entry.lattice_name}' no longer exists")
+        raise EntryError("no lattice object set: pick one, or use Add Fitted Lattice")
+    if lat.type != "LATTICE":
+        raise EntryError(f"'{lat.name}' is not a lattice object")
+    if not lat.users_scene:  # deleted in the UI: unlinked, but still referenced here
+        raise EntryError(f"lattice object '{lat.name}' was deleted (it is in no scene)")
+    data = lat.data
+    if data.vertex_group:
+        raise EntryError(f"lattice '{lat.name}' weights its points by the vertex group '{data.vertex_group}', "
+                         "which deformkit does not support: clear the lattice's Vertex Group")
+    if data.shape_keys is not None:
+        raise EntryError(f"lattice '{lat.name}' has shape keys, which deformkit does not evaluate")
+    if len(lat.modifiers):
+        names = ", ".join(m.name for m in lat.modifiers)
+        raise EntryError(f"lattice '{lat.name}' has modifiers ({names}), which deformkit does not evaluate: "
+                         "apply or remove them")
+    return lat
+
+
+def read_points(data, prop):
+    flat = np.empty(len(data.points) * 3, np.float32)
+    data.points.foreach_get(prop, flat)
+    return flat.reshape(-1, 3)
+
+
+def rest_points(data, resolution):
+    """The rest grid `co`. In lattice edit mode Blender's `co` is wrong (it locates the edit copy's
+    points in the original's array), so the grid read last outside edit mode is used there, or,
+    for a lattice that has not been seen outside edit mode, the grid that the UI makes."""
+    key = getattr(data, "session_uid", None) or data.name_full
+    if not data.is_editmode:
+        co = read_points(data, "co")
+        _rest[key] = (resolution, co)
+        return co
+    cached = _rest.get(key)
+    if cached is not None and cached[0] == resolution:
+        return cached[1]
+    axes = [np.linspace(-0.5, 0.5, n) if n > 1 else np.zeros(1) for n in resolution]
+    w, v, u = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+    return np.stack([u, v, w], axis=-1).reshape(-1, 3).astype(np.float32)
+
+
+def to_grid(flat, resolution):
+    """Blender's point order (u fastest, then v, then w) -> deformkit's grid [i, j, k]."""
+    nu, nv, nw = resolution
+    return flat.reshape(nw, nv, nu, 3).transpose(2, 1, 0, 3)
+
+
+def from_grid(grid):
+    return np.ascontiguousarray(grid.transpose(2, 1, 0, 3)).reshape(-1, 3)
+
+
+@functools.lru_cache(maxsize=16)
+def _grid_indices(resolution):
+    """(i, j, k) of each point in Blender's order (u fastest)."""
+    nu, nv, nw = resolution
+    w, v, u = np.meshgrid(np.arange(nw), np.arange(nv), np.arange(nu), indexing="ij")
+    return np.stack([u, v, w], axis=-1).reshape(-1, 3)
+
+
+def rest_box(co, resolution, name):
+    """(center, size) of the rest grid's box in lattice-local space. Lattices made in the UI span
+    [-1/2, 1/2]; ones resized before they had an object, or back from one point, are spaced 1 apart."""
+    counts = np.array(resolution)
+    lo, hi = co[0].astype(np.float64), co[-1].astype(np.float64)
+    expected = lo + (hi - lo) * _grid_indices(tuple(resolution)) / np.maximum(counts - 1, 1)
+    uneven = np.abs(co - expected).max(axis=0) > 1e-5 * np.maximum(1.0, hi - lo)
+    uneven |= (counts > 1) & ~(hi > lo)
+    if uneven.any():
+        raise EntryError(f"lattice '{name}': its rest grid is not evenly spaced along {'uvw'[np.argmax(uneven)]}, "
+                         "which deformkit does not support")
+    return (lo + hi) / 2, np.where(counts > 1, hi - lo, 1.0)
+
+
+def check_basis(basis, outside, resolution, name="the lattice"):
+    nu, nv, nw = resolution
+    has = f"{name} has {nu} x {nv} x {nw} points"
+    if basis == "BLENDER" and outside == "EXTRAPOLATE":
+        raise EntryError("Outside 'Extrapolate' is not available with the Blender basis (Blender's modifier "
+                         "clamps): choose Clamp or Unchanged, or another basis")
+    if basis == "BERNSTEIN" and not all(2 <= n <= 16 for n in resolution):
+        raise EntryError(f"the Bernstein basis needs 2 to 16 points per axis (degree 1 to 15); {has}")
+    if basis == "BEZIER" and not all(n >= 4 and (n - 1) % 3 == 0 for n in resolution):
+        raise EntryError(f"the Bezier Blocks basis needs 3k + 1 points per axis (4, 7, 10, ...); {has}")
+    if basis == "BSPLINE" and min(resolution) < 4:
+        raise EntryError(f"the B-Spline basis needs at least 4 points per axis; {has}")
+
+
+def setup(obj, entry, weights=None, strength=None):
+    """The entry's deformkit lattice for `obj`. strength=None takes the entry's."""
+    lat = lattice_object(entry)
+    data = lat.data
+    resolution = (data.points_u, data.points_v, data.points_w)
+    basis, outside = entry.lattice_basis, entry.outside
+    check_basis(basis, outside, resolution, f"lattice '{lat.name}'")
+    cls = getattr(native.dk, CLASSES[basis], None)
+    if cls is None:
+        raise EntryError(f"this build of deformkit has no lattices: {native.BUILD_HINT}")
+    co, deformed = rest_points(data, resolution), read_points(data, "co_deform")
+    center, size = rest_box(co, resolution, lat.name)
+    local = np.array(obj.matrix_world.inverted() @ lat.matrix_world)
+    box = np.diag([*size, 1.0])
+    box[:3, 3] = center
+    frame = local @ box
+    kwargs = dict(frame=frame, outside=outside.lower(), weights=weights,
+                  strength=entry.strength if strength is None else strength)
+    interpolation = None
+    if basis == "BLENDER":
+        interpolation = (data.interpolation_type_u, data.interpolation_type_v, data.interpolation_type_w)
+        deformer = cls(resolution, interpolation, **kwargs)
+    elif basis == "BERNSTEIN":
+        deformer = cls(tuple(n - 1 for n in resolution), **kwargs)
+    elif basis == "BEZIER":
+        deformer = cls(tuple((n - 1) // 3 for n in resolution), **kwargs)
+    else:
+        deformer = cls(resolution, **kwargs)
+    offsets = to_grid(deformed - co, resolution).astype(np.float64)  # float32 difference, as Blender's
+    if offsets.any():  # else the rest lattice: the identity exactly
+        deformer.control_points = deformer.rest_control_points + offsets @ local[:3, :3].T
+    layout = (basis, resolution, interpolation, outside, frame.tobytes())
+    fingerprint = (layout, deformer.strength, zlib.crc32(offsets.tobytes()),
+                   None if weights is None else zlib.crc32(np.ascontiguousarray(weights).tobytes()))
+    return Setup(deformer, fingerprint, layout, lat, local, co)
+
+
+def deform(key, lattice_setup, points):
+    """The entry's result on `points`, through a binding kept for as long as the points and the
+    lattice's layout (basis, resolution, interpolation, placement) stay the same."""
+    cached = _bindings.get(key)
+    if cached is None or cached[0] != lattice_setup.layout:
+        cached = bind(key, lattice_setup, points)
+    elif cached[1] is not points:
+        if not np.array_equal(cached[1], points):
+            cached = bind(key, lattice_setup, points)
+        else:  # the same positions read again: keep this array, which the next evaluation may reuse
+            cached = _bindings[key] = (cached[0], points) + cached[2:]
+    return lattice_setup.deformer.deform_bound(cached[2])
+
+
+def bind(key, lattice_setup, points):
+    binding = lattice_setup.deformer.bind(points)
+    status = np.asarray(binding.status)
+    counts = tuple(int(np.count_nonzero(status == s)) for s in (0, 1, 2))
+    # The points are kept, not copied: evaluation never writes into base positions or results.
+    cached = _bindings[key] = (lattice_setup.layout, points, binding, counts)
+    return cached
+
+
+def binding_counts(object_key, index):
+    """(inside, outside, not placed) vertex counts of the entry's binding, or None if not bound."""
+    for kind in ("viewport", "render"):
+        cached = _bindings.get((object_key, index, kind))
+        if cached is not None:
+            return cached[3]
+    return None
+
+
+def forget(object_key=None):
+    for key in [k for k in _bindings if object_key is None or k[0] == object_key]:
+        del _bindings[key]
+
+
+def forget_rest_grids():
+    """On file load: another file's lattice may have the same name (Blender 3.4 has no session_uid)."""
+    _rest.clear()
+
+
+def write_control_points(lattice_setup, grid):
+    """Store control points given in the object's space (nu, nv, nw, 3) as the lattice's co_deform."""
+    offsets = (np.asarray(grid, np.float64) - lattice_setup.deformer.rest_control_points) \
+        @ np.linalg.inv(lattice_setup.local[:3, :3]).T
+    co_deform = lattice_setup.co.astype(np.float64) + from_grid(offsets)
+    data = lattice_setup.lattice.data
+    data.points.foreach_set("co_deform", co_deform.astype(np.float32).ravel())
+    data.update_tag()
+
+
+def reset(lattice_obj):
+    data = lattice_obj.data
+    rest = rest_points(data, (data.points_u, data.points_v, data.points_w))
+    data.points.foreach_set("co_deform", rest.ravel())
+    data.update_tag()
+
+
+def users(lattice_obj, objects):
+    """(object, entry index) of every Lattice entry that uses lattice_obj."""
+    return [(obj, i) for obj in objects if obj.type == "MESH"
+            for i, e in enumerate(obj.deformkit.entries) if e.type == "LATTICE" and e.lattice == lattice_obj]
