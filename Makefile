@@ -17,6 +17,7 @@ FIXTURES := blend_fixtures/.fixtures-made
 demo: build $(FIXTURES)
 	scripts/deformkit-batch 'blend_fixtures/*.blend' --recipe blend_fixtures/demo_recipe.json \
 	    --out demo_out/batch --jobs $(JOBS) --preview
+	scripts/deformkit-batch blend_fixtures/lattice_vase.blend --evaluate-saved --out demo_out/lattice --preview
 	$(PY) scripts/demo.py --out demo_out/core
 
 $(FIXTURES): blend_fixtures/make_fixtures.py $(VENV)/.deformkit-installed

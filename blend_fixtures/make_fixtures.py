@@ -5,6 +5,7 @@
 From Blender primitives, plus, when ../shared/meshes is beside the repository, two real meshes.
 One file carries a saved deformkit stack (for --evaluate-saved)."""
 import glob
+import math
 import os
 import sys
 import tempfile
@@ -75,6 +76,22 @@ def main():
     api.add_entry(column, "TWIST", angle=2.0, deform_axis="Z")
     api.add_entry(column, "TAPER", factor=-0.5, deform_axis="Z")
     save(out_dir, "saved_stack")
+
+    fresh()  # a lattice entry saved in the file: a Blender Lattice object with edited points
+    bpy.ops.mesh.primitive_cylinder_add(vertices=64, depth=2.0, radius=0.5)
+    vase = subdivided(bpy.context.active_object, 8)
+    vase.name = "Vase"
+    api.add_lattice(vase, resolution=(3, 3, 4), basis="BLENDER")
+    lattice = vase.deformkit.entries[0].lattice
+    lattice.name = "VaseLattice"
+    for p in lattice.data.points:
+        x, y, z = p.co
+        ring = 1.6 if -0.3 < z < 0.3 else (0.7 if z > 0.3 else 1.0)  # belly out, neck in
+        turn = math.radians(35.0) * (z + 0.5)  # the upper rings turn
+        c, s = math.cos(turn), math.sin(turn)
+        p.co_deform = (ring * (c * x - s * y), ring * (s * x + c * y), z)
+    api.evaluate(vase)
+    save(out_dir, "lattice_vase")
 
     for mesh in ("spot.obj", "cow.obj"):
         path = os.path.join(SHARED_MESHES, mesh)
