@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <unordered_map>
 
 namespace deformkit {
 
@@ -237,51 +238,48 @@ LatticeBinding ControlLattice::bind_points(const T* in, std::size_t n) const {
   b.single_precision = std::is_same<T, float>::value;
   b.parameters.resize(3 * n);
   b.status.resize(n);
+  Buffer<std::uint64_t> key(n);
+  const std::uint64_t still = still_key();
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       Vec3 p;
-      b.status[i] = static_cast<std::uint8_t>(locate(Vec3(in[3 * i], in[3 * i + 1], in[3 * i + 2]), p));
+      const PointStatus s = locate(Vec3(in[3 * i], in[3 * i + 1], in[3 * i + 2]), p);
+      b.status[i] = static_cast<std::uint8_t>(s);
       for (int a = 0; a < 3; ++a) b.parameters[3 * i + a] = p[a];
+      key[i] = displaces(s) ? cell_key(p) : still;
     }
   });
-  sort_by_cell(b, in);
+  sort_by_cell(b, in, key.data());
   return b;
+}
+
+// Cell key: pieces offset by 2 (Blender's run from -2 to count), in a box of count + 4 per axis;
+// one more key for points left where they are.
+std::uint64_t ControlLattice::still_key() const {
+  return std::uint64_t(axes_[0].count + 4) * (axes_[1].count + 4) * (axes_[2].count + 4);
+}
+
+std::uint64_t ControlLattice::cell_key(const Vec3& p) const {
+  std::uint64_t k = 0;
+  for (int a = 0; a < 3; ++a) k = k * std::uint64_t(axes_[a].count + 4) + std::uint64_t(axes_[a].locate(p[a], outside_).piece + 2);
+  return k;
 }
 
 LatticeBinding ControlLattice::bind(const double* points, std::size_t n) const { return bind_points(points, n); }
 LatticeBinding ControlLattice::bind(const float* points, std::size_t n) const { return bind_points(points, n); }
 
 template <class T>
-void ControlLattice::sort_by_cell(LatticeBinding& b, const T* in) const {
+void ControlLattice::sort_by_cell(LatticeBinding& b, const T* in, const std::uint64_t* key) const {
   const std::size_t n = b.size();
-  // Cell key: pieces offset by 2 (Blender's run from -2 to count); one extra key for points
-  // left where they are.
   const std::uint64_t r0 = axes_[0].count + 4, r1 = axes_[1].count + 4, r2 = axes_[2].count + 4;
-  const std::uint64_t still = r0 * r1 * r2;
-  // Scratch left uninitialised: zero-filling tens of megabytes costs as much as the work.
-  std::unique_ptr<std::uint64_t[]> key(new std::uint64_t[n]);
-  std::unique_ptr<double[]> td(new double[3 * n]);
-  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) {
-      if (!displaces(static_cast<PointStatus>(b.status[i]))) {
-        key[i] = still;
-        continue;
-      }
-      std::uint64_t k = 0;
-      const std::uint64_t range[3] = {r0, r1, r2};
-      for (int a = 0; a < 3; ++a) {
-        const AxisSpan span = axes_[a].locate(b.parameters[3 * i + a], outside_);
-        td[3 * i + a] = span.t;
-        k = k * range[a] + std::uint64_t(span.piece + 2);
-      }
-      key[i] = k;
-    }
-  });
+  const std::uint64_t still = still_key();
+  auto span = [&](std::size_t i, int a) { return axes_[a].locate(b.parameters[3 * i + a], outside_); };
+  Buffer<std::uint64_t> sorted_key(n);
   b.order.resize(n);
   if (still + 1 <= (std::uint64_t(1) << 14)) {
     // Counting sort (linear, stable) within chunks of points: the kernel's scattered writes then
     // stay inside one chunk's output, which fits in the L2 cache, whatever the point order.
-    constexpr std::size_t kChunk = 16384;
+    constexpr std::size_t kChunk = 32768;
     parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
       std::vector<std::uint32_t> start(still + 2);
       for (std::size_t c = (begin + kChunk - 1) / kChunk * kChunk; c < end; c += kChunk) {
@@ -289,27 +287,35 @@ void ControlLattice::sort_by_cell(LatticeBinding& b, const T* in) const {
         std::fill(start.begin(), start.end(), 0u);
         for (std::size_t i = c; i < stop; ++i) ++start[key[i] + 1];
         for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
-        for (std::size_t i = c; i < stop; ++i) b.order[c + start[key[i]]++] = static_cast<std::uint32_t>(i);
+        for (std::size_t i = c; i < stop; ++i) {
+          const std::size_t to = c + start[key[i]]++;
+          b.order[to] = static_cast<std::uint32_t>(i);
+          sorted_key[to] = key[i];
+        }
       }
     });
-  } else if (still + 1 <= (std::uint64_t(1) << 22)) {  // large lattices: one global counting sort
-    std::vector<std::uint32_t> start(still + 2, 0);
-    for (std::size_t i = 0; i < n; ++i) ++start[key[i] + 1];
-    for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
-    for (std::size_t i = 0; i < n; ++i) b.order[start[key[i]]++] = static_cast<std::uint32_t>(i);
   } else {
     for (std::size_t i = 0; i < n; ++i) b.order[i] = static_cast<std::uint32_t>(i);
-    std::stable_sort(b.order.begin(), b.order.end(), [&](std::uint32_t x, std::uint32_t y) { return key[x] < key[y]; });
+    std::stable_sort(b.order.begin(), b.order.end(), [key](std::uint32_t x, std::uint32_t y) { return key[x] < key[y]; });
+    for (std::size_t i = 0; i < n; ++i) sorted_key[i] = key[b.order[i]];
   }
+  // Runs of one cell, and the distinct cells they use (a cell recurs in every chunk).
+  std::vector<std::int32_t> dense(still + 1 <= (std::uint64_t(1) << 22) ? still + 1 : 0, -1);
+  std::unordered_map<std::uint64_t, std::int32_t> sparse;
   for (std::size_t i = 0; i < n; ++i) {
-    const std::uint64_t k = key[b.order[i]];
-    if (i > 0 && k == key[b.order[i - 1]]) continue;
+    const std::uint64_t k = sorted_key[i];
+    if (i > 0 && k == sorted_key[i - 1]) continue;
     b.run_begin.push_back(static_cast<std::uint32_t>(i));
-    b.run_moves.push_back(k != still);
-    b.run_cell.push_back({int(k / (r1 * r2) % r0) - 2, int(k / r2 % r1) - 2, int(k % r2) - 2});
+    std::int32_t& id = dense.empty() ? sparse.try_emplace(k, -1).first->second : dense[k];
+    if (id < 0) {
+      id = static_cast<std::int32_t>(b.cells.size());
+      b.cells.push_back({int(k / (r1 * r2) % r0) - 2, int(k / r2 % r1) - 2, int(k % r2) - 2});
+      b.cell_moves.push_back(k != still);
+    }
+    b.run_cell.push_back(id);
   }
   b.run_begin.push_back(static_cast<std::uint32_t>(n));
-  std::vector<T>& sorted = [&]() -> std::vector<T>& {
+  Buffer<T>& sorted = [&]() -> Buffer<T>& {
     if constexpr (std::is_same<T, float>::value) return b.sorted_f;
     else return b.sorted_d;
   }();
@@ -317,8 +323,9 @@ void ControlLattice::sort_by_cell(LatticeBinding& b, const T* in) const {
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       const std::size_t p = b.order[i];
+      const bool moves = sorted_key[i] != still;
       for (int a = 0; a < 3; ++a) {
-        sorted[a * n + i] = static_cast<T>(td[3 * p + a]);
+        sorted[a * n + i] = moves ? static_cast<T>(span(p, a).t) : T(0);
         sorted[(3 + a) * n + i] = in[3 * p + a];
       }
     }
@@ -326,11 +333,26 @@ void ControlLattice::sort_by_cell(LatticeBinding& b, const T* in) const {
 }
 
 template <class T>
+void ControlLattice::cell_block(const std::array<std::int32_t, 3>& cell, T* block) const {
+  const KernelAxis k[3] = {kernel_axis(axes_[0]), kernel_axis(axes_[1]), kernel_axis(axes_[2])};
+  const int nv = axes_[1].count, nw = axes_[2].count;
+  int index[3][kMaxAxisWidth];
+  for (int a = 0; a < 3; ++a) kernel_indices(axes_[a], cell[a], index[a]);
+  std::size_t e = 0;
+  for (int i = 0; i < k[0].width; ++i)
+    for (int j = 0; j < k[1].width; ++j)
+      for (int l = 0; l < k[2].width; ++l) {
+        const double* c = &offset_[3 * ((std::size_t(index[0][i]) * nv + index[1][j]) * nw + index[2][l])];
+        for (int a = 0; a < 3; ++a) block[e++] = static_cast<T>(strength_ * c[a]);
+      }
+}
+
+template <class T>
 void ControlLattice::deform_bound_points(const LatticeBinding& b, T* out) const {
   if (b.layout != layout())
     throw std::invalid_argument("binding: was made by a lattice with another basis, resolution or rest placement; "
                                 "bind the points to this lattice");
-  const std::vector<T>& sorted = [&]() -> const std::vector<T>& {
+  const Buffer<T>& sorted = [&]() -> const Buffer<T>& {
     if constexpr (std::is_same<T, float>::value) return b.sorted_f;
     else return b.sorted_d;
   }();
@@ -339,36 +361,38 @@ void ControlLattice::deform_bound_points(const LatticeBinding& b, T* out) const 
                                 " points; deform them into an array of that dtype");
   const std::size_t n = b.size();
   const KernelAxis kaxes[3] = {kernel_axis(axes_[0]), kernel_axis(axes_[1]), kernel_axis(axes_[2])};
-  const int nv = axes_[1].count, nw = axes_[2].count;
+  const std::size_t block_size = 3 * std::size_t(kaxes[0].width) * kaxes[1].width * kaxes[2].width;
+  // Each cell's control-point offsets, gathered once per call rather than once per run.
+  const bool table = b.cells.size() * block_size <= (std::size_t(1) << 22);
+  std::vector<T> blocks(table ? b.cells.size() * block_size : 0);
+  if (table)
+    parallel_blocks(b.cells.size() * 256, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t c = (begin + 255) / 256; c < (end + 255) / 256 && c < b.cells.size(); ++c)
+        if (b.cell_moves[c]) cell_block(b.cells[c], &blocks[c * block_size]);
+    });
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    std::vector<T> block(3 * std::size_t(kaxes[0].width) * kaxes[1].width * kaxes[2].width);
+    std::vector<T> own(table ? 0 : block_size);
     std::size_t r = std::upper_bound(b.run_begin.begin(), b.run_begin.end(), begin) - b.run_begin.begin() - 1;
     for (; r + 1 < b.run_begin.size() && b.run_begin[r] < end; ++r) {
       const std::size_t lo = std::max<std::size_t>(begin, b.run_begin[r]), hi = std::min<std::size_t>(end, b.run_begin[r + 1]);
-      if (!b.run_moves[r]) {
+      const std::int32_t c = b.run_cell[r];
+      if (!b.cell_moves[c]) {
         for (std::size_t i = lo; i < hi; ++i)
           for (int a = 0; a < 3; ++a) out[3 * std::size_t(b.order[i]) + a] = sorted[(3 + a) * n + i];
         continue;
       }
-      int index[3][kMaxAxisWidth];
-      for (int a = 0; a < 3; ++a) kernel_indices(axes_[a], b.run_cell[r][a], index[a]);
-      std::size_t e = 0;
-      for (int i = 0; i < kaxes[0].width; ++i)
-        for (int j = 0; j < kaxes[1].width; ++j)
-          for (int k = 0; k < kaxes[2].width; ++k) {
-            const double* c = &offset_[3 * ((std::size_t(index[0][i]) * nv + index[1][j]) * nw + index[2][k])];
-            for (int a = 0; a < 3; ++a) block[e++] = static_cast<T>(strength_ * c[a]);
-          }
+      const T* block = table ? &blocks[c * block_size] : own.data();
+      if (!table) cell_block(b.cells[c], own.data());
       const T* t[3] = {&sorted[lo], &sorted[n + lo], &sorted[2 * n + lo]};
       const T* x[3] = {&sorted[3 * n + lo], &sorted[4 * n + lo], &sorted[5 * n + lo]};
-      lattice_cell_kernel(kaxes, block.data(), t, x, &b.order[lo], hi - lo, out);
+      lattice_cell_kernel(kaxes, block, t, x, &b.order[lo], hi - lo, out);
     }
   });
 }
 
 // deform() blends the per-point weights in the Deformer base; the bound path must do the same.
 template <class T>
-static void blend_bound(const LatticeBinding& b, const std::vector<double>& w, const std::vector<T>& sorted, T* out) {
+static void blend_bound(const LatticeBinding& b, const std::vector<double>& w, const Buffer<T>& sorted, T* out) {
   const std::size_t n = b.size();
   if (w.empty()) return;
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {

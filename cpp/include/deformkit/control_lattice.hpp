@@ -2,6 +2,7 @@
 // What every lattice deformer shares: a grid of control points, tensor-product weights, and the
 // bind-once / deform-often path. F(x) = x + strength * sum_ijk w_ijk(x) (P_ijk - R_ijk), the
 // displacement form, which makes a lattice at rest the identity for every basis.
+#include "deformkit/buffer.hpp"
 #include "deformkit/deformer.hpp"
 #include "deformkit/lattice_basis.hpp"
 
@@ -25,17 +26,19 @@ struct LatticeBinding {
   std::array<int, 3> resolution{};
   std::uint64_t layout = 0;          // identifies the lattice's bases and resolution
   bool single_precision = false;     // points were float32: deform_bound returns float32
-  std::vector<double> parameters;    // 3n, normalised lattice coordinates
-  std::vector<std::uint8_t> status;  // n, PointStatus
+  Buffer<double> parameters;         // 3n, normalised lattice coordinates
+  Buffer<std::uint8_t> status;       // n, PointStatus
   std::size_t size() const { return status.size(); }
 
   // Sorted by cell: sorted position i is point order[i]; run r is [run_begin[r], run_begin[r+1]).
-  std::vector<std::uint32_t> order, run_begin;
-  std::vector<std::array<std::int32_t, 3>> run_cell;  // the cell's piece per axis
-  std::vector<std::uint8_t> run_moves;                // 0: the run's points are left unchanged
+  Buffer<std::uint32_t> order;
+  std::vector<std::uint32_t> run_begin;
+  std::vector<std::int32_t> run_cell;               // index into cells
+  std::vector<std::array<std::int32_t, 3>> cells;   // distinct cells: the piece per axis
+  std::vector<std::uint8_t> cell_moves;             // 0: the cell's points are left unchanged
   // Structure of arrays in sorted order: local t0, t1, t2 then x, y, z (one of the two is used).
-  std::vector<float> sorted_f;
-  std::vector<double> sorted_d;
+  Buffer<float> sorted_f;
+  Buffer<double> sorted_d;
 };
 
 // Rows of the sparse weight matrix W (deform = x + strength W (P - R), before any per-point
@@ -100,7 +103,11 @@ class ControlLattice : public Deformer {
   template <class T>
   void deform_bound_points(const LatticeBinding& b, T* out) const;
   template <class T>
-  void sort_by_cell(LatticeBinding& b, const T* in) const;
+  void sort_by_cell(LatticeBinding& b, const T* in, const std::uint64_t* key) const;
+  std::uint64_t cell_key(const Vec3& parameters) const;
+  std::uint64_t still_key() const;
+  template <class T>
+  void cell_block(const std::array<std::int32_t, 3>& cell, T* block) const;
   Vec3 contract(const std::vector<double>& grid, const Vec3& parameters, Mat3* derivative) const;
 
   LatticeAxes axes_;

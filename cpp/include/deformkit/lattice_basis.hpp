@@ -77,6 +77,12 @@ struct AxisBasis {
   void evaluate(const AxisSpan& span, double* weight, double* derivative, int* index) const;
 };
 
+// floor for |x| < 2^31 without a call into libm (baseline x86-64 has no rounding instruction).
+inline int floor_int(double x) {
+  const int i = static_cast<int>(x);
+  return i - (x < i);
+}
+
 inline AxisSpan AxisBasis::locate(double s, Outside outside) const {
   AxisSpan span;
   constexpr double kSlack = 1e-12;  // rest points on a face must count as inside despite rounding
@@ -88,12 +94,12 @@ inline AxisSpan AxisBasis::locate(double s, Outside outside) const {
       return span;
     }
     // lattice_deform.cc: i = floor(s (n-1)); indices i-1..i+2 clamped (edge repeat). Beyond two
-    // cells all four clamp to the same point, so i is limited without changing the result.
-    const double g = s * (count - 1);
-    const double i = std::floor(g);
+    // cells all four clamp to the same point, so g is limited first without changing the result.
+    const double g = std::clamp(s * (count - 1), -3.0, count + 1.0);
+    const int i = floor_int(g);
     span.t = g - i;
-    span.piece = static_cast<std::int32_t>(std::clamp(i, -2.0, double(count)));
-    span.frozen = i <= -2.0 || i >= count;
+    span.piece = std::clamp(i, -2, count);
+    span.frozen = i <= -2 || i >= count;
     return span;
   }
   double c = s;
@@ -102,7 +108,7 @@ inline AxisSpan AxisBasis::locate(double s, Outside outside) const {
     span.frozen = true;
   }
   const double g = (c - lo) * scale();
-  span.piece = static_cast<std::int32_t>(std::clamp(std::floor(g), 0.0, double(pieces() - 1)));
+  span.piece = g <= 0.0 ? 0 : g >= pieces() - 1 ? pieces() - 1 : floor_int(g);
   span.t = g - span.piece;
   return span;
 }
