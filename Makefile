@@ -58,6 +58,7 @@ test-python: build
 
 bench: build
 	$(PY) benchmarks/bench_barr.py
+	$(PY) benchmarks/bench_lattice.py
 
 wheel: setup
 	$(PY) -m pip wheel -q --disable-pip-version-check --no-build-isolation --no-deps -w dist .

@@ -157,27 +157,6 @@ Vec3 ControlLattice::rest_map(const Vec3& parameters, Mat3* derivative) const {
   return contract(rest_, parameters, derivative);
 }
 
-// Unbound points take the same path as bound ones: bind, then the cell-sorted SIMD kernel.
-template <class T>
-bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
-  for (std::size_t i = 0; i < 3 * n; ++i)
-    if (!std::isfinite(in[i])) return false;
-  const LatticeBinding b = bind_points(in, n);
-  deform_bound_points(b, out);
-  std::atomic<bool> finite{true};
-  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    T acc = 0;
-    for (std::size_t i = 3 * begin; i < 3 * end; ++i) acc += out[i] * T(0);
-    if (acc != acc) finite = false;
-  });
-  return finite;
-}
-
-bool ControlLattice::deform_impl(const float* in, float* out, std::size_t n) const { return deform_points(in, out, n); }
-bool ControlLattice::deform_impl(const double* in, double* out, std::size_t n) const {
-  return deform_points(in, out, n);
-}
-
 void ControlLattice::jacobian_impl(const double* in, double* jac, std::size_t n) const {
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
@@ -196,6 +175,17 @@ void ControlLattice::jacobian_impl(const double* in, double* jac, std::size_t n)
 }
 
 namespace {
+
+template <class T>
+bool all_rows_finite(const T* out, std::size_t n) {
+  std::atomic<bool> finite{true};
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    T acc = 0;
+    for (std::size_t i = 3 * begin; i < 3 * end; ++i) acc += out[i] * T(0);  // NaN iff some entry is not finite
+    if (acc != acc) finite = false;
+  });
+  return finite;
+}
 
 // The kernel's view of an axis, and the control points a piece touches in that view.
 KernelAxis kernel_axis(const AxisBasis& a) {
@@ -246,7 +236,7 @@ LatticeBinding ControlLattice::bind_points(const T* in, std::size_t n) const {
       const PointStatus s = locate(Vec3(in[3 * i], in[3 * i + 1], in[3 * i + 2]), p);
       b.status[i] = static_cast<std::uint8_t>(s);
       for (int a = 0; a < 3; ++a) b.parameters[3 * i + a] = p[a];
-      key[i] = displaces(s) ? cell_key(p) : still;
+      key[i] = displaces(s) ? cell_key(p, nullptr) : still;
     }
   });
   sort_by_cell(b, in, key.data());
@@ -259,9 +249,13 @@ std::uint64_t ControlLattice::still_key() const {
   return std::uint64_t(axes_[0].count + 4) * (axes_[1].count + 4) * (axes_[2].count + 4);
 }
 
-std::uint64_t ControlLattice::cell_key(const Vec3& p) const {
+std::uint64_t ControlLattice::cell_key(const Vec3& p, double* t) const {
   std::uint64_t k = 0;
-  for (int a = 0; a < 3; ++a) k = k * std::uint64_t(axes_[a].count + 4) + std::uint64_t(axes_[a].locate(p[a], outside_).piece + 2);
+  for (int a = 0; a < 3; ++a) {
+    const AxisSpan span = axes_[a].locate(p[a], outside_);
+    if (t) t[a] = span.t;
+    k = k * std::uint64_t(axes_[a].count + 4) + std::uint64_t(span.piece + 2);
+  }
   return k;
 }
 
@@ -388,6 +382,76 @@ void ControlLattice::deform_bound_points(const LatticeBinding& b, T* out) const 
       lattice_cell_kernel(kaxes, block, t, x, &b.order[lo], hi - lo, out);
     }
   });
+}
+
+// Unbound points: the bound path chunk by chunk, with every buffer in cache and nothing kept.
+template <class T>
+bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
+  const std::uint64_t still = still_key();
+  const std::uint64_t r1 = axes_[1].count + 4, r2 = axes_[2].count + 4, r0 = axes_[0].count + 4;
+  if (still + 1 > (std::uint64_t(1) << 14)) {  // too many cells to sort by counting per chunk
+    for (std::size_t i = 0; i < 3 * n; ++i)
+      if (!std::isfinite(in[i])) return false;
+    deform_bound_points(bind_points(in, n), out);
+    return all_rows_finite(out, n);
+  }
+  const KernelAxis kaxes[3] = {kernel_axis(axes_[0]), kernel_axis(axes_[1]), kernel_axis(axes_[2])};
+  const std::size_t block_size = 3 * std::size_t(kaxes[0].width) * kaxes[1].width * kaxes[2].width;
+  std::atomic<bool> finite{true};
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    constexpr std::size_t kChunk = 8192;
+    std::vector<std::uint64_t> key(kChunk);
+    std::vector<std::uint32_t> order(kChunk), start(still + 2);
+    std::vector<double> local(3 * kChunk);
+    std::vector<T> soa(6 * kChunk), block(block_size);
+    bool ok = true;
+    for (std::size_t c = begin; c < end && ok; c += kChunk) {
+      const std::size_t m = std::min(kChunk, end - c);
+      std::fill(start.begin(), start.end(), 0u);
+      for (std::size_t i = 0; i < m; ++i) {
+        const Vec3 x(in[3 * (c + i)], in[3 * (c + i) + 1], in[3 * (c + i) + 2]);
+        if (!x.allFinite()) {
+          ok = false;
+          break;
+        }
+        Vec3 p;
+        key[i] = displaces(locate(x, p)) ? cell_key(p, &local[3 * i]) : still;
+        ++start[key[i] + 1];
+      }
+      if (!ok) break;
+      for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+      for (std::size_t i = 0; i < m; ++i) {
+        const std::size_t to = start[key[i]]++;
+        order[to] = static_cast<std::uint32_t>(c + i);
+        for (int a = 0; a < 3; ++a) {
+          soa[a * kChunk + to] = key[i] == still ? T(0) : static_cast<T>(local[3 * i + a]);
+          soa[(3 + a) * kChunk + to] = in[3 * (c + i) + a];
+        }
+      }
+      // start[k] now ends cell k's run: walk the runs in key order.
+      for (std::size_t lo = 0; lo < m;) {
+        const std::uint64_t k = key[order[lo] - c];
+        const std::size_t hi = start[k];
+        if (k == still) {
+          for (std::size_t i = lo; i < hi; ++i)
+            for (int a = 0; a < 3; ++a) out[3 * std::size_t(order[i]) + a] = soa[(3 + a) * kChunk + i];
+        } else {
+          cell_block({int(k / (r1 * r2) % r0) - 2, int(k / r2 % r1) - 2, int(k % r2) - 2}, block.data());
+          const T* t[3] = {&soa[lo], &soa[kChunk + lo], &soa[2 * kChunk + lo]};
+          const T* x[3] = {&soa[3 * kChunk + lo], &soa[4 * kChunk + lo], &soa[5 * kChunk + lo]};
+          lattice_cell_kernel(kaxes, block.data(), t, x, &order[lo], hi - lo, out);
+        }
+        lo = hi;
+      }
+    }
+    if (!ok) finite = false;
+  });
+  return finite && all_rows_finite(out, n);
+}
+
+bool ControlLattice::deform_impl(const float* in, float* out, std::size_t n) const { return deform_points(in, out, n); }
+bool ControlLattice::deform_impl(const double* in, double* out, std::size_t n) const {
+  return deform_points(in, out, n);
 }
 
 // deform() blends the per-point weights in the Deformer base; the bound path must do the same.

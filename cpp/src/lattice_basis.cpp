@@ -94,7 +94,20 @@ AxisBasis AxisBasis::make(BasisKind kind, int count, const char* argument) {
         throw std::invalid_argument(name + ": Blender lattices have 1.." + std::to_string(kMaxBlenderResolution) +
                                     " points per axis, got " + std::to_string(count));
   }
-  return AxisBasis{kind, count};
+  AxisBasis a;
+  a.kind = kind;
+  a.count = count;
+  switch (kind) {
+    case BasisKind::Bernstein: a.pieces_ = 1; break;
+    case BasisKind::BezierBlocks: a.pieces_ = (count - 1) / 3; break;
+    case BasisKind::UniformBSpline: a.pieces_ = count - 3; break;
+    default: a.pieces_ = count > 1 ? count - 1 : 1;
+  }
+  // The B-spline covers the box's inner part: its rest control points span the whole box.
+  a.lo_ = kind == BasisKind::UniformBSpline ? 1.0 / (count - 1) : 0.0;
+  a.hi_ = kind == BasisKind::UniformBSpline ? (count - 2.0) / (count - 1) : 1.0;
+  a.scale_ = a.pieces_ / (a.hi_ - a.lo_);
+  return a;
 }
 
 void AxisBasis::evaluate(const AxisSpan& span, double* w, double* dw, int* index) const {

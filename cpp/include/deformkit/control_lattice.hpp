@@ -104,7 +104,7 @@ class ControlLattice : public Deformer {
   void deform_bound_points(const LatticeBinding& b, T* out) const;
   template <class T>
   void sort_by_cell(LatticeBinding& b, const T* in, const std::uint64_t* key) const;
-  std::uint64_t cell_key(const Vec3& parameters) const;
+  std::uint64_t cell_key(const Vec3& parameters, double* local) const;
   std::uint64_t still_key() const;
   template <class T>
   void cell_block(const std::array<std::int32_t, 3>& cell, T* block) const;

@@ -54,25 +54,21 @@ struct AxisBasis {
   // Throws std::invalid_argument naming `argument` when count does not suit the kind.
   static AxisBasis make(BasisKind kind, int count, const char* argument);
 
-  // Inline: called per point and coordinate when binding millions of points.
-  int pieces() const {
-    switch (kind) {
-      case BasisKind::Bernstein: return 1;
-      case BasisKind::BezierBlocks: return (count - 1) / 3;
-      case BasisKind::UniformBSpline: return count - 3;
-      default: return count > 1 ? count - 1 : 1;
-    }
-  }
+  // Cached by make(): locate runs per point and coordinate, and divisions are slow.
+  int pieces() const { return pieces_; }
   int width() const { return kind == BasisKind::Bernstein ? count : 4; }  // weights per point along this axis
   // The domain in normalised box coordinates s (0 and 1 are the box faces).
-  double domain_lo() const { return kind == BasisKind::UniformBSpline ? 1.0 / (count - 1) : 0.0; }
-  double domain_hi() const { return kind == BasisKind::UniformBSpline ? (count - 2.0) / (count - 1) : 1.0; }
+  double domain_lo() const { return lo_; }
+  double domain_hi() const { return hi_; }
   // d(local t)/ds inside a piece.
-  double scale() const { return pieces() / (domain_hi() - domain_lo()); }
+  double scale() const { return scale_; }
   // Rest position of control point j in normalised box coordinates.
   double rest_coordinate(int j) const { return count == 1 ? 0.5 : double(j) / (count - 1); }
 
   AxisSpan locate(double s, Outside outside) const;
+
+  int pieces_ = 1;
+  double lo_ = 0.0, hi_ = 1.0, scale_ = 1.0;
   // Weights and d/ds (frozen spans give 0) of the control points touched: index[0..width()).
   void evaluate(const AxisSpan& span, double* weight, double* derivative, int* index) const;
 };
