@@ -391,3 +391,25 @@ def test_many_points_match_the_formula(name, dtype, rng):
     assert out.dtype == dtype
     np.testing.assert_allclose(out, expected, rtol=0, atol=2e-6 if dtype == np.float32 else 1e-7)
     np.testing.assert_allclose(lat.deform_bound(lat.bind(pts)), out, rtol=0, atol=1e-6 if dtype == np.float32 else 1e-13)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("outside", ["clamp", "unchanged"])
+def test_large_in_place_deform_equals_bound_and_scalar_weights(dtype, outside, rng):
+    # Many chunks on both threads, points in random order, some outside: deform (chunked, unbound),
+    # deform in place and deform_bound must agree with x + strength W (P - R) from the CSR weights.
+    lat = dk.BlenderLattice((5, 4, 6), ("bspline", "cardinal", "linear"), outside=outside, strength=0.8)
+    lat.control_points = lat.rest_control_points + rng.normal(0, 0.05, lat.control_points.shape)
+    pts = rng.uniform(-0.3, 1.3, (70_001, 3)).astype(dtype)
+    expected = pts.astype(np.float64).copy()
+    indptr, indices, data = lat.bind(pts.astype(np.float64)).weights()
+    offsets = (lat.control_points - lat.rest_control_points).reshape(-1, 3)
+    rows = np.repeat(np.arange(len(pts)), np.diff(indptr))
+    np.add.at(expected, rows, lat.strength * data[:, None] * offsets[indices])
+    tol = 1e-12 if dtype == np.float64 else 2e-6
+    out = lat.deform(pts)
+    np.testing.assert_allclose(out, expected, rtol=0, atol=tol)
+    np.testing.assert_array_equal(lat.deform_bound(lat.bind(pts)), out)
+    inplace = pts.copy()
+    lat.deform(inplace, out=inplace)
+    np.testing.assert_array_equal(inplace, out)
