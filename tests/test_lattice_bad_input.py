@@ -160,3 +160,57 @@ def test_weights_must_match_the_bound_points():
     lat = dk.FFD(2, weights=np.full(20, 0.5))
     with pytest.raises(ValueError, match=r"weights: has 20 entries but .*\b10\b"):
         lat.deform_bound(lat.bind(PTS[:10]))
+
+
+# Found in review: finite input that overflows must raise, not crash or hand back inf/NaN.
+@pytest.mark.parametrize("make", [
+    lambda: dk.FFD(2, origin=(-1e308, 0, 0)),
+    lambda: dk.BSplineLattice(5, origin=(-1e308, 0, 0)),
+    lambda: dk.BlenderLattice(3, origin=(-1e308, 0, 0)),
+])
+def test_points_whose_lattice_coordinates_overflow(make):
+    lat, far = make(), np.array([[1e308, 0.5, 0.5]])
+    for call in (lat.deform, lat.bind, lat.jacobian, lat.lattice_coordinates):
+        with pytest.raises(ValueError, match="points: row 0 lies so far from the lattice"):
+            call(far)
+
+
+def test_deform_bound_refuses_overflowing_results():
+    lat = dk.FFD(3, strength=1e308)
+    cp = lat.control_points
+    cp[1, 1, 1] += 1.0
+    lat.control_points = cp
+    pts = np.full((5, 3), 0.5, np.float32)
+    with pytest.raises(ValueError, match="deformer: row 0 maps to a non-finite position"):
+        lat.deform_bound(lat.bind(pts))
+
+
+def test_binding_from_another_outside_policy_is_refused():
+    pts = np.array([[1.5, 0.5, 0.5]])
+    with pytest.raises(ValueError, match="binding: was made by a lattice"):
+        dk.FFD(2, outside="unchanged").deform_bound(dk.FFD(2, outside="clamp").bind(pts))
+
+
+def test_direct_manipulation_that_overflows_raises():
+    with pytest.raises(ValueError, match="targets: the control-point change needed overflows"):
+        dk.FFD(2).direct_manipulation(np.array([[0.5, 0.5, 0.5]]), np.array([[0.5, 0.5, 1e308]]))
+
+
+def test_huge_edges_are_named_too_large():
+    with pytest.raises(ValueError, match="edges: the lattice box is too large"):
+        dk.FFD(2, edges=np.eye(3) * 1e120)
+
+
+def test_many_constraints_match_lstsq(rng):
+    # More constraints than handles, many of them zero columns (rank deficient): numpy's minimum-norm
+    # least-squares solution.
+    lat = dk.BSplineLattice(5)
+    pts = rng.uniform(0.3, 0.7, (600, 3))
+    targets = pts + rng.normal(0, 0.02, pts.shape)
+    r = lat.direct_manipulation(pts, targets)
+    indptr, indices, data = lat.bind(pts).weights()
+    w = np.zeros((len(pts), lat.control_points[..., 0].size))
+    w[np.repeat(np.arange(len(pts)), np.diff(indptr)), indices] = data
+    expected = np.linalg.lstsq(w, targets - pts, rcond=None)[0]
+    np.testing.assert_allclose(r.displacement.reshape(-1, 3), expected, atol=1e-8)
+    assert r.rank == np.linalg.matrix_rank(w)

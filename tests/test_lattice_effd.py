@@ -118,18 +118,46 @@ def test_newton_that_cannot_converge_reports_status_2(rest, rng):
     assert (np.diff(indptr)[failed] == 0).all()
 
 
-def test_folded_lattice_never_gives_nan(rest, rng):
+def test_folded_or_flat_rest_lattices_are_refused(rest):
+    # Newton would pick an arbitrary preimage where a block folds over, and any u where it is
+    # flat: both are refused when the lattice is made, naming the block.
     folded = rest.copy()
-    folded[[1, 5]] = folded[[5, 1]]  # two s-layers swapped: both blocks fold over
-    lat = dk.ExtendedFFD(folded, control_points=folded + 0.05 * rng.normal(size=folded.shape))
-    x = np.vstack([bezier_grid_eval(folded, inner_params(rng)), bezier_grid_eval(rest, inner_params(rng))])
+    folded[[1, 5]] = folded[[5, 1]]  # two s-layers swapped: the blocks fold over
+    with pytest.raises(ValueError, match=r"rest_control_points: block \(\d+, \d+, \d+\) is folded"):
+        dk.ExtendedFFD(folded)
+    flat = rest.copy()
+    flat[..., 2] = 0.0
+    with pytest.raises(ValueError, match=r"rest_control_points: block \(0, 0, 0\) is flat"):
+        dk.ExtendedFFD(flat)
+
+
+def test_prism_lattice(rng):
+    triangle = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.1], [0.5, 1.5, 0.0]])
+    height = np.array([0.1, 0.2, 1.0])
+    lat = dk.ExtendedFFD.prism(triangle, height, blocks=(1, 2, 1))
+    res = lat.resolution
+    # The t = 1 layer collapses onto the edge through C: one handle per height there.
+    assert lat.handles == res[0] * res[1] * res[2] - (res[0] - 1) * res[2]
+    # Barycentric samples inside the prism are placed and round-trip; the lattice's rest map is
+    # X = A + (1 - t) s (B - A) + t (C - A) + u H.
+    w = rng.dirichlet(np.ones(3), 400)
+    u = rng.uniform(0.02, 0.98, 400)
+    x = w @ triangle + u[:, None] * height
     b = lat.bind(x)
-    out = lat.deform(x)
-    assert np.isfinite(out).all() and np.isfinite(lat.jacobian(x)).all()
-    assert set(np.unique(b.status)) <= {0, 1, 2}
-    np.testing.assert_array_equal(out[b.status != 0], x[b.status != 0])
-    placed = b.status == 0
-    np.testing.assert_allclose(bezier_grid_eval(folded, b.parameters[placed]), x[placed], atol=1e-9 * size(rest))
+    assert (b.status == 0).all()
+    s, t, uu = b.parameters.T
+    back = triangle[0] + ((1 - t) * s)[:, None] * (triangle[1] - triangle[0]) + t[:, None] * (triangle[2] - triangle[0]) \
+        + uu[:, None] * height
+    np.testing.assert_allclose(back, x, atol=1e-9 * size(lat.rest_control_points))
+    # Outside the triangle: status 1, unchanged.
+    outside = np.array([[1.5, 1.5, 0.5], [-0.3, -0.3, 0.5]])
+    assert (lat.bind(outside).status == 1).all()
+    # Moving the merged apex edge moves every point of the edge together.
+    cp = lat.control_points
+    cp[:, -1, :, 0] += 0.3
+    lat.control_points = cp
+    apex = triangle[2] + 0.5 * height
+    np.testing.assert_allclose(lat.deform(apex[None] * (1 - 1e-12)), apex[None] + [0.3, 0, 0], atol=1e-6)
 
 
 def test_jacobian_matches_finite_differences(rest, rng):

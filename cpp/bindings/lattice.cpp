@@ -28,7 +28,7 @@ std::array<int, 3> parse_counts(const py::object& obj, const char* name) {
       throw py::type_error(std::string(name) + ": expected an int or three ints, got " + std::string(py::repr(obj)));
     const long long v = PyNumber_AsSsize_t(h.ptr(), nullptr);
     if (PyErr_Occurred()) PyErr_Clear();
-    return static_cast<int>(std::clamp<long long>(v, -1, 1 << 20));
+    return static_cast<int>(std::clamp<long long>(v, -1, 1 << 24));  // out-of-range values still read as out of range
   };
   if (!py::isinstance<py::str>(obj) && py::isinstance<py::sequence>(obj)) {
     const auto seq = py::reinterpret_borrow<py::sequence>(obj);
@@ -197,7 +197,7 @@ PyDirect py_direct(const ControlLattice& lat, const py::object& points, const py
   d.control_points = grid_array(r.control_points, lat.resolution());
   d.displacement = grid_array(r.displacement, lat.resolution());
   d.residual = py::array_t<double>(py::ssize_t(r.residual.size()), r.residual.data());
-  for (double x : r.residual) d.max_residual = std::max(d.max_residual, x);
+  for (double x : r.residual) d.max_residual = std::max(d.max_residual, x);  // finite: the core checks
   d.rank = r.rank;
   return d;
 }
@@ -406,6 +406,22 @@ move together (handle_index).)")
          "axis"_a = "z", "strength"_a = 1.0, "weights"_a = py::none(), "tolerance"_a = 1e-10, "max_iterations"_a = 30,
          R"(A cylindrical lattice: s runs from the axis out to `radius`, t once around (cubic Bezier arcs, blocks[1] >= 3),
 u along the axis over `height`, centred at `center`. The seam and the axis are merged handles.)")
+      .def_static("prism", [make_effd](const py::object& triangle, const py::object& height, const py::object& blocks,
+                                       double strength, const py::object& weights, double tolerance, int max_iterations) {
+        require_real(triangle, "triangle");
+        auto tri = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(triangle);
+        if (!tri || tri.ndim() != 2 || tri.shape(0) != 3 || tri.shape(1) != 3)
+          throw py::value_error("triangle: expected three corners A, B, C as a 3x3 array (one per row)");
+        const Vec3 a(tri.at(0, 0), tri.at(0, 1), tri.at(0, 2)), b(tri.at(1, 0), tri.at(1, 1), tri.at(1, 2)),
+            c(tri.at(2, 0), tri.at(2, 1), tri.at(2, 2));
+        const auto n = parse_counts(blocks, "blocks");
+        const auto grid = ExtendedFFD::prism_grid(a, b, c, parse_vec3(height, "height"), n);
+        const std::array<int, 3> counts{3 * n[0] + 1, 3 * n[1] + 1, 3 * n[2] + 1};
+        return make_effd(grid_array(grid, counts), py::none(), strength, weights, tolerance, max_iterations);
+      }, "triangle"_a, "height"_a, "blocks"_a = 1, "strength"_a = 1.0, "weights"_a = py::none(), "tolerance"_a = 1e-10,
+         "max_iterations"_a = 30,
+         R"(A triangular prism: the triangle A, B, C swept along `height`. s runs from A to B, t toward C
+(where the control points of each s merge into the edge through C), u along the height.)")
       .def_property_readonly("tolerance", [](const ExtendedFFD& l) { return l.newton().tolerance; })
       .def_property_readonly("max_iterations", [](const ExtendedFFD& l) { return l.newton().max_iterations; });
 }

@@ -17,6 +17,26 @@ namespace deformkit {
 
 namespace {
 
+// A finite point far enough from the lattice overflows its lattice coordinates (M^-1 (x - X0)).
+// Exceptions must not leave an OpenMP region, so rows are noted there and reported after it.
+class OverflowRows {
+ public:
+  void note(std::size_t i) {
+    std::size_t cur = first_.load();
+    while (i < cur && !first_.compare_exchange_weak(cur, i)) {
+    }
+  }
+  void raise() const {
+    if (first_.load() != kNone)
+      throw std::invalid_argument("points: row " + std::to_string(first_.load()) +
+                                  " lies so far from the lattice that its lattice coordinates overflow");
+  }
+
+ private:
+  static constexpr std::size_t kNone = ~std::size_t(0);
+  std::atomic<std::size_t> first_{kNone};
+};
+
 struct AxisWeights {
   double w[kMaxAxisWidth], dw[kMaxAxisWidth];
   int index[kMaxAxisWidth];
@@ -41,27 +61,37 @@ ControlLattice::ControlLattice(const LatticeAxes& axes, std::vector<double> rest
 }
 
 void ControlLattice::merge_coincident_control_points(double tolerance) {
+  // Hash points into cells of the tolerance's size; a partner can only be in a neighbouring cell.
   const int n = static_cast<int>(control_count());
-  std::vector<int> representative(n, -1);
-  handle_count_ = 0;
-  std::vector<int> handle_rep;
+  auto cell = [&](int a, int d) { return static_cast<std::int64_t>(std::floor(rest_[3 * a + d] / tolerance)); };
+  auto hash = [](std::int64_t x, std::int64_t y, std::int64_t z) {
+    return std::uint64_t(x) * 73856093ull ^ std::uint64_t(y) * 19349663ull ^ std::uint64_t(z) * 83492791ull;
+  };
+  std::unordered_multimap<std::uint64_t, int> seen;  // cell hash -> earlier representative
+  std::vector<int> representative(n);
   for (int a = 0; a < n; ++a) {
-    for (int r : handle_rep) {
-      const double d = std::hypot(rest_[3 * a] - rest_[3 * r], rest_[3 * a + 1] - rest_[3 * r + 1],
-                                  rest_[3 * a + 2] - rest_[3 * r + 2]);
-      if (d <= tolerance) {
-        representative[a] = r;
-        break;
-      }
-    }
-    if (representative[a] < 0) {
-      representative[a] = a;
-      handle_rep.push_back(a);
-    }
+    representative[a] = a;
+    const std::int64_t cx = cell(a, 0), cy = cell(a, 1), cz = cell(a, 2);
+    for (std::int64_t dx = -1; dx <= 1 && representative[a] == a; ++dx)
+      for (std::int64_t dy = -1; dy <= 1 && representative[a] == a; ++dy)
+        for (std::int64_t dz = -1; dz <= 1 && representative[a] == a; ++dz) {
+          const auto range = seen.equal_range(hash(cx + dx, cy + dy, cz + dz));
+          for (auto it = range.first; it != range.second; ++it) {
+            const int r = it->second;
+            const double d = std::hypot(rest_[3 * a] - rest_[3 * r], rest_[3 * a + 1] - rest_[3 * r + 1],
+                                        rest_[3 * a + 2] - rest_[3 * r + 2]);
+            if (d <= tolerance) {
+              representative[a] = r;
+              break;
+            }
+          }
+        }
+    if (representative[a] == a) seen.emplace(hash(cx, cy, cz), a);
   }
-  handle_count_ = static_cast<int>(handle_rep.size());
   std::vector<int> handle_id(n, -1);
-  for (int h = 0; h < handle_count_; ++h) handle_id[handle_rep[h]] = h;
+  handle_count_ = 0;
+  for (int a = 0; a < n; ++a)
+    if (representative[a] == a) handle_id[a] = handle_count_++;
   for (int a = 0; a < n; ++a) handle_of_[a] = handle_id[representative[a]];
 }
 
@@ -104,6 +134,8 @@ std::uint64_t ControlLattice::layout() const {
     mix(&a.kind, sizeof a.kind);
     mix(&a.count, sizeof a.count);
   }
+  mix(&outside_, sizeof outside_);
+  mix(&layout_salt_, sizeof layout_salt_);
   mix(rest_.data(), rest_.size() * sizeof(double));
   return h;
 }
@@ -158,12 +190,18 @@ Vec3 ControlLattice::rest_map(const Vec3& parameters, Mat3* derivative) const {
 }
 
 void ControlLattice::jacobian_impl(const double* in, double* jac, std::size_t n) const {
+  OverflowRows overflow;
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       const Vec3 x(in[3 * i], in[3 * i + 1], in[3 * i + 2]);
       Vec3 p;
       Mat3 j = Mat3::Identity();
-      if (displaces(locate(x, p))) {
+      const PointStatus status = locate(x, p);
+      if (!p.allFinite()) {
+        overflow.note(i);
+        continue;
+      }
+      if (displaces(status)) {
         Mat3 d;
         displacement_at(p, &d);
         j += strength_ * d * parameter_jacobian(p);
@@ -172,6 +210,7 @@ void ControlLattice::jacobian_impl(const double* in, double* jac, std::size_t n)
         for (int c = 0; c < 3; ++c) jac[9 * i + 3 * r + c] = j(r, c);
     }
   });
+  overflow.raise();
 }
 
 namespace {
@@ -230,15 +269,21 @@ LatticeBinding ControlLattice::bind_points(const T* in, std::size_t n) const {
   b.status.resize(n);
   Buffer<std::uint64_t> key(n);
   const std::uint64_t still = still_key();
+  OverflowRows overflow;
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       Vec3 p;
-      const PointStatus s = locate(Vec3(in[3 * i], in[3 * i + 1], in[3 * i + 2]), p);
+      PointStatus s = locate(Vec3(in[3 * i], in[3 * i + 1], in[3 * i + 2]), p);
+      if (!p.allFinite()) {
+        overflow.note(i);
+        s = PointStatus::NotPlaced, p = Vec3::Zero();
+      }
       b.status[i] = static_cast<std::uint8_t>(s);
       for (int a = 0; a < 3; ++a) b.parameters[3 * i + a] = p[a];
       key[i] = displaces(s) ? cell_key(p, nullptr) : still;
     }
   });
+  overflow.raise();
   sort_by_cell(b, in, key.data());
   return b;
 }
@@ -398,6 +443,7 @@ bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
   const KernelAxis kaxes[3] = {kernel_axis(axes_[0]), kernel_axis(axes_[1]), kernel_axis(axes_[2])};
   const std::size_t block_size = 3 * std::size_t(kaxes[0].width) * kaxes[1].width * kaxes[2].width;
   std::atomic<bool> finite{true};
+  OverflowRows overflow;
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     constexpr std::size_t kChunk = 8192;
     std::vector<std::uint64_t> key(kChunk);
@@ -415,7 +461,13 @@ bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
           break;
         }
         Vec3 p;
-        key[i] = displaces(locate(x, p)) ? cell_key(p, &local[3 * i]) : still;
+        const PointStatus status = locate(x, p);
+        if (!p.allFinite()) {
+          overflow.note(c + i);
+          ok = false;
+          break;
+        }
+        key[i] = displaces(status) ? cell_key(p, &local[3 * i]) : still;
         ++start[key[i] + 1];
       }
       if (!ok) break;
@@ -446,6 +498,7 @@ bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
     }
     if (!ok) finite = false;
   });
+  overflow.raise();
   return finite && all_rows_finite(out, n);
 }
 
@@ -476,15 +529,27 @@ static void require_bound_weights(const std::vector<double>& w, const LatticeBin
                                 std::to_string(b.size()) + " points");
 }
 
+// As deform(): a result that overflows is an error, not inf or NaN handed back.
+template <class T>
+static void require_finite_result(const T* out, std::size_t n) {
+  if (all_rows_finite(out, n)) return;
+  for (std::size_t i = 0; i < n; ++i)
+    if (!std::isfinite(out[3 * i]) || !std::isfinite(out[3 * i + 1]) || !std::isfinite(out[3 * i + 2]))
+      throw std::invalid_argument("deformer: row " + std::to_string(i) +
+                                  " maps to a non-finite position: the control points or strength overflow there");
+}
+
 void ControlLattice::deform_bound(const LatticeBinding& b, double* out) const {
   require_bound_weights(weights(), b);
   deform_bound_points(b, out);
   blend_bound(b, weights(), b.sorted_d, out);
+  require_finite_result(out, b.size());
 }
 void ControlLattice::deform_bound(const LatticeBinding& b, float* out) const {
   require_bound_weights(weights(), b);
   deform_bound_points(b, out);
   blend_bound(b, weights(), b.sorted_f, out);
+  require_finite_result(out, b.size());
 }
 
 SparseWeights ControlLattice::weights_matrix(const LatticeBinding& b) const {

@@ -1,5 +1,6 @@
 #include "deformkit/direct_manipulation.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -14,10 +15,14 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
   if (lattice.strength() == 0.0)
     throw std::invalid_argument("strength: is 0, so no change of the control points can move the points");
   const int handles = lattice.handle_count();
-  // A dense solve keeps rank-deficient and contradicting constraints exact; bound its size.
-  if (double(m) * handles > 2.5e7)
+  // A dense complete orthogonal decomposition keeps rank-deficient and contradicting constraints
+  // exact (normal equations would square the conditioning); it costs m h min(m, h) operations and
+  // m h doubles, so both are bounded (about ten seconds and 400 MB here).
+  const double h = handles, cost = double(m) * h * std::min(double(m), h);
+  if (cost > 1e10 || double(m) * h > 5e7)
     throw std::invalid_argument("points: " + std::to_string(m) + " constraints on " + std::to_string(handles) +
-                                " control points is too large for the dense least-squares solve");
+                                " control points is too large for the dense least-squares solve; use fewer points "
+                                "or a coarser lattice");
   const LatticeBinding binding = lattice.bind(points, m);
   const SparseWeights w = lattice.weights_matrix(binding);
   // Where the points are now, x + strength W (P - R): the lattice's own per-point weights belong
@@ -30,23 +35,29 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
       for (int a = 0; a < 3; ++a)
         current[3 * r + a] += lattice.strength() * w.values[e] * (control[3 * w.indices[e] + a] - rest[3 * w.indices[e] + a]);
 
-  Eigen::MatrixXd b = Eigen::MatrixXd::Zero(Eigen::Index(m), handles);
-  for (std::size_t r = 0; r < m; ++r)
-    for (std::int64_t e = w.indptr[r]; e < w.indptr[r + 1]; ++e) b(Eigen::Index(r), lattice.handle_of()[w.indices[e]]) += w.values[e];
+  // B (m x h) over handles: merged control points add up in their handle.
+  const auto& handle_of = lattice.handle_of();
   Eigen::MatrixXd dq(Eigen::Index(m), 3);
   for (std::size_t r = 0; r < m; ++r)
     for (int a = 0; a < 3; ++a) dq(Eigen::Index(r), a) = (targets[3 * r + a] - current[3 * r + a]) / lattice.strength();
 
   // Minimum-norm least squares: B^+ dQ (B^T (B B^T)^-1 dQ at full row rank), algorithms.md B.3.
+  Eigen::MatrixXd b = Eigen::MatrixXd::Zero(Eigen::Index(m), handles);
+  for (std::size_t r = 0; r < m; ++r)
+    for (std::int64_t e = w.indptr[r]; e < w.indptr[r + 1]; ++e) b(Eigen::Index(r), handle_of[w.indices[e]]) += w.values[e];
   const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(b);
   const Eigen::MatrixXd dp = cod.solve(dq);
+  const int rank = static_cast<int>(cod.rank());
+  if (!dp.allFinite())
+    throw std::invalid_argument("targets: the control-point change needed overflows (targets too far, or strength "
+                                "too small)");
   const Eigen::MatrixXd reached = b * dp;
 
   DirectManipulationResult result;
-  result.rank = static_cast<int>(cod.rank());
+  result.rank = rank;
   result.residual.resize(m);
   for (std::size_t r = 0; r < m; ++r)
-    result.residual[r] = lattice.strength() * (reached.row(Eigen::Index(r)) - dq.row(Eigen::Index(r))).norm();
+    result.residual[r] = std::abs(lattice.strength()) * (reached.row(Eigen::Index(r)) - dq.row(Eigen::Index(r))).norm();
   const auto& grid = lattice.control_points();
   result.control_points = grid;
   result.displacement.assign(grid.size(), 0.0);

@@ -1,6 +1,7 @@
 #include "deformkit/extended_ffd.hpp"
 
 #include <algorithm>
+#include <cstring>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -59,6 +60,36 @@ ExtendedFFD::ExtendedFFD(std::array<int, 3> counts, std::vector<double> rest, do
         box.max().array() += pad;
         bounds_.push_back(box);
       }
+  require_one_to_one();
+  const double salt[2] = {newton.tolerance, double(newton.max_iterations)};
+  std::memcpy(&layout_salt_, &salt[0], sizeof layout_salt_);
+  layout_salt_ ^= static_cast<std::uint64_t>(newton.max_iterations) * 0x9E3779B97F4A7C15ull;
+}
+
+// Newton can only place points where each block maps one to one: det(dX/ds) must keep one sign
+// and not vanish inside every block (on a face it may: a cylinder's axis, a prism's apex edge).
+void ExtendedFFD::require_one_to_one() const {
+  constexpr double kSamples[3] = {0.15, 0.5, 0.85};
+  int sign = 0;
+  for (int b = 0; b < int(bounds_.size()); ++b) {
+    const double extent = (bounds_[b].max() - bounds_[b].min()).norm();
+    for (double s : kSamples)
+      for (double t : kSamples)
+        for (double u : kSamples) {
+          Mat3 d;
+          block_point(b, Vec3(s, t, u), &d);
+          const double det = d.determinant();
+          const int here = det > 1e-9 * extent * extent * extent ? 1 : det < -1e-9 * extent * extent * extent ? -1 : 0;
+          if (here == 0 || (sign != 0 && here != sign)) {
+            const int bk = b % blocks_[2], bj = (b / blocks_[2]) % blocks_[1], bi = b / (blocks_[1] * blocks_[2]);
+            throw std::invalid_argument("rest_control_points: block (" + std::to_string(bi) + ", " + std::to_string(bj) +
+                                        ", " + std::to_string(bk) + ") is " + (here == 0 ? "flat" : "folded") +
+                                        " (det dX/ds " + (here == 0 ? "vanishes" : "changes sign") +
+                                        " inside it); an extended FFD needs blocks that map one to one");
+          }
+          sign = here;
+        }
+  }
 }
 
 Vec3 ExtendedFFD::block_point(int block, const Vec3& local, Mat3* derivative) const {
@@ -153,6 +184,29 @@ Mat3 ExtendedFFD::parameter_jacobian(const Vec3& parameters) const {
   return d.completeOrthogonalDecomposition().pseudoInverse();
 }
 
+std::vector<double> ExtendedFFD::prism_grid(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& height,
+                                            std::array<int, 3> blocks) {
+  if (!a.allFinite() || !b.allFinite() || !c.allFinite() || !height.allFinite())
+    throw std::invalid_argument("triangle: corners and height must be finite");
+  for (int n : blocks)
+    if (n < 1 || n > 256) throw std::invalid_argument("blocks: a prism needs 1..256 blocks per axis");
+  const int ns = 3 * blocks[0] + 1, nt = 3 * blocks[1] + 1, nu = 3 * blocks[2] + 1;
+  if (double(ns) * nt * nu > double(kMaxControlPoints))
+    throw std::invalid_argument("blocks: more control points than the limit of " + std::to_string(kMaxControlPoints));
+  // X = A + (1 - t) s (B - A) + t (C - A) + u H: bilinear in (s, t), so its Bezier control points
+  // are its values at i/3 steps; at t = 1 every s lands on the edge through C (merged points).
+  std::vector<double> grid;
+  grid.reserve(3 * std::size_t(ns) * nt * nu);
+  for (int i = 0; i < ns; ++i)
+    for (int j = 0; j < nt; ++j)
+      for (int k = 0; k < nu; ++k) {
+        const double s = double(i) / (ns - 1), t = double(j) / (nt - 1), u = double(k) / (nu - 1);
+        const Vec3 p = a + (1.0 - t) * s * (b - a) + t * (c - a) + u * height;
+        grid.insert(grid.end(), {p[0], p[1], p[2]});
+      }
+  return grid;
+}
+
 std::vector<double> ExtendedFFD::cylinder_grid(double radius, double height, std::array<int, 3> blocks,
                                                const Vec3& center, int axis) {
   if (!(radius > 0.0) || !std::isfinite(radius)) throw std::invalid_argument("radius: must be a positive number");
@@ -161,6 +215,8 @@ std::vector<double> ExtendedFFD::cylinder_grid(double radius, double height, std
   if (blocks[0] < 1 || blocks[2] < 1 || blocks[1] < 3 || blocks[0] > 64 || blocks[1] > 256 || blocks[2] > 256)
     throw std::invalid_argument("blocks: a cylinder needs 1..64 radial, 3..256 angular and 1..256 axial blocks");
   const int nr = 3 * blocks[0] + 1, na = 3 * blocks[1] + 1, nh = 3 * blocks[2] + 1;
+  if (double(nr) * na * nh > double(kMaxControlPoints))
+    throw std::invalid_argument("blocks: more control points than the limit of " + std::to_string(kMaxControlPoints));
   const double step = 2.0 * M_PI / blocks[1];
   const double kappa = 4.0 / 3.0 * std::tan(step / 4.0);  // cubic Bezier arc handle length
   std::vector<double> grid;

@@ -14,6 +14,8 @@ LatticeBox LatticeBox::from_edges(const Vec3& origin, const Mat3& edges, const c
   const double volume = s.dot(t.cross(u));
   // Scale-free: the volume against the product of edge lengths is the sine-like flatness.
   const double lengths = s.norm() * t.norm() * u.norm();
+  if (!std::isfinite(lengths) || !std::isfinite(volume))
+    throw std::invalid_argument(name + ": the lattice box is too large (its volume overflows)");
   if (!(lengths > 0.0) || std::abs(volume) <= 1e-12 * lengths)
     throw std::invalid_argument(name + ": the lattice box has zero volume (an edge is zero or the edges are "
                                        "coplanar)");

@@ -1,6 +1,6 @@
 #include "deformkit/mesh_volume.hpp"
 
-#include "deformkit/types.hpp"
+#include "deformkit/deformer.hpp"
 
 #include <stdexcept>
 #include <string>
@@ -9,6 +9,7 @@ namespace deformkit {
 
 double mesh_volume(const double* points, std::size_t n, const std::int64_t* faces, std::size_t m, std::size_t k) {
   if (k < 3) throw std::invalid_argument("faces: need at least 3 corners per face");
+  require_finite_rows(points, n, "points");
   for (std::size_t i = 0; i < m * k; ++i)
     if (faces[i] < 0 || std::size_t(faces[i]) >= n)
       throw std::invalid_argument("faces: face " + std::to_string(i / k) + " has corner index " +

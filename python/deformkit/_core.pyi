@@ -160,6 +160,10 @@ class ExtendedFFD(Lattice):
                  center: _Vector3 | None = None, axis: _Axis = "z", strength: float = 1.0,
                  weights: npt.ArrayLike | None = None, tolerance: float = 1e-10,
                  max_iterations: int = 30) -> ExtendedFFD: ...
+    @staticmethod
+    def prism(triangle: npt.ArrayLike, height: _Vector3, blocks: _Counts = 1, strength: float = 1.0,
+              weights: npt.ArrayLike | None = None, tolerance: float = 1e-10,
+              max_iterations: int = 30) -> ExtendedFFD: ...
     @property
     def tolerance(self) -> float: ...
     @property

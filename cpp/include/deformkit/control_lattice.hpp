@@ -78,6 +78,8 @@ class ControlLattice : public Deformer {
  protected:
   ControlLattice(const LatticeAxes& axes, std::vector<double> rest, Outside outside, double strength);
   void merge_coincident_control_points(double tolerance);
+  // Whatever else the lattice coordinates depend on (extended FFD: the Newton settings).
+  std::uint64_t layout_salt_ = 0;
 
   // Lattice coordinates and status of one finite point.
   virtual PointStatus locate(const Vec3& x, Vec3& parameters) const = 0;

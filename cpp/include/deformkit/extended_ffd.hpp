@@ -22,6 +22,11 @@ class ExtendedFFD : public ControlLattice {
   static std::vector<double> cylinder_grid(double radius, double height, std::array<int, 3> blocks,
                                            const Vec3& center, int axis);
 
+  // Rest grid of a triangular prism: s along A->B, t toward C (the edge through C is merged),
+  // u along `height`.
+  static std::vector<double> prism_grid(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& height,
+                                        std::array<int, 3> blocks);
+
   const NewtonSettings& newton() const { return newton_; }
   double size() const { return size_; }
 
@@ -34,6 +39,7 @@ class ExtendedFFD : public ControlLattice {
   // Newton from (0.5, 0.5, 0.5), then from the 8 octant centres (algorithms.md B.2).
   Placement invert_block(int block, const Vec3& x, Vec3& local) const;
   Vec3 block_point(int block, const Vec3& local, Mat3* derivative) const;
+  void require_one_to_one() const;
 
   std::array<int, 3> blocks_{};
   std::vector<Eigen::AlignedBox3d> bounds_;  // control-point boxes: the convex hull test
