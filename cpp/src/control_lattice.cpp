@@ -387,7 +387,7 @@ void ControlLattice::cell_block(const std::array<std::int32_t, 3>& cell, T* bloc
 }
 
 template <class T>
-void ControlLattice::deform_bound_points(const LatticeBinding& b, T* out) const {
+bool ControlLattice::deform_bound_points(const LatticeBinding& b, T* out) const {
   if (b.layout != layout())
     throw std::invalid_argument("binding: was made by a lattice with another basis, resolution or rest placement; "
                                 "bind the points to this lattice");
@@ -409,8 +409,10 @@ void ControlLattice::deform_bound_points(const LatticeBinding& b, T* out) const 
       for (std::size_t c = (begin + 255) / 256; c < (end + 255) / 256 && c < b.cells.size(); ++c)
         if (b.cell_moves[c]) cell_block(b.cells[c], &blocks[c * block_size]);
     });
+  std::atomic<bool> finite{true};
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     std::vector<T> own(table ? 0 : block_size);
+    bool ok = true;
     std::size_t r = std::upper_bound(b.run_begin.begin(), b.run_begin.end(), begin) - b.run_begin.begin() - 1;
     for (; r + 1 < b.run_begin.size() && b.run_begin[r] < end; ++r) {
       const std::size_t lo = std::max<std::size_t>(begin, b.run_begin[r]), hi = std::min<std::size_t>(end, b.run_begin[r + 1]);
@@ -424,9 +426,11 @@ void ControlLattice::deform_bound_points(const LatticeBinding& b, T* out) const 
       if (!table) cell_block(b.cells[c], own.data());
       const T* t[3] = {&sorted[lo], &sorted[n + lo], &sorted[2 * n + lo]};
       const T* x[3] = {&sorted[3 * n + lo], &sorted[4 * n + lo], &sorted[5 * n + lo]};
-      lattice_cell_kernel(kaxes, block, t, x, &b.order[lo], hi - lo, out);
+      ok = lattice_cell_kernel(kaxes, block, t, x, &b.order[lo], hi - lo, out) && ok;
     }
+    if (!ok) finite = false;
   });
+  return finite;
 }
 
 // Unbound points: the bound path chunk by chunk, with every buffer in cache and nothing kept.
@@ -437,8 +441,7 @@ bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
   if (still + 1 > (std::uint64_t(1) << 14)) {  // too many cells to sort by counting per chunk
     for (std::size_t i = 0; i < 3 * n; ++i)
       if (!std::isfinite(in[i])) return false;
-    deform_bound_points(bind_points(in, n), out);
-    return all_rows_finite(out, n);
+    return deform_bound_points(bind_points(in, n), out);
   }
   const KernelAxis kaxes[3] = {kernel_axis(axes_[0]), kernel_axis(axes_[1]), kernel_axis(axes_[2])};
   const std::size_t block_size = 3 * std::size_t(kaxes[0].width) * kaxes[1].width * kaxes[2].width;
@@ -450,7 +453,7 @@ bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
     std::vector<std::uint32_t> order(kChunk), start(still + 2);
     std::vector<double> local(3 * kChunk);
     std::vector<T> soa(6 * kChunk), block(block_size);
-    bool ok = true;
+    bool ok = true, results_finite = true;  // input rows, and the kernel's results
     for (std::size_t c = begin; c < end && ok; c += kChunk) {
       const std::size_t m = std::min(kChunk, end - c);
       std::fill(start.begin(), start.end(), 0u);
@@ -491,15 +494,15 @@ bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
           cell_block({int(k / (r1 * r2) % r0) - 2, int(k / r2 % r1) - 2, int(k % r2) - 2}, block.data());
           const T* t[3] = {&soa[lo], &soa[kChunk + lo], &soa[2 * kChunk + lo]};
           const T* x[3] = {&soa[3 * kChunk + lo], &soa[4 * kChunk + lo], &soa[5 * kChunk + lo]};
-          lattice_cell_kernel(kaxes, block.data(), t, x, &order[lo], hi - lo, out);
+          results_finite = lattice_cell_kernel(kaxes, block.data(), t, x, &order[lo], hi - lo, out) && results_finite;
         }
         lo = hi;
       }
     }
-    if (!ok) finite = false;
+    if (!ok || !results_finite) finite = false;
   });
   overflow.raise();
-  return finite && all_rows_finite(out, n);
+  return finite;
 }
 
 bool ControlLattice::deform_impl(const float* in, float* out, std::size_t n) const { return deform_points(in, out, n); }
@@ -541,15 +544,15 @@ static void require_finite_result(const T* out, std::size_t n) {
 
 void ControlLattice::deform_bound(const LatticeBinding& b, double* out) const {
   require_bound_weights(weights(), b);
-  deform_bound_points(b, out);
+  const bool finite = deform_bound_points(b, out);
   blend_bound(b, weights(), b.sorted_d, out);
-  require_finite_result(out, b.size());
+  if (!finite || !weights().empty()) require_finite_result(out, b.size());
 }
 void ControlLattice::deform_bound(const LatticeBinding& b, float* out) const {
   require_bound_weights(weights(), b);
-  deform_bound_points(b, out);
+  const bool finite = deform_bound_points(b, out);
   blend_bound(b, weights(), b.sorted_f, out);
-  require_finite_result(out, b.size());
+  if (!finite || !weights().empty()) require_finite_result(out, b.size());
 }
 
 SparseWeights ControlLattice::weights_matrix(const LatticeBinding& b) const {

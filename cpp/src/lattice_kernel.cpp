@@ -85,13 +85,14 @@ HWY_INLINE void Contract(D d, const T* block, const V* w0, const V* w1, const V*
 }
 
 template <class T>
-void CellKernel(const KernelAxis* axes, const T* block, const T* const* t, const T* const* base,
+bool CellKernel(const KernelAxis* axes, const T* block, const T* const* t, const T* const* base,
                 const std::uint32_t* order, size_t count, T* out) {
   const hn::ScalableTag<T> d;
   using V = hn::Vec<decltype(d)>;
   const size_t N = hn::Lanes(d);
   const bool cubic = axes[0].width == 4 && axes[1].width == 4 && axes[2].width == 4;
   HWY_ALIGN T pad[3][HWY_MAX_BYTES / sizeof(T)], lane[3][HWY_MAX_BYTES / sizeof(T)];
+  V bad = hn::Zero(d);  // 0 * v is NaN exactly when v is not finite: an overflow shows here
   for (size_t i = 0; i < count; i += N) {
     const size_t m = count - i < N ? count - i : N;
     V tv[3], bv[3];
@@ -113,23 +114,26 @@ void CellKernel(const KernelAxis* axes, const T* block, const T* const* t, const
     V ax, ay, az;
     if (cubic) Contract<4, 4, 4>(d, block, w0, w1, w2, 4, 4, 4, ax, ay, az);
     else Contract<0, 0, 0>(d, block, w0, w1, w2, axes[0].width, axes[1].width, axes[2].width, ax, ay, az);
-    hn::Store(hn::Add(bv[0], ax), d, lane[0]);
-    hn::Store(hn::Add(bv[1], ay), d, lane[1]);
-    hn::Store(hn::Add(bv[2], az), d, lane[2]);
+    const V ox = hn::Add(bv[0], ax), oy = hn::Add(bv[1], ay), oz = hn::Add(bv[2], az);
+    bad = hn::MulAdd(hn::Zero(d), ox, hn::MulAdd(hn::Zero(d), oy, hn::MulAdd(hn::Zero(d), oz, bad)));
+    hn::Store(ox, d, lane[0]);
+    hn::Store(oy, d, lane[1]);
+    hn::Store(oz, d, lane[2]);
     for (size_t l = 0; l < m; ++l) {
       T* o = out + 3 * size_t(order[i + l]);
       o[0] = lane[0][l], o[1] = lane[1][l], o[2] = lane[2][l];
     }
   }
+  return hn::AllTrue(d, hn::Eq(bad, bad));  // Highway 1.0's Ne is ordered: NaN != NaN is false
 }
 
-void CellF32(const KernelAxis* axes, const float* block, const float* const* t, const float* const* base,
+bool CellF32(const KernelAxis* axes, const float* block, const float* const* t, const float* const* base,
              const std::uint32_t* order, size_t count, float* out) {
-  CellKernel(axes, block, t, base, order, count, out);
+  return CellKernel(axes, block, t, base, order, count, out);
 }
-void CellF64(const KernelAxis* axes, const double* block, const double* const* t, const double* const* base,
+bool CellF64(const KernelAxis* axes, const double* block, const double* const* t, const double* const* base,
              const std::uint32_t* order, size_t count, double* out) {
-  CellKernel(axes, block, t, base, order, count, out);
+  return CellKernel(axes, block, t, base, order, count, out);
 }
 
 }  // namespace HWY_NAMESPACE
@@ -142,13 +146,13 @@ namespace deformkit {
 HWY_EXPORT(CellF32);
 HWY_EXPORT(CellF64);
 
-void lattice_cell_kernel(const KernelAxis axes[3], const float* block, const float* const t[3],
+bool lattice_cell_kernel(const KernelAxis axes[3], const float* block, const float* const t[3],
                          const float* const base[3], const std::uint32_t* order, std::size_t count, float* out) {
-  HWY_DYNAMIC_DISPATCH(CellF32)(axes, block, t, base, order, count, out);
+  return HWY_DYNAMIC_DISPATCH(CellF32)(axes, block, t, base, order, count, out);
 }
-void lattice_cell_kernel(const KernelAxis axes[3], const double* block, const double* const t[3],
+bool lattice_cell_kernel(const KernelAxis axes[3], const double* block, const double* const t[3],
                          const double* const base[3], const std::uint32_t* order, std::size_t count, double* out) {
-  HWY_DYNAMIC_DISPATCH(CellF64)(axes, block, t, base, order, count, out);
+  return HWY_DYNAMIC_DISPATCH(CellF64)(axes, block, t, base, order, count, out);
 }
 
 }  // namespace deformkit

@@ -103,7 +103,7 @@ class ControlLattice : public Deformer {
   template <class T>
   LatticeBinding bind_points(const T* in, std::size_t n) const;
   template <class T>
-  void deform_bound_points(const LatticeBinding& b, T* out) const;
+  bool deform_bound_points(const LatticeBinding& b, T* out) const;
   template <class T>
   void sort_by_cell(LatticeBinding& b, const T* in, const std::uint64_t* key) const;
   std::uint64_t cell_key(const Vec3& parameters, double* local) const;
