@@ -63,7 +63,8 @@ py::array py_volume_ratio(const Deformer& d, const py::object& points);
 
 py::object weights_of(const Deformer& d);
 
-// Bindings of the lattice family (lattice.cpp).
+// Bindings of the lattice family (lattice.cpp) and of the surface deformers (surface.cpp).
 void bind_lattice(py::module_& m);
+void bind_surface(py::module_& m);
 
 }  // namespace deformkit_py

@@ -186,6 +186,7 @@ volume ratio. Stacks nest.)")
       });
 
   bind_lattice(m);
+  bind_surface(m);
 
   m.def("build_info", []() {
     py::dict info;

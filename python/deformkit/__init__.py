@@ -26,15 +26,17 @@ from ._core import (
     SimpleDeform,
     Stack,
     Stretch,
+    SurfaceDeformer,
     Taper,
     Twist,
     build_info,
+    cotangent_laplacian,
     mesh_volume,
 )
 
 __all__ = [
     "BSplineLattice", "Bend", "BezierFFD", "BlenderLattice", "Deformer", "DirectManipulation", "ExtendedFFD",
     "FFD", "Lattice", "LatticeBinding", "SimpleDeform", "Stack", "Stretch", "Taper", "Twist", "build_info",
-    "mesh_volume",
+    "SurfaceDeformer", "cotangent_laplacian", "mesh_volume",
 ]
 __version__ = "0.1.0"

@@ -14,3 +14,6 @@
 #include "deformkit/lattice_basis.hpp"
 #include "deformkit/lattice_box.hpp"
 #include "deformkit/mesh_volume.hpp"
+#include "deformkit/cotangent_laplacian.hpp"
+#include "deformkit/surface_deformer.hpp"
+#include "deformkit/surface_mesh.hpp"

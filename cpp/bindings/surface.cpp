@@ -1,0 +1,143 @@
+// Python bindings of the surface deformers: argument conversion and checking only.
+#include "common.hpp"
+
+#include "deformkit/surface_deformer.hpp"
+
+#include <memory>
+
+namespace deformkit_py {
+
+using namespace pybind11::literals;
+
+namespace {
+
+// An (m, k) integer array, or a sequence of index sequences (polygons of mixed sizes).
+std::pair<std::vector<std::int64_t>, std::vector<std::int64_t>> parse_faces(const py::object& faces) {
+  std::vector<std::int64_t> corners, offsets{0};
+  if (py::isinstance<py::array>(faces)) {
+    const py::array a = py::reinterpret_borrow<py::array>(faces);
+    if (a.dtype().kind() != 'i' && a.dtype().kind() != 'u')
+      throw py::type_error("faces: expected integer vertex indices, got " + std::string(py::str(a.dtype())));
+    const auto f = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+    if (f.ndim() != 2 || f.shape(0) == 0 || f.shape(1) < 3)
+      throw py::value_error("faces: expected shape (m, k) with m >= 1 and k >= 3, got " + shape_of(f));
+    corners.assign(f.data(), f.data() + f.size());
+    for (py::ssize_t i = 1; i <= f.shape(0); ++i) offsets.push_back(i * f.shape(1));
+    return {corners, offsets};
+  }
+  if (!py::isinstance<py::sequence>(faces) || py::isinstance<py::str>(faces))
+    throw py::type_error("faces: expected an (m, k) integer array or a list of index lists");
+  for (const py::handle& face : py::reinterpret_borrow<py::sequence>(faces)) {
+    std::vector<std::int64_t> idx;
+    try {
+      idx = face.cast<std::vector<std::int64_t>>();
+    } catch (const py::cast_error&) {
+      throw py::type_error("faces: every face must be a sequence of integer vertex indices");
+    }
+    corners.insert(corners.end(), idx.begin(), idx.end());
+    offsets.push_back(std::int64_t(corners.size()));
+  }
+  if (offsets.size() < 2) throw py::value_error("faces: no faces");
+  return {corners, offsets};
+}
+
+TriangleMesh parse_mesh(const py::object& points, const py::object& faces) {
+  const auto p = as_double(points_array(points, "points"));
+  const auto [corners, offsets] = parse_faces(faces);
+  return triangulate(p.data(), std::size_t(p.shape(0)), corners, offsets);
+}
+
+std::vector<int> parse_indices(const py::object& obj, const char* name) {
+  if (obj.is_none()) return {};
+  const py::array a = py::array::ensure(obj);
+  if (!a || (a.size() > 0 && a.dtype().kind() != 'i' && a.dtype().kind() != 'u'))
+    throw py::type_error(std::string(name) + ": expected a sequence of integer vertex indices");
+  if (a.ndim() > 1) throw py::value_error(std::string(name) + ": expected a 1-D sequence of vertex indices");
+  const auto v = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+  std::vector<int> out;
+  for (py::ssize_t i = 0; i < v.size(); ++i)
+    out.push_back(static_cast<int>(std::clamp<std::int64_t>(v.data()[i], -1, std::int64_t(1) << 30)));
+  return out;
+}
+
+}  // namespace
+
+void bind_surface(py::module_& m) {
+  m.def("cotangent_laplacian", [](const py::object& points, const py::object& faces) {
+    const TriangleMesh mesh = parse_mesh(points, faces);
+    SparseMatrix l = cotangent_laplacian(mesh);  // symmetric: its column storage is its row storage
+    l.makeCompressed();
+    py::array_t<std::int64_t> indptr(l.outerSize() + 1);
+    for (Eigen::Index i = 0; i <= l.outerSize(); ++i) indptr.mutable_data()[i] = l.outerIndexPtr()[i];
+    py::array_t<std::int32_t> indices(l.nonZeros(), l.innerIndexPtr());
+    py::array_t<double> data(l.nonZeros(), l.valuePtr());
+    return py::make_tuple(indptr, indices, data);
+  }, "points"_a, "faces"_a, R"(The cotangent Laplacian of a mesh as CSR (indptr, indices, data).
+
+L_ij = -(cot a + cot b)/2 for an edge, L_ii = -sum of the row: symmetric, rows sum to 0. Polygons
+are fanned into triangles; cotangents are clamped to +-1e4 so degenerate triangles stay finite.)");
+
+  py::class_<SurfaceDeformer, std::shared_ptr<SurfaceDeformer>>(m, "SurfaceDeformer", R"(Laplacian editing and as-rigid-as-possible deformation of a mesh.
+
+points (n, 3) and faces (an (m, k) integer array or a list of polygons) are copied. anchors stay
+at rest, handles move to the targets given to deform(); vertices outside roi (default: all
+inside) stay at rest. method 'arap' (Sorkine and Alexa 2007: local SVD rotations, global solve)
+or 'laplacian' (Sorkine et al. 2004 without rotations: least squares on the differential
+coordinates); weights 'cotangent' or 'uniform'. The system over the free vertices is factorised
+here, once; deform() only back-substitutes (ARAP: iterations local/global steps, stopping early
+when the relative energy decrease falls below tolerance > 0). Negative cotangent weights are
+raised to a small positive floor, which keeps the system positive definite and the ARAP energy
+monotone. A connected component with no anchor or handle stays where it is (see warnings).)")
+      .def(py::init([](const py::object& points, const py::object& faces, const py::object& anchors,
+                       const py::object& handles, const py::object& roi, const std::string& method,
+                       const std::string& weights, int iterations, double tolerance) {
+             SurfaceSettings s;
+             if (method == "arap") s.method = SurfaceMethod::Arap;
+             else if (method == "laplacian") s.method = SurfaceMethod::Laplacian;
+             else throw py::value_error("method: expected 'arap' or 'laplacian', got '" + method + "'");
+             if (weights == "cotangent") s.uniform_weights = false;
+             else if (weights == "uniform") s.uniform_weights = true;
+             else throw py::value_error("weights: expected 'cotangent' or 'uniform', got '" + weights + "'");
+             s.iterations = iterations;
+             s.tolerance = tolerance;
+             TriangleMesh mesh = parse_mesh(points, faces);
+             std::optional<std::vector<int>> region;
+             if (!roi.is_none()) region = parse_indices(roi, "roi");
+             auto a = parse_indices(anchors, "anchors"), h = parse_indices(handles, "handles");
+             py::gil_scoped_release release;
+             return std::make_shared<SurfaceDeformer>(std::move(mesh), std::move(a), std::move(h), region, s);
+           }),
+           "points"_a, "faces"_a, py::kw_only(), "anchors"_a = py::tuple(), "handles"_a = py::tuple(),
+           "roi"_a = py::none(), "method"_a = "arap", "weights"_a = "cotangent", "iterations"_a = 10,
+           "tolerance"_a = 0.0)
+      .def("deform", [](SurfaceDeformer& d, const py::object& targets) {
+        const auto k = py::ssize_t(d.handle_count());
+        py::array t = py::array::ensure(targets);
+        if (!t || t.ndim() != 2 || t.shape(0) != k || t.shape(1) != 3)
+          throw py::value_error("handle_targets: expected shape (" + std::to_string(k) + ", 3)" +
+                                (t ? ", got " + shape_of(t) : std::string()));
+        if (t.dtype().kind() != 'f' && t.dtype().kind() != 'i' && t.dtype().kind() != 'u')
+          throw py::type_error("handle_targets: expected real numbers");
+        const auto td = as_double(t);
+        std::vector<double> out;
+        {
+          py::gil_scoped_release release;
+          out = d.deform(td.data());
+        }
+        py::array_t<double> result({py::ssize_t(d.vertex_count()), py::ssize_t(3)});
+        std::copy(out.begin(), out.end(), result.mutable_data());
+        return result;
+      }, "handle_targets"_a, "Deformed points (n, 3) with the handles at handle_targets (len(handles), 3).")
+      .def("__len__", &SurfaceDeformer::vertex_count)
+      .def_property_readonly("free_count", &SurfaceDeformer::free_count)
+      .def_property_readonly("warnings", &SurfaceDeformer::warnings)
+      .def_property_readonly("energy", &SurfaceDeformer::energy, "ARAP energy after each iteration of the last deform.")
+      .def_property_readonly("method", [](const SurfaceDeformer& d) {
+        return d.settings().method == SurfaceMethod::Arap ? "arap" : "laplacian";
+      })
+      .def_property_readonly("weights_kind", [](const SurfaceDeformer& d) {
+        return d.settings().uniform_weights ? "uniform" : "cotangent";
+      });
+}
+
+}  // namespace deformkit_py

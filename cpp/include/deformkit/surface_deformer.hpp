@@ -1,0 +1,64 @@
+#pragma once
+// Surface deformers on a triangle mesh: Laplacian editing (Sorkine et al. 2004) and
+// as-rigid-as-possible deformation (Sorkine and Alexa 2007), with the system over the free
+// vertices factorised once at construction, so that moving handles only back-substitutes.
+#include "deformkit/cotangent_laplacian.hpp"
+#include "deformkit/types.hpp"
+
+#include <Eigen/SparseCholesky>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace deformkit {
+
+enum class SurfaceMethod { Laplacian, Arap };
+
+struct SurfaceSettings {
+  SurfaceMethod method = SurfaceMethod::Arap;
+  bool uniform_weights = false;
+  int iterations = 10;     // ARAP local/global iterations
+  double tolerance = 0.0;  // > 0: stop when the relative energy decrease falls below it
+};
+
+class SurfaceDeformer {
+ public:
+  // Throws std::invalid_argument naming anchors, handles or roi for bad indices, and iterations
+  // or tolerance for bad settings.
+  SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, std::vector<int> handles,
+                  const std::optional<std::vector<int>>& roi, SurfaceSettings settings);
+
+  // New positions (3n) with the handles at targets (3 per handle). Records energy() for ARAP.
+  std::vector<double> deform(const double* targets);
+
+  std::size_t vertex_count() const { return mesh_.vertex_count(); }
+  std::size_t handle_count() const { return handles_.size(); }
+  std::size_t free_count() const { return free_.size(); }
+  const SurfaceSettings& settings() const { return settings_; }
+  const std::vector<std::string>& warnings() const { return warnings_; }
+  const std::vector<double>& energy() const { return energy_; }
+
+ private:
+  using Matrix = Eigen::Matrix<double, Eigen::Dynamic, 3>;
+  Matrix solve(const Matrix& rhs_free, const Matrix& fixed) const;
+  void fit_rotations(const Matrix& x, std::vector<Mat3>& rotations) const;
+  Matrix arap_rhs(const std::vector<Mat3>& rotations) const;
+  double arap_energy(const Matrix& x, const std::vector<Mat3>& rotations) const;
+
+  TriangleMesh mesh_;
+  SurfaceSettings settings_;
+  std::vector<int> handles_;
+  std::vector<int> free_, fixed_;              // vertex lists
+  std::vector<int> free_index_, fixed_index_;  // vertex -> position in those lists, or -1
+  Matrix rest_;
+  SparseMatrix laplacian_;                     // with the clamped weights
+  std::vector<std::vector<std::pair<int, double>>> neighbors_;  // (j, w_ij)
+  SparseMatrix free_part_, fixed_part_;        // Laplacian: L(:, free), L(:, fixed); ARAP: rows free only
+  Matrix delta_;                               // L x at rest (Laplacian editing)
+  Eigen::SimplicialLDLT<SparseMatrix> solver_;
+  std::vector<std::string> warnings_;
+  std::vector<double> energy_;
+};
+
+}  // namespace deformkit

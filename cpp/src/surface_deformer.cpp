@@ -1,0 +1,219 @@
+#include "deformkit/surface_deformer.hpp"
+
+#include "deformkit/deformer.hpp"
+#include "deformkit/parallel.hpp"
+
+#include <Eigen/SVD>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace deformkit {
+
+namespace {
+
+std::vector<int> checked_indices(std::vector<int> idx, std::size_t n, const char* name) {
+  for (int v : idx)
+    if (v < 0 || std::size_t(v) >= n)
+      throw std::invalid_argument(std::string(name) + ": index " + std::to_string(v) + " is outside 0.." +
+                                  std::to_string(n - 1));
+  std::vector<int> sorted = idx;
+  std::sort(sorted.begin(), sorted.end());
+  const auto dup = std::adjacent_find(sorted.begin(), sorted.end());
+  if (dup != sorted.end()) throw std::invalid_argument(std::string(name) + ": index " + std::to_string(*dup) + " is repeated");
+  return idx;
+}
+
+// Negative cotangent weights (an edge opposite two obtuse angles) make the ARAP global step
+// indefinite and its energy non-monotone: they are raised to a small positive floor.
+SparseMatrix with_positive_weights(const SparseMatrix& l) {
+  double sum = 0;
+  int count = 0;
+  for (int k = 0; k < l.outerSize(); ++k)
+    for (SparseMatrix::InnerIterator it(l, k); it; ++it)
+      if (it.row() != it.col() && -it.value() > 0) sum += -it.value(), ++count;
+  const double floor = count ? 1e-3 * sum / count : 1e-3;
+  std::vector<Eigen::Triplet<double>> e;
+  for (int k = 0; k < l.outerSize(); ++k)
+    for (SparseMatrix::InnerIterator it(l, k); it; ++it) {
+      if (it.row() == it.col()) continue;
+      const double w = std::max(-it.value(), floor);
+      e.emplace_back(it.row(), it.col(), -w);
+      e.emplace_back(it.row(), it.row(), w);
+    }
+  SparseMatrix out(l.rows(), l.cols());
+  out.setFromTriplets(e.begin(), e.end());
+  out.makeCompressed();
+  return out;
+}
+
+}  // namespace
+
+SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, std::vector<int> handles,
+                                 const std::optional<std::vector<int>>& roi, SurfaceSettings settings)
+    : mesh_(std::move(mesh)), settings_(settings) {
+  const std::size_t n = mesh_.vertex_count();
+  if (settings.iterations < 1 || settings.iterations > 10000)
+    throw std::invalid_argument("iterations: must be 1..10000");
+  if (!(settings.tolerance >= 0.0) || !std::isfinite(settings.tolerance))
+    throw std::invalid_argument("tolerance: must be a finite number >= 0");
+  anchors = checked_indices(std::move(anchors), n, "anchors");
+  handles_ = checked_indices(std::move(handles), n, "handles");
+  if (anchors.empty() && handles_.empty())
+    throw std::invalid_argument("anchors: no anchors and no handles, so nothing holds the mesh in place");
+  std::vector<char> fixed(n, 0), is_handle(n, 0);
+  for (int v : handles_) fixed[v] = is_handle[v] = 1;
+  for (int v : anchors) {
+    if (is_handle[v]) throw std::invalid_argument("anchors: vertex " + std::to_string(v) + " is also a handle");
+    fixed[v] = 1;
+  }
+  if (roi) {
+    std::vector<char> inside(n, 0);
+    for (int v : checked_indices(*roi, n, "roi")) inside[v] = 1;
+    for (std::size_t v = 0; v < n; ++v)
+      if (!inside[v]) fixed[v] = 1;  // outside the region of interest: held at rest
+  }
+  // A component that nothing holds would make the system singular: it stays where it is.
+  int components = 0;
+  const std::vector<int> component = connected_components(mesh_, &components);
+  std::vector<char> held(components, 0);
+  std::vector<int> size(components, 0);
+  for (std::size_t v = 0; v < n; ++v) {
+    held[component[v]] |= fixed[v];
+    ++size[component[v]];
+  }
+  for (int c = 0; c < components; ++c)
+    if (!held[c])
+      warnings_.push_back("component " + std::to_string(c) + " (" + std::to_string(size[c]) +
+                          " vertices) has no anchor or handle; it is left where it is");
+  free_index_.assign(n, -1);
+  fixed_index_.assign(n, -1);
+  for (std::size_t v = 0; v < n; ++v) {
+    if (fixed[v] || !held[component[v]]) {
+      fixed_index_[v] = int(fixed_.size());
+      fixed_.push_back(int(v));
+    } else {
+      free_index_[v] = int(free_.size());
+      free_.push_back(int(v));
+    }
+  }
+  rest_ = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(mesh_.points.data(), Eigen::Index(n), 3);
+  laplacian_ = with_positive_weights(settings.uniform_weights ? uniform_laplacian(mesh_) : cotangent_laplacian(mesh_));
+  neighbors_.assign(n, {});
+  for (int k = 0; k < laplacian_.outerSize(); ++k)
+    for (SparseMatrix::InnerIterator it(laplacian_, k); it; ++it)
+      if (it.row() != it.col()) neighbors_[k].emplace_back(int(it.row()), -it.value());
+
+  // Split the columns into free and fixed vertices; ARAP keeps only the free rows (Dirichlet).
+  const bool arap = settings.method == SurfaceMethod::Arap;
+  std::vector<Eigen::Triplet<double>> f, c;
+  for (int k = 0; k < laplacian_.outerSize(); ++k)
+    for (SparseMatrix::InnerIterator it(laplacian_, k); it; ++it) {
+      const int row = arap ? free_index_[it.row()] : int(it.row());
+      if (row < 0) continue;
+      if (free_index_[k] >= 0) f.emplace_back(row, free_index_[k], it.value());
+      else c.emplace_back(row, fixed_index_[k], it.value());
+    }
+  const Eigen::Index rows = arap ? Eigen::Index(free_.size()) : Eigen::Index(n);
+  free_part_.resize(rows, Eigen::Index(free_.size()));
+  free_part_.setFromTriplets(f.begin(), f.end());
+  fixed_part_.resize(rows, Eigen::Index(fixed_.size()));
+  fixed_part_.setFromTriplets(c.begin(), c.end());
+  if (free_.empty()) return;
+  if (arap) {
+    solver_.compute(free_part_);  // L_ff: the ARAP global step (Sorkine and Alexa 2007, eq. 9)
+  } else {
+    delta_ = laplacian_ * rest_;  // differential coordinates (Sorkine et al. 2004, eq. 1)
+    const SparseMatrix normal = SparseMatrix(free_part_.transpose()) * free_part_;
+    solver_.compute(normal);      // least squares ||L x' - delta||^2 over the free vertices
+  }
+  if (solver_.info() != Eigen::Success)
+    throw std::invalid_argument("faces: the mesh's Laplacian system could not be factorised (degenerate geometry)");
+}
+
+SurfaceDeformer::Matrix SurfaceDeformer::solve(const Matrix& rhs_free, const Matrix& fixed) const {
+  Matrix x(rest_.rows(), 3);
+  for (std::size_t i = 0; i < fixed_.size(); ++i) x.row(fixed_[i]) = fixed.row(Eigen::Index(i));
+  if (free_.empty()) return x;
+  const Matrix xf = solver_.solve(rhs_free);
+  for (std::size_t i = 0; i < free_.size(); ++i) x.row(free_[i]) = xf.row(Eigen::Index(i));
+  return x;
+}
+
+// Local step: R_i maximising tr(R_i S_i), S_i = sum_j w_ij e_ij e'_ij^T, by SVD with the
+// reflection fix (Sorkine and Alexa 2007, sec. 3).
+void SurfaceDeformer::fit_rotations(const Matrix& x, std::vector<Mat3>& rotations) const {
+  parallel_blocks(rest_.rows(), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      Mat3 s = Mat3::Zero();
+      for (const auto& [j, w] : neighbors_[i])
+        s += w * (rest_.row(i) - rest_.row(j)).transpose() * (x.row(i) - x.row(j));
+      const Eigen::JacobiSVD<Mat3> svd(s, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      Mat3 u = svd.matrixU();
+      Mat3 r = svd.matrixV() * u.transpose();
+      if (r.determinant() < 0) {
+        u.col(2) *= -1.0;  // the singular vector of the smallest singular value
+        r = svd.matrixV() * u.transpose();
+      }
+      rotations[i] = r;
+    }
+  });
+}
+
+// b_i = sum_j w_ij / 2 (R_i + R_j)(p_i - p_j), on the free rows (Sorkine and Alexa 2007, eq. 8).
+SurfaceDeformer::Matrix SurfaceDeformer::arap_rhs(const std::vector<Mat3>& rotations) const {
+  Matrix b(Eigen::Index(free_.size()), 3);
+  parallel_blocks(free_.size(), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t f = begin; f < end; ++f) {
+      const int i = free_[f];
+      Vec3 acc = Vec3::Zero();
+      for (const auto& [j, w] : neighbors_[i])
+        acc += 0.5 * w * (rotations[i] + rotations[j]) * (rest_.row(i) - rest_.row(j)).transpose();
+      b.row(Eigen::Index(f)) = acc.transpose();
+    }
+  });
+  return b;
+}
+
+double SurfaceDeformer::arap_energy(const Matrix& x, const std::vector<Mat3>& rotations) const {
+  double e = 0;
+  for (Eigen::Index i = 0; i < rest_.rows(); ++i)
+    for (const auto& [j, w] : neighbors_[i])
+      e += w * ((x.row(i) - x.row(j)).transpose() - rotations[i] * (rest_.row(i) - rest_.row(j)).transpose())
+                   .squaredNorm();
+  return e;
+}
+
+std::vector<double> SurfaceDeformer::deform(const double* targets) {
+  require_finite_rows(targets, handles_.size(), "handle_targets");
+  Matrix fixed(Eigen::Index(fixed_.size()), 3);
+  for (std::size_t i = 0; i < fixed_.size(); ++i) fixed.row(Eigen::Index(i)) = rest_.row(fixed_[i]);
+  for (std::size_t h = 0; h < handles_.size(); ++h)
+    fixed.row(fixed_index_[handles_[h]]) = Eigen::RowVector3d(targets[3 * h], targets[3 * h + 1], targets[3 * h + 2]);
+  energy_.clear();
+  Matrix x;
+  if (settings_.method == SurfaceMethod::Laplacian) {
+    const Matrix rhs = free_.empty() ? Matrix(0, 3) : Matrix(free_part_.transpose() * (delta_ - fixed_part_ * fixed));
+    x = solve(rhs, fixed);
+  } else {
+    std::vector<Mat3> rotations(rest_.rows(), Mat3::Identity());
+    const Matrix held = free_.empty() ? Matrix(0, 3) : Matrix(fixed_part_ * fixed);
+    x = solve(arap_rhs(rotations) - held, fixed);  // the first global step, from R = I
+    for (int it = 0; it < settings_.iterations && !free_.empty(); ++it) {
+      fit_rotations(x, rotations);
+      x = solve(arap_rhs(rotations) - held, fixed);
+      energy_.push_back(arap_energy(x, rotations));
+      const std::size_t k = energy_.size();
+      if (settings_.tolerance > 0 && k > 1 && energy_[k - 2] - energy_[k - 1] <= settings_.tolerance * energy_[k - 2])
+        break;
+    }
+  }
+  if (!x.allFinite())
+    throw std::invalid_argument("handle_targets: the solve overflowed (targets too far from the mesh)");
+  std::vector<double> out(3 * rest_.rows());
+  Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(out.data(), rest_.rows(), 3) = x;
+  return out;
+}
+
+}  // namespace deformkit
