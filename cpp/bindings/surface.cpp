@@ -81,9 +81,10 @@ are fanned into triangles; cotangents are clamped to +-1e4 so degenerate triangl
 
 points (n, 3) and faces (an (m, k) integer array or a list of polygons) are copied. anchors stay
 at rest, handles move to the targets given to deform(); vertices outside roi (default: all
-inside) stay at rest. method 'arap' (Sorkine and Alexa 2007: local SVD rotations, global solve)
-or 'laplacian' (Sorkine et al. 2004 without rotations: least squares on the differential
-coordinates); weights 'cotangent' or 'uniform'. The system over the free vertices is factorised
+inside) stay at rest. method 'arap' (Sorkine and Alexa 2007: local SVD rotations, global solve),
+'rotation_invariant' (Sorkine et al. 2004, sec. 4: each vertex's differential coordinate follows
+the similarity transform, linearised, that its one-ring undergoes) or 'laplacian' (least squares
+on the differential coordinates, no rotations); weights 'cotangent' or 'uniform'. The system over the free vertices is factorised
 here, once; deform() only back-substitutes (ARAP: iterations local/global steps, stopping early
 when the relative energy decrease falls below tolerance > 0). Negative cotangent weights are
 raised to a small positive floor, which keeps the system positive definite and the ARAP energy
@@ -94,7 +95,8 @@ monotone. A connected component with no anchor or handle stays where it is (see 
              SurfaceSettings s;
              if (method == "arap") s.method = SurfaceMethod::Arap;
              else if (method == "laplacian") s.method = SurfaceMethod::Laplacian;
-             else throw py::value_error("method: expected 'arap' or 'laplacian', got '" + method + "'");
+             else if (method == "rotation_invariant") s.method = SurfaceMethod::RotationInvariant;
+             else throw py::value_error("method: expected 'arap', 'rotation_invariant' or 'laplacian', got '" + method + "'");
              if (weights == "cotangent") s.uniform_weights = false;
              else if (weights == "uniform") s.uniform_weights = true;
              else throw py::value_error("weights: expected 'cotangent' or 'uniform', got '" + weights + "'");
@@ -133,7 +135,8 @@ monotone. A connected component with no anchor or handle stays where it is (see 
       .def_property_readonly("warnings", &SurfaceDeformer::warnings)
       .def_property_readonly("energy", &SurfaceDeformer::energy, "ARAP energy after each iteration of the last deform.")
       .def_property_readonly("method", [](const SurfaceDeformer& d) {
-        return d.settings().method == SurfaceMethod::Arap ? "arap" : "laplacian";
+        const SurfaceMethod m = d.settings().method;
+        return m == SurfaceMethod::Arap ? "arap" : m == SurfaceMethod::Laplacian ? "laplacian" : "rotation_invariant";
       })
       .def_property_readonly("weights_kind", [](const SurfaceDeformer& d) {
         return d.settings().uniform_weights ? "uniform" : "cotangent";

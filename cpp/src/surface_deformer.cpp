@@ -105,6 +105,26 @@ SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, st
     for (SparseMatrix::InnerIterator it(laplacian_, k); it; ++it)
       if (it.row() != it.col()) neighbors_[k].emplace_back(int(it.row()), -it.value());
 
+  if (settings.method == SurfaceMethod::RotationInvariant) {
+    // Unknowns are the 3n coordinates (x0, y0, z0, x1, ...): the implicit transforms couple them.
+    const SparseMatrix m = implicit_transform_system();
+    std::vector<Eigen::Triplet<double>> f, c;
+    for (int k = 0; k < m.outerSize(); ++k)
+      for (SparseMatrix::InnerIterator it(m, k); it; ++it) {
+        const int v = k / 3, a = k % 3;
+        if (free_index_[v] >= 0) f.emplace_back(int(it.row()), 3 * free_index_[v] + a, it.value());
+        else c.emplace_back(int(it.row()), 3 * fixed_index_[v] + a, it.value());
+      }
+    free_part_.resize(m.rows(), Eigen::Index(3 * free_.size()));
+    free_part_.setFromTriplets(f.begin(), f.end());
+    fixed_part_.resize(m.rows(), Eigen::Index(3 * fixed_.size()));
+    fixed_part_.setFromTriplets(c.begin(), c.end());
+    if (free_.empty()) return;
+    solver_.compute(SparseMatrix(free_part_.transpose()) * free_part_);
+    if (solver_.info() != Eigen::Success)
+      throw std::invalid_argument("faces: the mesh's Laplacian system could not be factorised (degenerate geometry)");
+    return;
+  }
   // Split the columns into free and fixed vertices; ARAP keeps only the free rows (Dirichlet).
   const bool arap = settings.method == SurfaceMethod::Arap;
   std::vector<Eigen::Triplet<double>> f, c;
@@ -130,6 +150,47 @@ SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, st
   }
   if (solver_.info() != Eigen::Success)
     throw std::invalid_argument("faces: the mesh's Laplacian system could not be factorised (degenerate geometry)");
+}
+
+// Sorkine et al. 2004, sec. 4: each vertex's transform T_i = s I + [h]x + t, fitted by least squares
+// to its one-ring, is linear in the unknown positions; the rows T_i(V') delta_i - L(V')_i then
+// ask the differential coordinates to follow their own (linearised) rotation and scale.
+SparseMatrix SurfaceDeformer::implicit_transform_system() const {
+  const Eigen::Index n = rest_.rows();
+  const Matrix delta = laplacian_ * rest_;
+  std::vector<Eigen::Triplet<double>> e;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    std::vector<int> ring{int(i)};
+    for (const auto& [j, w] : neighbors_[i]) ring.push_back(j);
+    const int k = int(ring.size());
+    Eigen::MatrixXd a(3 * k, 7);
+    for (int r = 0; r < k; ++r) {
+      const double x = rest_(ring[r], 0), y = rest_(ring[r], 1), z = rest_(ring[r], 2);
+      a.row(3 * r) << x, 0, z, -y, 1, 0, 0;
+      a.row(3 * r + 1) << y, -z, 0, x, 0, 1, 0;
+      a.row(3 * r + 2) << z, y, -x, 0, 0, 0, 1;
+    }
+    // (s, h, t) = (A^T A)^-1 A^T b; a lone vertex (k = 1) fits nothing, so it keeps delta fixed.
+    const Eigen::MatrixXd fit = a.completeOrthogonalDecomposition().pseudoInverse();
+    const double dx = delta(i, 0), dy = delta(i, 1), dz = delta(i, 2);
+    Eigen::Matrix<double, 3, 4> d;
+    d << dx, 0, dz, -dy,  //
+        dy, -dz, 0, dx,   //
+        dz, dy, -dx, 0;
+    const Eigen::MatrixXd c = d * fit.topRows(4);  // T_i delta_i = C_i b_i, b_i the ring's coordinates
+    for (int row = 0; row < 3; ++row) {
+      for (int r = 0; r < k; ++r)
+        for (int col = 0; col < 3; ++col)
+          if (c(row, 3 * r + col) != 0.0) e.emplace_back(int(3 * i + row), 3 * ring[r] + col, c(row, 3 * r + col));
+      // - (L V')_i
+      for (SparseMatrix::InnerIterator it(laplacian_, i); it; ++it)
+        e.emplace_back(int(3 * i + row), int(3 * it.row() + row), -it.value());
+    }
+  }
+  SparseMatrix m(3 * n, 3 * n);
+  m.setFromTriplets(e.begin(), e.end());
+  m.makeCompressed();
+  return m;
 }
 
 SurfaceDeformer::Matrix SurfaceDeformer::solve(const Matrix& rhs_free, const Matrix& fixed) const {
@@ -193,7 +254,16 @@ std::vector<double> SurfaceDeformer::deform(const double* targets) {
     fixed.row(fixed_index_[handles_[h]]) = Eigen::RowVector3d(targets[3 * h], targets[3 * h + 1], targets[3 * h + 2]);
   energy_.clear();
   Matrix x;
-  if (settings_.method == SurfaceMethod::Laplacian) {
+  if (settings_.method == SurfaceMethod::RotationInvariant) {
+    Eigen::VectorXd xc(3 * fixed.rows());  // interleaved x0, y0, z0, x1, ...
+    for (Eigen::Index i = 0; i < fixed.rows(); ++i) xc.segment<3>(3 * i) = fixed.row(i).transpose();
+    x.resize(rest_.rows(), 3);
+    for (std::size_t i = 0; i < fixed_.size(); ++i) x.row(fixed_[i]) = fixed.row(Eigen::Index(i));
+    if (!free_.empty()) {
+      const Eigen::VectorXd xf = solver_.solve(-(free_part_.transpose() * (fixed_part_ * xc)));
+      for (std::size_t i = 0; i < free_.size(); ++i) x.row(free_[i]) = xf.segment<3>(Eigen::Index(3 * i)).transpose();
+    }
+  } else if (settings_.method == SurfaceMethod::Laplacian) {
     const Matrix rhs = free_.empty() ? Matrix(0, 3) : Matrix(free_part_.transpose() * (delta_ - fixed_part_ * fixed));
     x = solve(rhs, fixed);
   } else {

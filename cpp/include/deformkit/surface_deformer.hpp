@@ -13,7 +13,7 @@
 
 namespace deformkit {
 
-enum class SurfaceMethod { Laplacian, Arap };
+enum class SurfaceMethod { Laplacian, RotationInvariant, Arap };
 
 struct SurfaceSettings {
   SurfaceMethod method = SurfaceMethod::Arap;
@@ -45,6 +45,7 @@ class SurfaceDeformer {
   void fit_rotations(const Matrix& x, std::vector<Mat3>& rotations) const;
   Matrix arap_rhs(const std::vector<Mat3>& rotations) const;
   double arap_energy(const Matrix& x, const std::vector<Mat3>& rotations) const;
+  SparseMatrix implicit_transform_system() const;
 
   TriangleMesh mesh_;
   SurfaceSettings settings_;
