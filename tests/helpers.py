@@ -178,3 +178,63 @@ def gauss_box(breaks, order=6):
     grid = np.stack(np.meshgrid(*(a[0] for a in axes), indexing="ij"), -1).reshape(-1, 3)
     weights = np.einsum("i,j,k->ijk", *(a[1] for a in axes)).ravel()
     return grid, weights
+
+
+# --- Dense numpy references for the surface deformers (algorithms.md B.6, B.7) ---
+def cot_weights(points, tris):
+    """W[a, b] = (cot alpha + cot beta) / 2 from the angles opposite edge ab."""
+    p = np.asarray(points, float)
+    w = np.zeros((len(p), len(p)))
+    for c, a, b in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        u, v = p[tris[:, a]] - p[tris[:, c]], p[tris[:, b]] - p[tris[:, c]]
+        cot = np.einsum("ij,ij->i", u, v) / np.linalg.norm(np.cross(u, v), axis=1)
+        np.add.at(w, (tris[:, a], tris[:, b]), cot / 2)
+        np.add.at(w, (tris[:, b], tris[:, a]), cot / 2)
+    return w
+
+
+def lap(w):
+    return np.diag(w.sum(1)) - w
+
+
+def naive_reference(points, w, fixed, fixed_pos, form):
+    """min ||L x' - L x||^2 over all rows ('ls'), or the free rows solved exactly ('free_rows')."""
+    L, x = lap(w), np.array(points, float)
+    free = np.setdiff1d(np.arange(len(x)), fixed)
+    x[fixed] = fixed_pos
+    rhs = L @ points - L[:, fixed] @ x[fixed]
+    if form == "ls":
+        x[free] = np.linalg.lstsq(L[:, free], rhs, rcond=None)[0]
+    else:
+        x[free] = np.linalg.solve(L[np.ix_(free, free)], rhs[free])
+    return x
+
+
+def local_rotations(w, p, q):
+    """R_i = V U^T from S_i = sum_j w_ij e_ij e'_ij^T, with the reflection fix on U's last column."""
+    out = np.empty((len(p), 3, 3))
+    for i in range(len(p)):
+        j = np.nonzero(w[i])[0]
+        s = (w[i, j, None] * (p[i] - p[j])).T @ (q[i] - q[j])
+        u, _, vt = np.linalg.svd(s)
+        if np.linalg.det(vt.T @ u.T) < 0:
+            u[:, 2] *= -1
+        out[i] = vt.T @ u.T
+    return out
+
+
+def arap_energy(w, p, q, r):
+    i, j = np.nonzero(w)
+    d = (q[i] - q[j]) - np.einsum("nab,nb->na", r[i], p[i] - p[j])
+    return (w[i, j] * (d ** 2).sum(1)).sum()
+
+
+def arap_step(w, p, q, fixed):
+    """One local step at q, then the global solve L p' = b(R) with the fixed vertices kept."""
+    r, L = local_rotations(w, p, q), lap(w)
+    i, j = np.nonzero(w)
+    b = np.zeros_like(p)
+    np.add.at(b, i, w[i, j, None] / 2 * np.einsum("nab,nb->na", r[i] + r[j], p[i] - p[j]))
+    free, out = np.setdiff1d(np.arange(len(p)), fixed), q.copy()
+    out[free] = np.linalg.solve(L[np.ix_(free, free)], b[free] - L[np.ix_(free, fixed)] @ q[fixed])
+    return out

@@ -47,7 +47,7 @@ TriangleMesh parse_mesh(const py::object& points, const py::object& faces) {
   return triangulate(p.data(), std::size_t(p.shape(0)), corners, offsets);
 }
 
-std::vector<int> parse_indices(const py::object& obj, const char* name) {
+std::vector<int> parse_indices(const py::object& obj, const char* name, std::size_t n) {
   if (obj.is_none()) return {};
   const py::array a = py::array::ensure(obj);
   if (!a || (a.size() > 0 && a.dtype().kind() != 'i' && a.dtype().kind() != 'u'))
@@ -55,8 +55,12 @@ std::vector<int> parse_indices(const py::object& obj, const char* name) {
   if (a.ndim() > 1) throw py::value_error(std::string(name) + ": expected a 1-D sequence of vertex indices");
   const auto v = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
   std::vector<int> out;
-  for (py::ssize_t i = 0; i < v.size(); ++i)
-    out.push_back(static_cast<int>(std::clamp<std::int64_t>(v.data()[i], -1, std::int64_t(1) << 30)));
+  for (py::ssize_t i = 0; i < v.size(); ++i) {
+    const std::int64_t x = v.data()[i];
+    if (x < 0 || std::uint64_t(x) >= n)
+      throw py::value_error(std::string(name) + ": index " + std::to_string(x) + " is outside 0.." + std::to_string(n - 1));
+    out.push_back(static_cast<int>(x));
+  }
   return out;
 }
 
@@ -81,7 +85,7 @@ are fanned into triangles; cotangents are clamped to +-1e4 so degenerate triangl
 
 points (n, 3) and faces (an (m, k) integer array or a list of polygons) are copied. anchors stay
 at rest, handles move to the targets given to deform(); vertices outside roi (default: all
-inside) stay at rest. method 'arap' (Sorkine and Alexa 2007: local SVD rotations, global solve),
+inside) stay at rest; a handle outside roi still goes to its target. method 'arap' (Sorkine and Alexa 2007: local SVD rotations, global solve),
 'rotation_invariant' (Sorkine et al. 2004, sec. 4: each vertex's differential coordinate follows
 the similarity transform, linearised, that its one-ring undergoes) or 'laplacian' (least squares
 on the differential coordinates, no rotations); weights 'cotangent' or 'uniform'. The system over the free vertices is factorised
@@ -104,8 +108,9 @@ monotone. A connected component with no anchor or handle stays where it is (see 
              s.tolerance = tolerance;
              TriangleMesh mesh = parse_mesh(points, faces);
              std::optional<std::vector<int>> region;
-             if (!roi.is_none()) region = parse_indices(roi, "roi");
-             auto a = parse_indices(anchors, "anchors"), h = parse_indices(handles, "handles");
+             const std::size_t n = mesh.vertex_count();
+             if (!roi.is_none()) region = parse_indices(roi, "roi", n);
+             auto a = parse_indices(anchors, "anchors", n), h = parse_indices(handles, "handles", n);
              py::gil_scoped_release release;
              return std::make_shared<SurfaceDeformer>(std::move(mesh), std::move(a), std::move(h), region, s);
            }),

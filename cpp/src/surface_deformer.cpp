@@ -144,7 +144,8 @@ SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, st
   if (arap) {
     solver_.compute(free_part_);  // L_ff: the ARAP global step (Sorkine and Alexa 2007, eq. 9)
   } else {
-    delta_ = laplacian_ * rest_;  // differential coordinates (Sorkine et al. 2004, eq. 1)
+    // Least squares on the differential coordinates L x (Sorkine et al. 2004, eq. 1), solved for
+    // the displacement: min ||L (x' - x)||^2.
     const SparseMatrix normal = SparseMatrix(free_part_.transpose()) * free_part_;
     solver_.compute(normal);      // least squares ||L x' - delta||^2 over the free vertices
   }
@@ -254,18 +255,28 @@ std::vector<double> SurfaceDeformer::deform(const double* targets) {
     fixed.row(fixed_index_[handles_[h]]) = Eigen::RowVector3d(targets[3 * h], targets[3 * h + 1], targets[3 * h + 2]);
   energy_.clear();
   Matrix x;
+  // The linear methods solve for the displacement from rest (M rest = 0 exactly in exact
+  // arithmetic), so that handles at rest give the rest mesh to the last bit on any mesh, however
+  // ill-conditioned its clamped weights make the system.
+  Matrix moved(fixed.rows(), 3);
+  for (std::size_t i = 0; i < fixed_.size(); ++i) moved.row(Eigen::Index(i)) = fixed.row(Eigen::Index(i)) - rest_.row(fixed_[i]);
   if (settings_.method == SurfaceMethod::RotationInvariant) {
-    Eigen::VectorXd xc(3 * fixed.rows());  // interleaved x0, y0, z0, x1, ...
-    for (Eigen::Index i = 0; i < fixed.rows(); ++i) xc.segment<3>(3 * i) = fixed.row(i).transpose();
-    x.resize(rest_.rows(), 3);
+    Eigen::VectorXd dc(3 * moved.rows());  // interleaved x0, y0, z0, x1, ...
+    for (Eigen::Index i = 0; i < moved.rows(); ++i) dc.segment<3>(3 * i) = moved.row(i).transpose();
+    x = rest_;
     for (std::size_t i = 0; i < fixed_.size(); ++i) x.row(fixed_[i]) = fixed.row(Eigen::Index(i));
-    if (!free_.empty()) {
-      const Eigen::VectorXd xf = solver_.solve(-(free_part_.transpose() * (fixed_part_ * xc)));
-      for (std::size_t i = 0; i < free_.size(); ++i) x.row(free_[i]) = xf.segment<3>(Eigen::Index(3 * i)).transpose();
+    if (!free_.empty() && !dc.isZero(0.0)) {
+      const Eigen::VectorXd df = solver_.solve(-(free_part_.transpose() * (fixed_part_ * dc)));
+      for (std::size_t i = 0; i < free_.size(); ++i)
+        x.row(free_[i]) += df.segment<3>(Eigen::Index(3 * i)).transpose();
     }
   } else if (settings_.method == SurfaceMethod::Laplacian) {
-    const Matrix rhs = free_.empty() ? Matrix(0, 3) : Matrix(free_part_.transpose() * (delta_ - fixed_part_ * fixed));
-    x = solve(rhs, fixed);
+    x = rest_;
+    for (std::size_t i = 0; i < fixed_.size(); ++i) x.row(fixed_[i]) = fixed.row(Eigen::Index(i));
+    if (!free_.empty() && !moved.isZero(0.0)) {
+      const Matrix df = solver_.solve(Matrix(-(free_part_.transpose() * (fixed_part_ * moved))));
+      for (std::size_t i = 0; i < free_.size(); ++i) x.row(free_[i]) += df.row(Eigen::Index(i));
+    }
   } else {
     std::vector<Mat3> rotations(rest_.rows(), Mat3::Identity());
     const Matrix held = free_.empty() ? Matrix(0, 3) : Matrix(fixed_part_ * fixed);

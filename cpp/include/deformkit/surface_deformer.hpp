@@ -56,7 +56,6 @@ class SurfaceDeformer {
   SparseMatrix laplacian_;                     // with the clamped weights
   std::vector<std::vector<std::pair<int, double>>> neighbors_;  // (j, w_ij)
   SparseMatrix free_part_, fixed_part_;        // Laplacian: L(:, free), L(:, fixed); ARAP: rows free only
-  Matrix delta_;                               // L x at rest (Laplacian editing)
   Eigen::SimplicialLDLT<SparseMatrix> solver_;
   std::vector<std::string> warnings_;
   std::vector<double> energy_;
