@@ -1,0 +1,475 @@
+"""Surface deformation speed (issue 5): dk.SurfaceDeformer against Blender's Laplacian Deform modifier.
+
+    .venv/bin/python benchmarks/bench_surface.py [--mesh PATH] [--repeats R] [--skip-blender]
+                                                 [--skip-subdivided] [--ri-limit SECONDS] [--json PATH]
+
+Meshes (from ../shared/meshes, skipped with a message when that folder is absent):
+  * ogre.obj as loaded by trimesh (process=False): 62,194 vertices in 44 connected components
+    (body, eyes, teeth, ...), or the mesh given with --mesh;
+  * "ogre body, loop x1": the largest connected component of ogre (26,034 vertices), one Loop
+    subdivision (trimesh.remesh.subdivide_loop, edge midpoints shared) -> 104,068 vertices, one component.
+Anchors: the lowest 0.3% of the vertices in y (the feet); handles: the highest 0.3% in y (the head).
+Every connected component that gets neither also gets one anchor (its lowest vertex): Blender's
+modifier has no answer for a component without anchors (its normal matrix is singular; on ogre it
+produced displacements of ~1000 units), and deformkit gets exactly the same anchor set. Handle
+targets: the handles translated by 10% of the mesh height in x.
+
+deformkit (no Blender in the loop): construction = bind (assembly + factorisation) for 'laplacian',
+'arap' and 'rotation_invariant' (cotangent weights); "re-solve" = deform() of the laplacian
+deformer; ARAP iteration = (deform with iterations=11 - deform with iterations=1) / 10, tolerance 0.
+'rotation_invariant' is constructed once per mesh and skipped on a mesh when it took longer than
+--ri-limit seconds on a smaller one (estimated with the observed growth).
+
+Blender (PyPI bpy, the same process, after the deformkit part): the same mesh as a mesh object, a
+vertex group "anchors" = anchors + handles (weight 1; Blender's modifier treats every vertex in the
+group as a soft anchor whose target is its *incoming* position), a Laplacian Deform modifier
+(Repeat = iterations 1 and 5). Bind = bpy.ops.object.laplaciandeform_bind() with the object as
+context (the operator forces one evaluation of the modifier, which builds and factorises the
+system and solves once). The handles are moved by a Hook modifier (an empty, handles assigned)
+placed before the Laplacian Deform, the usual animation set-up: a frame = set the empty's location
+(the target offset, or back to zero on alternate frames, so every frame is a real change),
+depsgraph update, read the evaluated positions (foreach_get). With the Hook the modifier keeps its
+factorisation between frames. The same frame loop with the Laplacian Deform disabled
+(show_viewport=False, Hook still on) is timed in the same run; "modifier only" = median(with) -
+median(without), i.e. the modifier's re-evaluation alone. Blender's own per-modifier timer
+(Modifier.execution_time of the evaluated object) is printed beside it. For information, two frames
+that instead rewrite the base positions (foreach_set + mesh.update()) are timed too: that path makes
+Blender rebuild and refactorise the system on every frame, so it is not used for the comparison.
+
+All figures: median (and min) over R timed calls after one untimed warm-up call, except the
+one-shot rows (rotation_invariant construction, Blender bind).
+"""
+import argparse
+import json
+import os
+import pathlib
+import resource
+import statistics
+import time
+
+import numpy as np
+
+import deformkit as dk
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+MESHES = ROOT.parent / "shared" / "meshes"
+TARGET_BIND = 0.5        # s, construction (factorisation)
+TARGET_RESOLVE = 0.020   # s, one Laplacian re-solve
+TARGET_ARAP_IT = 0.060   # s, one ARAP iteration
+TARGET_VS_BLENDER = 5.0  # x faster than Blender's Laplacian Deform per frame
+FRACTION = 0.003         # anchors / handles: 0.3% of the vertices at each end in y
+
+
+# ---------------------------------------------------------------------------------------------
+# helpers (same conventions as bench_lattice.py)
+
+def cpu_busy(seconds=0.5):
+    """Fraction of all CPUs busy over `seconds` (before the run), from /proc/stat."""
+    try:
+        ticks = []
+        for wait in (seconds, 0):
+            with open("/proc/stat") as f:
+                v = [int(x) for x in f.readline().split()[1:]]
+            ticks.append((v[3] + v[4], sum(v)))
+            time.sleep(wait)
+        return 1 - (ticks[1][0] - ticks[0][0]) / max(ticks[1][1] - ticks[0][1], 1)
+    except OSError:
+        return float("nan")
+
+
+class OtherLoad:
+    """Share of all CPUs used by *other* processes while the block ran (/proc/stat busy time minus
+    this process's own CPU time, over wall time x CPUs)."""
+
+    def _sample(self):
+        with open("/proc/stat") as f:
+            v = [int(x) for x in f.readline().split()[1:]]
+        own = resource.getrusage(resource.RUSAGE_SELF)
+        return time.perf_counter(), (sum(v) - v[3] - v[4]) / os.sysconf("SC_CLK_TCK"), own.ru_utime + own.ru_stime
+
+    def __enter__(self):
+        try:
+            self.start = self._sample()
+        except (OSError, ValueError):
+            self.start = None
+        return self
+
+    def __exit__(self, *exc):
+        self.share = float("nan")
+        if self.start is not None:
+            (w0, b0, o0), (w1, b1, o1) = self.start, self._sample()
+            self.share = max(0.0, (b1 - b0) - (o1 - o0)) / max((w1 - w0) * (os.cpu_count() or 1), 1e-9)
+
+    def report(self):
+        return (f"  other processes used {self.share:.0%} of the {os.cpu_count()} CPUs during this part"
+                + ("  ** figures disturbed: rerun on an idle machine **" if self.share > 0.1 else ""))
+
+
+def timings(fn, repeats, warmup=1):
+    for _ in range(warmup):
+        fn()
+    ts = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t0)
+    return ts
+
+
+def med(ts):
+    return statistics.median(ts)
+
+
+def components(n, faces):
+    """Connected-component label per vertex (vectorised min-label propagation + pointer jumping)."""
+    lab = np.arange(n)
+    a = faces.ravel()
+    b = np.roll(faces, -1, axis=1).ravel()
+    while True:
+        old = lab.copy()
+        m = np.minimum(lab[a], lab[b])
+        np.minimum.at(lab, lab[a], m)
+        np.minimum.at(lab, lab[b], m)
+        while True:
+            nxt = lab[lab]
+            if np.array_equal(nxt, lab):
+                break
+            lab = nxt
+        if np.array_equal(lab, old):
+            return np.unique(lab, return_inverse=True)[1]
+
+
+# ---------------------------------------------------------------------------------------------
+# meshes and the edit
+
+def load_obj(path):
+    import trimesh
+    m = trimesh.load(str(path), process=False, force="mesh")
+    return np.ascontiguousarray(m.vertices, dtype=np.float64), np.ascontiguousarray(m.faces, dtype=np.int64)
+
+
+def largest_component_loop(points, faces):
+    import trimesh
+    lab = components(len(points), faces)
+    big = np.argmax(np.bincount(lab))
+    fk = faces[lab[faces[:, 0]] == big]
+    used = np.unique(fk)
+    remap = np.full(len(points), -1, np.int64)
+    remap[used] = np.arange(len(used))
+    v, f = trimesh.remesh.subdivide_loop(points[used], remap[fk])
+    return np.ascontiguousarray(v, dtype=np.float64), np.ascontiguousarray(f, dtype=np.int64), len(used)
+
+
+def make_edit(points, faces):
+    n = len(points)
+    k = max(1, int(round(FRACTION * n)))
+    order = np.argsort(points[:, 1], kind="stable")
+    anchors, handles = order[:k], order[-k:]
+    lab = components(n, faces)
+    ncomp = lab.max() + 1
+    has = np.zeros(ncomp, bool)
+    has[lab[anchors]] = True
+    has[lab[handles]] = True
+    extra = []
+    for c in np.flatnonzero(~has):
+        idx = np.flatnonzero(lab == c)
+        extra.append(idx[np.argmin(points[idx, 1])])
+    anchors = np.concatenate([anchors, np.asarray(extra, np.int64)])
+    height = np.ptp(points[:, 1])
+    targets = points[handles] + np.array([0.1 * height, 0.0, 0.0])
+    return {"anchors": anchors, "handles": handles, "targets": targets, "components": int(ncomp),
+            "extra_anchors": len(extra), "k": k}
+
+
+# ---------------------------------------------------------------------------------------------
+# deformkit
+
+def dk_part(name, points, faces, edit, reps, ri_state, ri_limit, res):
+    n = len(points)
+    A, H, T = edit["anchors"], edit["handles"], edit["targets"]
+    kw = dict(anchors=A, handles=H, weights="cotangent")
+    rows = []
+
+    def build(method, iterations=10):
+        return dk.SurfaceDeformer(points, faces, method=method, iterations=iterations, tolerance=0.0, **kw)
+
+    reps_bind = max(3, min(reps, 5))
+    t_lap = timings(lambda: build("laplacian"), reps_bind)
+    t_arap = timings(lambda: build("arap", 1), reps_bind)
+    lap = build("laplacian")
+    free = lap.free_count
+    rows.append(("construct laplacian (bind)", t_lap, TARGET_BIND))
+    rows.append(("construct arap (bind)", t_arap, TARGET_BIND))
+
+    # rotation_invariant: once, unless a smaller mesh predicts it to be too slow
+    ri_t = None
+    predicted = None
+    if ri_state.get("t") is not None:
+        growth = (free / ri_state["free"]) ** 1.5  # assumed superlinear growth, for the skip decision
+        predicted = ri_state["t"] * growth
+    if predicted is not None and predicted > ri_limit:
+        ri_note = f"skipped: predicted ~{predicted:.0f} s from {ri_state['t']:.1f} s at {ri_state['free']:,} free vertices (> --ri-limit {ri_limit:.0f} s)"
+    else:
+        t0 = time.perf_counter()
+        ri = build("rotation_invariant")
+        ri_t = time.perf_counter() - t0
+        ri_state.update(t=ri_t, free=free)
+        ri_res = timings(lambda: ri.deform(T), max(3, min(reps, 5)))
+        del ri
+        ri_note = None
+        rows.append(("construct rotation_invariant (one call)", [ri_t], TARGET_BIND))
+        rows.append(("  rotation_invariant deform", ri_res, None))
+
+    t_solve = timings(lambda: lap.deform(T), reps)
+    rows.append(("laplacian re-solve (deform)", t_solve, TARGET_RESOLVE))
+
+    a1, a11, a5 = build("arap", 1), build("arap", 11), build("arap", 5)
+    t1 = timings(lambda: a1.deform(T), reps)
+    t11 = timings(lambda: a11.deform(T), reps)
+    t5 = timings(lambda: a5.deform(T), reps)
+    it = (med(t11) - med(t1)) / 10
+    rows.append(("arap deform, iterations=1", t1, None))
+    rows.append(("arap deform, iterations=5", t5, None))
+    rows.append(("arap deform, iterations=11", t11, None))
+    rows.append(("ARAP iteration = (it11 - it1) / 10", [it], TARGET_ARAP_IT))
+
+    # sanity: handles at targets, anchors at rest, energies decreasing
+    out = lap.deform(T)
+    chk_l = (np.abs(out[H] - T).max(), np.abs(out[edit["anchors"]] - points[edit["anchors"]]).max())
+    out_a = a11.deform(T)
+    e = np.asarray(a11.energy)
+    print(f"== deformkit, {name}: {n:,} vertices, {len(faces):,} faces, {edit['components']} component(s); "
+          f"{len(A):,} anchors ({edit['k']} lowest in y + {edit['extra_anchors']} one per otherwise "
+          f"unconstrained component), {len(H):,} handles (highest in y); {free:,} free vertices")
+    print(f"  {'':44s}{'median ms':>10s}{'min ms':>9s}{'target':>10s}{'met':>5s}")
+    for label, ts, target in rows:
+        md, mn = med(ts), min(ts)
+        tgt = f"<= {target * 1e3:.0f}" if target else ""
+        met = ("yes" if md <= target else "NO") if target else ""
+        print(f"  {label:44s}{md * 1e3:10.1f}{mn * 1e3:9.1f}{tgt:>10s}{met:>5s}")
+    if ri_note:
+        print(f"  construct rotation_invariant: {ri_note}")
+    print(f"  check: laplacian |handle - target| max {chk_l[0]:.2g}, |anchor - rest| max {chk_l[1]:.2g}; "
+          f"arap x11 energy {e[0]:.4g} -> {e[-1]:.4g} ({'monotone' if np.all(np.diff(e) <= 1e-9 * abs(e[0])) else 'NOT monotone'}), "
+          f"max displacement {np.linalg.norm(out_a - points, axis=1).max():.3g} (edit {0.1 * np.ptp(points[:, 1]):.3g})")
+    res.update({"vertices": n, "free": free, "bind_laplacian": med(t_lap), "bind_arap": med(t_arap),
+                "bind_rotation_invariant": ri_t, "resolve_laplacian": med(t_solve), "arap_it1": med(t1),
+                "arap_it5": med(t5), "arap_it11": med(t11), "arap_iteration": it})
+
+
+# ---------------------------------------------------------------------------------------------
+# Blender
+
+def blender_part(name, points, faces, edit, reps, res):
+    import bpy
+    n = len(points)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    me = bpy.data.meshes.new("bench_surface")
+    me.vertices.add(n)
+    me.vertices.foreach_set("co", points.astype(np.float32).ravel())
+    me.loops.add(faces.size)
+    me.loops.foreach_set("vertex_index", faces.astype(np.int32).ravel())
+    me.polygons.add(len(faces))
+    me.polygons.foreach_set("loop_start", np.arange(0, faces.size, faces.shape[1], dtype=np.int32))
+    me.update(calc_edges=True)
+    ob = bpy.data.objects.new("bench_surface", me)
+    bpy.context.scene.collection.objects.link(ob)
+    bpy.context.view_layer.objects.active = ob
+    ob.select_set(True)
+    H, T = edit["handles"], edit["targets"]
+    group = np.concatenate([edit["anchors"], H])
+    vg = ob.vertex_groups.new(name="anchors")
+    vg.add(group.tolist(), 1.0, "REPLACE")
+    # handles are moved by a Hook modifier (an empty) in front of the Laplacian Deform, the usual
+    # animation set-up; the modifier keeps its factorisation across such frames
+    emp = bpy.data.objects.new("bench_surface_hook", None)
+    bpy.context.scene.collection.objects.link(emp)
+    hook = ob.modifiers.new("Hook", "HOOK")
+    hook.object = emp
+    hook.vertex_indices_set(H.tolist())
+    md = ob.modifiers.new("LaplacianDeform", "LAPLACIANDEFORM")
+    md.vertex_group = "anchors"
+    md.iterations = 1
+    dg = bpy.context.evaluated_depsgraph_get()
+    dg.update()
+
+    offset = tuple(T[0] - points[H[0]])
+    out = np.empty(3 * n, np.float32)
+    pos = me.attributes["position"].data
+    rest = points.astype(np.float32).ravel()
+
+    def frame_loop(count, state):
+        ts, exec_t = [], []
+        for i in range(count):
+            state[0] ^= 1
+            t0 = time.perf_counter()
+            emp.location = offset if state[0] == 0 else (0.0, 0.0, 0.0)
+            dg.update()
+            ob.evaluated_get(dg).data.attributes["position"].data.foreach_get("vector", out)
+            ts.append(time.perf_counter() - t0)
+            if md.show_viewport:
+                exec_t.append(ob.evaluated_get(dg).modifiers["LaplacianDeform"].execution_time)
+        return ts, exec_t
+
+    def base_edit_frame():  # rewrite the base positions (unchanged values) + mesh.update()
+        t0 = time.perf_counter()
+        pos.foreach_set("vector", rest)
+        me.update()
+        dg.update()
+        ob.evaluated_get(dg).data.attributes["position"].data.foreach_get("vector", out)
+        return time.perf_counter() - t0
+
+    # bind (the operator evaluates the modifier once: build, factorise, solve)
+    t0 = time.perf_counter()
+    with bpy.context.temp_override(object=ob, active_object=ob, selected_objects=[ob]):
+        r = bpy.ops.object.laplaciandeform_bind(modifier=md.name)
+    t_bind = time.perf_counter() - t0
+    if "FINISHED" not in r or not md.is_bind:
+        print(f"== Blender, {name}: bind failed ({r}, is_bind={md.is_bind}); not timed")
+        return
+    state = [1]
+    t_first = frame_loop(1, state)[0][0]  # first frame after bind (runtime cache state)
+    rows = {}
+    for it in (1, 5):
+        md.iterations = it
+        frame_loop(1, state)  # warm-up after the change
+        rows[it] = frame_loop(reps, state)
+    # check: the evaluated handles follow the moved base positions
+    state[0] = 1
+    md.iterations = 1
+    frame_loop(1, state)  # state 0 = moved
+    got = out.reshape(-1, 3)
+    chk = np.abs(got[H] - T).max()
+    disp = np.linalg.norm(got - points, axis=1).max()
+    t_base_edit = [base_edit_frame() for _ in range(2)]
+    md.show_viewport = False
+    dg.update()
+    base = frame_loop(reps + 1, state)[0][1:]
+    md.show_viewport = True
+
+    print(f"== Blender {bpy.app.version_string} Laplacian Deform, {name}: {n:,} vertices, vertex group of "
+          f"{len(group):,} (anchors + handles), Hook on the handles, frames alternate hook at target offset / at rest")
+    print(f"  {'':58s}{'median ms':>10s}{'min ms':>9s}")
+    lines = [(f"bind (laplaciandeform_bind operator, one call)", [t_bind]),
+             (f"first frame after bind (Repeat 1)", [t_first])]
+    for it in (1, 5):
+        lines.append((f"frame, Repeat {it}: hook moved + depsgraph + read", rows[it][0]))
+        lines.append((f"  Blender's execution_time of the modifier", rows[it][1]))
+    lines.append(("frame, Laplacian Deform disabled (Hook only)", base))
+    lines.append(("base positions rewritten + mesh.update() (Repeat 1, 2 calls)", t_base_edit))
+    for label, ts in lines:
+        print(f"  {label:58s}{med(ts) * 1e3:10.1f}{min(ts) * 1e3:9.1f}")
+    only = {it: med(rows[it][0]) - med(base) for it in (1, 5)}
+    for it in (1, 5):
+        print(f"  {'modifier only, Repeat %d (frame - disabled frame)' % it:58s}{only[it] * 1e3:10.1f}")
+    print(f"  check (Repeat 1): |evaluated handle - target| max {chk:.3g} (soft constraints), "
+          f"max displacement {disp:.3g}")
+    res.update({"blender_bind": t_bind, "blender_first_frame": t_first, "blender_frame_r1": med(rows[1][0]),
+                "blender_frame_r5": med(rows[5][0]), "blender_exec_r1": med(rows[1][1]),
+                "blender_exec_r5": med(rows[5][1]), "blender_base": med(base),
+                "blender_only_r1": only[1], "blender_only_r5": only[5]})
+    res["blender_base_edit_frame"] = med(t_base_edit)
+    bpy.data.objects.remove(ob)
+    bpy.data.objects.remove(emp)
+    bpy.data.meshes.remove(me)
+
+
+# ---------------------------------------------------------------------------------------------
+
+def summary_table(results):
+    print("== summary (issue 5 targets on this machine; 'vs Blender' = Blender modifier-only per frame / dk)")
+    hdr = f"  {'':46s}" + "".join(f"{name[:22]:>24s}" for name in results)
+    print(hdr)
+
+    def row(label, fn):
+        cells = []
+        for r in results.values():
+            try:
+                cells.append(fn(r))
+            except (KeyError, TypeError, ZeroDivisionError):
+                cells.append("-")
+        print(f"  {label:46s}" + "".join(f"{c:>24s}" for c in cells))
+
+    ms = lambda x: f"{x * 1e3:.1f} ms"
+    ok = lambda x, t: f"{x * 1e3:.1f} ms {'ok' if x <= t else 'MISS'}"
+    row("vertices (free)", lambda r: f"{r['vertices']:,} ({r['free']:,})")
+    row(f"dk bind laplacian (<= {TARGET_BIND * 1e3:.0f} ms)", lambda r: ok(r["bind_laplacian"], TARGET_BIND))
+    row(f"dk bind arap (<= {TARGET_BIND * 1e3:.0f} ms)", lambda r: ok(r["bind_arap"], TARGET_BIND))
+    row("dk bind rotation_invariant", lambda r: ok(r["bind_rotation_invariant"], TARGET_BIND) if r["bind_rotation_invariant"] else "skipped")
+    row(f"dk laplacian re-solve (<= {TARGET_RESOLVE * 1e3:.0f} ms)", lambda r: ok(r["resolve_laplacian"], TARGET_RESOLVE))
+    row(f"dk ARAP iteration (<= {TARGET_ARAP_IT * 1e3:.0f} ms)", lambda r: ok(r["arap_iteration"], TARGET_ARAP_IT))
+    row("dk arap deform iterations=1 / 5", lambda r: f"{r['arap_it1'] * 1e3:.0f} / {r['arap_it5'] * 1e3:.0f} ms")
+    row("Blender bind (operator)", lambda r: ms(r["blender_bind"]))
+    row("Blender frame R1 / modifier only", lambda r: f"{r['blender_frame_r1'] * 1e3:.0f} / {r['blender_only_r1'] * 1e3:.0f} ms")
+    row("Blender frame R5 / modifier only", lambda r: f"{r['blender_frame_r5'] * 1e3:.0f} / {r['blender_only_r5'] * 1e3:.0f} ms")
+    row("Blender bind / dk bind laplacian", lambda r: f"{r['blender_bind'] / r['bind_laplacian']:.1f}x")
+    row(f"Blender R1 / dk laplacian re-solve (>= {TARGET_VS_BLENDER:.0f}x)",
+        lambda r: f"{r['blender_only_r1'] / r['resolve_laplacian']:.1f}x {'ok' if r['blender_only_r1'] / r['resolve_laplacian'] >= TARGET_VS_BLENDER else 'MISS'}")
+    row("Blender R1 / dk arap iterations=1", lambda r: f"{r['blender_only_r1'] / r['arap_it1']:.1f}x")
+    row("Blender R5 / dk arap iterations=5", lambda r: f"{r['blender_only_r5'] / r['arap_it5']:.1f}x")
+    row("Blender base-position edit frame (rebuilds)", lambda r: ms(r["blender_base_edit_frame"]))
+    row("Blender R1 frame / (dk re-solve + Blender base frame)",
+        lambda r: f"{r['blender_frame_r1'] / (r['resolve_laplacian'] + r['blender_base']):.1f}x")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--mesh", help="OBJ to use instead of ../shared/meshes/ogre.obj")
+    ap.add_argument("--repeats", type=int, default=7, help="timed calls per figure (median kept)")
+    ap.add_argument("--skip-blender", action="store_true")
+    ap.add_argument("--skip-subdivided", action="store_true", help="only the mesh itself, no ~100k version")
+    ap.add_argument("--ri-limit", type=float, default=20.0,
+                    help="skip rotation_invariant on a larger mesh when predicted above this (s)")
+    ap.add_argument("--json", metavar="PATH")
+    args = ap.parse_args()
+
+    path = pathlib.Path(args.mesh) if args.mesh else MESHES / "ogre.obj"
+    if not path.exists():
+        print(f"SKIPPED: mesh {path} not found (the shared meshes live in ../shared/meshes next to the "
+              f"project; pass --mesh PATH to use another OBJ)")
+        return
+    if not hasattr(dk, "SurfaceDeformer"):
+        print("SKIPPED: dk.SurfaceDeformer is not in this build of deformkit")
+        return
+
+    busy = cpu_busy()
+    print(f"deformkit {dk.__version__} {dk.build_info()} | numpy {np.__version__} | {os.cpu_count()} CPUs")
+    print(f"CPU busy before the run: {busy:.0%}" + ("  ** the machine is not idle: figures are noisy **" if busy > 0.1 else "") + "\n")
+
+    points, faces = load_obj(path)
+    meshes = [(path.name, points, faces)]
+    if not args.skip_subdivided:
+        v, f, nb = largest_component_loop(points, faces)
+        meshes.append((f"{path.stem} body, loop x1", v, f))
+        print(f"subdivided mesh: largest component of {path.name} ({nb:,} vertices), one Loop subdivision "
+              f"-> {len(v):,} vertices, {len(f):,} faces\n")
+
+    results, ri_state = {}, {}
+    for name, p, f in meshes:
+        edit = make_edit(p, f)
+        res = results.setdefault(name, {})
+        with OtherLoad() as load:
+            dk_part(name, p, f, edit, args.repeats, ri_state, args.ri_limit, res)
+        print(load.report() + "\n")
+        res["other_cpu_dk"] = load.share
+    if not args.skip_blender:
+        try:
+            import bpy  # noqa: F401
+        except ImportError as exc:
+            print(f"Blender part SKIPPED: bpy not importable ({exc})\n")
+        else:
+            for name, p, f in meshes:
+                edit = make_edit(p, f)
+                with OtherLoad() as load:
+                    blender_part(name, p, f, edit, args.repeats, results[name])
+                print(load.report() + "\n")
+                results[name]["other_cpu_blender"] = load.share
+    summary_table(results)
+    if args.json:
+        pathlib.Path(args.json).write_text(json.dumps({"cpu_busy": busy, "build_info": dk.build_info(),
+                                                       "results": results}, indent=1, default=float))
+        print("wrote", args.json)
+
+
+if __name__ == "__main__":
+    main()
