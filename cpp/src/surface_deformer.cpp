@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <mutex>
 #include <stdexcept>
 
 namespace deformkit {
@@ -194,31 +195,61 @@ SparseMatrix SurfaceDeformer::implicit_transform_system() const {
   return m;
 }
 
+// The three coordinates are independent back-substitutions: one per thread.
+SurfaceDeformer::Matrix SurfaceDeformer::back_substitute(const Matrix& rhs) const {
+  Matrix x(rhs.rows(), 3);
+  const int threads = forked_after_threads() || rhs.rows() < 4096 ? 1 : std::min(3, omp_get_max_threads());
+#pragma omp parallel for num_threads(threads) schedule(static, 1)
+  for (int c = 0; c < 3; ++c) x.col(c) = solver_.solve(rhs.col(c));
+  return x;
+}
+
 SurfaceDeformer::Matrix SurfaceDeformer::solve(const Matrix& rhs_free, const Matrix& fixed) const {
   Matrix x(rest_.rows(), 3);
   for (std::size_t i = 0; i < fixed_.size(); ++i) x.row(fixed_[i]) = fixed.row(Eigen::Index(i));
   if (free_.empty()) return x;
-  const Matrix xf = solver_.solve(rhs_free);
+  const Matrix xf = back_substitute(rhs_free);
   for (std::size_t i = 0; i < free_.size(); ++i) x.row(free_[i]) = xf.row(Eigen::Index(i));
   return x;
 }
 
-// Local step: R_i maximising tr(R_i S_i), S_i = sum_j w_ij e_ij e'_ij^T, by SVD with the
-// reflection fix (Sorkine and Alexa 2007, sec. 3).
+// The rotation R maximising tr(R S): with S = U Sigma V^T, R = V U^T, the orthogonal polar factor
+// of S^T when det S > 0. Higham's scaled Newton iteration X <- (g X + X^-T / g) / 2 reaches it in a
+// few 3x3 inverses; a (near-)singular or reflected S (a planar one-ring) takes the SVD with the
+// reflection fix instead (Sorkine and Alexa 2007, sec. 3).
+static Mat3 best_rotation(const Mat3& s) {
+  const double scale = s.cwiseAbs().maxCoeff();
+  if (scale > 0 && s.determinant() > 1e-6 * scale * scale * scale) {
+    Mat3 x = s.transpose();
+    for (int it = 0; it < 20; ++it) {
+      const Mat3 inv_t = x.inverse().transpose();
+      const double g = std::sqrt(std::sqrt(inv_t.squaredNorm() / x.squaredNorm()));
+      const Mat3 next = 0.5 * (g * x + inv_t / g);
+      const double change = (next - x).cwiseAbs().maxCoeff();
+      x = next;
+      if (change < 1e-13) break;
+    }
+    return x;
+  }
+  const Eigen::JacobiSVD<Mat3> svd(s, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Mat3 u = svd.matrixU();
+  Mat3 r = svd.matrixV() * u.transpose();
+  if (r.determinant() < 0) {
+    u.col(2) *= -1.0;  // the singular vector of the smallest singular value
+    r = svd.matrixV() * u.transpose();
+  }
+  return r;
+}
+
+// Local step: R_i maximising tr(R_i S_i), S_i = sum_j w_ij e_ij e'_ij^T.
 void SurfaceDeformer::fit_rotations(const Matrix& x, std::vector<Mat3>& rotations) const {
   parallel_blocks(rest_.rows(), [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       Mat3 s = Mat3::Zero();
+      const Vec3 xi = x.row(i).transpose(), pi = rest_.row(i).transpose();
       for (const auto& [j, w] : neighbors_[i])
-        s += w * (rest_.row(i) - rest_.row(j)).transpose() * (x.row(i) - x.row(j));
-      const Eigen::JacobiSVD<Mat3> svd(s, Eigen::ComputeFullU | Eigen::ComputeFullV);
-      Mat3 u = svd.matrixU();
-      Mat3 r = svd.matrixV() * u.transpose();
-      if (r.determinant() < 0) {
-        u.col(2) *= -1.0;  // the singular vector of the smallest singular value
-        r = svd.matrixV() * u.transpose();
-      }
-      rotations[i] = r;
+        s.noalias() += (w * (pi - rest_.row(j).transpose())) * (xi - x.row(j).transpose()).transpose();
+      rotations[i] = best_rotation(s);
     }
   });
 }
@@ -239,12 +270,18 @@ SurfaceDeformer::Matrix SurfaceDeformer::arap_rhs(const std::vector<Mat3>& rotat
 }
 
 double SurfaceDeformer::arap_energy(const Matrix& x, const std::vector<Mat3>& rotations) const {
-  double e = 0;
-  for (Eigen::Index i = 0; i < rest_.rows(); ++i)
-    for (const auto& [j, w] : neighbors_[i])
-      e += w * ((x.row(i) - x.row(j)).transpose() - rotations[i] * (rest_.row(i) - rest_.row(j)).transpose())
-                   .squaredNorm();
-  return e;
+  double total = 0;
+  std::mutex add;
+  parallel_blocks(rest_.rows(), [&](std::size_t begin, std::size_t end) {
+    double e = 0;
+    for (std::size_t i = begin; i < end; ++i)
+      for (const auto& [j, w] : neighbors_[i])
+        e += w * ((x.row(i) - x.row(j)).transpose() - rotations[i] * (rest_.row(i) - rest_.row(j)).transpose())
+                     .squaredNorm();
+    const std::lock_guard<std::mutex> lock(add);
+    total += e;
+  });
+  return total;
 }
 
 std::vector<double> SurfaceDeformer::deform(const double* targets) {
@@ -274,7 +311,7 @@ std::vector<double> SurfaceDeformer::deform(const double* targets) {
     x = rest_;
     for (std::size_t i = 0; i < fixed_.size(); ++i) x.row(fixed_[i]) = fixed.row(Eigen::Index(i));
     if (!free_.empty() && !moved.isZero(0.0)) {
-      const Matrix df = solver_.solve(Matrix(-(free_part_.transpose() * (fixed_part_ * moved))));
+      const Matrix df = back_substitute(Matrix(-(free_part_.transpose() * (fixed_part_ * moved))));
       for (std::size_t i = 0; i < free_.size(); ++i) x.row(free_[i]) += df.row(Eigen::Index(i));
     }
   } else {

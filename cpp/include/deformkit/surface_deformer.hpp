@@ -42,6 +42,7 @@ class SurfaceDeformer {
  private:
   using Matrix = Eigen::Matrix<double, Eigen::Dynamic, 3>;
   Matrix solve(const Matrix& rhs_free, const Matrix& fixed) const;
+  Matrix back_substitute(const Matrix& rhs) const;
   void fit_rotations(const Matrix& x, std::vector<Mat3>& rotations) const;
   Matrix arap_rhs(const std::vector<Mat3>& rotations) const;
   double arap_energy(const Matrix& x, const std::vector<Mat3>& rotations) const;
