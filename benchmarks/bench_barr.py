@@ -16,6 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 import deformkit as dk
+from bench_common import cpu_busy
 
 TARGET_MPTS, TARGET_RATIO = 300.0, 20.0  # project targets: twist, taper, bend in float32
 
@@ -90,20 +91,6 @@ def l3_bytes():
         return int(text[:-1]) << {"K": 10, "M": 20}[text[-1]]
     except (OSError, ValueError, KeyError):
         return None
-
-
-def cpu_busy(seconds=0.5):
-    """Fraction of all CPUs used by other processes over `seconds` (Linux /proc/stat)."""
-    try:
-        ticks = []
-        for wait in (seconds, 0):
-            with open("/proc/stat") as f:
-                v = [int(x) for x in f.readline().split()[1:]]
-            ticks.append((v[3] + v[4], sum(v)))  # idle + iowait, total
-            time.sleep(wait)
-        return 1 - (ticks[1][0] - ticks[0][0]) / max(ticks[1][1] - ticks[0][1], 1)
-    except OSError:
-        return float("nan")
 
 
 def main():

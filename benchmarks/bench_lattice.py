@@ -27,7 +27,6 @@ import argparse
 import json
 import os
 import pathlib
-import resource
 import statistics
 import sys
 import tempfile
@@ -37,6 +36,7 @@ from math import comb
 import numpy as np
 
 import deformkit as dk
+from bench_common import OtherLoad, cpu_busy, timings
 
 TARGET_BOUND_MPTS = 100.0  # >= 100 M points/s after binding (float32, 1M points)
 TARGET_VS_NUMPY = 20.0     # >= 20x the numpy Bernstein FFD
@@ -46,60 +46,6 @@ HAVE_DK = hasattr(dk, "FFD") and hasattr(dk, "BlenderLattice")
 
 # ---------------------------------------------------------------------------------------------
 # helpers
-
-def cpu_busy(seconds=0.5):
-    """Fraction of all CPUs used (by other processes) over `seconds`, from /proc/stat."""
-    try:
-        ticks = []
-        for wait in (seconds, 0):
-            with open("/proc/stat") as f:
-                v = [int(x) for x in f.readline().split()[1:]]
-            ticks.append((v[3] + v[4], sum(v)))
-            time.sleep(wait)
-        return 1 - (ticks[1][0] - ticks[0][0]) / max(ticks[1][1] - ticks[0][1], 1)
-    except OSError:
-        return float("nan")
-
-
-class OtherLoad:
-    """Share of all CPUs used by *other* processes while the block ran: /proc/stat busy time
-    minus this process's own CPU time (getrusage), over wall time x CPUs."""
-
-    def _sample(self):
-        with open("/proc/stat") as f:
-            v = [int(x) for x in f.readline().split()[1:]]
-        own = resource.getrusage(resource.RUSAGE_SELF)
-        return time.perf_counter(), (sum(v) - v[3] - v[4]) / os.sysconf("SC_CLK_TCK"), own.ru_utime + own.ru_stime
-
-    def __enter__(self):
-        try:
-            self.start = self._sample()
-        except (OSError, ValueError):
-            self.start = None
-        return self
-
-    def __exit__(self, *exc):
-        self.share = float("nan")
-        if self.start is not None:
-            (w0, b0, o0), (w1, b1, o1) = self.start, self._sample()
-            self.share = max(0.0, (b1 - b0) - (o1 - o0)) / max((w1 - w0) * (os.cpu_count() or 1), 1e-9)
-
-    def report(self):
-        return (f"  other processes used {self.share:.0%} of the {os.cpu_count()} CPUs during this part"
-                + ("  ** figures disturbed: rerun on an idle machine **" if self.share > 0.1 else ""))
-
-
-def timings(fn, repeats, warmup=1):
-    """Seconds of `repeats` calls of fn() after `warmup` untimed calls."""
-    for _ in range(warmup):
-        fn()
-    ts = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t0)
-    return ts
-
 
 def med_min(ts):
     return statistics.median(ts), min(ts)
