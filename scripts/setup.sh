@@ -4,13 +4,17 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# Debian package -> upstream version prefix the project is built and tested against.
+# Debian package -> upstream version prefix the project is built and tested against. CHOLMOD
+# (SuiteSparse) factorises the surface deformers' systems; OpenBLAS replaces the reference BLAS
+# under its supernodal factorisation (Debian's alternatives pick it once installed).
 declare -A APT_PINS=(
   [libeigen3-dev]=3.4.0
   [libosd-dev]=3.5.0
   [libhwy-dev]=1.0.3
   [libgtest-dev]=1.12.1
   [blender]=3.4.1
+  [libsuitesparse-dev]=5.12.0
+  [libopenblas0-pthread]=0.3.21
 )
 # Shared libraries that the PyPI bpy wheel loads on a headless machine; numpy and pytest for Blender 3.4.
 APT_RUNTIME=(python3-pytest libgl1 libegl1 libglib2.0-0 libsm6 libxext6 libxrender1 libxi6 libxxf86vm1

@@ -92,10 +92,15 @@ on the differential coordinates, no rotations); weights 'cotangent' or 'uniform'
 here, once; deform() only back-substitutes (ARAP: iterations local/global steps, stopping early
 when the relative energy decrease falls below tolerance > 0). Negative cotangent weights are
 raised to a small positive floor, which keeps the system positive definite and the ARAP energy
-monotone. A connected component with no anchor or handle stays where it is (see warnings).)")
+monotone. A connected component with no anchor or handle stays where it is (see warnings).
+constraint_weight None makes anchors and handles hard constraints, met exactly; a number w > 0
+makes them soft: each adds w^2 ||x_i - c_i||^2 to the least-squares energy (Sorkine et al. 2004,
+eq. 5), or 2 w^2 ||x_i - c_i||^2 to the ARAP energy (whose sum over edges counts each edge twice),
+so that they are met only approximately, more closely as w grows.)")
       .def(py::init([](const py::object& points, const py::object& faces, const py::object& anchors,
                        const py::object& handles, const py::object& roi, const std::string& method,
-                       const std::string& weights, int iterations, double tolerance) {
+                       const std::string& weights, int iterations, double tolerance,
+                       const std::optional<double>& constraint_weight) {
              SurfaceSettings s;
              if (method == "arap") s.method = SurfaceMethod::Arap;
              else if (method == "laplacian") s.method = SurfaceMethod::Laplacian;
@@ -106,6 +111,11 @@ monotone. A connected component with no anchor or handle stays where it is (see 
              else throw py::value_error("weights: expected 'cotangent' or 'uniform', got '" + weights + "'");
              s.iterations = iterations;
              s.tolerance = tolerance;
+             if (constraint_weight) {
+               if (!(*constraint_weight > 0.0))
+                 throw py::value_error("constraint_weight: must be None (hard constraints) or a number > 0");
+               s.constraint_weight = *constraint_weight;
+             }
              TriangleMesh mesh = parse_mesh(points, faces);
              std::optional<std::vector<int>> region;
              const std::size_t n = mesh.vertex_count();
@@ -116,7 +126,7 @@ monotone. A connected component with no anchor or handle stays where it is (see 
            }),
            "points"_a, "faces"_a, py::kw_only(), "anchors"_a = py::tuple(), "handles"_a = py::tuple(),
            "roi"_a = py::none(), "method"_a = "arap", "weights"_a = "cotangent", "iterations"_a = 10,
-           "tolerance"_a = 0.0)
+           "tolerance"_a = 0.0, "constraint_weight"_a = py::none())
       .def("deform", [](SurfaceDeformer& d, const py::object& targets) {
         const auto k = py::ssize_t(d.handle_count());
         py::array t = py::array::ensure(targets);
@@ -138,6 +148,8 @@ monotone. A connected component with no anchor or handle stays where it is (see 
       .def("__len__", &SurfaceDeformer::vertex_count)
       .def_property_readonly("free_count", &SurfaceDeformer::free_count)
       .def_property_readonly("warnings", &SurfaceDeformer::warnings)
+      .def_property_readonly("factor_nonzeros", &SurfaceDeformer::factor_nonzeros,
+                             "Non-zeros of the Cholesky factor (memory and solve time grow with it).")
       .def_property_readonly("energy", &SurfaceDeformer::energy, "ARAP energy after each iteration of the last deform.")
       .def_property_readonly("method", [](const SurfaceDeformer& d) {
         const SurfaceMethod m = d.settings().method;

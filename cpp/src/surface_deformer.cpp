@@ -59,43 +59,52 @@ SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, st
     throw std::invalid_argument("iterations: must be 1..10000");
   if (!(settings.tolerance >= 0.0) || !std::isfinite(settings.tolerance))
     throw std::invalid_argument("tolerance: must be a finite number >= 0");
+  if (!(settings.constraint_weight >= 0.0) || !(settings.constraint_weight <= 1e8))
+    throw std::invalid_argument("constraint_weight: must be 0 (hard constraints) or a number in (0, 1e8]");
+  const bool soft = settings.constraint_weight > 0.0;
   anchors = checked_indices(std::move(anchors), n, "anchors");
   handles_ = checked_indices(std::move(handles), n, "handles");
   if (anchors.empty() && handles_.empty())
     throw std::invalid_argument("anchors: no anchors and no handles, so nothing holds the mesh in place");
-  std::vector<char> fixed(n, 0), is_handle(n, 0);
-  for (int v : handles_) fixed[v] = is_handle[v] = 1;
-  for (int v : anchors) {
+  // held: 1 exactly (outside roi, or a hard constraint), 2 softly (a soft constraint inside roi).
+  std::vector<char> held(n, 0), is_handle(n, 0);
+  for (int v : handles_) is_handle[v] = 1;
+  for (int v : anchors)
     if (is_handle[v]) throw std::invalid_argument("anchors: vertex " + std::to_string(v) + " is also a handle");
-    fixed[v] = 1;
-  }
   if (roi) {
     std::vector<char> inside(n, 0);
     for (int v : checked_indices(*roi, n, "roi")) inside[v] = 1;
     for (std::size_t v = 0; v < n; ++v)
-      if (!inside[v]) fixed[v] = 1;  // outside the region of interest: held at rest
+      if (!inside[v]) held[v] = 1;  // outside the region of interest: held at rest
   }
+  std::vector<int> constraint_handle(n, -2);  // -2 none, -1 anchor, h handle
+  for (int v : anchors) constraint_handle[v] = -1;
+  for (std::size_t h = 0; h < handles_.size(); ++h) constraint_handle[handles_[h]] = int(h);
+  for (std::size_t v = 0; v < n; ++v)
+    if (constraint_handle[v] != -2 && (!soft || (held[v] && constraint_handle[v] == -1))) held[v] = 1;
+    else if (constraint_handle[v] != -2) held[v] = 2;  // a soft handle goes to its target even outside roi
   // A component that nothing holds would make the system singular: it stays where it is.
   int components = 0;
   const std::vector<int> component = connected_components(mesh_, &components);
-  std::vector<char> held(components, 0);
+  std::vector<char> component_held(components, 0);
   std::vector<int> size(components, 0);
   for (std::size_t v = 0; v < n; ++v) {
-    held[component[v]] |= fixed[v];
+    component_held[component[v]] |= held[v] != 0;
     ++size[component[v]];
   }
   for (int c = 0; c < components; ++c)
-    if (!held[c])
+    if (!component_held[c])
       warnings_.push_back("component " + std::to_string(c) + " (" + std::to_string(size[c]) +
                           " vertices) has no anchor or handle; it is left where it is");
   free_index_.assign(n, -1);
   fixed_index_.assign(n, -1);
   for (std::size_t v = 0; v < n; ++v) {
-    if (fixed[v] || !held[component[v]]) {
+    if (held[v] == 1 || !component_held[component[v]]) {
       fixed_index_[v] = int(fixed_.size());
       fixed_.push_back(int(v));
     } else {
       free_index_[v] = int(free_.size());
+      if (held[v] == 2) soft_.push_back(free_index_[v]), soft_handle_.push_back(constraint_handle[v]);
       free_.push_back(int(v));
     }
   }
@@ -105,6 +114,7 @@ SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, st
   for (int k = 0; k < laplacian_.outerSize(); ++k)
     for (SparseMatrix::InnerIterator it(laplacian_, k); it; ++it)
       if (it.row() != it.col()) neighbors_[k].emplace_back(int(it.row()), -it.value());
+  const double w2 = settings.constraint_weight * settings.constraint_weight;
 
   if (settings.method == SurfaceMethod::RotationInvariant) {
     // Unknowns are the 3n coordinates (x0, y0, z0, x1, ...): the implicit transforms couple them.
@@ -121,9 +131,18 @@ SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, st
     fixed_part_.resize(m.rows(), Eigen::Index(3 * fixed_.size()));
     fixed_part_.setFromTriplets(c.begin(), c.end());
     if (free_.empty()) return;
-    solver_.compute(SparseMatrix(free_part_.transpose()) * free_part_);
-    if (solver_.info() != Eigen::Success)
-      throw std::invalid_argument("faces: the mesh's Laplacian system could not be factorised (degenerate geometry)");
+    SparseMatrix normal = SparseMatrix(free_part_.transpose()) * free_part_;
+    for (int s : soft_)
+      for (int a = 0; a < 3; ++a) normal.coeffRef(3 * s + a, 3 * s + a) += w2;
+    if (solver_.factorize(normal, CholeskyKind::Supernodal)) return;
+    // With fewer than three non-collinear held vertices in a component, the linearised
+    // similarities about them cost nothing: the system is singular. A Tikhonov term 1e-10 of the
+    // mean diagonal then picks (nearly) the least displacement among the minimisers.
+    const double ridge = 1e-10 * normal.diagonal().sum() / double(normal.rows());
+    for (Eigen::Index k = 0; k < normal.rows(); ++k) normal.coeffRef(k, k) += ridge;
+    warnings_.push_back("the rotation-invariant system is singular (a component held by fewer than three "
+                        "non-collinear vertices?): of its solutions, the least displacement is used");
+    factorize(normal, CholeskyKind::Supernodal);
     return;
   }
   // Split the columns into free and fixed vertices; ARAP keeps only the free rows (Dirichlet).
@@ -142,16 +161,28 @@ SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, st
   fixed_part_.resize(rows, Eigen::Index(fixed_.size()));
   fixed_part_.setFromTriplets(c.begin(), c.end());
   if (free_.empty()) return;
-  if (arap) {
-    solver_.compute(free_part_);  // L_ff: the ARAP global step (Sorkine and Alexa 2007, eq. 9)
-  } else {
-    // Least squares on the differential coordinates L x (Sorkine et al. 2004, eq. 1), solved for
-    // the displacement: min ||L (x' - x)||^2.
-    const SparseMatrix normal = SparseMatrix(free_part_.transpose()) * free_part_;
-    solver_.compute(normal);      // least squares ||L x' - delta||^2 over the free vertices
-  }
-  if (solver_.info() != Eigen::Success)
+  // ARAP: L_ff, the global step (Sorkine and Alexa 2007, eq. 9). Laplacian: the normal equations of
+  // min ||L x' - delta||^2 over the free vertices (Sorkine et al. 2004, eq. 5), solved for the
+  // displacement. Soft constraints add w^2 on their diagonal.
+  SparseMatrix system = arap ? free_part_ : SparseMatrix(SparseMatrix(free_part_.transpose()) * free_part_);
+  for (int s : soft_) system.coeffRef(s, s) += w2;
+  factorize(system, arap ? CholeskyKind::Simplicial : CholeskyKind::Supernodal);
+}
+
+void SurfaceDeformer::factorize(const SparseMatrix& system, CholeskyKind kind) {
+  if (!solver_.factorize(system, kind))
     throw std::invalid_argument("faces: the mesh's Laplacian system could not be factorised (degenerate geometry)");
+}
+
+// The positions the soft constraints pull towards: the handle's target, an anchor's rest.
+SurfaceDeformer::Matrix SurfaceDeformer::soft_targets(const double* targets) const {
+  Matrix c(Eigen::Index(soft_.size()), 3);
+  for (std::size_t k = 0; k < soft_.size(); ++k) {
+    const int h = soft_handle_[k];
+    c.row(Eigen::Index(k)) = h < 0 ? Matrix(rest_.row(free_[soft_[k]])) :
+        Matrix(Eigen::RowVector3d(targets[3 * h], targets[3 * h + 1], targets[3 * h + 2]));
+  }
+  return c;
 }
 
 // Sorkine et al. 2004, sec. 4: each vertex's transform T_i = s I + [h]x + t, fitted by least squares
@@ -195,20 +226,11 @@ SparseMatrix SurfaceDeformer::implicit_transform_system() const {
   return m;
 }
 
-// The three coordinates are independent back-substitutions: one per thread.
-SurfaceDeformer::Matrix SurfaceDeformer::back_substitute(const Matrix& rhs) const {
-  Matrix x(rhs.rows(), 3);
-  const int threads = forked_after_threads() || rhs.rows() < 4096 ? 1 : std::min(3, omp_get_max_threads());
-#pragma omp parallel for num_threads(threads) schedule(static, 1)
-  for (int c = 0; c < 3; ++c) x.col(c) = solver_.solve(rhs.col(c));
-  return x;
-}
-
 SurfaceDeformer::Matrix SurfaceDeformer::solve(const Matrix& rhs_free, const Matrix& fixed) const {
   Matrix x(rest_.rows(), 3);
   for (std::size_t i = 0; i < fixed_.size(); ++i) x.row(fixed_[i]) = fixed.row(Eigen::Index(i));
   if (free_.empty()) return x;
-  const Matrix xf = back_substitute(rhs_free);
+  const Matrix xf = solver_.solve(rhs_free);
   for (std::size_t i = 0; i < free_.size(); ++i) x.row(free_[i]) = xf.row(Eigen::Index(i));
   return x;
 }
@@ -286,42 +308,53 @@ double SurfaceDeformer::arap_energy(const Matrix& x, const std::vector<Mat3>& ro
 
 std::vector<double> SurfaceDeformer::deform(const double* targets) {
   require_finite_rows(targets, handles_.size(), "handle_targets");
+  const std::lock_guard<std::mutex> lock(deforming_);
   Matrix fixed(Eigen::Index(fixed_.size()), 3);
   for (std::size_t i = 0; i < fixed_.size(); ++i) fixed.row(Eigen::Index(i)) = rest_.row(fixed_[i]);
   for (std::size_t h = 0; h < handles_.size(); ++h)
-    fixed.row(fixed_index_[handles_[h]]) = Eigen::RowVector3d(targets[3 * h], targets[3 * h + 1], targets[3 * h + 2]);
+    if (fixed_index_[handles_[h]] >= 0)
+      fixed.row(fixed_index_[handles_[h]]) = Eigen::RowVector3d(targets[3 * h], targets[3 * h + 1], targets[3 * h + 2]);
+  const Matrix pulls = soft_targets(targets);
+  const double w2 = settings_.constraint_weight * settings_.constraint_weight;
   energy_.clear();
-  Matrix x;
+  Matrix x = rest_;
+  for (std::size_t i = 0; i < fixed_.size(); ++i) x.row(fixed_[i]) = fixed.row(Eigen::Index(i));
   // The linear methods solve for the displacement from rest (M rest = 0 exactly in exact
   // arithmetic), so that handles at rest give the rest mesh to the last bit on any mesh, however
   // ill-conditioned its clamped weights make the system.
-  Matrix moved(fixed.rows(), 3);
+  Matrix moved(fixed.rows(), 3), pulled(pulls.rows(), 3);
   for (std::size_t i = 0; i < fixed_.size(); ++i) moved.row(Eigen::Index(i)) = fixed.row(Eigen::Index(i)) - rest_.row(fixed_[i]);
-  if (settings_.method == SurfaceMethod::RotationInvariant) {
-    Eigen::VectorXd dc(3 * moved.rows());  // interleaved x0, y0, z0, x1, ...
-    for (Eigen::Index i = 0; i < moved.rows(); ++i) dc.segment<3>(3 * i) = moved.row(i).transpose();
-    x = rest_;
-    for (std::size_t i = 0; i < fixed_.size(); ++i) x.row(fixed_[i]) = fixed.row(Eigen::Index(i));
-    if (!free_.empty() && !dc.isZero(0.0)) {
-      const Eigen::VectorXd df = solver_.solve(-(free_part_.transpose() * (fixed_part_ * dc)));
-      for (std::size_t i = 0; i < free_.size(); ++i)
-        x.row(free_[i]) += df.segment<3>(Eigen::Index(3 * i)).transpose();
+  for (std::size_t k = 0; k < soft_.size(); ++k) pulled.row(Eigen::Index(k)) = pulls.row(Eigen::Index(k)) - rest_.row(free_[soft_[k]]);
+  const bool at_rest = moved.isZero(0.0) && pulled.isZero(0.0);
+  if (free_.empty()) {
+  } else if (settings_.method == SurfaceMethod::RotationInvariant) {
+    if (!at_rest) {
+      Eigen::VectorXd dc(3 * moved.rows());  // interleaved x0, y0, z0, x1, ...
+      for (Eigen::Index i = 0; i < moved.rows(); ++i) dc.segment<3>(3 * i) = moved.row(i).transpose();
+      Eigen::VectorXd rhs = -(free_part_.transpose() * (fixed_part_ * dc));
+      for (std::size_t k = 0; k < soft_.size(); ++k) rhs.segment<3>(3 * soft_[k]) += w2 * pulled.row(Eigen::Index(k)).transpose();
+      const Eigen::VectorXd df = solver_.solve(rhs);
+      for (std::size_t i = 0; i < free_.size(); ++i) x.row(free_[i]) += df.segment<3>(Eigen::Index(3 * i)).transpose();
     }
   } else if (settings_.method == SurfaceMethod::Laplacian) {
-    x = rest_;
-    for (std::size_t i = 0; i < fixed_.size(); ++i) x.row(fixed_[i]) = fixed.row(Eigen::Index(i));
-    if (!free_.empty() && !moved.isZero(0.0)) {
-      const Matrix df = back_substitute(Matrix(-(free_part_.transpose() * (fixed_part_ * moved))));
+    if (!at_rest) {
+      Matrix rhs = -(free_part_.transpose() * (fixed_part_ * moved));
+      for (std::size_t k = 0; k < soft_.size(); ++k) rhs.row(soft_[k]) += w2 * pulled.row(Eigen::Index(k));
+      const Matrix df = solver_.solve(rhs);
       for (std::size_t i = 0; i < free_.size(); ++i) x.row(free_[i]) += df.row(Eigen::Index(i));
     }
   } else {
     std::vector<Mat3> rotations(rest_.rows(), Mat3::Identity());
-    const Matrix held = free_.empty() ? Matrix(0, 3) : Matrix(fixed_part_ * fixed);
+    Matrix held = fixed_part_ * fixed;
+    for (std::size_t k = 0; k < soft_.size(); ++k) held.row(soft_[k]) -= w2 * pulls.row(Eigen::Index(k));
     x = solve(arap_rhs(rotations) - held, fixed);  // the first global step, from R = I
-    for (int it = 0; it < settings_.iterations && !free_.empty(); ++it) {
+    for (int it = 0; it < settings_.iterations; ++it) {
       fit_rotations(x, rotations);
       x = solve(arap_rhs(rotations) - held, fixed);
-      energy_.push_back(arap_energy(x, rotations));
+      double e = arap_energy(x, rotations);
+      for (std::size_t k = 0; k < soft_.size(); ++k)
+        e += 2 * w2 * (x.row(free_[soft_[k]]) - pulls.row(Eigen::Index(k))).squaredNorm();
+      energy_.push_back(e);
       const std::size_t k = energy_.size();
       if (settings_.tolerance > 0 && k > 1 && energy_[k - 2] - energy_[k - 1] <= settings_.tolerance * energy_[k - 2])
         break;

@@ -5,8 +5,9 @@
 #include "deformkit/cotangent_laplacian.hpp"
 #include "deformkit/types.hpp"
 
-#include <Eigen/SparseCholesky>
+#include "deformkit/sparse_cholesky.hpp"
 
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -20,6 +21,10 @@ struct SurfaceSettings {
   bool uniform_weights = false;
   int iterations = 10;     // ARAP local/global iterations
   double tolerance = 0.0;  // > 0: stop when the relative energy decrease falls below it
+  // 0: anchors and handles are hard constraints (met exactly). > 0: soft, each adding
+  // w^2 ||x_i - c_i||^2 to the least-squares energy (Sorkine et al. 2004, eq. 5), 2 w^2 ||.||^2 to
+  // ARAP's, whose sum over edges counts every edge twice.
+  double constraint_weight = 0.0;
 };
 
 class SurfaceDeformer {
@@ -30,11 +35,13 @@ class SurfaceDeformer {
                   const std::optional<std::vector<int>>& roi, SurfaceSettings settings);
 
   // New positions (3n) with the handles at targets (3 per handle). Records energy() for ARAP.
+  // Calls on one deformer from several threads run one after the other.
   std::vector<double> deform(const double* targets);
 
   std::size_t vertex_count() const { return mesh_.vertex_count(); }
   std::size_t handle_count() const { return handles_.size(); }
   std::size_t free_count() const { return free_.size(); }
+  std::size_t factor_nonzeros() const { return solver_.factor_nonzeros(); }
   const SurfaceSettings& settings() const { return settings_; }
   const std::vector<std::string>& warnings() const { return warnings_; }
   const std::vector<double>& energy() const { return energy_; }
@@ -42,7 +49,8 @@ class SurfaceDeformer {
  private:
   using Matrix = Eigen::Matrix<double, Eigen::Dynamic, 3>;
   Matrix solve(const Matrix& rhs_free, const Matrix& fixed) const;
-  Matrix back_substitute(const Matrix& rhs) const;
+  void factorize(const SparseMatrix& system, CholeskyKind kind);
+  Matrix soft_targets(const double* targets) const;
   void fit_rotations(const Matrix& x, std::vector<Mat3>& rotations) const;
   Matrix arap_rhs(const std::vector<Mat3>& rotations) const;
   double arap_energy(const Matrix& x, const std::vector<Mat3>& rotations) const;
@@ -51,15 +59,17 @@ class SurfaceDeformer {
   TriangleMesh mesh_;
   SurfaceSettings settings_;
   std::vector<int> handles_;
-  std::vector<int> free_, fixed_;              // vertex lists
+  std::vector<int> free_, fixed_;              // vertex lists: solved for, held exactly
   std::vector<int> free_index_, fixed_index_;  // vertex -> position in those lists, or -1
+  std::vector<int> soft_, soft_handle_;        // softly held free positions; their handle or -1 (anchor)
   Matrix rest_;
   SparseMatrix laplacian_;                     // with the clamped weights
   std::vector<std::vector<std::pair<int, double>>> neighbors_;  // (j, w_ij)
   SparseMatrix free_part_, fixed_part_;        // Laplacian: L(:, free), L(:, fixed); ARAP: rows free only
-  Eigen::SimplicialLDLT<SparseMatrix> solver_;
+  SparseCholesky solver_;
   std::vector<std::string> warnings_;
   std::vector<double> energy_;
+  std::mutex deforming_;  // deform() records energy_: one call at a time per deformer
 };
 
 }  // namespace deformkit
