@@ -1,21 +1,24 @@
 #include "deformkit/sparse_cholesky.hpp"
 
+#include "deformkit/cholesky_factor.hpp"
+#include "deformkit/parallel.hpp"
+
 #include <cholmod.h>
 
-#include <mutex>
 #include <new>
 #include <stdexcept>
 #include <vector>
 
 namespace deformkit {
 
-// The 64-bit index interface, so that the factor of a large mesh's squared Laplacian cannot
-// overflow its non-zero count. CHOLMOD's common block holds workspace that solves write to,
-// hence the mutex.
+// CHOLMOD orders and factorises (64-bit indices, so that the factor of a large mesh's squared
+// Laplacian cannot overflow its non-zero count); the factor is then copied into a CholeskyFactor,
+// whose solve reads it once for all right-hand sides and runs on every core.
 struct SparseCholesky::State {
   cholmod_common common;
-  cholmod_factor* factor = nullptr;
-  std::mutex solving;
+  cholmod_factor* factor = nullptr;  // only during factorize()
+  CholeskyFactor copy;
+  bool ready = false;
 
   State() {
     cholmod_l_start(&common);
@@ -33,18 +36,16 @@ struct SparseCholesky::State {
 SparseCholesky::SparseCholesky() : state_(std::make_unique<State>()) {}
 SparseCholesky::~SparseCholesky() = default;
 
-bool SparseCholesky::empty() const { return state_->factor == nullptr; }
+bool SparseCholesky::empty() const { return !state_->ready; }
 
-std::size_t SparseCholesky::factor_nonzeros() const {
-  const cholmod_factor* f = state_->factor;
-  if (!f) return 0;
-  if (f->is_super) return std::size_t(f->xsize);
-  return std::size_t(f->nzmax);
-}
+const CholeskyFactor& SparseCholesky::factor() const { return state_->copy; }
+
+std::size_t SparseCholesky::factor_nonzeros() const { return state_->ready ? state_->copy.value.size() : 0; }
 
 bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) {
   State& s = *state_;
-  if (s.factor) cholmod_l_free_factor(&s.factor, &s.common);
+  s.ready = false;
+  s.copy = CholeskyFactor{};
   const SuiteSparse_long n = a.rows();
   // The lower triangle as CHOLMOD's compressed columns (stype -1).
   std::vector<SuiteSparse_long> p(std::size_t(n) + 1, 0), rows;
@@ -89,29 +90,51 @@ bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) {
     s.check_memory();
     throw std::runtime_error("CHOLMOD could not factorise the matrix");
   }
+  // Packed simplicial columns, diagonal first: L D L^T stays so, a supernodal L L^T becomes simplicial.
+  cholmod_factor* f = s.factor;
+  if (!cholmod_l_change_factor(CHOLMOD_REAL, f->is_ll, false, true, true, f, &s.common)) {
+    cholmod_l_free_factor(&s.factor, &s.common);
+    s.check_memory();
+    throw std::runtime_error("CHOLMOD could not convert the factor");
+  }
+  const auto* start = static_cast<const SuiteSparse_long*>(f->p);
+  const auto* row = static_cast<const SuiteSparse_long*>(f->i);
+  const auto* value = static_cast<const double*>(f->x);
+  const auto* perm = static_cast<const SuiteSparse_long*>(f->Perm);
+  CholeskyFactor& c = s.copy;
+  c.unit_diagonal = !f->is_ll;
+  // A supernodal factor carries the explicit zeros of its relaxed supernodes: dropped, except a
+  // column's first off-diagonal entry, its parent in the elimination tree that schedule() reads.
+  c.start.assign(1, 0);
+  c.row.reserve(std::size_t(start[n]));
+  c.value.reserve(std::size_t(start[n]));
+  for (SuiteSparse_long j = 0; j < n; ++j) {
+    SuiteSparse_long parent = -1;
+    for (SuiteSparse_long e = start[j] + 1; e < start[j + 1]; ++e)
+      if (parent < 0 || row[e] < row[parent]) parent = e;
+    for (SuiteSparse_long e = start[j]; e < start[j + 1]; ++e)
+      if (e == start[j] || e == parent || value[e] != 0.0)
+        c.row.push_back(std::int32_t(row[e])), c.value.push_back(value[e]);
+    c.start.push_back(std::int64_t(c.row.size()));
+  }
+  c.perm.assign(perm, perm + n);
+  cholmod_l_free_factor(&s.factor, &s.common);
+  if (c.unit_diagonal)  // CHOLMOD's L D L^T also factors indefinite matrices
+    for (SuiteSparse_long j = 0; j < n; ++j)
+      if (!(c.value[std::size_t(c.start[std::size_t(j)])] > 0.0)) {
+        c = CholeskyFactor{};
+        return false;
+      }
+  c.schedule(forked_after_threads() ? 1 : omp_get_max_threads());
+  s.ready = true;
   return true;
 }
 
 Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& b) const {
-  State& s = *state_;
-  if (!s.factor) throw std::logic_error("SparseCholesky::solve before a successful factorize");
-  cholmod_dense rhs{};
-  rhs.nrow = std::size_t(b.rows());
-  rhs.ncol = std::size_t(b.cols());
-  rhs.nzmax = rhs.d = rhs.nrow;
-  rhs.nzmax *= rhs.ncol;
-  rhs.x = const_cast<double*>(b.data());  // read only: cholmod_l_solve returns a new matrix
-  rhs.xtype = CHOLMOD_REAL;
-  rhs.dtype = CHOLMOD_DOUBLE;
-  const std::lock_guard<std::mutex> lock(s.solving);
-  cholmod_dense* x = cholmod_l_solve(CHOLMOD_A, s.factor, &rhs, &s.common);
-  if (!x) {
-    s.check_memory();
-    throw std::runtime_error("CHOLMOD could not solve");
-  }
-  Eigen::MatrixXd out = Eigen::Map<const Eigen::MatrixXd>(static_cast<const double*>(x->x), b.rows(), b.cols());
-  cholmod_l_free_dense(&x, &s.common);
-  return out;
+  if (!state_->ready) throw std::logic_error("SparseCholesky::solve before a successful factorize");
+  Eigen::MatrixXd x(b.rows(), b.cols());
+  state_->copy.solve(b.data(), x.data(), int(b.cols()));
+  return x;
 }
 
 }  // namespace deformkit

@@ -3,6 +3,7 @@
 #include "deformkit/deformer.hpp"
 #include "deformkit/parallel.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
 #include <algorithm>
@@ -50,6 +51,25 @@ SparseMatrix with_positive_weights(const SparseMatrix& l) {
 }
 
 }  // namespace
+
+// True if a held component has all its held vertices on one line (or fewer than three of them).
+bool SurfaceDeformer::loosely_held(const std::vector<int>& component, int components,
+                                   const std::vector<char>& held) const {
+  std::vector<std::vector<int>> members(static_cast<std::size_t>(components));
+  for (std::size_t v = 0; v < component.size(); ++v)
+    if (held[v]) members[component[v]].push_back(int(v));
+  for (const auto& list : members) {
+    if (list.empty()) continue;  // unheld: fixed as a whole
+    Vec3 mean = Vec3::Zero();
+    for (int v : list) mean += rest_.row(v).transpose();
+    mean /= double(list.size());
+    Mat3 cov = Mat3::Zero();
+    for (int v : list) cov += (rest_.row(v).transpose() - mean) * (rest_.row(v).transpose() - mean).transpose();
+    const Eigen::Vector3d spread = Eigen::SelfAdjointEigenSolver<Mat3>(cov).eigenvalues();  // ascending
+    if (list.size() < 3 || !(spread[1] > 1e-12 * spread[2])) return true;
+  }
+  return false;
+}
 
 SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, std::vector<int> handles,
                                  const std::optional<std::vector<int>>& roi, SurfaceSettings settings)
@@ -134,14 +154,16 @@ SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, st
     SparseMatrix normal = SparseMatrix(free_part_.transpose()) * free_part_;
     for (int s : soft_)
       for (int a = 0; a < 3; ++a) normal.coeffRef(3 * s + a, 3 * s + a) += w2;
-    if (solver_.factorize(normal, CholeskyKind::Supernodal)) return;
-    // With fewer than three non-collinear held vertices in a component, the linearised
-    // similarities about them cost nothing: the system is singular. A Tikhonov term 1e-10 of the
-    // mean diagonal then picks (nearly) the least displacement among the minimisers.
-    const double ridge = 1e-10 * normal.diagonal().sum() / double(normal.rows());
-    for (Eigen::Index k = 0; k < normal.rows(); ++k) normal.coeffRef(k, k) += ridge;
-    warnings_.push_back("the rotation-invariant system is singular (a component held by fewer than three "
-                        "non-collinear vertices?): of its solutions, the least displacement is used");
+    // With fewer than three non-collinear held vertices in a component, the linearised rotations
+    // about them cost nothing: the system is singular (whether a factorisation notices depends on
+    // rounding). A Tikhonov term 1e-10 of the mean diagonal then picks (nearly) the least
+    // displacement among the minimisers.
+    if (loosely_held(component, components, held)) {
+      const double ridge = 1e-10 * normal.diagonal().sum() / double(normal.rows());
+      for (Eigen::Index k = 0; k < normal.rows(); ++k) normal.coeffRef(k, k) += ridge;
+      warnings_.push_back("rotation_invariant: a component is held by fewer than three non-collinear vertices, "
+                          "so it may turn freely about them; the least displacement is used");
+    }
     factorize(normal, CholeskyKind::Supernodal);
     return;
   }

@@ -11,6 +11,8 @@
 
 namespace deformkit {
 
+struct CholeskyFactor;
+
 // Simplicial suits Laplacian-like systems (few non-zeros per column of the factor); supernodal
 // (dense blocks through BLAS) suits their squares, whose factors are several times denser.
 enum class CholeskyKind { Simplicial, Supernodal };
@@ -25,10 +27,11 @@ class SparseCholesky {
   // Factorises a (its lower triangle is read). Returns false if a is not positive definite;
   // throws std::bad_alloc when CHOLMOD runs out of memory.
   bool factorize(const SparseMatrix& a, CholeskyKind kind);
-  // X with A X = B, all columns of b at once. Safe to call from several threads.
+  // X with A X = B, all columns of b at once (on every core). Safe to call from several threads.
   Eigen::MatrixXd solve(const Eigen::MatrixXd& b) const;
   bool empty() const;
   std::size_t factor_nonzeros() const;
+  const CholeskyFactor& factor() const;
 
  private:
   struct State;

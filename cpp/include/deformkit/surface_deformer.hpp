@@ -55,6 +55,7 @@ class SurfaceDeformer {
   Matrix arap_rhs(const std::vector<Mat3>& rotations) const;
   double arap_energy(const Matrix& x, const std::vector<Mat3>& rotations) const;
   SparseMatrix implicit_transform_system() const;
+  bool loosely_held(const std::vector<int>& component, int components, const std::vector<char>& held) const;
 
   TriangleMesh mesh_;
   SurfaceSettings settings_;
