@@ -3,7 +3,8 @@
     blender -b --factory-startup --python-exit-code 1 -P blend_fixtures/make_fixtures.py -- OUT_DIR
 
 From Blender primitives, plus, when ../shared/meshes is beside the repository, two real meshes.
-One file carries a saved deformkit stack (for --evaluate-saved)."""
+One file carries a saved deformkit stack (for --evaluate-saved), one a lattice entry, one a bound
+Laplacian entry."""
 import glob
 import math
 import os
@@ -92,6 +93,22 @@ def main():
         p.co_deform = (ring * (c * x - s * y), ring * (s * x + c * y), z)
     api.evaluate(vase)
     save(out_dir, "lattice_vase")
+
+    fresh()  # a bound Laplacian entry (ARAP): the hand follows an empty moved and turned after bind
+    bpy.ops.mesh.primitive_cylinder_add(vertices=24, depth=3.0, radius=0.4, end_fill_type="TRIFAN")
+    arm = subdivided(bpy.context.active_object, 6)
+    arm.name = "Arm"
+    for name, side in (("Shoulder", -1), ("Hand", 1)):
+        group = arm.vertex_groups.new(name=name)
+        group.add([v.index for v in arm.data.vertices if side * v.co.z > 1.3], 1.0, "REPLACE")
+    bpy.ops.object.empty_add(location=(0.0, 0.0, 1.5))
+    hand = bpy.context.active_object
+    hand.name = "HandTarget"
+    api.add_laplacian(arm, anchors_group="Shoulder", handles_group="Hand", handle_target="OBJECT", handle_object=hand)
+    hand.location, hand.rotation_euler = (0.9, 0.0, 1.1), (0.0, math.radians(50.0), 0.0)
+    bpy.context.view_layer.update()
+    api.evaluate(arm)
+    save(out_dir, "laplacian_arm")
 
     for mesh in ("spot.obj", "cow.obj"):
         path = os.path.join(SHARED_MESHES, mesh)

@@ -1,4 +1,4 @@
-"""deformkit for Blender: Barr deformers and lattices (and later Laplacian editing) as
+"""deformkit for Blender: Barr deformers, lattices and Laplacian surface editing as
 non-destructive entries beside the modifier stack, plus headless batch processing."""
 
 bl_info = {
@@ -7,16 +7,19 @@ bl_info = {
     "version": (0, 1, 0),
     "blender": (3, 4, 0),
     "location": "Properties > Modifiers > deformkit",
-    "description": "Barr's twist, bend, taper and stretch, and lattices, as non-destructive entries",
+    "description": "Barr's twist, bend, taper and stretch, lattices and Laplacian editing, as non-destructive "
+                   "entries",
     "category": "Object",
 }
 
 if "bpy" in locals():  # F8 / script reload
     import importlib
-    for _m in (native, properties, outputs, lattices, evaluation, api, operators, ui, handlers):  # noqa: F821
+    for _m in (native, properties, outputs, meshdata, lattices, surface, evaluation,  # noqa: F821
+               api, operators, ui, handlers):  # noqa: F821
         importlib.reload(_m)
 else:
-    from . import api, evaluation, handlers, lattices, native, operators, outputs, properties, ui
+    from . import (api, evaluation, handlers, lattices, meshdata, native, operators, outputs, properties,
+                   surface, ui)
 
 import bpy  # noqa: E402
 

@@ -8,6 +8,10 @@
 
     entry = api.add_lattice(obj, resolution=(4, 4, 4), basis="BLENDER")  # a fitted Lattice object
     api.direct_manipulation(obj, 1, [12, 40], [(0, 0, 1.2), (0.3, 0, 1)])
+
+    entry = api.add_laplacian(obj, anchors_group="Feet", handles_group="Hand", handle_target="OBJECT",
+                              handle_object=empty)  # bound at once; move the empty
+    api.unbind_laplacian(obj, 2)
 """
 from collections import namedtuple
 
@@ -15,14 +19,15 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from . import evaluation, lattices
+from . import evaluation, lattices, surface
 from .properties import ENTRY_TYPES, LATTICE_BASES
 
 TYPES = tuple(t[0] for t in ENTRY_TYPES)
 BASES = tuple(b[0] for b in LATTICE_BASES)
 PARAMS = ("name", "show_viewport", "show_render", "angle", "factor", "deform_axis", "origin", "limits",
           "lock_x", "lock_y", "lock_z", "vertex_group", "invert_vertex_group",
-          "lattice", "lattice_basis", "strength", "outside")
+          "lattice", "lattice_basis", "strength", "outside",
+          "method", "weights", "iterations", "anchors_group", "handles_group", "handle_target", "handle_object")
 
 
 def _require_mesh(obj):
@@ -32,7 +37,8 @@ def _require_mesh(obj):
 
 
 def add_entry(obj, type="TWIST", **params):
-    """Append an entry of `type` (Twist, Taper, Bend, Stretch, Lattice; case-insensitive) and evaluate."""
+    """Append an entry of `type` (Twist, Taper, Bend, Stretch, Lattice, Laplacian; case-insensitive)
+    and evaluate. A Laplacian entry starts unbound (see add_laplacian)."""
     _require_mesh(obj)
     kind = str(type).upper()
     if kind not in TYPES:
@@ -113,6 +119,46 @@ def apply(obj, index=0):
 
 def evaluated_positions(obj, depsgraph=None):
     return evaluation.evaluated_positions(obj, depsgraph)
+
+
+# Laplacian entries ----------------------------------------------------------------------------
+
+def laplacian_entry(obj, index):
+    """Entry `index` of obj's stack, which must be a Laplacian entry."""
+    stack = obj.deformkit
+    if not 0 <= index < len(stack.entries):
+        raise IndexError(f"index: {index} is out of range for {len(stack.entries)} entries")
+    entry = stack.entries[index]
+    if entry.type != "LAPLACIAN":
+        raise ValueError(f"entry '{entry.name}' is a {entry.type.title()} entry, not a Laplacian entry")
+    return entry
+
+
+def add_laplacian(obj, bind=True, **params):
+    """Append a Laplacian entry with these parameters and (by default) bind it at once."""
+    entry = add_entry(obj, "LAPLACIAN", **params)
+    if bind:
+        bind_laplacian(obj, len(obj.deformkit.entries) - 1)
+    return entry
+
+
+def bind_laplacian(obj, index):
+    """Record the points coming into entry `index` as its rest (and the handle object's place) and
+    factorise its system, as Laplacian Deform's Bind; returns the number of vertices bound. Raises
+    ValueError, and leaves the entry as it was, if it cannot be bound."""
+    entry = laplacian_entry(obj, index)
+    _require_mesh(obj)
+    if obj.mode == "EDIT":
+        raise ValueError("bind: leave edit mode first (edit mode holds its own copy of the mesh)")
+    count = surface.bind(obj, entry, evaluation.entry_input(obj, index))
+    evaluation.evaluate(obj, force=True)
+    return count
+
+
+def unbind_laplacian(obj, index):
+    """Forget entry `index`'s rest: it passes its input through until bound again."""
+    surface.unbind(obj, laplacian_entry(obj, index))
+    evaluation.evaluate(obj, force=True)
 
 
 # Lattice entries ------------------------------------------------------------------------------

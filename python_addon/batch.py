@@ -41,14 +41,18 @@ def apply_recipe(recipe):
             kind = spec.pop("type", None)
             if kind is None:
                 raise BatchError("recipe: every deformer needs a 'type'")
-            for prop in ("origin", "lattice"):  # objects are named in the recipe
+            for prop in ("origin", "lattice", "handle_object"):  # objects are named in the recipe
                 if prop in spec:
                     found = bpy.data.objects.get(spec[prop])
                     if found is None:
                         raise BatchError(f"recipe: {prop} object '{spec[prop]}' not found")
                     spec[prop] = found
+            # A Laplacian entry does nothing until bound: "bind": true binds it to what comes in.
+            bind = str(kind).upper() == "LAPLACIAN" and bool(spec.pop("bind", False))
             try:
                 api.add_entry(obj, kind, **spec)
+                if bind:
+                    api.bind_laplacian(obj, len(obj.deformkit.entries) - 1)
             except (ValueError, TypeError) as exc:
                 raise BatchError(f"{obj.name}: {exc}") from exc
     return objects

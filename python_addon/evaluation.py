@@ -12,7 +12,8 @@ import zlib
 import bpy
 import numpy as np
 
-from . import lattices, native
+from . import lattices, meshdata, native, surface
+from .meshdata import base_positions, cache_key, vertex_group_weights  # noqa: F401
 from .outputs import (ATTR_RENDER, ATTR_VIEWPORT, ATTR_VOLUME, MODIFIER_NAME, NODE_GROUP_NAME,  # noqa: F401
                       EntryError, ensure_modifier, outputs_present, remove_outputs, write_vector_attribute,
                       write_volume_colors)
@@ -21,13 +22,15 @@ from .outputs import (ATTR_RENDER, ATTR_VIEWPORT, ATTR_VOLUME, MODIFIER_NAME, NO
 _evaluating = set()  # session_uids being evaluated: writes below re-enter through handlers
 _last_inputs = {}    # cache key -> (fingerprint of the settings, base positions) last written
 _own_writes = {}     # cache key -> time of the add-on's last write, whose depsgraph echo is expected
-_weights = {}        # (cache key, vertex group) -> weights read from the mesh (a slow Python loop)
 ECHO_WINDOW = 1.0    # seconds within which a depsgraph update of the mesh counts as that echo
 
 
-def cache_key(obj):
-    # session_uid (Blender 3.5+) survives renames; 3.4 has only the name.
-    return getattr(obj, "session_uid", None) or obj.name_full
+class EntryFailed(EntryError):
+    """An entry that could not deform the points it was given (found while running the stack)."""
+
+    def __init__(self, index, message):
+        super().__init__(message)
+        self.index = index
 
 
 def object_problem(obj):
@@ -49,30 +52,6 @@ def object_problem(obj):
     return ""
 
 
-def base_positions(mesh):
-    co = np.empty(len(mesh.vertices) * 3, np.float32)
-    position = mesh.attributes.get("position")  # Blender 3.5+: a plain memcpy, ~20x faster than "co"
-    if position is not None and position.data_type == "FLOAT_VECTOR" and position.domain == "POINT":
-        position.data.foreach_get("vector", co)
-    else:
-        mesh.vertices.foreach_get("co", co)
-    return co.reshape(-1, 3)
-
-
-def vertex_group_weights(obj, name):
-    group = obj.vertex_groups.get(name)
-    if group is None:
-        raise EntryError(f"vertex group '{name}' not found")
-    index = group.index
-    weights = np.zeros(len(obj.data.vertices))
-    for v in obj.data.vertices:
-        for g in v.groups:
-            if g.group == index:
-                weights[v.index] = g.weight
-                break
-    return weights
-
-
 def origin_matrix(obj, entry):
     """The origin object's frame in `obj`'s local space, as Simple Deform uses it."""
     if entry.origin is None:
@@ -92,17 +71,15 @@ def entry_weights(obj, entry, reuse_weights=False):
     them; edits of the mesh re-read them)."""
     if not entry.vertex_group:
         return None
-    key = (cache_key(obj), entry.vertex_group)
-    cached = _weights.get(key)
-    if reuse_weights and cached is not None and len(cached) == len(obj.data.vertices) \
-            and obj.vertex_groups.get(entry.vertex_group) is not None:
-        return cached
-    weights = _weights[key] = vertex_group_weights(obj, entry.vertex_group)
-    return weights
+    return meshdata.group_weights(obj, entry.vertex_group, reuse_weights)
 
 
 def entry_setup(obj, entry, reuse_weights=False):
-    """(deformer, fingerprint of its settings, lattices.Setup or None) for one entry."""
+    """(deformer, fingerprint of its settings, lattices.Setup, surface.Setup or None) for one
+    entry. A Laplacian entry has no pointwise deformer (None): it needs the whole mesh."""
+    if entry.type == "LAPLACIAN":
+        laplacian = surface.setup(obj, entry, reuse_weights)
+        return None, laplacian.fingerprint, laplacian
     weights = entry_weights(obj, entry, reuse_weights)
     if entry.type == "LATTICE":
         if weights is not None and entry.invert_vertex_group:
@@ -120,7 +97,8 @@ def entry_setup(obj, entry, reuse_weights=False):
 
 
 def entry_deformer(obj, entry, reuse_weights=False):
-    """The deformkit deformer for this entry: Simple Deform's map, or the entry's lattice."""
+    """The deformkit deformer for this entry: Simple Deform's map, or the entry's lattice (None
+    for a Laplacian entry)."""
     return entry_setup(obj, entry, reuse_weights)[0]
 
 
@@ -158,6 +136,7 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         if len(stack.entries) == 0:
             remove_outputs(obj)
             _last_inputs.pop(uid, None)
+            surface.forget(uid)
             return True
         cached = _last_inputs.get(uid)
         if reuse_base and cached is not None and len(cached[1]) == len(obj.data.vertices):
@@ -165,16 +144,17 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         else:
             base = base_positions(obj.data)
         built, key, failed = [], [len(base), stack.show_volume_ratio], False
+        surface.keep_only(uid, {e.bind_id for e in stack.entries if e.type == "LAPLACIAN"})
         for index, entry in enumerate(stack.entries):
             try:
-                deformer, fingerprint, lattice = entry_setup(
+                deformer, fingerprint, special = entry_setup(
                     obj, entry, reuse_base if reuse_weights is None else reuse_weights)
             except ValueError as exc:
                 _set_if_changed(entry, "error", str(exc))
                 failed = True
                 continue
             _set_if_changed(entry, "error", "")
-            built.append((index, entry, deformer, lattice))
+            built.append((index, entry, deformer, special))
             key.append(fingerprint)
         if failed:
             return False
@@ -184,10 +164,14 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
             return False
         viewport = [b for b in built if b[1].show_viewport]
         render = [b for b in built if b[1].show_render]
+        pieces = [] if stack.show_volume_ratio else None
         try:
-            positions = _deformed(uid, "viewport", viewport, base)
+            positions = _deformed(uid, "viewport", viewport, base, pieces)
             same = [b[0] for b in render] == [b[0] for b in viewport]
             render_positions = positions if same else _deformed(uid, "render", render, base)
+        except EntryFailed as exc:
+            _set_if_changed(stack.entries[exc.index], "error", str(exc))
+            return False
         except ValueError as exc:
             _set_if_changed(stack, "error", str(exc))
             return False
@@ -199,7 +183,11 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         elif ATTR_RENDER in mesh.attributes:
             mesh.attributes.remove(mesh.attributes[ATTR_RENDER])
         if stack.show_volume_ratio and viewport:
-            write_volume_colors(mesh, native.dk.Stack([b[2] for b in viewport]).volume_ratio(base))
+            # Laplacian entries have no Jacobian: det J of the others, each run at its own input.
+            ratio = np.ones(len(base))
+            for deformers, points in pieces:
+                ratio *= native.dk.Stack(deformers).volume_ratio(points)
+            write_volume_colors(mesh, ratio)
         elif ATTR_VOLUME in mesh.attributes:
             mesh.attributes.remove(mesh.attributes[ATTR_VOLUME])
         ensure_modifier(obj, split)
@@ -212,19 +200,34 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         _evaluating.discard(uid)
 
 
-def _deformed(uid, kind, built, base):
+def _deformed(uid, kind, built, base, pieces=None):
     """Run the entries in order: runs of Barr entries as one dk.Stack, each lattice entry through
-    its binding (kept per object, entry and viewport/render, see lattices.deform)."""
-    points, pending = base, []
-    for index, _entry, deformer, lattice in built:
-        if lattice is None:
+    its binding (kept per object, entry and viewport/render, see lattices.deform), each Laplacian
+    entry through its solver. `pieces`, if a list, receives (deformers, their input) for each
+    stretch of entries between Laplacian entries: the factors of the volume ratio."""
+    points, pending, piece, piece_input = base, [], [], base
+    for index, _entry, deformer, special in built:
+        if special is None:
             pending.append(deformer)
+            piece.append(deformer)
             continue
         if pending:
             points, pending = native.dk.Stack(pending).deform(points), []
-        points = lattices.deform((uid, index, kind), lattice, points)
+        if isinstance(special, surface.Setup):
+            if pieces is not None and piece:
+                pieces.append((piece, piece_input))
+            try:
+                points = surface.deform(special, points)
+            except ValueError as exc:
+                raise EntryFailed(index, str(exc)) from exc
+            piece, piece_input = [], points
+        else:
+            points = lattices.deform((uid, index, kind), special, points)
+            piece.append(deformer)
     if pending:
         points = native.dk.Stack(pending).deform(points)
+    if pieces is not None and piece:
+        pieces.append((piece, piece_input))
     return base.copy() if points is base else points
 
 
@@ -235,11 +238,14 @@ def entry_input(obj, index, kind="viewport"):
     for i, entry in enumerate(obj.deformkit.entries[:index]):
         if (entry.show_viewport if kind == "viewport" else entry.show_render):
             try:
-                deformer, _, lattice = entry_setup(obj, entry, reuse_weights=True)
+                deformer, _, special = entry_setup(obj, entry, reuse_weights=True)
             except ValueError as exc:
                 raise EntryError(f"{entry.name}: {exc}") from exc
-            built.append((i, entry, deformer, lattice))
-    return _deformed(cache_key(obj), kind, built, base_positions(obj.data))
+            built.append((i, entry, deformer, special))
+    try:
+        return _deformed(cache_key(obj), kind, built, base_positions(obj.data))
+    except EntryFailed as exc:
+        raise EntryError(f"{obj.deformkit.entries[exc.index].name}: {exc}") from exc
 
 
 def is_echo_of_own_write(obj):
@@ -271,19 +277,18 @@ def request_update(obj):
 
 
 def forget(obj=None):
-    """Drop cached fingerprints, weights and lattice bindings (after undo or file load, when they
-    may be stale)."""
+    """Drop cached fingerprints, weights, lattice bindings and Laplacian solvers (after undo or
+    file load, when they may be stale; the solvers are built again from the saved rest)."""
+    key = None if obj is None else cache_key(obj)
     if obj is None:
         _last_inputs.clear()
         _own_writes.clear()
-        _weights.clear()
     else:
-        key = cache_key(obj)
         _last_inputs.pop(key, None)
         _own_writes.pop(key, None)
-        for cached in [k for k in _weights if k[0] == key]:
-            del _weights[cached]
-    lattices.forget(None if obj is None else cache_key(obj))
+    meshdata.forget(key)
+    lattices.forget(key)
+    surface.forget(key)
 
 
 def apply_entry(obj, index):
@@ -293,7 +298,11 @@ def apply_entry(obj, index):
         raise EntryError("apply: leave edit mode first (edit mode holds its own copy of the mesh)")
     entry = stack.entries[index]
     base = base_positions(obj.data)
-    deformed = entry_deformer(obj, entry).deform(base)
+    deformer, _, special = entry_setup(obj, entry)
+    if entry.type == "LAPLACIAN":
+        deformed = surface.deform(special, base)  # handles from the base mesh (INCOMING)
+    else:
+        deformed = deformer.deform(base)
     obj.data.vertices.foreach_set("co", deformed.ravel())
     stack.entries.remove(index)
     stack.active_index = min(stack.active_index, max(0, len(stack.entries) - 1))

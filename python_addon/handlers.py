@@ -1,5 +1,5 @@
-"""App handlers: playback, scrubbing, base-mesh edits, origin and lattice edits, undo and file
-load re-evaluate stacks.
+"""App handlers: playback, scrubbing, base-mesh edits, origin, lattice and handle-object edits,
+undo and file load re-evaluate stacks.
 
 Every evaluation is skipped when its inputs (parameters, origin frames, weights, base positions)
 are unchanged, which is also what stops the handlers from re-entering on their own writes."""
@@ -22,16 +22,27 @@ def on_frame_change(scene, depsgraph=None):
         evaluation.evaluate(obj, reuse_weights=True)
 
 
-def _lattices(obj):
-    return {e.lattice for e in obj.deformkit.entries if e.type == "LATTICE" and e.lattice is not None}
+def _pointer(entry):
+    """(object the entry follows or None, the name it remembers) for Lattice entries and Laplacian
+    entries whose handles follow an object."""
+    if entry.type == "LATTICE":
+        return entry.lattice, entry.lattice_name
+    if entry.type == "LAPLACIAN" and entry.handle_target == "OBJECT":
+        return entry.handle_object, entry.handle_object_name
+    return None, ""
 
 
-def _lattice_gone(obj):
-    """A Lattice entry whose lattice was deleted or unlinked, and which does not say so yet (or
-    one that says so, in case the lattice came back)."""
+def _followed(obj):
+    return {p for p in (_pointer(e)[0] for e in obj.deformkit.entries) if p is not None}
+
+
+def _pointer_gone(obj):
+    """An entry whose lattice or handle object was deleted or unlinked, and which does not say so
+    yet (or one that says so, in case the object came back)."""
     for e in obj.deformkit.entries:
-        if e.type == "LATTICE" and (e.lattice_name or e.lattice is not None):
-            missing = e.lattice is None or not e.lattice.users_scene
+        target, name = _pointer(e)
+        if name or target is not None:
+            missing = target is None or not target.users_scene
             if missing != bool(e.error):
                 return True
     return False
@@ -46,17 +57,18 @@ def on_depsgraph_update(scene, depsgraph):
     moved = {u.id.original for u in updates if u.is_updated_transform}
     relinked = any(isinstance(u.id, bpy.types.Collection) for u in updates)  # objects deleted or linked
     for obj in _stack_objects(scene):
-        used = _lattices(obj)
+        used = _followed(obj)
         # Lattice edits show as an update of the Lattice object and of its data.
         watched = {e.origin for e in obj.deformkit.entries if e.origin is not None} | used \
-            | {lat.data for lat in used}
+            | {o.data for o in used if o.type == "LATTICE"}
         if watched & changed or (watched and obj in moved):
-            # The origin frame or the lattice changed. The base is read again only if the mesh
-            # changed too; either way the mesh update that this write causes needs no second look.
+            # The origin frame, the lattice or a handle object changed (or the object moved, which
+            # changes them in its space). The base is read again only if the mesh changed too;
+            # either way the mesh update that this write causes needs no second look.
             evaluation.evaluate(obj, reuse_base=obj.data not in changed, expect_echo=True)
         elif obj.data in changed and not evaluation.is_echo_of_own_write(obj):
             evaluation.evaluate(obj)  # the base mesh may have been edited
-        elif relinked and _lattice_gone(obj):
+        elif relinked and _pointer_gone(obj):
             evaluation.evaluate(obj)  # show (or clear) the entry's message
 
 
@@ -65,9 +77,10 @@ def on_reload(*_args):
     evaluation.forget()
     for scene in bpy.data.scenes:
         objects = _stack_objects(scene)
-        if any(e.origin is not None or e.lattice is not None for o in objects for e in o.deformkit.entries):
+        if any(e.origin is not None or e.lattice is not None or e.handle_object is not None
+               for o in objects for e in o.deformkit.entries):
             # Blender 4+ does not save world matrices: at load_post they are unset until the
-            # depsgraph runs, and origin and lattice frames are made of them.
+            # depsgraph runs, and origin and lattice frames and handle motions are made of them.
             with bpy.context.temp_override(scene=scene, view_layer=scene.view_layers[0]):
                 bpy.context.evaluated_depsgraph_get()
         for obj in objects:

@@ -225,6 +225,64 @@ class DEFORMKIT_OT_lattice_direct(_LatticeOperator, bpy.types.Operator):
         return {"FINISHED"}
 
 
+class _LaplacianOperator:
+    """Acts on a Laplacian entry of the active mesh: the given one, else the active entry if it is
+    one, else the first."""
+    bl_options = {"REGISTER", "UNDO"}
+    index: IntProperty(name="Index", default=-1, options={"SKIP_SAVE"})
+
+    @classmethod
+    def poll(cls, context):
+        if not native.available():
+            cls.poll_message_set(native.IMPORT_ERROR)
+            return False
+        obj = _mesh_object(context)
+        if obj is None or not any(e.type == "LAPLACIAN" for e in obj.deformkit.entries):
+            cls.poll_message_set("Needs a mesh with a Laplacian entry")
+            return False
+        if obj.mode == "EDIT":
+            cls.poll_message_set("Leave edit mode first")
+            return False
+        return True
+
+    def target_index(self, context):
+        entries = context.object.deformkit.entries
+        if self.index >= 0:
+            return self.index
+        active = context.object.deformkit.active_index
+        if 0 <= active < len(entries) and entries[active].type == "LAPLACIAN":
+            return active
+        return [e.type for e in entries].index("LAPLACIAN")
+
+    def execute(self, context):
+        try:
+            return self.run(context.object, self.target_index(context))
+        except (ValueError, IndexError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+
+
+class DEFORMKIT_OT_laplacian_bind(_LaplacianOperator, bpy.types.Operator):
+    """Record the mesh as it comes into the entry as the rest shape, and prepare the solver"""
+    bl_idname = "object.deformkit_laplacian_bind"
+    bl_label = "Bind"
+
+    def run(self, obj, index):
+        count = api.bind_laplacian(obj, index)
+        self.report({"INFO"}, f"Bound '{obj.deformkit.entries[index].name}': {count} vertices")
+        return {"FINISHED"}
+
+
+class DEFORMKIT_OT_laplacian_unbind(_LaplacianOperator, bpy.types.Operator):
+    """Forget the rest shape: the entry passes the mesh through until bound again"""
+    bl_idname = "object.deformkit_laplacian_unbind"
+    bl_label = "Unbind"
+
+    def run(self, obj, index):
+        api.unbind_laplacian(obj, index)
+        return {"FINISHED"}
+
+
 classes = (DEFORMKIT_OT_entry_add, DEFORMKIT_OT_entry_remove, DEFORMKIT_OT_entry_move, DEFORMKIT_OT_entry_apply,
            DEFORMKIT_OT_add_lattice, DEFORMKIT_OT_lattice_bind, DEFORMKIT_OT_lattice_reset,
-           DEFORMKIT_OT_lattice_direct)
+           DEFORMKIT_OT_lattice_direct, DEFORMKIT_OT_laplacian_bind, DEFORMKIT_OT_laplacian_unbind)

@@ -6,8 +6,7 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
                        FloatVectorProperty, IntProperty, PointerProperty, StringProperty)
 
-# Laplacian entries come with their issue. No icons: the Type row shows text only, like Simple
-# Deform's, and stays readable in a narrow editor.
+# No icons: the Type row shows text only, like Simple Deform's, and stays readable in a narrow editor.
 ENTRY_TYPES = [
     ("TWIST", "Twist", "Rotate around the deform axis (Barr's twist)", "NONE", 0),
     ("BEND", "Bend", "Bend around the deform axis (Barr's bend)", "NONE", 1),
@@ -15,6 +14,8 @@ ENTRY_TYPES = [
     ("STRETCH", "Stretch", "Stretch along the deform axis (Blender's stretch)", "NONE", 3),
     ("LATTICE", "Lattice", "Free-form deformation by a Lattice object, edited with Blender's lattice tools",
      "NONE", 4),
+    ("LAPLACIAN", "Laplacian", "Laplacian surface editing or as-rigid-as-possible deformation: anchors stay, "
+     "handles move and the rest of the surface keeps its shape (Bind first, as Laplacian Deform)", "NONE", 5),
 ]
 AXES = [("X", "X", ""), ("Y", "Y", ""), ("Z", "Z", "")]
 LATTICE_BASES = [
@@ -28,6 +29,24 @@ OUTSIDE = [
     ("UNCHANGED", "Unchanged", "Points outside the lattice do not move", 1),
     ("EXTRAPOLATE", "Extrapolate", "Continue the polynomial pieces outside the lattice (not with the Blender basis)",
      2),
+]
+
+SURFACE_METHODS = [
+    ("ARAP", "As-Rigid-As-Possible", "Sorkine and Alexa 2007: local rotations and a global solve, repeated "
+     "Iterations times; keeps details under large rotations", 0),
+    ("ROTATION_INVARIANT", "Rotation Invariant", "Sorkine et al. 2004: the differential coordinates follow "
+     "each one-ring's linearised similarity transform; one solve, good for small rotations", 1),
+    ("LAPLACIAN", "Laplacian", "Least squares on the differential coordinates, without rotations: one solve", 2),
+]
+SURFACE_WEIGHTS = [
+    ("COTANGENT", "Cotangent", "Cotangent weights: follow the surface's geometry", 0),
+    ("UNIFORM", "Uniform", "Every neighbour counts the same: topology only", 1),
+]
+HANDLE_TARGETS = [
+    ("INCOMING", "Incoming", "The handles go where the mesh coming into this entry has them (the base mesh "
+     "through the entries above): move them by editing the mesh or with earlier entries, as with Laplacian "
+     "Deform", 0),
+    ("OBJECT", "Object", "The handles follow the handle object: they move as it moved since bind", 1),
 ]
 
 
@@ -51,9 +70,28 @@ def _is_lattice(self, obj):
     return obj.type == "LATTICE"
 
 
+def _type_changed(self, context):
+    from . import surface
+    if self.type != "LAPLACIAN" and surface.is_bound(self):
+        surface.clear(self)  # a bind belongs to a Laplacian entry: no hidden rest left on other types
+    _changed(self, context)
+
+
+def _handle_object_changed(self, context):
+    from . import surface
+    previous, self.handle_object_name = self.handle_object_name, self.handle_object.name if self.handle_object else ""
+    if surface.is_bound(self) and self.handle_object is not None and self.handle_object.name != previous:
+        surface.record_handle_matrix(self)  # another object: its place now is its place at bind
+    _changed(self, context)
+
+
+def _not_self(self, obj):
+    return obj != self.id_data
+
+
 class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
     name: StringProperty(name="Name", default="Twist")
-    type: EnumProperty(name="Type", items=ENTRY_TYPES, default="TWIST", update=_changed)
+    type: EnumProperty(name="Type", items=ENTRY_TYPES, default="TWIST", update=_type_changed)
     show_viewport: BoolProperty(name="Viewport", description="Display in the viewport", default=True,
                                 update=_changed)
     show_render: BoolProperty(name="Render", description="Use in renders", default=True, update=_changed)
@@ -82,6 +120,33 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
                           description="What happens to points outside the lattice")
     vertex_group: StringProperty(name="Vertex Group", update=_changed)
     invert_vertex_group: BoolProperty(name="Invert", update=_changed)
+    # Laplacian entries
+    method: EnumProperty(name="Method", items=SURFACE_METHODS, default="ARAP", update=_changed,
+                         description="How the surface keeps its shape")
+    weights: EnumProperty(name="Weights", items=SURFACE_WEIGHTS, default="COTANGENT", update=_changed,
+                          description="The Laplacian's edge weights")
+    iterations: IntProperty(name="Iterations", default=10, min=1, max=1000, update=_changed,
+                            description="ARAP's local/global steps per evaluation (more: closer to rigid "
+                                        "under large rotations, slower)")
+    anchors_group: StringProperty(name="Anchors", update=_changed,
+                                  description="Vertex group of the vertices that stay where they were at bind "
+                                              "(weight above 0)")
+    handles_group: StringProperty(name="Handles", update=_changed,
+                                  description="Vertex group of the vertices that move to the targets "
+                                              "(weight above 0)")
+    handle_target: EnumProperty(name="Targets", items=HANDLE_TARGETS, default="INCOMING", update=_changed,
+                                description="Where the handles go")
+    handle_object: PointerProperty(name="Handle Object", type=bpy.types.Object, poll=_not_self,
+                                   update=_handle_object_changed,
+                                   description="Object whose motion since bind moves the handles")
+    handle_object_name: StringProperty(options={"HIDDEN"})
+    # The bind (see surface.py); the rest itself is the entry's ID property "deformkit_rest".
+    bind_id: IntProperty(options={"HIDDEN"})  # 0: not bound
+    bind_vertices: IntProperty(options={"HIDDEN"})
+    bind_faces: IntProperty(options={"HIDDEN"})
+    bind_topology: IntProperty(options={"HIDDEN"})
+    handle_matrix: FloatVectorProperty(size=16, options={"HIDDEN"},
+                                       default=[float(i % 5 == 0) for i in range(16)])
     error: StringProperty(options={"HIDDEN", "SKIP_SAVE"})
 
     @property
@@ -96,7 +161,8 @@ class DEFORMKIT_PG_stack(bpy.types.PropertyGroup):
     show_volume_ratio: BoolProperty(
         name="Volume Colors", default=False, update=_changed,
         description="Write a color attribute with det(J), stretch red and compression blue "
-                    "(shown with Viewport Shading > Color > Attribute)")
+                    "(shown with Viewport Shading > Color > Attribute). Laplacian entries are left out: "
+                    "they have no Jacobian")
     error: StringProperty(options={"HIDDEN", "SKIP_SAVE"})
 
 

@@ -1,8 +1,10 @@
 """Panel in the Modifiers tab, laid out like Blender's own modifier panels."""
 import bpy
 
-from . import evaluation, lattices, native
+from . import evaluation, lattices, native, surface
 from .properties import ENTRY_TYPES
+
+ICONS = {"LATTICE": "MOD_LATTICE", "LAPLACIAN": "MOD_MESHDEFORM"}  # others: MOD_SIMPLEDEFORM
 
 
 class DEFORMKIT_MT_add(bpy.types.Menu):
@@ -11,7 +13,7 @@ class DEFORMKIT_MT_add(bpy.types.Menu):
 
     def draw(self, context):
         for kind, label, _description, _icon, _n in ENTRY_TYPES:
-            icon = "MOD_LATTICE" if kind == "LATTICE" else "MOD_SIMPLEDEFORM"
+            icon = ICONS.get(kind, "MOD_SIMPLEDEFORM")
             self.layout.operator("deformkit.entry_add", text=label, icon=icon).type = kind
         self.layout.separator()
         self.layout.operator("object.deformkit_add_lattice", icon="OUTLINER_OB_LATTICE")
@@ -69,6 +71,8 @@ class DEFORMKIT_PT_stack(bpy.types.Panel):
         mod = obj.modifiers.get("deformkit")
         if len(stack.entries) and mod is not None and not mod.show_viewport:
             layout.label(text="The 'deformkit' modifier, which shows the result, is hidden", icon="INFO")
+        if stack.show_volume_ratio and any(e.type == "LAPLACIAN" and e.show_viewport for e in stack.entries):
+            layout.label(text="Volume colors leave out Laplacian entries (no Jacobian)", icon="INFO")
         for entry in stack.entries:
             draw_entry(layout.box(), obj, entry)
 
@@ -79,7 +83,7 @@ def draw_entry(box, obj, entry):
     row.context_pointer_set("deformkit_entry", entry)
     row.prop(entry, "show_expanded", text="", emboss=False,
              icon="DOWNARROW_HLT" if entry.show_expanded else "RIGHTARROW")
-    row.label(text="", icon="MOD_LATTICE" if entry.type == "LATTICE" else "MOD_SIMPLEDEFORM")
+    row.label(text="", icon=ICONS.get(entry.type, "MOD_SIMPLEDEFORM"))
     row.prop(entry, "name", text="")
     toggles = row.row(align=True)
     toggles.prop(entry, "show_viewport", text="", icon="RESTRICT_VIEW_OFF" if entry.show_viewport else "RESTRICT_VIEW_ON")
@@ -98,6 +102,9 @@ def draw_entry(box, obj, entry):
     col.use_property_split = True
     if entry.type == "LATTICE":
         draw_lattice(col, obj, entry)
+        return
+    if entry.type == "LAPLACIAN":
+        draw_laplacian(col, obj, entry)
         return
     col.prop(entry, "angle" if entry.type in {"TWIST", "BEND"} else "factor")
     col.prop(entry, "origin")
@@ -145,6 +152,30 @@ def draw_lattice(col, obj, entry):
                                  ("EMPTIES", "Selection to Empties", "EMPTY_AXIS")):
         op = row.operator("object.deformkit_lattice_direct", text=label, icon=icon)
         op.index, op.targets = index, targets
+
+
+def draw_laplacian(col, obj, entry):
+    """Laid out like Blender's Laplacian Deform panel: settings, then the bind state and button."""
+    index = list(obj.deformkit.entries).index(entry)
+    col.prop(entry, "method")
+    col.prop(entry, "weights")
+    sub = col.row()
+    sub.active = entry.method == "ARAP"  # the linear methods solve once
+    sub.prop(entry, "iterations")
+    col.prop_search(entry, "anchors_group", obj, "vertex_groups", text="Anchors")
+    col.prop_search(entry, "handles_group", obj, "vertex_groups", text="Handles")
+    col.row().prop(entry, "handle_target", expand=True)
+    if entry.handle_target == "OBJECT":
+        col.prop(entry, "handle_object")
+    col.separator()
+    text, warnings = surface.status(obj, entry)
+    col.label(text=text, icon="LINKED" if surface.is_bound(entry) else "UNLINKED")
+    for warning in warnings:
+        col.label(text=warning, icon="INFO")
+    if surface.is_bound(entry):
+        col.operator("object.deformkit_laplacian_unbind", text="Unbind", icon="UNLINKED").index = index
+    else:
+        col.operator("object.deformkit_laplacian_bind", text="Bind", icon="LINKED").index = index
 
 
 classes = (DEFORMKIT_MT_add, DEFORMKIT_MT_entry_specials, DEFORMKIT_PT_stack)

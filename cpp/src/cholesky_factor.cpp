@@ -93,11 +93,22 @@ struct Solver {
     double* yj = y + std::int64_t(j) * w;
     if (!f.unit_diagonal)
       for (int c = 0; c < w; ++c) yj[c] /= f.value[f.start[j]];
-    for (std::int64_t e = f.start[j] + 1; e < f.start[j + 1]; ++e) {
-      const std::int32_t i = f.row[e];
-      const double l = f.value[e];
-      double* yi = i <= last ? y + std::int64_t(i) * w : shared + std::int64_t(f.top_position[i]) * w;
-      for (int c = 0; c < w; ++c) yi[c] -= l * yj[c];
+    if constexpr (K > 0) {
+      double v[K];  // in registers: the stores below could alias yj as far as the compiler knows
+      for (int c = 0; c < K; ++c) v[c] = yj[c];
+      for (std::int64_t e = f.start[j] + 1; e < f.start[j + 1]; ++e) {
+        const std::int32_t i = f.row[e];
+        const double l = f.value[e];
+        double* yi = i <= last ? y + std::int64_t(i) * K : shared + std::int64_t(f.top_position[i]) * K;
+        for (int c = 0; c < K; ++c) yi[c] -= l * v[c];
+      }
+    } else {
+      for (std::int64_t e = f.start[j] + 1; e < f.start[j + 1]; ++e) {
+        const std::int32_t i = f.row[e];
+        const double l = f.value[e];
+        double* yi = i <= last ? y + std::int64_t(i) * w : shared + std::int64_t(f.top_position[i]) * w;
+        for (int c = 0; c < w; ++c) yi[c] -= l * yj[c];
+      }
     }
   }
   // Column j of the backward substitution L^T x = y (after the diagonal).

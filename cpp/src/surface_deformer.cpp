@@ -188,7 +188,7 @@ SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, st
   // displacement. Soft constraints add w^2 on their diagonal.
   SparseMatrix system = arap ? free_part_ : SparseMatrix(SparseMatrix(free_part_.transpose()) * free_part_);
   for (int s : soft_) system.coeffRef(s, s) += w2;
-  factorize(system, arap ? CholeskyKind::Simplicial : CholeskyKind::Supernodal);
+  factorize(system, CholeskyKind::Supernodal);
 }
 
 void SurfaceDeformer::factorize(const SparseMatrix& system, CholeskyKind kind) {

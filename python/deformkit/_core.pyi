@@ -169,6 +169,36 @@ class ExtendedFFD(Lattice):
     @property
     def max_iterations(self) -> int: ...
 
+def cotangent_laplacian(points: npt.ArrayLike, faces: npt.ArrayLike | Sequence[Sequence[int]]
+                        ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int32], npt.NDArray[np.float64]]:
+    """The cotangent Laplacian as CSR (indptr, indices, data): symmetric, rows summing to 0."""
+
+class SurfaceDeformer:
+    """Laplacian editing (Sorkine et al. 2004), its rotation-invariant form, and ARAP (Sorkine and
+    Alexa 2007) on a mesh: the system is factorised here, deform() back-substitutes."""
+    def __init__(self, points: npt.ArrayLike, faces: npt.ArrayLike | Sequence[Sequence[int]], *,
+                 anchors: npt.ArrayLike = (), handles: npt.ArrayLike = (), roi: npt.ArrayLike | None = None,
+                 method: Literal["arap", "rotation_invariant", "laplacian"] = "arap",
+                 weights: Literal["cotangent", "uniform"] = "cotangent", iterations: int = 10,
+                 tolerance: float = 0.0, constraint_weight: float | None = None) -> None: ...
+    def deform(self, handle_targets: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """(n, 3) positions with the handles at handle_targets (len(handles), 3)."""
+    def __len__(self) -> int: ...
+    @property
+    def free_count(self) -> int: ...
+    @property
+    def warnings(self) -> list[str]:
+        """Components left in place, singular rotation-invariant systems."""
+    @property
+    def energy(self) -> list[float]:
+        """ARAP energy after each iteration of the last deform()."""
+    @property
+    def factor_nonzeros(self) -> int: ...
+    @property
+    def method(self) -> str: ...
+    @property
+    def weights_kind(self) -> str: ...
+
 def mesh_volume(points: npt.ArrayLike, faces: npt.ArrayLike) -> float:
     """Signed volume of a closed mesh (divergence theorem); faces (m, k), polygons fanned."""
 

@@ -9,6 +9,23 @@ REPO = pathlib.Path(__file__).resolve().parents[2]
 IN_BLENDER_BINARY = os.environ.get("DEFORMKIT_IN_BLENDER") == "1"
 
 
+def evaluated(obj):
+    """What Blender shows: the depsgraph's result, read without asking the add-on to re-evaluate,
+    so that property updates and app handlers are what keeps it current."""
+    import bpy
+    from deformkit_addon import evaluation
+    return evaluation.evaluated_positions(obj, bpy.context.evaluated_depsgraph_get())
+
+
+def close(a, b, scale=1.0):
+    return np.abs(a - b).max() <= 2e-6 * max(scale, 1.0)
+
+
+def update():
+    import bpy
+    bpy.context.view_layer.update()
+
+
 def positions(mesh):
     co = np.empty(len(mesh.vertices) * 3, np.float32)
     mesh.vertices.foreach_get("co", co)
@@ -30,6 +47,45 @@ def make_object(bpy, name="Obj", location=(0.3, -0.2, 0.5)):
         if v.co.z > -0.5:
             group.add([v.index], min(1.0, (v.co.z + 0.5) / 2.0), "REPLACE")
     return obj
+
+
+def make_tube(bpy, name="Tube", segments=16, rings=20, length=3.0, radius=0.5, location=(0.4, -0.3, 0.2),
+              rotation=(0.3, -0.2, 0.5), scale=(1.2, 1.2, 1.2)):
+    """A closed bumpy tube along z (quads, a 16-gon at the bottom, a triangle fan on top: every
+    kind of polygon) with vertex groups "Bottom" (the two lowest rings) and "Top" (the two highest
+    rings and the top's centre), turned and placed off the origin."""
+    z = np.linspace(0.0, length, rings)
+    theta = 2 * np.pi * np.arange(segments) / segments
+    r = radius * (1 + 0.15 * np.sin(3 * theta)[None, :] * np.sin(np.pi * z / length)[:, None])
+    co = np.stack([r * np.cos(theta), r * np.sin(theta), np.repeat(z[:, None], segments, 1)], -1).reshape(-1, 3)
+    co = np.vstack([co, [(0.0, 0.0, length + 0.2)]])
+    ring = np.arange(rings * segments).reshape(rings, segments)
+    faces = [(a, b, c, d) for i in range(rings - 1) for a, b, c, d in
+             zip(ring[i], np.roll(ring[i], -1), np.roll(ring[i + 1], -1), ring[i + 1])]
+    faces.append(tuple(ring[0][::-1]))
+    top = len(co) - 1
+    faces += [(a, b, top) for a, b in zip(ring[-1], np.roll(ring[-1], -1))]
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(co.tolist(), [], [tuple(int(i) for i in f) for f in faces])
+    mesh.update()
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    obj.location, obj.rotation_euler, obj.scale = location, rotation, scale
+    bpy.context.view_layer.objects.active = obj
+    obj.vertex_groups.new(name="Bottom").add(ring[:2].ravel().tolist(), 1.0, "REPLACE")
+    obj.vertex_groups.new(name="Top").add(ring[-2:].ravel().tolist() + [top], 1.0, "REPLACE")
+    bpy.context.view_layer.update()
+    return obj
+
+
+def group_members(obj, name):
+    """Indices of the vertices in vertex group `name` with a weight above 0."""
+    index = obj.vertex_groups[name].index
+    return np.array([v.index for v in obj.data.vertices if any(g.group == index and g.weight > 0 for g in v.groups)])
+
+
+def polygons(mesh):
+    return [list(p.vertices) for p in mesh.polygons]
 
 
 def twin_with_simple_deform(bpy, obj, **settings):

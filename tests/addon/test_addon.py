@@ -4,19 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from addon_helpers import make_object, positions, twin_with_simple_deform
-
-
-def evaluated(obj):
-    """What Blender shows: the depsgraph's result, read without asking the add-on to re-evaluate,
-    so that property updates and app handlers are what keeps it current."""
-    import bpy
-    from deformkit_addon import evaluation
-    return evaluation.evaluated_positions(obj, bpy.context.evaluated_depsgraph_get())
-
-
-def close(a, b, scale=1.0):
-    return np.abs(a - b).max() <= 2e-6 * max(scale, 1.0)
+from addon_helpers import close, evaluated, make_object, positions, twin_with_simple_deform
 
 
 SETTINGS = [  # (entry type, Simple Deform settings); amounts by Blender's names

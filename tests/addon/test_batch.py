@@ -108,30 +108,67 @@ def test_evaluate_saved_and_never_overwrite(fixtures, tmp_path, scene):
     assert np.abs(api.evaluated_positions(obj) - expected).max() < 1e-5
 
 
-def test_saved_results_show_without_the_addon(fixtures, tmp_path):
-    """The output file itself holds the result: Blender 3.4 without the add-on shows it."""
-    import deformkit as dk
-    (tmp_path / "r.json").write_text(json.dumps(RECIPE))
-    proc = run_batch(fixtures / "column.blend", "--recipe", tmp_path / "r.json", "--out", tmp_path / "out")
-    assert proc.returncode == 0, proc.stdout + proc.stderr
+def shown_without_addon(blend, name, tmp_path):
+    """(evaluated, base) positions of object `name` as Blender 3.4 without the add-on shows them:
+    what the file itself holds."""
     script = tmp_path / "read.py"
     script.write_text(
         "import bpy, sys, numpy as np\n"
-        "o = bpy.data.objects['Column']\n"
+        "o = bpy.data.objects[sys.argv[-2]]\n"
         "dg = bpy.context.evaluated_depsgraph_get()\n"
         "me = o.evaluated_get(dg).to_mesh()\n"
         "ev = np.empty(len(me.vertices) * 3, np.float32); me.vertices.foreach_get('co', ev)\n"
         "base = np.empty(len(o.data.vertices) * 3, np.float32); o.data.vertices.foreach_get('co', base)\n"
         "np.save(sys.argv[-1] + '_ev.npy', ev.reshape(-1, 3)); np.save(sys.argv[-1] + '_base.npy', base.reshape(-1, 3))\n"
         "print('ADDON', hasattr(bpy.types.Object, 'deformkit'))\n")
-    out = subprocess.run([BLENDER, "-b", "--factory-startup", str(tmp_path / "out" / "column.blend"),
-                          "--python-exit-code", "1", "-P", str(script), "--", str(tmp_path / "r")],
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run([BLENDER, "-b", "--factory-startup", str(blend), "--python-exit-code", "1", "-P", str(script),
+                          "--", name, str(tmp_path / "r")], capture_output=True, text=True, timeout=120)
     assert "ADDON False" in out.stdout, out.stdout[-2000:] + out.stderr[-2000:]
-    ev, base = np.load(tmp_path / "r_ev.npy"), np.load(tmp_path / "r_base.npy")
+    return np.load(tmp_path / "r_ev.npy"), np.load(tmp_path / "r_base.npy")
+
+
+def test_saved_results_show_without_the_addon(fixtures, tmp_path):
+    """The output file itself holds the result: Blender 3.4 without the add-on shows it."""
+    import deformkit as dk
+    (tmp_path / "r.json").write_text(json.dumps(RECIPE))
+    proc = run_batch(fixtures / "column.blend", "--recipe", tmp_path / "r.json", "--out", tmp_path / "out")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    ev, base = shown_without_addon(tmp_path / "out" / "column.blend", "Column", tmp_path)
     expected = dk.Stack([dk.SimpleDeform(mode=d["type"], angle=d["angle"], deform_axis=d["deform_axis"])
                          for d in RECIPE["deformers"]]).deform(base)
     assert np.abs(ev - expected).max() < 1e-5 and np.abs(ev - base).max() > 0.1
+
+
+def test_saved_laplacian_entry_is_evaluated_again(fixtures, tmp_path, scene):
+    """A bound Laplacian entry saved by Blender 3.4: the batch builds its solver from the saved rest
+    and writes the result that dk.SurfaceDeformer gives for the rest, the groups and the empty's
+    motion since bind."""
+    import bpy
+    from addon_helpers import group_members, polygons
+    from deformkit_addon import surface
+    import deformkit as dk
+    proc = run_batch(fixtures / "laplacian_arm.blend", "--evaluate-saved", "--out", tmp_path / "out")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    out = tmp_path / "out" / "laplacian_arm.blend"
+    written, base = shown_without_addon(out, "Arm", tmp_path)
+    bpy.ops.wm.open_mainfile(filepath=str(out))
+    obj, hand = bpy.data.objects["Arm"], bpy.data.objects["HandTarget"]
+    entry = obj.deformkit.entries[0]
+    at_bind = np.eye(4)
+    at_bind[2, 3] = 1.5  # where make_fixtures put the empty when it bound the entry
+    # kept as Blender's Hook keeps it: H(bind)^-1 obj(bind); the arm never moved
+    np.testing.assert_array_equal(np.array(entry.handle_matrix).reshape(4, 4),
+                                  np.linalg.inv(at_bind) @ np.array(obj.matrix_world))
+    rest = surface.saved_rest(entry)
+    np.testing.assert_array_equal(rest, base)  # bound first in the stack: the rest is the base mesh
+    world = np.array(obj.matrix_world)
+    motion = np.linalg.inv(world) @ np.array(hand.matrix_world) @ np.linalg.inv(at_bind) @ world
+    handles = group_members(obj, "Hand")
+    targets = rest[handles].astype(np.float64) @ motion[:3, :3].T + motion[:3, 3]
+    expected = dk.SurfaceDeformer(rest, polygons(obj.data), anchors=group_members(obj, "Shoulder"),
+                                  handles=handles).deform(targets)
+    assert np.abs(expected - base).max() > 0.5  # the arm bends
+    assert np.abs(written - expected).max() < 1e-5, np.abs(written - expected).max()
 
 
 def test_symlinked_output_folder_cannot_overwrite_inputs(fixtures, tmp_path):

@@ -3,25 +3,9 @@ FFD formulas written out in numpy."""
 import numpy as np
 import pytest
 
-from addon_helpers import (CheckingLayout, ffd_reference, lattice_box, lattice_points, make_lattice, make_object,
-                           perturb_lattice, positions, select_vertices, to_world, twin_with_lattice_modifier,
-                           twin_with_simple_deform)
-
-
-def evaluated(obj):
-    """What Blender shows, read from the depsgraph without asking the add-on to re-evaluate."""
-    import bpy
-    from deformkit_addon import evaluation
-    return evaluation.evaluated_positions(obj, bpy.context.evaluated_depsgraph_get())
-
-
-def close(a, b, scale=1.0):
-    return np.abs(a - b).max() <= 2e-6 * max(scale, 1.0)
-
-
-def update():
-    import bpy
-    bpy.context.view_layer.update()
+from addon_helpers import (CheckingLayout, close, evaluated, ffd_reference, lattice_box, lattice_points,
+                           make_lattice, make_object, perturb_lattice, positions, select_vertices, to_world,
+                           twin_with_lattice_modifier, twin_with_simple_deform, update)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,0 +1,246 @@
+"""Laplacian entries: Laplacian surface editing and as-rigid-as-possible deformation
+(dk.SurfaceDeformer) of the mesh coming into the entry.
+
+As with Blender's Laplacian Deform, an entry deforms once it is bound. Bind records the positions
+coming into the entry (the rest), a fingerprint of the topology and the handle object's place, all
+on the entry itself: the rest is an ID property array of the entry, so it saves and undoes with
+the object, goes away with the entry or on Unbind, and never reaches the mesh, whose attributes
+belong to the Geometry Nodes output. Anchors stay at rest; handles go where the incoming mesh has
+them (INCOMING), or to their rest moved as the handle object moved since bind, relative to the
+mesh object as Blender's Hook modifier does (OBJECT).
+
+Building the solver factorises its system (the expensive part). It is kept in memory per object
+and bind, and built again from the saved rest when it is missing (file load, undo) or when what it
+depends on changes: method, weights, ARAP iterations, anchors, handles.
+"""
+import random
+import zlib
+from collections import namedtuple
+
+import numpy as np
+
+from . import meshdata, native
+from .outputs import EntryError
+
+REST = "deformkit_rest"  # the entry's ID property: the rest, x y z per vertex, float32
+
+# solver: the dk.SurfaceDeformer, None for an unbound entry (which passes its input through);
+# targets: the handles' targets (OBJECT), or None to take them from the incoming points (INCOMING);
+# fingerprint: everything besides the incoming points that the result depends on.
+Setup = namedtuple("Setup", "solver handles targets fingerprint")
+# settings: what the factorisation depends on besides the groups; rest: kept for OBJECT targets.
+Solver = namedtuple("Solver", "settings anchors handles rest deformer")
+
+_solvers = {}  # (object cache key, bind id) -> Solver
+
+
+def is_bound(entry):
+    return entry.bind_id != 0
+
+
+def _signed(crc):
+    """crc32 in an IntProperty, which is signed 32-bit."""
+    return crc - (1 << 32) if crc >= 1 << 31 else crc
+
+
+def _settings(entry, topo):
+    return (entry.method, entry.weights, entry.iterations if entry.method == "ARAP" else None, topo.crc)
+
+
+def check_topology(entry, topo):
+    if (topo.vertices, topo.faces) != (entry.bind_vertices, entry.bind_faces):
+        raise EntryError(f"Mesh changed since bind: vertices from {entry.bind_vertices} to {topo.vertices}, "
+                         f"faces from {entry.bind_faces} to {topo.faces}; Unbind and Bind again")
+    if _signed(topo.crc) != entry.bind_topology:
+        raise EntryError(f"Mesh connectivity changed since bind ({topo.vertices} vertices and {topo.faces} "
+                         "faces, as then); Unbind and Bind again")
+
+
+def members(obj, entry, reuse=False):
+    """(anchors, handles): the vertices with a weight above 0 in each group, as Laplacian Deform."""
+    found = []
+    for role, name in (("anchors", entry.anchors_group), ("handles", entry.handles_group)):
+        if not name:
+            found.append(np.zeros(0, np.int64))
+            continue
+        if obj.vertex_groups.get(name) is None:
+            raise EntryError(f"{role} vertex group '{name}' not found")
+        found.append(np.flatnonzero(meshdata.group_weights(obj, name, reuse) > 0))
+    anchors, handles = found
+    if len(anchors) == 0 and len(handles) == 0:
+        if not (entry.anchors_group or entry.handles_group):
+            raise EntryError("no anchors and no handles: set the vertex group that stays (Anchors) or the one "
+                             "that moves (Handles)")
+        raise EntryError("the anchors and handles vertex groups have no vertex with a weight above 0, "
+                         "so nothing holds the mesh")
+    both = np.intersect1d(anchors, handles)
+    if len(both):
+        raise EntryError(f"{len(both)} vertices are in both the anchors group '{entry.anchors_group}' and the "
+                         f"handles group '{entry.handles_group}': a vertex either stays or moves")
+    return anchors, handles
+
+
+def handle_object(entry):
+    """The entry's handle object, or EntryError saying why it cannot be used."""
+    obj = entry.handle_object
+    if obj is None:
+        if entry.handle_object_name:
+            raise EntryError(f"handle object '{entry.handle_object_name}' no longer exists")
+        raise EntryError("no handle object set: pick one (an empty, say), or let the handles follow the "
+                         "Incoming mesh")
+    if not obj.users_scene:  # deleted in the UI: unlinked, but still referenced here
+        raise EntryError(f"handle object '{obj.name}' was deleted (it is in no scene)")
+    return obj
+
+
+def _matrix_of(obj):
+    m = np.array(obj.matrix_world, np.float64)
+    if not np.isfinite(m).all() or abs(np.linalg.det(m[:3, :3])) < 1e-30:
+        raise EntryError(f"handle object '{obj.name}' has a singular or non-finite transform (scale 0?)")
+    return m
+
+
+def _bind_matrix(obj, handle):
+    """H(bind)^-1 obj(bind), which Blender's Hook modifier keeps too: with it, a handle object
+    parented to the mesh object moves with it without deforming, and a handle object left in place
+    while the mesh object moves holds the handles where they are in the world."""
+    return np.linalg.inv(_matrix_of(handle)) @ np.array(obj.matrix_world, np.float64)
+
+
+def handle_motion(obj, entry):
+    """obj(now)^-1 H(now) H(bind)^-1 obj(bind): how the handles moved since bind, in obj's space."""
+    now = np.array(handle_object(entry).matrix_world, np.float64)
+    at_bind = np.array(entry.handle_matrix, np.float64).reshape(4, 4)
+    if not at_bind.any():
+        raise EntryError("the handle object's transform was singular when it was set: fix its scale, then Bind again")
+    try:
+        motion = np.linalg.inv(np.array(obj.matrix_world, np.float64)) @ now @ at_bind
+    except np.linalg.LinAlgError:
+        raise EntryError(f"the object '{obj.name}' has a singular transform (scale 0?)") from None
+    if not np.isfinite(motion).all():
+        raise EntryError(f"handle object '{entry.handle_object.name}': its transform is not finite (NaN or Inf)")
+    return motion
+
+
+def record_handle_matrix(entry):
+    """The handle object's place now counts as its place at bind (zeros if it cannot be inverted,
+    which handle_motion reports)."""
+    try:
+        entry.handle_matrix = _bind_matrix(entry.id_data, entry.handle_object).ravel().tolist()
+    except EntryError:
+        entry.handle_matrix = [0.0] * 16
+
+
+def saved_rest(entry):
+    data = entry.get(REST)
+    if data is None or len(data) != 3 * entry.bind_vertices:
+        raise EntryError("the bind data is missing or damaged: Unbind and Bind again")
+    return np.array(data, np.float32).reshape(-1, 3)  # a copy: the ID property may go away
+
+
+def build(entry, rest, topo, anchors, handles):
+    """The factorised solver: the expensive step of a bind."""
+    if topo.faces == 0:
+        raise EntryError("the mesh has no faces: Laplacian entries deform a surface")
+    try:
+        return native.dk.SurfaceDeformer(rest, meshdata.triangles(topo), anchors=anchors, handles=handles,
+                                         method=entry.method.lower(), weights=entry.weights.lower(),
+                                         iterations=entry.iterations)
+    except (ValueError, TypeError) as exc:
+        raise EntryError(str(exc)) from exc
+
+
+def _solver(obj, entry, topo, anchors, handles):
+    key, settings = (meshdata.cache_key(obj), entry.bind_id), _settings(entry, topo)
+    cached = _solvers.get(key)
+    if cached is None or cached.settings != settings or not np.array_equal(cached.anchors, anchors) \
+            or not np.array_equal(cached.handles, handles):
+        rest = saved_rest(entry)
+        cached = _solvers[key] = Solver(settings, anchors, handles, rest, build(entry, rest, topo, anchors, handles))
+    return cached
+
+
+def setup(obj, entry, reuse_weights=False):
+    """What the entry needs to deform its input; EntryError for any problem with its settings."""
+    fingerprint = ("LAPLACIAN", entry.show_viewport, entry.show_render, entry.bind_id)
+    if not is_bound(entry):
+        return Setup(None, None, None, fingerprint)
+    topo = meshdata.topology(obj.data)
+    check_topology(entry, topo)
+    anchors, handles = members(obj, entry, reuse_weights)
+    solver = _solver(obj, entry, topo, anchors, handles)
+    targets, motion = None, None
+    if entry.handle_target == "OBJECT":
+        motion = handle_motion(obj, entry)
+        targets = solver.rest[handles].astype(np.float64) @ motion[:3, :3].T + motion[:3, 3]
+        if not np.isfinite(targets).all():
+            raise EntryError("the handles' targets are not finite (the handle object is too far away)")
+    fingerprint += (solver.settings, entry.handle_target, zlib.crc32(anchors.tobytes()),
+                    zlib.crc32(handles.tobytes()), None if motion is None else motion.tobytes())
+    return Setup(solver.deformer, handles, targets, fingerprint)
+
+
+def deform(entry_setup, points):
+    """The entry's result for the incoming points (float32, like every other entry's)."""
+    if entry_setup.solver is None:
+        return points
+    targets = entry_setup.targets
+    if targets is None:
+        targets = points[entry_setup.handles].astype(np.float64)
+        if not np.isfinite(targets).all():
+            raise EntryError("the handles' incoming positions are not finite")
+    return entry_setup.solver.deform(targets).astype(np.float32)
+
+
+def bind(obj, entry, incoming):
+    """Record `incoming` as the rest and build the solver; nothing changes if that fails."""
+    topo = meshdata.topology(obj.data)
+    anchors, handles = members(obj, entry)
+    matrix = _bind_matrix(obj, entry.handle_object) if entry.handle_object is not None else np.eye(4)
+    rest = np.array(incoming, np.float32).reshape(-1, 3)
+    deformer = build(entry, rest, topo, anchors, handles)
+    key = meshdata.cache_key(obj)
+    _solvers.pop((key, entry.bind_id), None)
+    used = {e.bind_id for e in obj.deformkit.entries}
+    bind_id = 0
+    while bind_id == 0 or bind_id in used:
+        bind_id = random.randrange(1, 1 << 31)
+    entry[REST] = rest.ravel()
+    entry.bind_vertices, entry.bind_faces, entry.bind_topology = topo.vertices, topo.faces, _signed(topo.crc)
+    entry.handle_matrix = matrix.ravel().tolist()
+    entry.bind_id = bind_id
+    _solvers[(key, bind_id)] = Solver(_settings(entry, topo), anchors, handles, rest, deformer)
+    return topo.vertices
+
+
+def unbind(obj, entry):
+    _solvers.pop((meshdata.cache_key(obj), entry.bind_id), None)
+    clear(entry)
+
+
+def clear(entry):
+    if entry.get(REST) is not None:
+        del entry[REST]
+    entry.bind_id = entry.bind_vertices = entry.bind_faces = entry.bind_topology = 0
+
+
+def status(obj, entry):
+    """(status line, the solver's warnings) for the panel."""
+    if not is_bound(entry):
+        return "Not bound", []
+    cached = _solvers.get((meshdata.cache_key(obj), entry.bind_id))
+    if cached is None:
+        return f"Bound: {entry.bind_vertices} vertices", []
+    return (f"Bound: {entry.bind_vertices} vertices, {len(cached.anchors)} anchors, {len(cached.handles)} handles",
+            list(cached.deformer.warnings))
+
+
+def keep_only(object_key, bind_ids):
+    """Drop the solvers of binds that the object no longer has (removed, unbound, retyped)."""
+    for key in [k for k in _solvers if k[0] == object_key and k[1] not in bind_ids]:
+        del _solvers[key]
+
+
+def forget(object_key=None):
+    for key in [k for k in _solvers if object_key is None or k[0] == object_key]:
+        del _solvers[key]
