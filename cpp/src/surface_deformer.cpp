@@ -1,10 +1,10 @@
 #include "deformkit/surface_deformer.hpp"
 
+#include "deformkit/best_rotation.hpp"
 #include "deformkit/deformer.hpp"
 #include "deformkit/parallel.hpp"
 
 #include <Eigen/Eigenvalues>
-#include <Eigen/SVD>
 
 #include <algorithm>
 #include <cmath>
@@ -257,43 +257,23 @@ SurfaceDeformer::Matrix SurfaceDeformer::solve(const Matrix& rhs_free, const Mat
   return x;
 }
 
-// The rotation R maximising tr(R S): with S = U Sigma V^T, R = V U^T, the orthogonal polar factor
-// of S^T when det S > 0. Higham's scaled Newton iteration X <- (g X + X^-T / g) / 2 reaches it in a
-// few 3x3 inverses; a (near-)singular or reflected S (a planar one-ring) takes the SVD with the
-// reflection fix instead (Sorkine and Alexa 2007, sec. 3).
-static Mat3 best_rotation(const Mat3& s) {
-  const double scale = s.cwiseAbs().maxCoeff();
-  if (scale > 0 && s.determinant() > 1e-6 * scale * scale * scale) {
-    Mat3 x = s.transpose();
-    for (int it = 0; it < 20; ++it) {
-      const Mat3 inv_t = x.inverse().transpose();
-      const double g = std::sqrt(std::sqrt(inv_t.squaredNorm() / x.squaredNorm()));
-      const Mat3 next = 0.5 * (g * x + inv_t / g);
-      const double change = (next - x).cwiseAbs().maxCoeff();
-      x = next;
-      if (change < 1e-13) break;
-    }
-    return x;
-  }
-  const Eigen::JacobiSVD<Mat3> svd(s, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Mat3 u = svd.matrixU();
-  Mat3 r = svd.matrixV() * u.transpose();
-  if (r.determinant() < 0) {
-    u.col(2) *= -1.0;  // the singular vector of the smallest singular value
-    r = svd.matrixV() * u.transpose();
-  }
-  return r;
-}
-
 // Local step: R_i maximising tr(R_i S_i), S_i = sum_j w_ij e_ij e'_ij^T.
 void SurfaceDeformer::fit_rotations(const Matrix& x, std::vector<Mat3>& rotations) const {
   parallel_blocks(rest_.rows(), [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) {
-      Mat3 s = Mat3::Zero();
-      const Vec3 xi = x.row(i).transpose(), pi = rest_.row(i).transpose();
-      for (const auto& [j, w] : neighbors_[i])
-        s.noalias() += (w * (pi - rest_.row(j).transpose())) * (xi - x.row(j).transpose()).transpose();
-      rotations[i] = best_rotation(s);
+    constexpr std::size_t kChunk = 512;  // S and R of a chunk, component-major for the SIMD polar step
+    std::vector<double> s(9 * kChunk), r(9 * kChunk);
+    for (std::size_t first = begin; first < end; first += kChunk) {
+      const std::size_t count = std::min(kChunk, end - first);
+      for (std::size_t i = first; i < first + count; ++i) {
+        Mat3 si = Mat3::Zero();
+        const Vec3 xi = x.row(i).transpose(), pi = rest_.row(i).transpose();
+        for (const auto& [j, w] : neighbors_[i])
+          si.noalias() += (w * (pi - rest_.row(j).transpose())) * (xi - x.row(j).transpose()).transpose();
+        for (int k = 0; k < 9; ++k) s[std::size_t(k) * count + (i - first)] = si(k / 3, k % 3);
+      }
+      best_rotations(s.data(), r.data(), count);
+      for (std::size_t i = 0; i < count; ++i)
+        for (int k = 0; k < 9; ++k) rotations[first + i](k / 3, k % 3) = r[std::size_t(k) * count + i];
     }
   });
 }
