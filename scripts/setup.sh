@@ -6,7 +6,9 @@ cd "$(dirname "$0")/.."
 
 # Debian package -> upstream version prefix the project is built and tested against. CHOLMOD
 # (SuiteSparse) factorises the surface deformers' systems; OpenBLAS replaces the reference BLAS
-# under its supernodal factorisation (Debian's alternatives pick it once installed).
+# under its supernodal factorisation (Debian's alternatives pick it once installed). The serial
+# build: a threaded one spins on sched_yield between calls, taking a core from deformkit's own
+# OpenMP threads on a 2-core machine.
 declare -A APT_PINS=(
   [libeigen3-dev]=3.4.0
   [libosd-dev]=3.5.0
@@ -14,7 +16,7 @@ declare -A APT_PINS=(
   [libgtest-dev]=1.12.1
   [blender]=3.4.1
   [libsuitesparse-dev]=5.12.0
-  [libopenblas0-pthread]=0.3.21
+  [libopenblas0-serial]=0.3.21
 )
 # Shared libraries that the PyPI bpy wheel loads on a headless machine; numpy and pytest for Blender 3.4.
 APT_RUNTIME=(python3-pytest libgl1 libegl1 libglib2.0-0 libsm6 libxext6 libxrender1 libxi6 libxxf86vm1
