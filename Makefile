@@ -12,12 +12,14 @@ BLENDER := blender
 FIXTURES := blend_fixtures/.fixtures-made
 
 # The main job: the batch command over the .blend fixtures (twist, then bend, on every mesh), with
-# the outputs, report.json and a before/after PNG per file in demo_out/batch; and the core library
+# the outputs, report.json and a before/after PNG per file in demo_out/batch; the saved lattice and
+# Laplacian (ARAP) entries re-evaluated; and the core library
 # on a real mesh (OBJ + PNG in demo_out/core).
 demo: build $(FIXTURES)
 	scripts/deformkit-batch 'blend_fixtures/*.blend' --recipe blend_fixtures/demo_recipe.json \
 	    --out demo_out/batch --jobs $(JOBS) --preview
 	scripts/deformkit-batch blend_fixtures/lattice_vase.blend --evaluate-saved --out demo_out/lattice --preview
+	scripts/deformkit-batch blend_fixtures/laplacian_arm.blend --evaluate-saved --out demo_out/laplacian --preview
 	$(PY) scripts/demo.py --out demo_out/core
 
 $(FIXTURES): blend_fixtures/make_fixtures.py $(VENV)/.deformkit-installed
@@ -57,8 +59,10 @@ test-python: build
 	$(PY) -m pytest -q tests
 
 bench: build
+	bash scripts/setup_bench.sh
 	$(PY) benchmarks/bench_barr.py
 	$(PY) benchmarks/bench_lattice.py
+	$(PY) benchmarks/bench_surface.py
 
 wheel: setup
 	$(PY) -m pip wheel -q --disable-pip-version-check --no-build-isolation --no-deps -w dist .

@@ -20,13 +20,16 @@ def cpu_busy(seconds=0.5):
 
 class OtherLoad:
     """Share of all CPUs used by *other* processes while the block ran: /proc/stat busy time
-    minus this process's own CPU time (getrusage), over wall time x CPUs."""
+    minus the CPU time of this process and of its finished (waited-for) children, such as a
+    benchmark program run with subprocess.run (getrusage), over wall time x CPUs."""
 
     def _sample(self):
         with open("/proc/stat") as f:
             v = [int(x) for x in f.readline().split()[1:]]
         own = resource.getrusage(resource.RUSAGE_SELF)
-        return time.perf_counter(), (sum(v) - v[3] - v[4]) / os.sysconf("SC_CLK_TCK"), own.ru_utime + own.ru_stime
+        kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return (time.perf_counter(), (sum(v) - v[3] - v[4]) / os.sysconf("SC_CLK_TCK"),
+                own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime)
 
     def __enter__(self):
         try:

@@ -1,7 +1,8 @@
-"""Surface deformation speed (issue 5): dk.SurfaceDeformer against Blender's Laplacian Deform modifier.
+"""Surface deformation speed (issue 5): dk.SurfaceDeformer against Blender's Laplacian Deform modifier and CGAL's Surface_mesh_deformation (ARAP).
 
-    .venv/bin/python benchmarks/bench_surface.py [--mesh PATH] [--repeats R] [--skip-blender]
-                                                 [--skip-subdivided] [--ri-limit SECONDS] [--json PATH]
+    .venv/bin/python benchmarks/bench_surface.py [--mesh PATH] [--repeats R] [--skip-blender] [--skip-cgal]
+                                                 [--skip-subdivided] [--ri-limit SECONDS] [--cgal-iterations K]
+                                                 [--json PATH]
 
 Meshes (from ../shared/meshes, skipped with a message when that folder is absent):
   * ogre.obj as loaded by trimesh (process=False): 62,194 vertices in 44 connected components
@@ -17,8 +18,41 @@ targets: the handles translated by 10% of the mesh height in x.
 deformkit (no Blender in the loop): construction = bind (assembly + factorisation) for 'laplacian',
 'arap' and 'rotation_invariant' (cotangent weights); "re-solve" = deform() of the laplacian
 deformer; ARAP iteration = (deform with iterations=11 - deform with iterations=1) / 10, tolerance 0.
+deformkit's iterations=k is k + 1 global solves (the first with identity rotations) and k local
+steps. The two ARAP deforms are timed again with OpenMP limited to one thread (libgomp's
+omp_set_num_threads) for the comparison with CGAL, which runs on one thread.
 'rotation_invariant' is constructed once per mesh and skipped on a mesh when it took longer than
 --ri-limit seconds on a smaller one (estimated with the observed growth).
+
+CGAL (benchmark-only dependency: Debian's libcgal-dev 5.5.1, installed by scripts/setup_bench.sh,
+which `make bench` runs; without it this part prints "skipped: ... run scripts/setup_bench.sh" and
+the rest goes on; --skip-cgal leaves it out): benchmarks/cgal_arap/cgal_arap.cpp, configured with
+the .venv's cmake into build/bench-cgal (Release: -O2 -DNDEBUG, no -march, plus CGAL's own
+-frounding-math) on first use and rebuilt incrementally afterwards, runs in a child process after
+the deformkit part. It reads the mesh, anchors, handles and targets from a temporary binary file
+and builds a CGAL::Surface_mesh<Simple_cartesian<double>::Point_3> (both meshes are accepted as
+they are: ogre's 44 components, boundaries and 4 zero-area faces included); region of interest =
+every vertex, control vertices = anchors + handles (anchors keep their rest position as target).
+Surface_mesh_deformation<..., ORIGINAL_ARAP> with its defaults: cotangent weights, Eigen SparseLU
+(COLAMD) on the system with identity rows for control vertices, polar closest rotations.
+  bind = constructor (halfedge weights) + insert ROI / control vertices + preprocess() (assembly +
+         factorisation): one warm-up, then max(3, min(R, 5)) timed binds on fresh objects, median.
+  deform(k) = deform(k, tolerance 0) alone. CGAL's deform() warm-starts from the previous call's
+         positions and rotations, so every call is preceded (untimed) by reset() (rest positions,
+         identity rotations) and set_target_position() on the handles: each call does the same
+         work. One CGAL iteration = global step (3 back-substitutions) + local step (rotations);
+         its output is the k-th global solve, so deform(k + 1) has the global solves of deformkit's
+         iterations=k (deform(2) is set against deformkit's iterations=1). One warm-up, then R
+         timed calls for k = 1, 2, 11; ARAP iteration = (deform(11) - deform(1)) / 10.
+  cross-check (untimed): CGAL deform(K + 1) against deformkit arap iterations=K (--cgal-iterations,
+         default 10), max and RMS of |x_CGAL - x_dk| over the bounding-box diagonal. The weights are
+         not the same: deformkit takes w = (cot a + cot b) / 2 (cotangents clamped to +-1e4) and
+         raises w <= 0 to 1e-3 x the mean positive weight; CGAL (Weights::Cotangent_weight) clamps
+         each negative cotangent to 0 before the sum, so every edge opposite an obtuse angle
+         differs and an edge opposite two gets 0 (zero-area corners: cot 0). The same CGAL run is
+         therefore repeated with a custom weight calculator returning deformkit's weights: that
+         result must agree to rounding (~1e-12), the first one shows what the weighting rules change.
+The figures are printed beside deformkit's from the same run (CGAL/dk ratios) and are in --json.
 
 Blender (PyPI bpy, the same process, after the deformkit part): the same mesh as a mesh object, a
 vertex group "anchors" = anchors + handles (weight 1; Blender's modifier treats every vertex in the
@@ -37,14 +71,21 @@ that instead rewrite the base positions (foreach_set + mesh.update()) are timed 
 Blender rebuild and refactorise the system on every frame, so it is not used for the comparison.
 
 All figures: median (and min) over R timed calls after one untimed warm-up call, except the
-one-shot rows (rotation_invariant construction, Blender bind).
+one-shot rows (rotation_invariant construction, Blender bind). "other processes used N% of the
+CPUs" counts neither this process nor the CGAL child it waited for.
 """
 import argparse
+import ctypes
+import ctypes.util
 import json
 import os
 import pathlib
+import shutil
 import statistics
+import subprocess
+import tempfile
 import time
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -58,6 +99,9 @@ TARGET_RESOLVE = 0.020   # s, one Laplacian re-solve
 TARGET_ARAP_IT = 0.060   # s, one ARAP iteration
 TARGET_VS_BLENDER = 5.0  # x faster than Blender's Laplacian Deform per frame
 FRACTION = 0.003         # anchors / handles: 0.3% of the vertices at each end in y
+CGAL_SRC = ROOT / "benchmarks" / "cgal_arap"
+CGAL_BUILD = ROOT / "build" / "bench-cgal"
+CGAL_ITERATIONS = 10     # cross-check: deformkit iterations=K against CGAL deform(K + 1)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -84,6 +128,43 @@ def components(n, faces):
             lab = nxt
         if np.array_equal(lab, old):
             return np.unique(lab, return_inverse=True)[1]
+
+
+@contextmanager
+def omp_threads(count):
+    """OpenMP threads of the calls made from this thread inside the block (libgomp's
+    omp_set_num_threads; deformkit is built with GCC's OpenMP). Yields False when libgomp is absent."""
+    try:
+        gomp = ctypes.CDLL(ctypes.util.find_library("gomp") or "libgomp.so.1")
+    except OSError:
+        yield False
+        return
+    before = gomp.omp_get_max_threads()
+    gomp.omp_set_num_threads(count)
+    try:
+        yield True
+    finally:
+        gomp.omp_set_num_threads(before)
+
+
+def weight_stats(points, faces):
+    """Edges whose cotangent weight the two libraries treat differently: deformkit raises an edge
+    weight (cot a + cot b) / 2 <= 0 to a small positive floor; CGAL clamps each negative cotangent to 0
+    before the sum (so any edge opposite an obtuse angle differs, and both-obtuse edges get 0)."""
+    cots, edges = [], []
+    for k in range(3):
+        a, b, c = faces[:, k], faces[:, (k + 1) % 3], faces[:, (k + 2) % 3]
+        u, w = points[b] - points[a], points[c] - points[a]
+        cross, dot = np.linalg.norm(np.cross(u, w), axis=1), np.einsum("ij,ij->i", u, w)
+        cots.append(np.divide(dot, cross, out=np.zeros_like(dot), where=cross > 0))
+        edges.append(np.sort(np.stack([b, c], 1), 1))
+    cots = np.concatenate(cots)
+    _, inv = np.unique(np.concatenate(edges), axis=0, return_inverse=True)
+    inv = inv.ravel()
+    total = np.bincount(inv, 0.5 * cots)
+    negative = np.bincount(inv, cots < 0) > 0
+    return {"edges": len(total), "edges_floored_dk": int((total <= 0).sum()),
+            "edges_negative_cot": int(negative.sum()), "obtuse_corners": float((cots < 0).mean())}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -179,6 +260,15 @@ def dk_part(name, points, faces, edit, reps, ri_state, ri_limit, res):
     rows.append(("arap deform, iterations=5", t5, None))
     rows.append(("arap deform, iterations=11", t11, None))
     rows.append(("ARAP iteration = (it11 - it1) / 10", [it], TARGET_ARAP_IT))
+    # the same on one OpenMP thread, for the comparison with CGAL (single-threaded)
+    it_1thread = None
+    with omp_threads(1) as limited:
+        if limited:
+            s1, s11 = timings(lambda: a1.deform(T), reps), timings(lambda: a11.deform(T), reps)
+            it_1thread = (med(s11) - med(s1)) / 10
+            rows.append(("arap deform, iterations=1, 1 thread", s1, None))
+            rows.append(("arap deform, iterations=11, 1 thread", s11, None))
+            rows.append(("ARAP iteration, 1 thread", [it_1thread], None))
 
     # sanity: handles at targets, anchors at rest, energies decreasing
     out = lap.deform(T)
@@ -201,7 +291,117 @@ def dk_part(name, points, faces, edit, reps, ri_state, ri_limit, res):
           f"max displacement {np.linalg.norm(out_a - points, axis=1).max():.3g} (edit {0.1 * np.ptp(points[:, 1]):.3g})")
     res.update({"vertices": n, "free": free, "bind_laplacian": med(t_lap), "bind_arap": med(t_arap),
                 "bind_rotation_invariant": ri_t, "resolve_laplacian": med(t_solve), "arap_it1": med(t1),
-                "arap_it5": med(t5), "arap_it11": med(t11), "arap_iteration": it})
+                "arap_it5": med(t5), "arap_it11": med(t11), "arap_iteration": it,
+                "arap_iteration_1thread": it_1thread})
+
+
+# ---------------------------------------------------------------------------------------------
+# CGAL (benchmark-only dependency: Debian's libcgal-dev, scripts/setup_bench.sh)
+
+def cgal_tool():
+    """(path of cgal_arap, CGAL package version) built into build/bench-cgal, or (None, reason)."""
+    try:
+        q = subprocess.run(["dpkg-query", "-W", "-f=${Status}\t${Version}", "libcgal-dev"],
+                           capture_output=True, text=True)
+        status, _, version = q.stdout.partition("\t")
+        installed = "install ok installed" in status
+    except FileNotFoundError:  # not a Debian system: look for the header
+        installed, version = pathlib.Path("/usr/include/CGAL/Surface_mesh_deformation.h").exists(), "?"
+    if not installed:
+        return None, "libcgal-dev is not installed"
+    venv_bin = ROOT / ".venv" / "bin"
+    cmake = str(venv_bin / "cmake") if (venv_bin / "cmake").exists() else shutil.which("cmake")
+    if not cmake:
+        return None, "cmake not found"
+    env = dict(os.environ, PATH=f"{venv_bin}{os.pathsep}{os.environ.get('PATH', '')}")
+    CGAL_BUILD.mkdir(parents=True, exist_ok=True)
+    steps = [("build", [cmake, "--build", str(CGAL_BUILD)])]
+    if not (CGAL_BUILD / "CMakeCache.txt").exists():
+        generator = ["-G", "Ninja"] if shutil.which("ninja", path=env["PATH"]) else []
+        steps.insert(0, ("configure", [cmake, "-S", str(CGAL_SRC), "-B", str(CGAL_BUILD), *generator,
+                                       "-DCMAKE_BUILD_TYPE=Release"]))
+    for step, cmd in steps:
+        log = CGAL_BUILD / f"{step}.log"
+        with open(log, "w") as f:
+            r = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT, env=env)
+        if r.returncode != 0:
+            tail = "".join(log.read_text().splitlines(keepends=True)[-15:])
+            return None, f"the {step} of {CGAL_SRC.relative_to(ROOT)} failed (see {log}):\n{tail}"
+    return CGAL_BUILD / "cgal_arap", version
+
+
+def cgal_part(name, points, faces, edit, reps, res, exe, iterations):
+    n = len(points)
+    A, H, T = edit["anchors"], edit["handles"], edit["targets"]
+    reps_bind = max(3, min(reps, 5))
+    if faces.ndim != 2 or faces.shape[1] != 3:
+        print(f"== CGAL, {name}: skipped: Surface_mesh_deformation needs a triangle mesh")
+        res["cgal_error"] = "not a triangle mesh"
+        return
+    with tempfile.TemporaryDirectory(prefix="bench-cgal-") as tmp:
+        tmp = pathlib.Path(tmp)
+        with open(tmp / "input.bin", "wb") as f:  # the format cgal_arap.cpp reads
+            f.write(b"DKCGAL01" + np.array([n, len(faces), len(A), len(H)], "<i8").tobytes())
+            for arr, dt in ((points, "<f8"), (faces, "<i8"), (A, "<i8"), (H, "<i8"), (T, "<f8")):
+                f.write(np.ascontiguousarray(arr, dtype=dt).tobytes())
+        cmd = [str(exe), str(tmp / "input.bin"), "--repeats", str(reps), "--bind-repeats", str(reps_bind),
+               "--result-iterations", str(iterations + 1), "--out", str(tmp / "cgal.f64"),
+               "--out-dk-weights", str(tmp / "cgal_dkw.f64")]
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        try:
+            out = json.loads(r.stdout)
+        except json.JSONDecodeError:
+            out = {"ok": False, "error": f"exit code {r.returncode}, no JSON: {r.stdout[-300:]} {r.stderr[-500:]}"}
+        if not out.get("ok"):
+            print(f"== CGAL, {name}: FAILED: {out.get('error')}")
+            res["cgal_error"] = out.get("error")
+            return
+        xc = np.fromfile(tmp / "cgal.f64").reshape(n, 3)
+        xw = np.fromfile(tmp / "cgal_dkw.f64").reshape(n, 3) if out.get("dk_weights_preprocess_ok") else None
+    # cross-check (untimed): deformkit's ARAP with `iterations` against CGAL's deform(iterations + 1)
+    xd = dk.SurfaceDeformer(points, faces, anchors=A, handles=H, method="arap", weights="cotangent",
+                            iterations=iterations, tolerance=0.0).deform(T)
+    diag = float(np.linalg.norm(np.ptp(points, axis=0)))
+    dist = lambda x: np.linalg.norm(x - xd, axis=1)
+    d_c = dist(xc)
+    d_w = dist(xw) if xw is not None else None
+    ws = weight_stats(points, faces)
+
+    print(f"== CGAL {out['cgal_version']} Surface_mesh_deformation<ORIGINAL_ARAP> (Eigen {out['eigen_version']} SparseLU, "
+          f"1 thread), {name}: ROI = {out['roi']:,} of {n:,} vertices (all with a face), {out['controls']:,} control "
+          f"vertices (the same anchors + handles" + (f"; {out['isolated_controls']} without a face left out"
+                                                     if out.get("isolated_controls") else "") + ")")
+    print(f"  {'':58s}{'median ms':>10s}{'min ms':>9s}{'deformkit ms':>14s}{'CGAL/dk':>9s}")
+    lines = [("bind: constructor + ROI/controls + preprocess()", out["bind_all"], res.get("bind_arap")),
+             ("  of which constructor (halfedge weights)", [out["bind_weights"]], None),
+             ("  of which preprocess() (assembly + SparseLU)", [out["bind_preprocess"]], None),
+             ("deform(1): 1 global + 1 local step", out["deform_1_all"], None),
+             ("deform(2): 2 global + 2 local (dk: iterations=1)", out["deform_2_all"], res.get("arap_it1")),
+             ("deform(11)", out["deform_11_all"], None),
+             ("ARAP iteration = (deform(11) - deform(1)) / 10", [out["iteration"]], res.get("arap_iteration"))]
+    if res.get("arap_iteration_1thread"):
+        lines.append(("ARAP iteration vs deformkit on 1 thread", [out["iteration"]], res["arap_iteration_1thread"]))
+    for label, ts, ref in lines:
+        cmp = f"{ref * 1e3:14.1f}{med(ts) / ref:8.2f}x" if ref else ""
+        print(f"  {label:58s}{med(ts) * 1e3:10.1f}{min(ts) * 1e3:9.1f}{cmp}")
+    print(f"  check: |handle - target| max {out['handle_error']:.2g}, |anchor - rest| max {out['anchor_error']:.2g}, "
+          f"max displacement {out['max_displacement']:.3g}")
+    print(f"  cross-check, deformkit arap iterations={iterations} vs CGAL deform({iterations + 1}) (both {iterations + 1} "
+          f"global solves): max |x_CGAL - x_dk| = {d_c.max() / diag:.2e} x bbox diagonal ({diag:.4g}), "
+          f"RMS {np.sqrt((d_c ** 2).mean()) / diag:.2e}")
+    if d_w is not None:
+        print(f"    CGAL with deformkit's edge weights (custom weight calculator): max {d_w.max() / diag:.2e}, "
+              f"RMS {np.sqrt((d_w ** 2).mean()) / diag:.2e} -> the remaining difference is the weighting rule")
+    print(f"    weights: {ws['edges_negative_cot']:,} of {ws['edges']:,} edges are opposite an obtuse angle (CGAL "
+          f"clamps that cotangent to 0), {out['zero_weight_edges']:,} get CGAL weight 0, "
+          f"{ws['edges_floored_dk']:,} get deformkit's positive floor")
+    res.update({"cgal_version": out["cgal_version"], "cgal_bind": out["bind"], "cgal_bind_weights": out["bind_weights"],
+                "cgal_bind_preprocess": out["bind_preprocess"], "cgal_deform1": out["deform_1"],
+                "cgal_deform2": out["deform_2"], "cgal_deform11": out["deform_11"], "cgal_iteration": out["iteration"],
+                "cgal_check_iterations": iterations, "cgal_vs_dk_max": float(d_c.max() / diag),
+                "cgal_vs_dk_rms": float(np.sqrt((d_c ** 2).mean()) / diag),
+                "cgal_dkweights_vs_dk_max": float(d_w.max() / diag) if d_w is not None else None,
+                "cgal_zero_weight_edges": out["zero_weight_edges"], **{f"weights_{k}": v for k, v in ws.items()}})
 
 
 # ---------------------------------------------------------------------------------------------
@@ -324,7 +524,8 @@ def blender_part(name, points, faces, edit, reps, res):
 # ---------------------------------------------------------------------------------------------
 
 def summary_table(results):
-    print("== summary (issue 5 targets on this machine; 'vs Blender' = Blender modifier-only per frame / dk)")
+    print("== summary (issue 5 targets on this machine; 'vs Blender' = Blender modifier-only per frame / dk; "
+          "CGAL/dk ratios > 1: deformkit faster)")
     hdr = f"  {'':46s}" + "".join(f"{name[:22]:>24s}" for name in results)
     print(hdr)
 
@@ -346,6 +547,16 @@ def summary_table(results):
     row(f"dk laplacian re-solve (<= {TARGET_RESOLVE * 1e3:.0f} ms)", lambda r: ok(r["resolve_laplacian"], TARGET_RESOLVE))
     row(f"dk ARAP iteration (<= {TARGET_ARAP_IT * 1e3:.0f} ms)", lambda r: ok(r["arap_iteration"], TARGET_ARAP_IT))
     row("dk arap deform iterations=1 / 5", lambda r: f"{r['arap_it1'] * 1e3:.0f} / {r['arap_it5'] * 1e3:.0f} ms")
+    row("dk ARAP iteration, 1 thread", lambda r: ms(r["arap_iteration_1thread"]))
+    row("CGAL bind (constructor + preprocess)", lambda r: ms(r["cgal_bind"]) if "cgal_bind" in r else r.get("cgal_error", "-")[:22])
+    row("CGAL bind / dk bind arap", lambda r: f"{r['cgal_bind'] / r['bind_arap']:.1f}x")
+    row("CGAL ARAP iteration (1 thread)", lambda r: ms(r["cgal_iteration"]))
+    row("CGAL / dk ARAP iteration (dk 2 / 1 threads)",
+        lambda r: f"{r['cgal_iteration'] / r['arap_iteration']:.1f}x" + (
+            f" / {r['cgal_iteration'] / r['arap_iteration_1thread']:.1f}x" if r.get("arap_iteration_1thread") else ""))
+    row("CGAL deform(2) / dk arap iterations=1", lambda r: f"{r['cgal_deform2'] / r['arap_it1']:.1f}x")
+    row("|CGAL - dk| max / diag (dk weights)",
+        lambda r: f"{r['cgal_vs_dk_max']:.1e} ({r['cgal_dkweights_vs_dk_max']:.0e})")
     row("Blender bind (operator)", lambda r: ms(r["blender_bind"]))
     row("Blender frame R1 / modifier only", lambda r: f"{r['blender_frame_r1'] * 1e3:.0f} / {r['blender_only_r1'] * 1e3:.0f} ms")
     row("Blender frame R5 / modifier only", lambda r: f"{r['blender_frame_r5'] * 1e3:.0f} / {r['blender_only_r5'] * 1e3:.0f} ms")
@@ -365,10 +576,15 @@ def main():
     ap.add_argument("--repeats", type=int, default=7, help="timed calls per figure (median kept)")
     ap.add_argument("--skip-blender", action="store_true")
     ap.add_argument("--skip-subdivided", action="store_true", help="only the mesh itself, no ~100k version")
+    ap.add_argument("--skip-cgal", action="store_true", help="no CGAL Surface_mesh_deformation comparison")
+    ap.add_argument("--cgal-iterations", type=int, default=CGAL_ITERATIONS, metavar="K",
+                    help="cross-check: deformkit arap iterations=K against CGAL deform(K + 1)")
     ap.add_argument("--ri-limit", type=float, default=20.0,
                     help="skip rotation_invariant on a larger mesh when predicted above this (s)")
     ap.add_argument("--json", metavar="PATH")
     args = ap.parse_args()
+    if args.cgal_iterations < 1:
+        ap.error("--cgal-iterations: must be >= 1")
 
     path = pathlib.Path(args.mesh) if args.mesh else MESHES / "ogre.obj"
     if not path.exists():
@@ -399,6 +615,23 @@ def main():
             dk_part(name, p, f, edit, args.repeats, ri_state, args.ri_limit, res)
         print(load.report() + "\n")
         res["other_cpu_dk"] = load.share
+    cgal = {"skipped": "--skip-cgal"} if args.skip_cgal else {}
+    if not args.skip_cgal:
+        t0 = time.perf_counter()
+        exe, info = cgal_tool()
+        if exe is None:
+            print(f"CGAL part skipped: {info}; run scripts/setup_bench.sh (installs Debian's libcgal-dev)\n")
+            cgal["skipped"] = info
+        else:
+            print(f"CGAL: libcgal-dev {info}, {exe.relative_to(ROOT)} built from {CGAL_SRC.relative_to(ROOT)} "
+                  f"({time.perf_counter() - t0:.1f} s)\n")
+            cgal.update(package=info, program=str(exe.relative_to(ROOT)))
+            for name, p, f in meshes:
+                edit = make_edit(p, f)
+                with OtherLoad() as load:
+                    cgal_part(name, p, f, edit, args.repeats, results[name], exe, args.cgal_iterations)
+                print(load.report() + "\n")
+                results[name]["other_cpu_cgal"] = load.share
     if not args.skip_blender:
         try:
             import bpy  # noqa: F401
@@ -414,7 +647,7 @@ def main():
     summary_table(results)
     if args.json:
         pathlib.Path(args.json).write_text(json.dumps({"cpu_busy": busy, "build_info": dk.build_info(),
-                                                       "results": results}, indent=1, default=float))
+                                                       "cgal": cgal, "results": results}, indent=1, default=float))
         print("wrote", args.json)
 
 

@@ -22,23 +22,8 @@ declare -A APT_PINS=(
 APT_RUNTIME=(python3-pytest libgl1 libegl1 libglib2.0-0 libsm6 libxext6 libxrender1 libxi6 libxxf86vm1
              libxfixes3 libxkbcommon0 build-essential python3-numpy)
 
-installed() { dpkg-query -W -f='${Status}' "$1" 2>/dev/null | grep -q 'install ok installed'; }
-
-missing=()
-for pkg in "${!APT_PINS[@]}" "${APT_RUNTIME[@]}"; do installed "$pkg" || missing+=("$pkg"); done
-if [ ${#missing[@]} -gt 0 ]; then
-  echo "setup: installing Debian packages: ${missing[*]}"
-  sudo_cmd=""; [ "$(id -u)" -ne 0 ] && sudo_cmd="sudo"
-  $sudo_cmd apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -q --no-install-recommends "${missing[@]}" >/dev/null
-fi
-for pkg in "${!APT_PINS[@]}"; do
-  have=$(dpkg-query -W -f='${Version}' "$pkg")
-  case "$have" in
-    "${APT_PINS[$pkg]}"*|*:"${APT_PINS[$pkg]}"*) ;;
-    *) echo "setup: $pkg is $have, but deformkit is pinned to ${APT_PINS[$pkg]}" >&2; exit 1 ;;
-  esac
-done
+source scripts/apt_pins.sh
+apt_install_pinned APT_PINS "${APT_RUNTIME[@]}"
 
 PYTHON=${PYTHON:-python3}
 if [ ! -x .venv/bin/python ]; then
