@@ -35,7 +35,8 @@ SURFACE_METHODS = [
     ("ARAP", "As-Rigid-As-Possible", "Sorkine and Alexa 2007: local rotations and a global solve, repeated "
      "Iterations times; keeps details under large rotations", 0),
     ("ROTATION_INVARIANT", "Rotation Invariant", "Sorkine et al. 2004: the differential coordinates follow "
-     "each one-ring's linearised similarity transform; one solve, good for small rotations", 1),
+     "each one-ring's linearised similarity transform, then Iterations passes rotate them by each one-ring's "
+     "rotation; keeps details under large rotations", 1),
     ("LAPLACIAN", "Laplacian", "Least squares on the differential coordinates, without rotations: one solve", 2),
 ]
 SURFACE_WEIGHTS = [
@@ -126,8 +127,9 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
     weights: EnumProperty(name="Weights", items=SURFACE_WEIGHTS, default="COTANGENT", update=_changed,
                           description="The Laplacian's edge weights")
     iterations: IntProperty(name="Iterations", default=10, min=1, max=1000, update=_changed,
-                            description="ARAP's local/global steps per evaluation (more: closer to rigid "
-                                        "under large rotations, slower)")
+                            description="ARAP's local/global steps, or the rotation-invariant method's "
+                                        "rotation passes, per evaluation (more: closer to rigid under large "
+                                        "rotations, slower)")
     anchors_group: StringProperty(name="Anchors", update=_changed,
                                   description="Vertex group of the vertices that stay where they were at bind "
                                               "(weight above 0)")

@@ -11,7 +11,7 @@ mesh object as Blender's Hook modifier does (OBJECT).
 
 Building the solver factorises its system (the expensive part). It is kept in memory per object
 and bind, and built again from the saved rest when it is missing (file load, undo) or when what it
-depends on changes: method, weights, ARAP iterations, anchors, handles.
+depends on changes: method, weights, iterations (ARAP, rotation-invariant), anchors, handles.
 """
 import random
 import zlib
@@ -44,7 +44,8 @@ def _signed(crc):
 
 
 def _settings(entry, topo):
-    return (entry.method, entry.weights, entry.iterations if entry.method == "ARAP" else None, topo.crc)
+    iterates = entry.method in ("ARAP", "ROTATION_INVARIANT")
+    return (entry.method, entry.weights, entry.iterations if iterates else None, topo.crc)
 
 
 def check_topology(entry, topo):

@@ -160,7 +160,7 @@ def draw_laplacian(col, obj, entry):
     col.prop(entry, "method")
     col.prop(entry, "weights")
     sub = col.row()
-    sub.active = entry.method == "ARAP"  # the linear methods solve once
+    sub.active = entry.method != "LAPLACIAN"  # naive editing solves once
     sub.prop(entry, "iterations")
     col.prop_search(entry, "anchors_group", obj, "vertex_groups", text="Anchors")
     col.prop_search(entry, "handles_group", obj, "vertex_groups", text="Handles")

@@ -94,11 +94,10 @@ def test_bad_constraint_weight_is_refused(bad):
         dk.SurfaceDeformer(pts, tris, anchors=idx[0], constraint_weight=bad)
 
 
-def test_rotation_invariant_with_one_held_vertex_picks_the_least_displacement():
-    """One anchor and one handle leave the linearised similarities about them free (a singular
-    system): the result is the minimum-norm least-squares displacement (numpy lstsq), with a
-    warning, and rest stays exact."""
-    from test_surface_deformer import implicit_transform_system
+def test_rotation_invariant_with_one_held_vertex_stays_bounded():
+    """One anchor and one handle leave the linearised rotations about their axis free (a singular
+    system): it is regularised, with a warning; rest stays exact, and moving the handle gives a
+    finite result whose free mode did not run away (no vertex moves much further than the handle)."""
     pts, tris, idx = tube()
     anchor, handle = idx[0][:1], idx[-1][:1]
     ed = dk.SurfaceDeformer(pts, tris, anchors=anchor, handles=handle, method="rotation_invariant")
@@ -106,10 +105,7 @@ def test_rotation_invariant_with_one_held_vertex_picks_the_least_displacement():
     np.testing.assert_array_equal(ed.deform(pts[handle]), pts)
     shift = np.array([0.0, 0.4, 0.0])
     out = ed.deform(pts[handle] + shift)
-    fixed = np.concatenate([anchor, handle])
-    free = np.setdiff1d(np.arange(len(pts)), fixed)
-    cols = lambda v: (3 * v[:, None] + np.arange(3)).ravel()  # noqa: E731
-    m = implicit_transform_system(pts, tris)
-    d = np.linalg.lstsq(m[:, cols(free)], -m[:, cols(handle)] @ shift, rcond=1e-9)[0]
-    np.testing.assert_allclose(out[free], pts[free] + d.reshape(-1, 3), rtol=0, atol=1e-4)
+    assert np.isfinite(out).all()
     np.testing.assert_array_equal(out[anchor], pts[anchor])
+    np.testing.assert_allclose(out[handle], pts[handle] + shift, rtol=0, atol=1e-12)
+    assert np.linalg.norm(out - pts, axis=1).max() < 2 * np.linalg.norm(shift)

@@ -85,12 +85,15 @@ are fanned into triangles; cotangents are clamped to +-1e4 so degenerate triangl
 
 points (n, 3) and faces (an (m, k) integer array or a list of polygons) are copied. anchors stay
 at rest, handles move to the targets given to deform(); vertices outside roi (default: all
-inside) stay at rest; a handle outside roi still goes to its target. method 'arap' (Sorkine and Alexa 2007: local SVD rotations, global solve),
-'rotation_invariant' (Sorkine et al. 2004, sec. 4: each vertex's differential coordinate follows
-the similarity transform, linearised, that its one-ring undergoes) or 'laplacian' (least squares
-on the differential coordinates, no rotations); weights 'cotangent' or 'uniform'. The system over the free vertices is factorised
-here, once; deform() only back-substitutes (ARAP: iterations local/global steps, stopping early
-when the relative energy decrease falls below tolerance > 0). Negative cotangent weights are
+inside) stay at rest; a handle outside roi still goes to its target. method 'arap' (Sorkine and
+Alexa 2007: local rotations, global solve; iterations local/global steps, stopping early when the
+relative energy decrease falls below tolerance > 0), 'rotation_invariant' (Sorkine et al. 2004,
+sec. 4: each vertex's differential coordinate follows the similarity transform, linearised, that
+its one-ring undergoes; then, iterations times, each one-ring's rotation is taken from that
+solution and the differential coordinates, rotated by it without the linearisation's scale, are
+solved for again) or 'laplacian' (least squares on the differential coordinates, no rotations);
+weights 'cotangent' or 'uniform'. The systems over the free vertices are factorised here, once;
+deform() only back-substitutes. Negative cotangent weights are
 raised to a small positive floor, which keeps the system positive definite and the ARAP energy
 monotone. A connected component with no anchor or handle stays where it is (see warnings).
 constraint_weight None makes anchors and handles hard constraints, met exactly; a number w > 0

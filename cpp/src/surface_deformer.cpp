@@ -136,37 +136,8 @@ SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, st
       if (it.row() != it.col()) neighbors_[k].emplace_back(int(it.row()), -it.value());
   const double w2 = settings.constraint_weight * settings.constraint_weight;
 
-  if (settings.method == SurfaceMethod::RotationInvariant) {
-    // Unknowns are the 3n coordinates (x0, y0, z0, x1, ...): the implicit transforms couple them.
-    const SparseMatrix m = implicit_transform_system();
-    std::vector<Eigen::Triplet<double>> f, c;
-    for (int k = 0; k < m.outerSize(); ++k)
-      for (SparseMatrix::InnerIterator it(m, k); it; ++it) {
-        const int v = k / 3, a = k % 3;
-        if (free_index_[v] >= 0) f.emplace_back(int(it.row()), 3 * free_index_[v] + a, it.value());
-        else c.emplace_back(int(it.row()), 3 * fixed_index_[v] + a, it.value());
-      }
-    free_part_.resize(m.rows(), Eigen::Index(3 * free_.size()));
-    free_part_.setFromTriplets(f.begin(), f.end());
-    fixed_part_.resize(m.rows(), Eigen::Index(3 * fixed_.size()));
-    fixed_part_.setFromTriplets(c.begin(), c.end());
-    if (free_.empty()) return;
-    SparseMatrix normal = SparseMatrix(free_part_.transpose()) * free_part_;
-    for (int s : soft_)
-      for (int a = 0; a < 3; ++a) normal.coeffRef(3 * s + a, 3 * s + a) += w2;
-    // With fewer than three non-collinear held vertices in a component, the linearised rotations
-    // about them cost nothing: the system is singular (whether a factorisation notices depends on
-    // rounding). A Tikhonov term 1e-10 of the mean diagonal then picks (nearly) the least
-    // displacement among the minimisers.
-    if (loosely_held(component, components, held)) {
-      const double ridge = 1e-10 * normal.diagonal().sum() / double(normal.rows());
-      for (Eigen::Index k = 0; k < normal.rows(); ++k) normal.coeffRef(k, k) += ridge;
-      warnings_.push_back("rotation_invariant: a component is held by fewer than three non-collinear vertices, "
-                          "so it may turn freely about them; the least displacement is used");
-    }
-    factorize(normal, CholeskyKind::Supernodal);
-    return;
-  }
+  delta_ = laplacian_ * rest_;
+  if (settings.method == SurfaceMethod::RotationInvariant) factorize_rotation_invariant(component, components, held);
   // Split the columns into free and fixed vertices; ARAP keeps only the free rows (Dirichlet).
   const bool arap = settings.method == SurfaceMethod::Arap;
   std::vector<Eigen::Triplet<double>> f, c;
@@ -191,6 +162,42 @@ SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, st
   factorize(system, CholeskyKind::Supernodal);
 }
 
+// Sorkine et al. 2004, sec. 4: the 3n x 3n least-squares system of the implicit transforms, over
+// the free coordinates (the first of the rotation-invariant method's two solves).
+void SurfaceDeformer::factorize_rotation_invariant(const std::vector<int>& component, int components,
+                                                   const std::vector<char>& held) {
+  // Unknowns are the 3n coordinates (x0, y0, z0, x1, ...): the implicit transforms couple them.
+  const SparseMatrix m = implicit_transform_system();
+  std::vector<Eigen::Triplet<double>> f, c;
+  for (int k = 0; k < m.outerSize(); ++k)
+    for (SparseMatrix::InnerIterator it(m, k); it; ++it) {
+      const int v = k / 3, a = k % 3;
+      if (free_index_[v] >= 0) f.emplace_back(int(it.row()), 3 * free_index_[v] + a, it.value());
+      else c.emplace_back(int(it.row()), 3 * fixed_index_[v] + a, it.value());
+    }
+  ri_free_.resize(m.rows(), Eigen::Index(3 * free_.size()));
+  ri_free_.setFromTriplets(f.begin(), f.end());
+  ri_fixed_.resize(m.rows(), Eigen::Index(3 * fixed_.size()));
+  ri_fixed_.setFromTriplets(c.begin(), c.end());
+  if (free_.empty()) return;
+  SparseMatrix normal = SparseMatrix(ri_free_.transpose()) * ri_free_;
+  const double w2 = settings_.constraint_weight * settings_.constraint_weight;
+  for (int s : soft_)
+    for (int a = 0; a < 3; ++a) normal.coeffRef(3 * s + a, 3 * s + a) += w2;
+  // With fewer than three non-collinear held vertices in a component, the linearised rotations
+  // about them cost nothing: the system is singular (whether a factorisation notices depends on
+  // rounding). A Tikhonov term 1e-10 of the mean diagonal then picks (nearly) the least
+  // displacement among the minimisers.
+  if (loosely_held(component, components, held)) {
+    const double ridge = 1e-10 * normal.diagonal().sum() / double(normal.rows());
+    for (Eigen::Index k = 0; k < normal.rows(); ++k) normal.coeffRef(k, k) += ridge;
+    warnings_.push_back("rotation_invariant: a component is held by fewer than three non-collinear vertices, "
+                        "so it may turn freely about them; the least displacement is used");
+  }
+  if (!ri_solver_.factorize(normal, CholeskyKind::Supernodal))
+    throw std::invalid_argument("faces: the mesh's rotation-invariant system could not be factorised (degenerate geometry)");
+}
+
 void SurfaceDeformer::factorize(const SparseMatrix& system, CholeskyKind kind) {
   if (!solver_.factorize(system, kind))
     throw std::invalid_argument("faces: the mesh's Laplacian system could not be factorised (degenerate geometry)");
@@ -212,7 +219,7 @@ SurfaceDeformer::Matrix SurfaceDeformer::soft_targets(const double* targets) con
 // ask the differential coordinates to follow their own (linearised) rotation and scale.
 SparseMatrix SurfaceDeformer::implicit_transform_system() const {
   const Eigen::Index n = rest_.rows();
-  const Matrix delta = laplacian_ * rest_;
+  const Matrix& delta = delta_;
   std::vector<Eigen::Triplet<double>> e;
   for (Eigen::Index i = 0; i < n; ++i) {
     std::vector<int> ring{int(i)};
@@ -331,12 +338,28 @@ std::vector<double> SurfaceDeformer::deform(const double* targets) {
   if (free_.empty()) {
   } else if (settings_.method == SurfaceMethod::RotationInvariant) {
     if (!at_rest) {
+      // 1. The linearised implicit transforms (Sorkine et al. 2004, sec. 4).
       Eigen::VectorXd dc(3 * moved.rows());  // interleaved x0, y0, z0, x1, ...
       for (Eigen::Index i = 0; i < moved.rows(); ++i) dc.segment<3>(3 * i) = moved.row(i).transpose();
-      Eigen::VectorXd rhs = -(free_part_.transpose() * (fixed_part_ * dc));
+      Eigen::VectorXd rhs = -(ri_free_.transpose() * (ri_fixed_ * dc));
       for (std::size_t k = 0; k < soft_.size(); ++k) rhs.segment<3>(3 * soft_[k]) += w2 * pulled.row(Eigen::Index(k)).transpose();
-      const Eigen::VectorXd df = solver_.solve(rhs);
+      const Eigen::VectorXd df = ri_solver_.solve(rhs);
       for (std::size_t i = 0; i < free_.size(); ++i) x.row(free_[i]) += df.segment<3>(Eigen::Index(3 * i)).transpose();
+      // 2. Their linearisation lets each T_i scale, more the more it turns. Keep only the rotation
+      // each one-ring underwent (its polar factor, as ARAP's local step) and solve the least
+      // squares of sec. 3 for the differential coordinates so rotated: R_i delta_i, unscaled.
+      std::vector<Mat3> rotations(rest_.rows());
+      Matrix turned(rest_.rows(), 3);
+      for (int pass = 0; pass < settings_.iterations; ++pass) {
+        fit_rotations(x, rotations);
+        for (Eigen::Index i = 0; i < rest_.rows(); ++i) turned.row(i) = (rotations[i] * delta_.row(i).transpose()).transpose();
+        x = rest_;
+        for (std::size_t i = 0; i < fixed_.size(); ++i) x.row(fixed_[i]) = fixed.row(Eigen::Index(i));
+        Matrix rhs2 = free_part_.transpose() * Matrix(turned - delta_ - fixed_part_ * moved);
+        for (std::size_t k = 0; k < soft_.size(); ++k) rhs2.row(soft_[k]) += w2 * pulled.row(Eigen::Index(k));
+        const Matrix d = solver_.solve(rhs2);
+        for (std::size_t i = 0; i < free_.size(); ++i) x.row(free_[i]) += d.row(Eigen::Index(i));
+      }
     }
   } else if (settings_.method == SurfaceMethod::Laplacian) {
     if (!at_rest) {

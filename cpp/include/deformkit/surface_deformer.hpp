@@ -19,7 +19,7 @@ enum class SurfaceMethod { Laplacian, RotationInvariant, Arap };
 struct SurfaceSettings {
   SurfaceMethod method = SurfaceMethod::Arap;
   bool uniform_weights = false;
-  int iterations = 10;     // ARAP local/global iterations
+  int iterations = 10;     // ARAP local/global iterations; rotation-invariant rotation passes
   double tolerance = 0.0;  // > 0: stop when the relative energy decrease falls below it
   // 0: anchors and handles are hard constraints (met exactly). > 0: soft, each adding
   // w^2 ||x_i - c_i||^2 to the least-squares energy (Sorkine et al. 2004, eq. 5), 2 w^2 ||.||^2 to
@@ -55,6 +55,7 @@ class SurfaceDeformer {
   Matrix arap_rhs(const std::vector<Mat3>& rotations) const;
   double arap_energy(const Matrix& x, const std::vector<Mat3>& rotations) const;
   SparseMatrix implicit_transform_system() const;
+  void factorize_rotation_invariant(const std::vector<int>& component, int components, const std::vector<char>& held);
   bool loosely_held(const std::vector<int>& component, int components, const std::vector<char>& held) const;
 
   TriangleMesh mesh_;
@@ -67,7 +68,10 @@ class SurfaceDeformer {
   SparseMatrix laplacian_;                     // with the clamped weights
   std::vector<std::vector<std::pair<int, double>>> neighbors_;  // (j, w_ij)
   SparseMatrix free_part_, fixed_part_;        // Laplacian: L(:, free), L(:, fixed); ARAP: rows free only
-  SparseCholesky solver_;
+  SparseCholesky solver_;                      // ARAP: L_ff; Laplacian and rotation-invariant: L^T L
+  SparseMatrix ri_free_, ri_fixed_;            // rotation-invariant: the 3n x 3n system's columns
+  SparseCholesky ri_solver_;
+  Matrix delta_;                               // L rest: the differential coordinates
   std::vector<std::string> warnings_;
   std::vector<double> energy_;
   std::mutex deforming_;  // deform() records energy_: one call at a time per deformer
