@@ -149,6 +149,11 @@ def build(entry, rest, topo, anchors, handles):
                                          iterations=entry.iterations)
     except (ValueError, TypeError) as exc:
         raise EntryError(str(exc)) from exc
+    except MemoryError:
+        raise EntryError(f"not enough memory to factorise the system of {topo.vertices} vertices "
+                         "(the Rotation Invariant method needs the most)") from None
+    except RuntimeError as exc:  # CHOLMOD failures that are not the mesh's fault
+        raise EntryError(f"the solver failed: {exc}") from exc
 
 
 def _solver(obj, entry, topo, anchors, handles):

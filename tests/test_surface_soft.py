@@ -109,3 +109,46 @@ def test_rotation_invariant_with_one_held_vertex_stays_bounded():
     np.testing.assert_array_equal(out[anchor], pts[anchor])
     np.testing.assert_allclose(out[handle], pts[handle] + shift, rtol=0, atol=1e-12)
     assert np.linalg.norm(out - pts, axis=1).max() < 2 * np.linalg.norm(shift)
+
+
+def _surface_in_child(queue, method):
+    pts, tris = _grid(40)
+    handles = np.arange(len(pts))[pts[:, 0] > 38.5]
+    ed = dk.SurfaceDeformer(pts, tris, anchors=np.flatnonzero(pts[:, 0] < 0.5), handles=handles, method=method)
+    queue.put(float(np.abs(ed.deform(pts[handles] + [0, 0, 3.0]) - pts).max()))
+
+
+def _grid(k):
+    j, i = np.divmod(np.arange(k * k), k)
+    pts = np.stack([i * 1.0, j * 1.0, 0.1 * np.sin(i) * np.cos(j)], 1)
+    v = (np.arange(k - 1)[:, None] * k + np.arange(k - 1)[None, :]).ravel()
+    return pts, np.concatenate([np.stack([v, v + 1, v + k], 1), np.stack([v + 1, v + k + 1, v + k], 1)])
+
+
+@pytest.mark.parametrize("method", ["laplacian", "arap", "rotation_invariant"])
+def test_forked_child_can_build_and_solve(method):
+    """CHOLMOD's supernodal factorisation opens OpenMP regions, which hang in a child forked after
+    the parent started OpenMP's threads; a forked child must still build and solve."""
+    import multiprocessing
+    pts, tris = _grid(60)
+    handles = np.arange(len(pts))[pts[:, 0] > 58.5]
+    dk.SurfaceDeformer(pts, tris, anchors=np.flatnonzero(pts[:, 0] < 0.5), handles=handles,
+                      method=method).deform(pts[handles] + 1)
+    ctx = multiprocessing.get_context("fork")
+    queue = ctx.Queue()
+    child = ctx.Process(target=_surface_in_child, args=(queue, method))
+    child.start()
+    child.join(timeout=60)
+    if child.is_alive():
+        child.kill()
+        pytest.fail("the forked child hung building a SurfaceDeformer")
+    assert child.exitcode == 0 and queue.get(timeout=5) > 1.0
+
+
+def test_rotation_invariant_with_one_handle_translates_the_mesh():
+    """A single held vertex leaves the linearised system singular; among its solutions the one
+    nearest naive editing is used, so translating the only handle translates the whole mesh."""
+    pts, tris = _grid(20)
+    ed = dk.SurfaceDeformer(pts, tris, handles=[210], method="rotation_invariant")
+    t = np.array([0.3, -0.2, 1.0])
+    np.testing.assert_allclose(ed.deform(pts[[210]] + t), pts + t, rtol=0, atol=1e-9)

@@ -1,5 +1,7 @@
 #include "deformkit/parallel.hpp"
 
+#include <Eigen/Core>
+
 #include <pthread.h>
 
 #include <atomic>
@@ -8,7 +10,11 @@ namespace deformkit {
 
 namespace {
 std::atomic<bool> g_forked{false};
-void mark_forked() { g_forked = true; }
+// Eigen's own OpenMP regions (a row-major sparse matrix times a dense one) would hang too.
+void mark_forked() {
+  g_forked = true;
+  Eigen::setNbThreads(1);
+}
 [[maybe_unused]] const int g_atfork = pthread_atfork(nullptr, nullptr, &mark_forked);
 }  // namespace
 

@@ -69,6 +69,9 @@ bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) {
   m.dtype = CHOLMOD_DOUBLE;
   m.sorted = 1;
   m.packed = 1;
+  // CHOLMOD's supernodal numeric factorisation opens OpenMP regions, which hang in a child forked
+  // after the parent started OpenMP's threads; its simplicial path has none.
+  if (forked_after_threads()) kind = CholeskyKind::Simplicial;
   s.common.supernodal = kind == CholeskyKind::Supernodal ? CHOLMOD_SUPERNODAL : CHOLMOD_SIMPLICIAL;
   s.common.final_ll = kind == CholeskyKind::Supernodal;  // simplicial: LDL^T, no square roots
   // AMD only: METIS's nested dissection saves ~10% of the factor but costs more than that in time.
@@ -80,6 +83,12 @@ bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) {
     s.check_memory();
     throw std::runtime_error("CHOLMOD could not analyse the matrix");
   }
+  struct FreeFactor {  // on every way out, a bad_alloc in the copy below included
+    State& s;
+    ~FreeFactor() {
+      if (s.factor) cholmod_l_free_factor(&s.factor, &s.common);
+    }
+  } free_factor{s};
   cholmod_l_factorize(&m, s.factor, &s.common);
   if (s.common.status == CHOLMOD_NOT_POSDEF || s.factor->minor < s.factor->n) {
     cholmod_l_free_factor(&s.factor, &s.common);
@@ -132,6 +141,7 @@ bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) {
 
 Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& b) const {
   if (!state_->ready) throw std::logic_error("SparseCholesky::solve before a successful factorize");
+  if (std::size_t(b.rows()) != state_->copy.size()) throw std::invalid_argument("SparseCholesky::solve: wrong row count");
   Eigen::MatrixXd x(b.rows(), b.cols());
   state_->copy.solve(b.data(), x.data(), int(b.cols()));
   return x;

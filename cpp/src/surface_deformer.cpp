@@ -181,19 +181,20 @@ void SurfaceDeformer::factorize_rotation_invariant(const std::vector<int>& compo
   ri_fixed_.setFromTriplets(c.begin(), c.end());
   if (free_.empty()) return;
   SparseMatrix normal = SparseMatrix(ri_free_.transpose()) * ri_free_;
+  // With fewer than three non-collinear held vertices in a component, the linearised rotations
+  // about them cost nothing: the system is singular (whether a factorisation notices depends on
+  // rounding). A Tikhonov term ridge ||d - d_laplacian||^2, 1e-6 of the mean diagonal (before the
+  // soft constraints, whose weight must not change it), then picks among the minimisers the one
+  // nearest the naive Laplacian solution: a translated handle translates the mesh.
+  if (loosely_held(component, components, held)) {
+    ridge_ = 1e-6 * normal.diagonal().sum() / double(normal.rows());
+    for (Eigen::Index k = 0; k < normal.rows(); ++k) normal.coeffRef(k, k) += ridge_;
+    warnings_.push_back("rotation_invariant: a component is held by fewer than three non-collinear vertices, "
+                        "so it may turn freely about them; the solution nearest the 'laplacian' method's is used");
+  }
   const double w2 = settings_.constraint_weight * settings_.constraint_weight;
   for (int s : soft_)
     for (int a = 0; a < 3; ++a) normal.coeffRef(3 * s + a, 3 * s + a) += w2;
-  // With fewer than three non-collinear held vertices in a component, the linearised rotations
-  // about them cost nothing: the system is singular (whether a factorisation notices depends on
-  // rounding). A Tikhonov term 1e-10 of the mean diagonal then picks (nearly) the least
-  // displacement among the minimisers.
-  if (loosely_held(component, components, held)) {
-    const double ridge = 1e-10 * normal.diagonal().sum() / double(normal.rows());
-    for (Eigen::Index k = 0; k < normal.rows(); ++k) normal.coeffRef(k, k) += ridge;
-    warnings_.push_back("rotation_invariant: a component is held by fewer than three non-collinear vertices, "
-                        "so it may turn freely about them; the least displacement is used");
-  }
   if (!ri_solver_.factorize(normal, CholeskyKind::Supernodal))
     throw std::invalid_argument("faces: the mesh's rotation-invariant system could not be factorised (degenerate geometry)");
 }
@@ -343,6 +344,12 @@ std::vector<double> SurfaceDeformer::deform(const double* targets) {
       for (Eigen::Index i = 0; i < moved.rows(); ++i) dc.segment<3>(3 * i) = moved.row(i).transpose();
       Eigen::VectorXd rhs = -(ri_free_.transpose() * (ri_fixed_ * dc));
       for (std::size_t k = 0; k < soft_.size(); ++k) rhs.segment<3>(3 * soft_[k]) += w2 * pulled.row(Eigen::Index(k)).transpose();
+      if (ridge_ > 0) {  // towards the naive solution (see factorize_rotation_invariant)
+        Matrix naive_rhs = -(free_part_.transpose() * (fixed_part_ * moved));
+        for (std::size_t k = 0; k < soft_.size(); ++k) naive_rhs.row(soft_[k]) += w2 * pulled.row(Eigen::Index(k));
+        const Matrix naive = solver_.solve(naive_rhs);
+        for (Eigen::Index i = 0; i < naive.rows(); ++i) rhs.segment<3>(3 * i) += ridge_ * naive.row(i).transpose();
+      }
       const Eigen::VectorXd df = ri_solver_.solve(rhs);
       for (std::size_t i = 0; i < free_.size(); ++i) x.row(free_[i]) += df.segment<3>(Eigen::Index(3 * i)).transpose();
       // 2. Their linearisation lets each T_i scale, more the more it turns. Keep only the rotation

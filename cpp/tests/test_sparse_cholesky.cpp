@@ -59,6 +59,17 @@ INSTANTIATE_TEST_SUITE_P(Kinds, SparseCholeskyTest,
                          ::testing::Combine(::testing::Values(CholeskyKind::Simplicial, CholeskyKind::Supernodal),
                                             ::testing::Bool(), ::testing::Values(1, 3, 5)));
 
+// An indefinite matrix that CHOLMOD's L D L^T factors without complaint (one negative pivot):
+// deformkit's own check of D refuses it.
+TEST(SparseCholesky, RefusesANegativePivot) {
+  SparseMatrix a(2, 2);
+  a.insert(0, 0) = 1.0;
+  a.insert(1, 1) = -1.0;
+  SparseCholesky chol;
+  EXPECT_FALSE(chol.factorize(a, CholeskyKind::Simplicial));
+  EXPECT_TRUE(chol.empty());
+}
+
 TEST(SparseCholesky, RefusesAnIndefiniteMatrix) {
   SparseMatrix a = grid_system(20, false, 3);
   a.coeffRef(17, 17) = -5.0;
@@ -90,6 +101,7 @@ TEST(CholeskyFactor, SolvesEigensFactor) {
   const Eigen::MatrixXd want = llt.solve(b);
   CholeskyFactor f = from_eigen(llt);
   f.schedule(2);
+  EXPECT_EQ(f.ranges.size(), 1u);  // not postordered: one core
   Eigen::MatrixXd x(a.rows(), 2);
   f.solve(b.data(), x.data(), 2);
   EXPECT_LT((x - want).cwiseAbs().maxCoeff(), 1e-9 * want.cwiseAbs().maxCoeff());

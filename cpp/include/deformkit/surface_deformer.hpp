@@ -44,7 +44,10 @@ class SurfaceDeformer {
   std::size_t factor_nonzeros() const { return solver_.factor_nonzeros(); }
   const SurfaceSettings& settings() const { return settings_; }
   const std::vector<std::string>& warnings() const { return warnings_; }
-  const std::vector<double>& energy() const { return energy_; }
+  std::vector<double> energy() const {
+    const std::lock_guard<std::mutex> lock(deforming_);
+    return energy_;
+  }
 
  private:
   using Matrix = Eigen::Matrix<double, Eigen::Dynamic, 3>;
@@ -74,7 +77,8 @@ class SurfaceDeformer {
   Matrix delta_;                               // L rest: the differential coordinates
   std::vector<std::string> warnings_;
   std::vector<double> energy_;
-  std::mutex deforming_;  // deform() records energy_: one call at a time per deformer
+  mutable std::mutex deforming_;  // deform() records energy_: one call at a time per deformer
+  double ridge_ = 0.0;            // rotation-invariant: the regularisation of a loosely held mesh
 };
 
 }  // namespace deformkit
