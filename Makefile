@@ -13,14 +13,16 @@ FIXTURES := blend_fixtures/.fixtures-made
 
 # The main job: the batch command over the .blend fixtures (twist, then bend, on every mesh), with
 # the outputs, report.json and a before/after PNG per file in demo_out/batch; the saved lattice and
-# Laplacian (ARAP) entries re-evaluated; and the core library
-# on a real mesh (OBJ + PNG in demo_out/core).
+# Laplacian (ARAP) entries re-evaluated; the core library on a real mesh (OBJ + PNG in
+# demo_out/core); and a twisted cage subdivided with OpenSubdiv and checked for smoothness
+# (demo_out/subdivision).
 demo: build $(FIXTURES)
 	scripts/deformkit-batch 'blend_fixtures/*.blend' --recipe blend_fixtures/demo_recipe.json \
 	    --out demo_out/batch --jobs $(JOBS) --preview
 	scripts/deformkit-batch blend_fixtures/lattice_vase.blend --evaluate-saved --out demo_out/lattice --preview
 	scripts/deformkit-batch blend_fixtures/laplacian_arm.blend --evaluate-saved --out demo_out/laplacian --preview
 	$(PY) scripts/demo.py --out demo_out/core
+	$(PY) scripts/demo_subdivision.py --out demo_out/subdivision
 
 $(FIXTURES): blend_fixtures/make_fixtures.py $(VENV)/.deformkit-installed
 	@mkdir -p build

@@ -63,8 +63,17 @@ py::array py_volume_ratio(const Deformer& d, const py::object& points);
 
 py::object weights_of(const Deformer& d);
 
-// Bindings of the lattice family (lattice.cpp) and of the surface deformers (surface.cpp).
+// Polygons as a flat corner list and offsets (face f is corners[offsets[f] .. offsets[f + 1])).
+struct Faces {
+  std::vector<std::int64_t> corners, offsets;
+};
+// An (m, k) integer array, or a sequence of index sequences (polygons of mixed sizes).
+Faces parse_faces(const py::object& faces);
+
+// Bindings of the lattice family (lattice.cpp), the surface deformers (surface.cpp) and
+// subdivision (subdivision.cpp).
 void bind_lattice(py::module_& m);
 void bind_surface(py::module_& m);
+void bind_subdivision(py::module_& m);
 
 }  // namespace deformkit_py

@@ -187,6 +187,7 @@ volume ratio. Stacks nest.)")
 
   bind_lattice(m);
   bind_surface(m);
+  bind_subdivision(m);
 
   m.def("build_info", []() {
     py::dict info;

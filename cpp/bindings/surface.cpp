@@ -11,36 +11,6 @@ using namespace pybind11::literals;
 
 namespace {
 
-// An (m, k) integer array, or a sequence of index sequences (polygons of mixed sizes).
-std::pair<std::vector<std::int64_t>, std::vector<std::int64_t>> parse_faces(const py::object& faces) {
-  std::vector<std::int64_t> corners, offsets{0};
-  if (py::isinstance<py::array>(faces)) {
-    const py::array a = py::reinterpret_borrow<py::array>(faces);
-    if (a.dtype().kind() != 'i' && a.dtype().kind() != 'u')
-      throw py::type_error("faces: expected integer vertex indices, got " + std::string(py::str(a.dtype())));
-    const auto f = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
-    if (f.ndim() != 2 || f.shape(0) == 0 || f.shape(1) < 3)
-      throw py::value_error("faces: expected shape (m, k) with m >= 1 and k >= 3, got " + shape_of(f));
-    corners.assign(f.data(), f.data() + f.size());
-    for (py::ssize_t i = 1; i <= f.shape(0); ++i) offsets.push_back(i * f.shape(1));
-    return {corners, offsets};
-  }
-  if (!py::isinstance<py::sequence>(faces) || py::isinstance<py::str>(faces))
-    throw py::type_error("faces: expected an (m, k) integer array or a list of index lists");
-  for (const py::handle& face : py::reinterpret_borrow<py::sequence>(faces)) {
-    std::vector<std::int64_t> idx;
-    try {
-      idx = face.cast<std::vector<std::int64_t>>();
-    } catch (const py::cast_error&) {
-      throw py::type_error("faces: every face must be a sequence of integer vertex indices");
-    }
-    corners.insert(corners.end(), idx.begin(), idx.end());
-    offsets.push_back(std::int64_t(corners.size()));
-  }
-  if (offsets.size() < 2) throw py::value_error("faces: no faces");
-  return {corners, offsets};
-}
-
 TriangleMesh parse_mesh(const py::object& points, const py::object& faces) {
   const auto p = as_double(points_array(points, "points"));
   const auto [corners, offsets] = parse_faces(faces);

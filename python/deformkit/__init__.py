@@ -5,7 +5,9 @@ Every deformer shares one interface -- ``deform(points)``, ``jacobian(points)``,
 :class:`Stack`. Lattices (:class:`FFD`, :class:`BezierFFD`, :class:`BSplineLattice`,
 :class:`BlenderLattice`, :class:`ExtendedFFD`) add ``bind(points)`` / ``deform_bound(binding)``
 for deforming the same points again after their control points move, and
-``direct_manipulation(points, targets)``.
+``direct_manipulation(points, targets)``. :func:`subdivide`, :class:`LimitSurface` and
+:func:`smoothness_report` subdivide a (deformed) control mesh with OpenSubdiv and check that its
+limit surface is smooth.
 
 >>> import numpy as np, deformkit as dk
 >>> pts = np.random.rand(1000, 3)
@@ -22,21 +24,31 @@ from ._core import (
     ExtendedFFD,
     FFD,
     Lattice,
+    LimitSurface,
     LatticeBinding,
     SimpleDeform,
+    SmoothnessReport,
     Stack,
     Stretch,
+    SUBDIVISION_MAX_FACES,
+    SUBDIVISION_MAX_LEVEL,
+    SubdividedMesh,
+    Subdivider,
     SurfaceDeformer,
     Taper,
     Twist,
     build_info,
     cotangent_laplacian,
     mesh_volume,
+    smoothness_report,
+    subdivide,
 )
 
 __all__ = [
     "BSplineLattice", "Bend", "BezierFFD", "BlenderLattice", "Deformer", "DirectManipulation", "ExtendedFFD",
     "FFD", "Lattice", "LatticeBinding", "SimpleDeform", "Stack", "Stretch", "Taper", "Twist", "build_info",
     "SurfaceDeformer", "cotangent_laplacian", "mesh_volume",
+    "LimitSurface", "SmoothnessReport", "SubdividedMesh", "Subdivider", "SUBDIVISION_MAX_FACES", "SUBDIVISION_MAX_LEVEL",
+    "smoothness_report", "subdivide",
 ]
 __version__ = "0.1.0"

@@ -204,3 +204,108 @@ def mesh_volume(points: npt.ArrayLike, faces: npt.ArrayLike) -> float:
 
 def build_info() -> dict[str, str]:
     """Library versions, the SIMD target chosen for this CPU and the thread count."""
+
+_Faces = npt.ArrayLike | Sequence[Sequence[int]]
+_Scheme = Literal["auto", "catmull_clark", "loop"]
+_Boundary = Literal["edge_and_corner", "edge_only"]
+_Sharpness = tuple[npt.ArrayLike, npt.ArrayLike]
+
+SUBDIVISION_MAX_LEVEL: int
+SUBDIVISION_MAX_FACES: int
+
+class SubdividedMesh:
+    """The result of subdivide()."""
+    @property
+    def points(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def faces(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def face_origin(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def uvs(self) -> npt.NDArray[np.float64] | None: ...
+    @property
+    def level(self) -> int: ...
+    @property
+    def scheme(self) -> str: ...
+
+def subdivide(points: npt.ArrayLike, faces: _Faces, level: int, *, scheme: _Scheme = "auto",
+              boundary: _Boundary = "edge_and_corner", creases: _Sharpness | None = None,
+              corners: _Sharpness | None = None, uvs: npt.ArrayLike | None = None,
+              uv_smooth: Literal["none", "preserve_corners", "preserve_corners_and_junctions",
+                                 "preserve_corners_junctions_and_concave", "preserve_boundaries",
+                                 "smooth_all"] = "preserve_boundaries",
+              max_faces: int = ...) -> SubdividedMesh:
+    """Uniform OpenSubdiv subdivision (Catmull-Clark or Loop) to level 1..SUBDIVISION_MAX_LEVEL."""
+
+class Subdivider:
+    """The refined topology of a control mesh at one level, kept to subdivide many cages of it."""
+    def __init__(self, points: npt.ArrayLike, faces: _Faces, level: int, *, scheme: _Scheme = "auto",
+                 boundary: _Boundary = "edge_and_corner", creases: _Sharpness | None = None,
+                 corners: _Sharpness | None = None, uvs: npt.ArrayLike | None = None,
+                 uv_smooth: str = "preserve_boundaries", max_faces: int = ...) -> None: ...
+    def subdivide(self, points: npt.ArrayLike | None = None) -> npt.NDArray[np.float64]: ...
+    def mesh(self, points: npt.ArrayLike | None = None) -> SubdividedMesh: ...
+    @property
+    def vertex_count(self) -> int: ...
+    @property
+    def level(self) -> int: ...
+    @property
+    def scheme(self) -> str: ...
+    @property
+    def faces(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def face_origin(self) -> npt.NDArray[np.int32]: ...
+
+class SmoothnessReport:
+    """Normal angles and position gaps of the limit surface across the interior edges."""
+    max_angle: float
+    max_gap: float
+    min_regularity: float
+    degenerate_samples: int
+    flipped_samples: int
+    sample_count: int
+    boundary_edges: int
+    max_crease: float
+    @property
+    def face_crease(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def worst_faces(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def edges(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def edge_angle(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def edge_gap(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def worst_edges(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def flipped_faces(self) -> npt.NDArray[np.int32]: ...
+    def to_dict(self) -> dict[str, object]: ...
+
+class LimitSurface:
+    """The exact limit surface of a control mesh, evaluated at ptex (face, u, v) samples."""
+    def __init__(self, points: npt.ArrayLike, faces: _Faces, *, scheme: _Scheme = "auto",
+                 boundary: _Boundary = "edge_and_corner", creases: _Sharpness | None = None,
+                 corners: _Sharpness | None = None) -> None: ...
+    @property
+    def ptex_count(self) -> int: ...
+    @property
+    def ptex_offset(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def vertex_count(self) -> int: ...
+    @property
+    def scheme(self) -> str: ...
+    def evaluate(self, ptex: npt.ArrayLike, uv: npt.ArrayLike, *, points: npt.ArrayLike | None = None,
+                 derivatives: int = 1) -> dict[str, npt.NDArray[np.float64]]: ...
+    def limit_points(self, points: npt.ArrayLike | None = None) -> npt.NDArray[np.float64]: ...
+    def smoothness_report(self, points: npt.ArrayLike | None = None, *, samples_per_edge: int = 8,
+                          reference: npt.ArrayLike | None = None, worst: int = 10,
+                          deformer: Deformer | None = None, crease_grid: int = 16) -> SmoothnessReport: ...
+
+def smoothness_report(points: npt.ArrayLike, faces: _Faces, *, scheme: _Scheme = "auto",
+                      boundary: _Boundary = "edge_and_corner", creases: _Sharpness | None = None,
+                      corners: _Sharpness | None = None, samples_per_edge: int = 8,
+                      reference: npt.ArrayLike | None = None, worst: int = 10,
+                      deformer: Deformer | None = None, crease_grid: int = 16) -> SmoothnessReport:
+    """Check that the limit surface (or, with deformer, its image F(S)) is smooth: normal angles
+    and gaps across every interior edge; with deformer, also normal jumps inside faces."""

@@ -64,10 +64,12 @@ def _draw(ax, vertices, faces, color, view, light, limits, title, to_plot):
 
 
 def render_before_after(path, before, after, faces, title, labels=("before", "after"), elev=15.0, azim=-60.0,
-                        to_plot=Y_UP):
-    """Write a PNG with `before` and `after` (same triangles `faces`) side by side."""
+                        to_plot=Y_UP, after_faces=None):
+    """Write a PNG with `before` and `after` (same triangles `faces`, or `after_faces` for a mesh of
+    another topology, such as a subdivided one) side by side."""
     faces = np.asarray(faces)
     keep, f = decimate(before, faces, MAX_DRAWN_FACES)
+    drawn_after = (keep, f) if after_faces is None else decimate(after, np.asarray(after_faces), MAX_DRAWN_FACES)
     both = np.vstack([before, after]) @ to_plot.T
     mid, half = (both.min(axis=0) + both.max(axis=0)) / 2, np.ptp(both, axis=0).max() / 2 * 1.02
     limits = [(m - half, m + half) for m in mid]
@@ -77,11 +79,11 @@ def render_before_after(path, before, after, faces, title, labels=("before", "af
     light /= np.linalg.norm(light)
     fig = plt.figure(figsize=(13, 6.8), dpi=100)
     drawn = f"{len(f):,} faces drawn" + ("" if len(f) == len(faces) else f" of {len(faces):,}")
-    for i, (v, color, label) in enumerate(((before, (0.55, 0.65, 0.85), labels[0]),
-                                           (after, (0.95, 0.62, 0.35), labels[1]))):
+    for i, (v, (k, tri), color, label) in enumerate(((before, (keep, f), (0.55, 0.65, 0.85), labels[0]),
+                                                     (after, drawn_after, (0.95, 0.62, 0.35), labels[1]))):
         ax = fig.add_subplot(1, 2, i + 1, projection="3d", proj_type="ortho")
         ax.view_init(elev=elev, azim=azim)
-        _draw(ax, v[keep], f, np.array(color), view, light, limits, label, to_plot)
+        _draw(ax, v[k], tri, np.array(color), view, light, limits, label, to_plot)
     fig.suptitle(f"{title}\n({drawn})", fontsize=10)
     fig.subplots_adjust(left=0, right=1, bottom=0, top=0.86, wspace=0)
     atomic_write(path, lambda fh: fig.savefig(fh, format="png"))

@@ -17,3 +17,7 @@
 #include "deformkit/cotangent_laplacian.hpp"
 #include "deformkit/surface_deformer.hpp"
 #include "deformkit/surface_mesh.hpp"
+#include "deformkit/control_mesh.hpp"
+#include "deformkit/limit_surface.hpp"
+#include "deformkit/smoothness_report.hpp"
+#include "deformkit/subdivide.hpp"

@@ -1,0 +1,511 @@
+// Python bindings of subdivision, limit-surface evaluation and the smoothness report.
+#include "common.hpp"
+
+#include "deformkit/limit_surface.hpp"
+#include "deformkit/smoothness_report.hpp"
+#include "deformkit/subdivide.hpp"
+
+#include <memory>
+
+namespace deformkit_py {
+
+using namespace pybind11::literals;
+
+namespace {
+
+// A numpy array that owns the vector's buffer (no copy).
+template <class T>
+py::array_t<T> owned(std::vector<T>&& v, std::vector<py::ssize_t> shape) {
+  auto* heap = new std::vector<T>(std::move(v));
+  py::capsule owner(heap, [](void* p) { delete static_cast<std::vector<T>*>(p); });
+  return py::array_t<T>(shape, heap->data(), owner);
+}
+
+std::vector<std::int64_t> int_rows(const py::object& obj, const char* name, py::ssize_t columns) {
+  const py::array a = py::array::ensure(obj);
+  if (!a || (a.size() > 0 && a.dtype().kind() != 'i' && a.dtype().kind() != 'u'))
+    throw py::type_error(std::string(name) + ": expected integer vertex indices");
+  const bool ok = columns == 1 ? a.ndim() == 1 : (a.ndim() == 2 && a.shape(1) == columns) || a.size() == 0;
+  if (!ok)
+    throw py::value_error(std::string(name) + ": expected shape " + (columns == 1 ? "(k,)" : "(k, 2)") + ", got " +
+                          shape_of(a));
+  const auto v = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+  return {v.data(), v.data() + v.size()};
+}
+
+std::vector<double> real_vector(const py::object& obj, const char* name) {
+  require_real(obj, name);
+  const auto v = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  if (!v || v.ndim() != 1) throw py::value_error(std::string(name) + ": expected a 1-D sequence of sharpness values");
+  return {v.data(), v.data() + v.size()};
+}
+
+std::pair<py::object, py::object> pair_of(const py::object& obj, const char* name, const char* what) {
+  if (!py::isinstance<py::tuple>(obj) && !py::isinstance<py::list>(obj))
+    throw py::type_error(std::string(name) + ": expected a pair (" + what + ", sharpness)");
+  const py::sequence s = py::reinterpret_borrow<py::sequence>(obj);
+  if (s.size() != 2) throw py::value_error(std::string(name) + ": expected a pair (" + what + ", sharpness)");
+  return {s[0], s[1]};
+}
+
+SubdivisionScheme parse_scheme(const std::string& s, const Faces& faces) {
+  if (s == "catmull_clark") return SubdivisionScheme::CatmullClark;
+  if (s == "loop") return SubdivisionScheme::Loop;
+  if (s == "auto") return all_triangles(faces.offsets) ? SubdivisionScheme::Loop : SubdivisionScheme::CatmullClark;
+  throw py::value_error("scheme: expected 'auto', 'catmull_clark' or 'loop', got '" + s + "'");
+}
+
+BoundaryRule parse_boundary(const std::string& s) {
+  if (s == "edge_and_corner") return BoundaryRule::EdgeAndCorner;
+  if (s == "edge_only") return BoundaryRule::EdgeOnly;
+  throw py::value_error("boundary: expected 'edge_and_corner' or 'edge_only', got '" + s + "'");
+}
+
+UvSmooth parse_uv_smooth(const std::string& s) {
+  static const std::pair<const char*, UvSmooth> names[] = {
+      {"none", UvSmooth::None},
+      {"preserve_corners", UvSmooth::PreserveCorners},
+      {"preserve_corners_and_junctions", UvSmooth::PreserveCornersAndJunctions},
+      {"preserve_corners_junctions_and_concave", UvSmooth::PreserveCornersJunctionsAndConcave},
+      {"preserve_boundaries", UvSmooth::PreserveBoundaries},
+      {"smooth_all", UvSmooth::SmoothAll}};
+  for (const auto& [name, value] : names)
+    if (s == name) return value;
+  throw py::value_error("uv_smooth: expected 'none', 'preserve_corners', 'preserve_corners_and_junctions', "
+                        "'preserve_corners_junctions_and_concave', 'preserve_boundaries' or 'smooth_all', got '" +
+                        s + "'");
+}
+
+struct Cage {
+  ControlMesh mesh;
+  py::array_t<double, py::array::c_style> points;
+};
+
+Cage parse_cage(const py::object& points, const py::object& faces, const std::string& scheme,
+                const std::string& boundary, const py::object& creases, const py::object& corners) {
+  Cage cage;
+  cage.points = as_double(points_array(points, "points"));
+  const Faces f = parse_faces(faces);
+  cage.mesh = make_control_mesh(std::size_t(cage.points.shape(0)), f.corners, f.offsets, parse_scheme(scheme, f),
+                                parse_boundary(boundary));
+  if (!creases.is_none()) {
+    const auto [edges, sharpness] = pair_of(creases, "creases", "edges (k, 2)");
+    set_creases(cage.mesh, int_rows(edges, "creases", 2), real_vector(sharpness, "creases"));
+  }
+  if (!corners.is_none()) {
+    const auto [vertices, sharpness] = pair_of(corners, "corners", "vertices (c,)");
+    set_corners(cage.mesh, int_rows(vertices, "corners", 1), real_vector(sharpness, "corners"));
+  }
+  return cage;
+}
+
+// A cage for an existing topology: `points` (n, 3) of the same vertex count.
+py::array_t<double, py::array::c_style> same_cage(const py::object& points, std::size_t n, const char* name) {
+  auto p = as_double(points_array(points, name));
+  if (std::size_t(p.shape(0)) != n)
+    throw py::value_error(std::string(name) + ": expected " + std::to_string(n) + " rows (the control mesh's vertices), got " +
+                          std::to_string(p.shape(0)));
+  return p;
+}
+
+struct PySubdividedMesh {
+  py::array points, faces, face_origin;
+  py::object uvs;
+  int level;
+  std::string scheme;
+};
+
+struct PyLimitSurface {
+  std::shared_ptr<LimitSurface> surface;
+  py::array_t<double, py::array::c_style> points;  // the cage given at construction
+  std::shared_ptr<std::vector<double>> patch_points;
+};
+
+py::dict samples_dict(LimitSamples&& s, py::ssize_t n) {
+  py::dict d;
+  const std::pair<const char*, std::vector<double>*> fields[] = {
+      {"position", &s.position}, {"du", &s.du}, {"dv", &s.dv}, {"normal", &s.normal},
+      {"duu", &s.duu}, {"duv", &s.duv}, {"dvv", &s.dvv}};
+  for (const auto& [name, v] : fields)
+    if (!v->empty()) d[name] = owned(std::move(*v), {n, 3});
+  return d;
+}
+
+py::object report_object(SmoothnessReport&& r);
+
+std::shared_ptr<Deformer> parse_deformer(const py::object& deformer) {
+  if (deformer.is_none()) return nullptr;
+  try {
+    return deformer.cast<std::shared_ptr<Deformer>>();
+  } catch (const py::cast_error&) {
+    throw py::type_error("deformer: expected a deformkit deformer (Twist, Bend, FFD, Stack, ...), got " +
+                         std::string(py::str(py::type::of(deformer).attr("__name__"))));
+  }
+}
+
+SmoothnessOptions options(int samples_per_edge, const double* reference, int worst, const Deformer* deformer,
+                          int crease_grid) {
+  SmoothnessOptions o;
+  o.samples_per_edge = samples_per_edge;
+  o.reference = reference;
+  o.worst = worst;
+  o.deformer = deformer;
+  o.crease_grid = crease_grid;
+  return o;
+}
+
+const char* kSubdivideDoc = R"(
+
+uvs: one (u, v) per face corner in the order of faces (Blender's loop UVs); corners of one vertex
+with equal UVs are welded, seams stay seams. uv_smooth takes Blender's UV Smooth names: 'none',
+'preserve_corners', 'preserve_corners_and_junctions', 'preserve_corners_junctions_and_concave',
+'preserve_boundaries' (default) or 'smooth_all'. A level whose output would have more than
+max_faces faces (default SUBDIVISION_MAX_FACES = 2**24) is refused before any work.)";
+
+Cage cage_with_uvs(const py::object& points, const py::object& faces, const std::string& scheme,
+                   const std::string& boundary, const py::object& creases, const py::object& corners,
+                   const py::object& uvs, const std::string& uv_smooth, std::int64_t max_faces) {
+  Cage cage = parse_cage(points, faces, scheme, boundary, creases, corners);
+  if (max_faces < 1) throw py::value_error("max_faces: must be >= 1, got " + std::to_string(max_faces));
+  const UvSmooth smooth = parse_uv_smooth(uv_smooth);
+  if (uvs.is_none()) return cage;
+  const py::array a = py::array::ensure(uvs);
+  if (!a || a.ndim() != 2 || a.shape(1) != 2)
+    throw py::value_error("uvs: expected shape (corners, 2)" + (a ? ", got " + shape_of(a) : std::string()));
+  require_real(uvs, "uvs");
+  const auto d = as_double(a);
+  set_uvs(cage.mesh, d.data(), std::size_t(d.shape(0)), smooth);
+  return cage;
+}
+
+PySubdividedMesh to_python(SubdividedMesh&& out) {
+  PySubdividedMesh r;
+  const auto faces_n = py::ssize_t(out.face_origin.size()), k = py::ssize_t(out.corners_per_face);
+  r.points = owned(std::move(out.points), {py::ssize_t(out.points.size() / 3), 3});
+  r.faces = owned(std::move(out.faces), {faces_n, k});
+  r.face_origin = owned(std::move(out.face_origin), {faces_n});
+  r.uvs = out.uvs.empty() ? py::object(py::none()) : py::object(owned(std::move(out.uvs), {faces_n * k, 2}));
+  r.level = out.level;
+  r.scheme = scheme_name(out.scheme);
+  return r;
+}
+
+struct PySubdivider {
+  std::shared_ptr<Subdivider> subdivider;
+  py::array_t<double, py::array::c_style> points;
+};
+
+PySubdivider make_subdivider(const py::object& points, const py::object& faces, int level, const std::string& scheme,
+                             const std::string& boundary, const py::object& creases, const py::object& corners,
+                             const py::object& uvs, const std::string& uv_smooth, std::int64_t max_faces) {
+  Cage cage = cage_with_uvs(points, faces, scheme, boundary, creases, corners, uvs, uv_smooth, max_faces);
+  PySubdivider s;
+  s.points = cage.points;
+  py::gil_scoped_release release;
+  s.subdivider = std::make_shared<Subdivider>(cage.mesh, level, max_faces);
+  return s;
+}
+
+const char* kTopologyDoc = R"(scheme 'auto' (Loop when every face is a triangle, else Catmull-Clark), 'catmull_clark' or
+'loop'; boundary 'edge_and_corner' (boundary edges are B-spline curves and corners of valence 2
+stay put: Blender's Keep Corners) or 'edge_only' (Blender's Smooth); creases (edges (k, 2),
+sharpness (k,)) and corners (vertices (c,), sharpness (c,)) in OpenSubdiv's units, 10 or more
+being infinitely sharp. faces must form a manifold: every vertex in a face, at most two faces on
+an edge, consistently wound.)";
+
+}  // namespace
+
+void bind_subdivision(py::module_& m) {
+  m.attr("SUBDIVISION_MAX_LEVEL") = kMaxSubdivisionLevel;
+  m.attr("SUBDIVISION_MAX_FACES") = kDefaultMaxFaces;
+
+  py::class_<PySubdividedMesh>(m, "SubdividedMesh", "The result of subdivide().")
+      .def_readonly("points", &PySubdividedMesh::points, "(N, 3) float64 refined vertices (not projected to the limit).")
+      .def_readonly("faces", &PySubdividedMesh::faces, "(M, 4) int32 quads (Catmull-Clark) or (M, 3) triangles (Loop).")
+      .def_readonly("face_origin", &PySubdividedMesh::face_origin, "(M,) int32: the control face each face comes from.")
+      .def_readonly("uvs", &PySubdividedMesh::uvs, "(M * k, 2) float64 per face corner, or None.")
+      .def_readonly("level", &PySubdividedMesh::level)
+      .def_readonly("scheme", &PySubdividedMesh::scheme)
+      .def("__repr__", [](const PySubdividedMesh& s) {
+        return "<SubdividedMesh " + s.scheme + " level " + std::to_string(s.level) + ": " +
+               std::to_string(s.points.shape(0)) + " points, " + std::to_string(s.faces.shape(0)) + " faces>";
+      });
+
+  py::class_<PySubdivider>(m, "Subdivider", (std::string(R"(The refined topology of a control mesh at one level, kept to subdivide many cages of it
+(animation frames, deformations): subdivide(points) only interpolates the points again.
+
+)") + kTopologyDoc + kSubdivideDoc).c_str())
+      .def(py::init(&make_subdivider), "points"_a, "faces"_a, "level"_a, py::kw_only(), "scheme"_a = "auto",
+           "boundary"_a = "edge_and_corner", "creases"_a = py::none(), "corners"_a = py::none(), "uvs"_a = py::none(),
+           "uv_smooth"_a = "preserve_boundaries", "max_faces"_a = kDefaultMaxFaces)
+      .def("subdivide", [](const PySubdivider& s, const py::object& points) {
+        py::array_t<double, py::array::c_style> cage = s.points;
+        if (!points.is_none()) cage = same_cage(points, s.subdivider->control().vertex_count, "points");
+        std::vector<double> out;
+        {
+          py::gil_scoped_release release;
+          out = s.subdivider->subdivide(cage.data());
+        }
+        return owned(std::move(out), {py::ssize_t(s.subdivider->vertex_count()), 3});
+      }, "points"_a = py::none(), "The refined points (N, 3) of this cage (the one given at construction by default).")
+      .def("mesh", [](const PySubdivider& s, const py::object& points) {
+        py::array_t<double, py::array::c_style> cage = s.points;
+        if (!points.is_none()) cage = same_cage(points, s.subdivider->control().vertex_count, "points");
+        SubdividedMesh out;
+        {
+          py::gil_scoped_release release;
+          out = s.subdivider->mesh(cage.data());
+        }
+        return to_python(std::move(out));
+      }, "points"_a = py::none(), "The SubdividedMesh of this cage.")
+      .def_property_readonly("vertex_count", [](const PySubdivider& s) { return s.subdivider->vertex_count(); })
+      .def_property_readonly("level", [](const PySubdivider& s) { return s.subdivider->level(); })
+      .def_property_readonly("scheme", [](const PySubdivider& s) { return scheme_name(s.subdivider->control().scheme); })
+      .def_property_readonly("faces", [](const PySubdivider& s) {
+        std::vector<int> f = s.subdivider->faces();
+        const auto k = py::ssize_t(s.subdivider->corners_per_face()), n = py::ssize_t(f.size()) / k;
+        return owned(std::move(f), {n, k});
+      })
+      .def_property_readonly("face_origin", [](const PySubdivider& s) {
+        std::vector<int> f = s.subdivider->face_origin();
+        const auto n = py::ssize_t(f.size());
+        return owned(std::move(f), {n});
+      });
+
+  m.def("subdivide", [](const py::object& points, const py::object& faces, int level, const std::string& scheme,
+                        const std::string& boundary, const py::object& creases, const py::object& corners,
+                        const py::object& uvs, const std::string& uv_smooth, std::int64_t max_faces) {
+    Cage cage = cage_with_uvs(points, faces, scheme, boundary, creases, corners, uvs, uv_smooth, max_faces);
+    SubdividedMesh out;
+    {
+      py::gil_scoped_release release;
+      out = subdivide(cage.mesh, cage.points.data(), level, max_faces);
+    }
+    return to_python(std::move(out));
+  }, "points"_a, "faces"_a, "level"_a, py::kw_only(), "scheme"_a = "auto", "boundary"_a = "edge_and_corner",
+     "creases"_a = py::none(), "corners"_a = py::none(), "uvs"_a = py::none(),
+     "uv_smooth"_a = "preserve_boundaries", "max_faces"_a = kDefaultMaxFaces,
+     (std::string(R"(Uniform subdivision with OpenSubdiv to level 1..SUBDIVISION_MAX_LEVEL (8); Subdivider keeps
+the refined topology for many cages.
+
+)") + kTopologyDoc + kSubdivideDoc).c_str());
+
+  py::class_<PyLimitSurface>(m, "LimitSurface", (std::string(R"(The exact limit surface of a control mesh (OpenSubdiv feature-adaptive patches in double
+precision, Gregory patches at extraordinary vertices).
+
+)") + kTopologyDoc + R"(
+
+Samples are ptex faces with (u, v): a quad (Catmull-Clark) or a triangle (Loop) is one ptex face
+(quad corners at (0,0), (1,0), (1,1), (0,1); triangle corners at (0,0), (1,0), (0,1)); an n-gon
+(n != 4) is n sub-quads, sub-quad k with (0, 0) at corner k, u towards the midpoint of edge
+k -> k+1, v towards that of edge k-1 -> k. Face f owns ptex faces ptex_offset[f] ..
+ptex_offset[f+1] - 1.)").c_str())
+      .def(py::init([](const py::object& points, const py::object& faces, const std::string& scheme,
+                       const std::string& boundary, const py::object& creases, const py::object& corners) {
+             Cage cage = parse_cage(points, faces, scheme, boundary, creases, corners);
+             PyLimitSurface s;
+             s.points = cage.points;
+             {
+               py::gil_scoped_release release;
+               s.surface = std::make_shared<LimitSurface>(std::move(cage.mesh));
+               s.patch_points = std::make_shared<std::vector<double>>(s.surface->patch_points(s.points.data()));
+             }
+             return s;
+           }),
+           "points"_a, "faces"_a, py::kw_only(), "scheme"_a = "auto", "boundary"_a = "edge_and_corner",
+           "creases"_a = py::none(), "corners"_a = py::none())
+      .def_property_readonly("ptex_count", [](const PyLimitSurface& s) { return s.surface->ptex_count(); })
+      .def_property_readonly("ptex_offset", [](const PyLimitSurface& s) {
+        std::vector<int> o = s.surface->ptex_offset();
+        const auto n = py::ssize_t(o.size());
+        return owned(std::move(o), {n});
+      })
+      .def_property_readonly("vertex_count", [](const PyLimitSurface& s) { return s.surface->mesh().vertex_count; })
+      .def_property_readonly("scheme", [](const PyLimitSurface& s) { return scheme_name(s.surface->mesh().scheme); })
+      .def("evaluate", [](const PyLimitSurface& s, const py::object& ptex, const py::object& uv,
+                          const py::object& points, int derivatives) {
+        if (derivatives < 0 || derivatives > 2)
+          throw py::value_error("derivatives: expected 0, 1 or 2, got " + std::to_string(derivatives));
+        const std::vector<std::int64_t> faces = int_rows(ptex, "ptex", 1);
+        const py::array uva = py::array::ensure(uv);
+        if (!uva || uva.ndim() != 2 || uva.shape(1) != 2 || std::size_t(uva.shape(0)) != faces.size())
+          throw py::value_error("uv: expected shape (" + std::to_string(faces.size()) + ", 2), one row per ptex sample" +
+                                (uva ? ", got " + shape_of(uva) : std::string()));
+        require_real(uv, "uv");
+        const auto uvd = as_double(uva);
+        std::vector<int> f32(faces.size());
+        for (std::size_t i = 0; i < faces.size(); ++i) {
+          if (faces[i] < 0 || faces[i] >= s.surface->ptex_count())
+            throw py::value_error("ptex: sample " + std::to_string(i) + " has ptex face " + std::to_string(faces[i]) +
+                                  ", outside 0.." + std::to_string(s.surface->ptex_count() - 1));
+          f32[i] = int(faces[i]);
+        }
+        std::shared_ptr<std::vector<double>> cvs = s.patch_points;
+        py::array_t<double, py::array::c_style> cage;
+        if (!points.is_none()) cage = same_cage(points, s.surface->mesh().vertex_count, "points");
+        LimitSamples out;
+        {
+          py::gil_scoped_release release;
+          s.surface->check_samples(f32.data(), uvd.data(), f32.size());
+          if (!points.is_none()) cvs = std::make_shared<std::vector<double>>(s.surface->patch_points(cage.data()));
+          out = s.surface->evaluate(*cvs, f32.data(), uvd.data(), f32.size(), derivatives);
+        }
+        return samples_dict(std::move(out), py::ssize_t(f32.size()));
+      }, "ptex"_a, "uv"_a, py::kw_only(), "points"_a = py::none(), "derivatives"_a = 1,
+         R"(The limit surface at samples ptex (s,) and uv (s, 2): a dict of (s, 3) arrays, "position", and
+with derivatives >= 1 "du", "dv" and the unit "normal" (du x dv normalised; zero where du x dv
+vanishes), with derivatives = 2 also "duu", "duv", "dvv". points= evaluates another cage of the
+same topology (a deformed one) without rebuilding the patches.)")
+      .def("limit_points", [](const PyLimitSurface& s, const py::object& points) {
+        py::array_t<double, py::array::c_style> cage = s.points;
+        if (!points.is_none()) cage = same_cage(points, s.surface->mesh().vertex_count, "points");
+        std::vector<double> out;
+        {
+          py::gil_scoped_release release;
+          out = s.surface->limit_points(cage.data());
+        }
+        return owned(std::move(out), {py::ssize_t(s.surface->mesh().vertex_count), 3});
+      }, "points"_a = py::none(), "The limit position of every control vertex, (n, 3).")
+      .def("smoothness_report", [](const PyLimitSurface& s, const py::object& points, int samples_per_edge,
+                                   const py::object& reference, int worst, const py::object& deformer,
+                                   int crease_grid) {
+        py::array_t<double, py::array::c_style> cage = s.points, ref;
+        if (!points.is_none()) cage = same_cage(points, s.surface->mesh().vertex_count, "points");
+        if (!reference.is_none()) ref = same_cage(reference, s.surface->mesh().vertex_count, "reference");
+        const std::shared_ptr<Deformer> map = parse_deformer(deformer);
+        SmoothnessReport r;
+        {
+          py::gil_scoped_release release;
+          r = smoothness_report(*s.surface, cage.data(),
+                                options(samples_per_edge, reference.is_none() ? nullptr : ref.data(), worst, map.get(),
+                                        crease_grid));
+        }
+        return report_object(std::move(r));
+      }, "points"_a = py::none(), py::kw_only(), "samples_per_edge"_a = 8, "reference"_a = py::none(),
+         "worst"_a = 10, "deformer"_a = py::none(), "crease_grid"_a = 16, "The smoothness report (see deformkit.smoothness_report) of this surface or of another cage of it.");
+
+  py::class_<SmoothnessReport>(m, "SmoothnessReport", R"(How smooth a limit surface is across the control mesh's interior edges.
+
+edges (E, 2) are the interior edges as sorted vertex pairs; edge_angle the largest normal angle
+along each (radians, atan2(|n1 x n2|, n1 . n2)); edge_gap the largest position gap divided by
+the bounding-box diagonal; worst_edges indices into edges by decreasing angle.)")
+      .def_readonly("max_angle", &SmoothnessReport::max_angle)
+      .def_readonly("max_gap", &SmoothnessReport::max_gap)
+      .def_readonly("min_regularity", &SmoothnessReport::min_regularity,
+                    "Smallest |du x dv| / (|du| |dv|) over the samples: 0 where the tangents are parallel.")
+      .def_readonly("degenerate_samples", &SmoothnessReport::degenerate_samples)
+      .def_readonly("flipped_samples", &SmoothnessReport::flipped_samples)
+      .def_readonly("sample_count", &SmoothnessReport::sample_count)
+      .def_readonly("boundary_edges", &SmoothnessReport::boundary_edges)
+      .def_property_readonly("edges", [](const SmoothnessReport& r) {
+        std::vector<int> e = r.edges;
+        const auto n = py::ssize_t(e.size() / 2);
+        return owned(std::move(e), {n, 2});
+      })
+      .def_property_readonly("edge_angle", [](const SmoothnessReport& r) {
+        std::vector<double> a = r.edge_angle;
+        const auto n = py::ssize_t(a.size());
+        return owned(std::move(a), {n});
+      })
+      .def_property_readonly("edge_gap", [](const SmoothnessReport& r) {
+        std::vector<double> a = r.edge_gap;
+        const auto n = py::ssize_t(a.size());
+        return owned(std::move(a), {n});
+      })
+      .def_property_readonly("worst_edges", [](const SmoothnessReport& r) {
+        std::vector<int> a = r.worst_edges;
+        const auto n = py::ssize_t(a.size());
+        return owned(std::move(a), {n});
+      })
+      .def_property_readonly("flipped_faces", [](const SmoothnessReport& r) {
+        std::vector<int> a = r.flipped_faces;
+        const auto n = py::ssize_t(a.size());
+        return owned(std::move(a), {n});
+      })
+      .def_readonly("max_crease", &SmoothnessReport::max_crease,
+                    "With a deformer: the largest normal jump inside a control face (radians).")
+      .def_property_readonly("face_crease", [](const SmoothnessReport& r) {
+        std::vector<double> a = r.face_crease;
+        const auto n = py::ssize_t(a.size());
+        return owned(std::move(a), {n});
+      }, "With a deformer: per control face, the normal jump inside it (radians); empty otherwise.")
+      .def_property_readonly("worst_faces", [](const SmoothnessReport& r) {
+        std::vector<int> a = r.worst_faces;
+        const auto n = py::ssize_t(a.size());
+        return owned(std::move(a), {n});
+      })
+      .def("to_dict", [](const SmoothnessReport& r) {
+        py::list worst;
+        for (int e : r.worst_edges)
+          worst.append(py::make_tuple(r.edges[2 * e], r.edges[2 * e + 1], r.edge_angle[e]));
+        py::dict d;
+        d["max_angle"] = r.max_angle;
+        d["max_angle_degrees"] = r.max_angle * 180.0 / 3.14159265358979323846;
+        d["max_gap"] = r.max_gap;
+        d["min_regularity"] = r.min_regularity;
+        d["degenerate_samples"] = r.degenerate_samples;
+        d["flipped_samples"] = r.flipped_samples;
+        d["flipped_faces"] = py::cast(r.flipped_faces);
+        d["interior_edges"] = r.edge_angle.size();
+        d["boundary_edges"] = r.boundary_edges;
+        d["sample_count"] = r.sample_count;
+        d["worst_edges"] = worst;
+        if (!r.face_crease.empty()) {
+          py::list faces;
+          for (int f : r.worst_faces) faces.append(py::make_tuple(f, r.face_crease[f]));
+          d["max_crease"] = r.max_crease;
+          d["max_crease_degrees"] = r.max_crease * 180.0 / 3.14159265358979323846;
+          d["worst_faces"] = faces;
+        }
+        return d;
+      }, "The scalar figures and the worst edges as [(a, b, angle), ...]: plain Python, JSON-ready.")
+      .def("__repr__", [](const SmoothnessReport& r) {
+        return "<SmoothnessReport max_angle " + std::to_string(r.max_angle) + " rad, max_gap " +
+               std::to_string(r.max_gap) + ", " + std::to_string(r.degenerate_samples) + " degenerate, " +
+               std::to_string(r.flipped_samples) + " flipped>";
+      });
+
+  m.def("smoothness_report", [](const py::object& points, const py::object& faces, const std::string& scheme,
+                                const std::string& boundary, const py::object& creases, const py::object& corners,
+                                int samples_per_edge, const py::object& reference, int worst, const py::object& deformer,
+                                int crease_grid) {
+    Cage cage = parse_cage(points, faces, scheme, boundary, creases, corners);
+    const std::shared_ptr<Deformer> map = parse_deformer(deformer);
+    py::array_t<double, py::array::c_style> ref;
+    if (!reference.is_none()) ref = same_cage(reference, cage.mesh.vertex_count, "reference");
+    SmoothnessReport r;
+    {
+      py::gil_scoped_release release;
+      const LimitSurface surface(std::move(cage.mesh));
+      r = smoothness_report(surface, cage.points.data(),
+                            options(samples_per_edge, reference.is_none() ? nullptr : ref.data(), worst, map.get(),
+                                    crease_grid));
+    }
+    return report_object(std::move(r));
+  }, "points"_a, "faces"_a, py::kw_only(), "scheme"_a = "auto", "boundary"_a = "edge_and_corner",
+     "creases"_a = py::none(), "corners"_a = py::none(), "samples_per_edge"_a = 8, "reference"_a = py::none(),
+     "worst"_a = 10, "deformer"_a = py::none(), "crease_grid"_a = 16,
+     R"(Check that the limit surface of (points, faces) is smooth: along every interior edge,
+samples_per_edge points are evaluated on both faces' limit patches and compared (position gap,
+normal angle). A smooth cage gives angles at machine precision (~1e-14 rad); an infinitely sharp
+crease or a kink the deformation put in the cage shows as a large angle on its edges. Also counts
+samples with parallel tangents (degenerate) and normals flipped against reference (rest points of
+the same topology) or, without reference, against the control faces' own normals.
+
+The limit surface of any cage is G1, whatever moved its points: subdivision smooths a kink a
+deformation put into the cage. With deformer=F (a deformkit deformer without weights), the report
+checks F(S) instead, the limit surface S of this cage mapped by F -- the surface that subdividing
+first and deforming after makes -- with exact normals cof(J) (du x dv). Then face_crease holds,
+per control face, the normal jump inside it: the largest second difference |n_a - 2 n_b + n_c| of
+the unit normal along the lines of a (crease_grid+1)^2 sample grid per ptex face, as an angle. A
+smooth map gives O(h^2) (h = 1/crease_grid); a map that is only C0 somewhere (Barr's bend at its
+region ends, off the bend centre line) gives about the angle of its crease. A crease running
+exactly along a control edge is not seen (both faces evaluate F's Jacobian at the same point). Flips are then judged against
+the undeformed surface unless reference is given.)");
+}
+
+namespace {
+py::object report_object(SmoothnessReport&& r) { return py::cast(std::move(r)); }
+}  // namespace
+
+}  // namespace deformkit_py

@@ -1,0 +1,63 @@
+#pragma once
+// A polygon control mesh for subdivision: faces, sharpness tags and per-corner UVs, checked.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace deformkit {
+
+enum class SubdivisionScheme { CatmullClark, Loop };
+// EdgeAndCorner is Blender's "Keep Corners"; EdgeOnly is its "Smooth" boundary.
+enum class BoundaryRule { EdgeAndCorner, EdgeOnly };
+// Blender's UV Smooth choices, in OpenSubdiv's face-varying linear interpolation terms.
+enum class UvSmooth { None, PreserveCorners, PreserveCornersAndJunctions, PreserveCornersJunctionsAndConcave,
+                      PreserveBoundaries, SmoothAll };
+
+// OpenSubdiv's infinitely sharp crease (Sdc::Crease::SHARPNESS_INFINITE).
+constexpr double kInfiniteSharpness = 10.0;
+
+struct ControlMesh {
+  std::size_t vertex_count = 0;
+  std::vector<int> face_sizes;
+  std::vector<int> face_vertices;  // corners, face after face
+  std::vector<int> crease_edges;   // vertex pairs
+  std::vector<double> crease_sharpness;
+  std::vector<int> corner_vertices;
+  std::vector<double> corner_sharpness;
+  std::vector<double> uvs;          // welded face-varying values (u, v)
+  std::vector<int> uv_indices;      // per corner, into uvs; empty without UVs
+  SubdivisionScheme scheme = SubdivisionScheme::CatmullClark;
+  BoundaryRule boundary = BoundaryRule::EdgeAndCorner;
+  UvSmooth uv_smooth = UvSmooth::PreserveBoundaries;
+
+  std::size_t face_count() const { return face_sizes.size(); }
+};
+
+// Builds and checks a control mesh. Throws std::invalid_argument naming the argument (`faces`,
+// `creases`, `corners`, `uvs`) for: fewer than 3 corners, an index out of range, a repeated vertex
+// in a face, a vertex in no face, an edge of more than two faces or used twice in one direction
+// (non-manifold or inconsistently wound), non-triangles under Loop, negative or NaN sharpness, a
+// crease on a non-edge, non-finite UVs. Corners with equal vertex and UV share one UV value.
+ControlMesh make_control_mesh(std::size_t vertex_count, const std::vector<std::int64_t>& corners,
+                              const std::vector<std::int64_t>& offsets, SubdivisionScheme scheme,
+                              BoundaryRule boundary);
+void set_creases(ControlMesh& mesh, const std::vector<std::int64_t>& edges, const std::vector<double>& sharpness);
+void set_corners(ControlMesh& mesh, const std::vector<std::int64_t>& vertices, const std::vector<double>& sharpness);
+void set_uvs(ControlMesh& mesh, const double* corner_uvs, std::size_t corner_count, UvSmooth smooth);
+
+// True if every face is a triangle: the automatic scheme picks Loop then.
+bool all_triangles(const std::vector<std::int64_t>& offsets);
+
+// Every edge as (a, b) with a < b, sorted, and the faces on each side: (face, local edge) pairs,
+// edge_faces[e] listing one or two of them. Local edge i runs from corner i to corner i + 1.
+struct EdgeTopology {
+  std::vector<int> edges;                      // 2 per edge
+  std::vector<int> face_offsets;               // per edge into face_of/local_of (size edges + 1)
+  std::vector<int> face_of, local_of;
+};
+EdgeTopology edge_topology(const ControlMesh& mesh);
+
+std::string scheme_name(SubdivisionScheme s);
+
+}  // namespace deformkit

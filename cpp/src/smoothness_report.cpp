@@ -1,0 +1,228 @@
+#include "deformkit/smoothness_report.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+namespace deformkit {
+
+namespace {
+
+using Vec = std::array<double, 3>;
+
+Vec at(const std::vector<double>& a, std::size_t i) { return {a[3 * i], a[3 * i + 1], a[3 * i + 2]}; }
+Vec cross(const Vec& a, const Vec& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+double dot(const Vec& a, const Vec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+double norm(const Vec& a) { return std::sqrt(dot(a, a)); }
+// Robust near 0 and pi, where acos of a rounded dot product is not (algorithms.md A.7).
+double angle(const Vec& a, const Vec& b) { return std::atan2(norm(cross(a, b)), dot(a, b)); }
+
+double bounding_diagonal(const double* p, std::size_t n) {
+  Vec lo{p[0], p[1], p[2]}, hi = lo;
+  for (std::size_t i = 1; i < n; ++i)
+    for (int c = 0; c < 3; ++c) lo[c] = std::min(lo[c], p[3 * i + c]), hi[c] = std::max(hi[c], p[3 * i + c]);
+  return norm({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+}
+
+// Newell's normal of each control face: the orientation a limit normal is expected to share.
+std::vector<double> face_normals(const ControlMesh& mesh, const double* p) {
+  std::vector<double> out(3 * mesh.face_count());
+  std::size_t offset = 0;
+  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+    const int k = mesh.face_sizes[f];
+    for (int i = 0; i < k; ++i) {
+      const double* a = p + 3 * mesh.face_vertices[offset + i];
+      const double* b = p + 3 * mesh.face_vertices[offset + (i + 1) % k];
+      out[3 * f] += (a[1] - b[1]) * (a[2] + b[2]);
+      out[3 * f + 1] += (a[2] - b[2]) * (a[0] + b[0]);
+      out[3 * f + 2] += (a[0] - b[0]) * (a[1] + b[1]);
+    }
+    offset += k;
+  }
+  return out;
+}
+
+// Positions and tangents of the checked surface at the samples: S, or F(S) with J Du, J Dv.
+LimitSamples checked_surface(const LimitSurface& surface, const std::vector<double>& cvs, const std::vector<int>& ptex,
+                             const std::vector<double>& uv, const Deformer* deformer) {
+  LimitSamples s = surface.evaluate(cvs, ptex.data(), uv.data(), ptex.size(), 1);
+  if (!deformer) return s;
+  const std::size_t n = ptex.size();
+  std::vector<double> jac(9 * n), moved(3 * n);
+  deformer->jacobian(s.position.data(), jac.data(), n);
+  deformer->deform(s.position.data(), moved.data(), n);
+  s.position = std::move(moved);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double* j = &jac[9 * i];
+    for (std::vector<double>* t : {&s.du, &s.dv}) {
+      const Vec d = at(*t, i);
+      for (int r = 0; r < 3; ++r) (*t)[3 * i + r] = j[3 * r] * d[0] + j[3 * r + 1] * d[1] + j[3 * r + 2] * d[2];
+    }
+    const Vec nrm = cross(at(s.du, i), at(s.dv, i));
+    const double len = norm(nrm);
+    for (int c = 0; c < 3; ++c) s.normal[3 * i + c] = len > 0 ? nrm[c] / len : 0.0;
+  }
+  return s;
+}
+
+// The largest second difference of the unit normal along the grid lines of every ptex face,
+// on a (g+1)^2 grid, as an angle: |n(a) - 2 n(b) + n(c)| is O(h^2) where the normal field is
+// smooth and about the jump angle where a crease passes between the three samples.
+std::vector<double> normal_kinks(const LimitSurface& surface, const std::vector<double>& cvs, const Deformer* deformer,
+                                 int g) {
+  const bool triangles = surface.mesh().scheme == SubdivisionScheme::Loop;
+  const int per = (g + 1) * (g + 1), faces = surface.ptex_count();
+  auto inside = [&](int i, int j) { return i >= 0 && j >= 0 && i <= g && j <= g && (!triangles || i + j <= g); };
+  std::vector<int> ptex;
+  std::vector<double> uv;
+  ptex.reserve(std::size_t(faces) * per);
+  for (int p = 0; p < faces; ++p)
+    for (int j = 0; j <= g; ++j)
+      for (int i = 0; i <= g; ++i) {
+        const bool in = inside(i, j);  // outside a triangle: a dummy at its corner, skipped below
+        ptex.push_back(p);
+        uv.insert(uv.end(), {in ? double(i) / g : 0.0, in ? double(j) / g : 0.0});
+      }
+  const LimitSamples s = checked_surface(surface, cvs, ptex, uv, deformer);
+  std::vector<double> worst(faces, 0.0);
+  for (int p = 0; p < faces; ++p) {
+    const std::size_t base = std::size_t(p) * per;
+    auto normal = [&](int i, int j) { return at(s.normal, base + std::size_t(j) * (g + 1) + i); };
+    for (int j = 0; j <= g; ++j)
+      for (int i = 0; i <= g; ++i)
+        for (const auto& [di, dj] : {std::pair{1, 0}, std::pair{0, 1}}) {
+          if (!inside(i - di, j - dj) || !inside(i, j) || !inside(i + di, j + dj)) continue;
+          const Vec a = normal(i - di, j - dj), b = normal(i, j), c = normal(i + di, j + dj);
+          if (norm(a) == 0 || norm(b) == 0 || norm(c) == 0) continue;  // singular: no normal
+          const double d = norm({a[0] - 2 * b[0] + c[0], a[1] - 2 * b[1] + c[1], a[2] - 2 * b[2] + c[2]});
+          worst[p] = std::max(worst[p], 2.0 * std::asin(std::min(1.0, 0.5 * d)));
+        }
+  }
+  return worst;
+}
+
+std::vector<int> largest_first(const std::vector<double>& values, int count) {
+  std::vector<int> order(values.size());
+  std::iota(order.begin(), order.end(), 0);
+  const std::size_t keep = std::min<std::size_t>(order.size(), std::size_t(count));
+  std::partial_sort(order.begin(), order.begin() + keep, order.end(), [&](int x, int y) {
+    return values[x] > values[y] || (values[x] == values[y] && x < y);
+  });
+  order.resize(keep);
+  return order;
+}
+
+}  // namespace
+
+SmoothnessReport smoothness_report(const LimitSurface& surface, const double* points, const SmoothnessOptions& o) {
+  const int samples_per_edge = o.samples_per_edge;
+  if (samples_per_edge < 1 || samples_per_edge > 1000)
+    throw std::invalid_argument("samples_per_edge: must be 1..1000, got " + std::to_string(samples_per_edge));
+  if (o.worst < 0) throw std::invalid_argument("worst: must be >= 0, got " + std::to_string(o.worst));
+  if (o.deformer && (o.crease_grid < 1 || o.crease_grid > 64))
+    throw std::invalid_argument("crease_grid: must be 1..64, got " + std::to_string(o.crease_grid));
+  if (o.deformer && !o.deformer->weights().empty())
+    throw std::invalid_argument("deformer: has per-point weights, which do not apply to limit-surface samples");
+  const ControlMesh& mesh = surface.mesh();
+  require_finite_rows(points, mesh.vertex_count, "points");
+  if (o.reference) require_finite_rows(o.reference, mesh.vertex_count, "reference");
+  const double diagonal = bounding_diagonal(points, mesh.vertex_count);
+  if (!(diagonal > 0)) throw std::invalid_argument("points: all points coincide; the surface has no extent");
+
+  const EdgeTopology topo = edge_topology(mesh);
+  SmoothnessReport r;
+  // Samples: K per side of every interior edge, then one per face (per sub-quad of n-gons).
+  std::vector<int> ptex, owner;  // owner: the base face each sample lies in
+  std::vector<double> uv;
+  std::vector<int> interior;     // the interior edges, in the order of their samples
+  auto add = [&](const PtexPoint& p, int face) {
+    ptex.push_back(p.ptex);
+    uv.insert(uv.end(), {p.u, p.v});
+    owner.push_back(face);
+  };
+  const std::size_t edge_count = topo.edges.size() / 2;
+  for (std::size_t e = 0; e < edge_count; ++e) {
+    const int first = topo.face_offsets[e];
+    if (topo.face_offsets[e + 1] - first != 2) {
+      ++r.boundary_edges;
+      continue;
+    }
+    const int f = topo.face_of[first], g = topo.face_of[first + 1];
+    for (int k = 0; k < samples_per_edge; ++k) {
+      const double t = (k + 0.5) / samples_per_edge;
+      // Consistent winding: g runs along the shared edge the other way.
+      add(surface.edge_point(f, topo.local_of[first], t), f);
+      add(surface.edge_point(g, topo.local_of[first + 1], 1.0 - t), g);
+    }
+    interior.push_back(int(e));
+  }
+  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+    const int subs = mesh.scheme == SubdivisionScheme::CatmullClark && mesh.face_sizes[f] != 4 ? mesh.face_sizes[f] : 1;
+    for (int s = 0; s < subs; ++s) add(surface.interior_point(int(f), s), int(f));
+  }
+  const std::size_t n = ptex.size();
+  const std::vector<double> cvs = surface.patch_points(points);
+  const LimitSamples ls = checked_surface(surface, cvs, ptex, uv, o.deformer);
+  std::vector<double> expected;  // the normal each sample should agree with in sign
+  if (o.reference)
+    expected = surface.evaluate(surface.patch_points(o.reference), ptex.data(), uv.data(), n, 1).normal;
+  else if (o.deformer)  // the undeformed surface: a flip is where the map turned it over
+    expected = surface.evaluate(cvs, ptex.data(), uv.data(), n, 1).normal;
+  else {
+    const std::vector<double> fn = face_normals(mesh, points);
+    expected.resize(3 * n);
+    for (std::size_t i = 0; i < n; ++i) std::copy(&fn[3 * owner[i]], &fn[3 * owner[i]] + 3, &expected[3 * i]);
+  }
+
+  std::vector<char> singular(n, 0), face_flipped(mesh.face_count(), 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec du = at(ls.du, i), dv = at(ls.dv, i);
+    const double scale = norm(du) * norm(dv);
+    const double regularity = scale > 0 ? norm(cross(du, dv)) / scale : 0.0;
+    r.min_regularity = std::min(r.min_regularity, regularity);
+    if (regularity <= 1e-12) {
+      singular[i] = 1;
+      ++r.degenerate_samples;
+    } else if (dot(at(ls.normal, i), at(expected, i)) < 0) {
+      ++r.flipped_samples;
+      face_flipped[owner[i]] = 1;
+    }
+  }
+  r.sample_count = long(n);
+  for (std::size_t f = 0; f < mesh.face_count(); ++f)
+    if (face_flipped[f]) r.flipped_faces.push_back(int(f));
+
+  r.edges.reserve(2 * interior.size());
+  r.edge_angle.assign(interior.size(), 0.0);
+  r.edge_gap.assign(interior.size(), 0.0);
+  for (std::size_t j = 0; j < interior.size(); ++j) {
+    r.edges.insert(r.edges.end(), {topo.edges[2 * interior[j]], topo.edges[2 * interior[j] + 1]});
+    for (int k = 0; k < samples_per_edge; ++k) {
+      const std::size_t a = 2 * (j * samples_per_edge + k), b = a + 1;
+      const Vec pa = at(ls.position, a), pb = at(ls.position, b);
+      r.edge_gap[j] = std::max(r.edge_gap[j], norm({pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]}) / diagonal);
+      if (!singular[a] && !singular[b]) r.edge_angle[j] = std::max(r.edge_angle[j], angle(at(ls.normal, a), at(ls.normal, b)));
+    }
+    r.max_angle = std::max(r.max_angle, r.edge_angle[j]);
+    r.max_gap = std::max(r.max_gap, r.edge_gap[j]);
+  }
+  r.worst_edges = largest_first(r.edge_angle, o.worst);
+
+  if (o.deformer) {
+    const std::vector<double> kinks = normal_kinks(surface, cvs, o.deformer, o.crease_grid);
+    r.face_crease.assign(mesh.face_count(), 0.0);
+    for (std::size_t f = 0; f < mesh.face_count(); ++f)
+      for (int p = surface.ptex_offset()[f]; p < surface.ptex_offset()[f + 1]; ++p)
+        r.face_crease[f] = std::max(r.face_crease[f], kinks[p]);
+    r.max_crease = *std::max_element(r.face_crease.begin(), r.face_crease.end());
+    r.worst_faces = largest_first(r.face_crease, o.worst);
+  }
+  return r;
+}
+
+}  // namespace deformkit
