@@ -77,31 +77,36 @@ std::vector<double> normal_kinks(const LimitSurface& surface, const std::vector<
                                  int g) {
   const bool triangles = surface.mesh().scheme == SubdivisionScheme::Loop;
   const int per = (g + 1) * (g + 1), faces = surface.ptex_count();
+  const int batch = std::max(1, (1 << 20) / per);  // ptex faces per batch: bounded memory
   auto inside = [&](int i, int j) { return i >= 0 && j >= 0 && i <= g && j <= g && (!triangles || i + j <= g); };
+  std::vector<double> worst(faces, 0.0);
   std::vector<int> ptex;
   std::vector<double> uv;
-  ptex.reserve(std::size_t(faces) * per);
-  for (int p = 0; p < faces; ++p)
-    for (int j = 0; j <= g; ++j)
-      for (int i = 0; i <= g; ++i) {
-        const bool in = inside(i, j);  // outside a triangle: a dummy at its corner, skipped below
-        ptex.push_back(p);
-        uv.insert(uv.end(), {in ? double(i) / g : 0.0, in ? double(j) / g : 0.0});
-      }
-  const LimitSamples s = checked_surface(surface, cvs, ptex, uv, deformer);
-  std::vector<double> worst(faces, 0.0);
-  for (int p = 0; p < faces; ++p) {
-    const std::size_t base = std::size_t(p) * per;
-    auto normal = [&](int i, int j) { return at(s.normal, base + std::size_t(j) * (g + 1) + i); };
-    for (int j = 0; j <= g; ++j)
-      for (int i = 0; i <= g; ++i)
-        for (const auto& [di, dj] : {std::pair{1, 0}, std::pair{0, 1}}) {
-          if (!inside(i - di, j - dj) || !inside(i, j) || !inside(i + di, j + dj)) continue;
-          const Vec a = normal(i - di, j - dj), b = normal(i, j), c = normal(i + di, j + dj);
-          if (norm(a) == 0 || norm(b) == 0 || norm(c) == 0) continue;  // singular: no normal
-          const double d = norm({a[0] - 2 * b[0] + c[0], a[1] - 2 * b[1] + c[1], a[2] - 2 * b[2] + c[2]});
-          worst[p] = std::max(worst[p], 2.0 * std::asin(std::min(1.0, 0.5 * d)));
+  for (int p0 = 0; p0 < faces; p0 += batch) {
+    const int p1 = std::min(faces, p0 + batch);
+    ptex.clear();
+    uv.clear();
+    for (int p = p0; p < p1; ++p)
+      for (int j = 0; j <= g; ++j)
+        for (int i = 0; i <= g; ++i) {
+          const bool in = inside(i, j);  // outside a triangle: a dummy at its corner, skipped below
+          ptex.push_back(p);
+          uv.insert(uv.end(), {in ? double(i) / g : 0.0, in ? double(j) / g : 0.0});
         }
+    const LimitSamples s = checked_surface(surface, cvs, ptex, uv, deformer);
+    for (int p = p0; p < p1; ++p) {
+      const std::size_t base = std::size_t(p - p0) * per;
+      auto normal = [&](int i, int j) { return at(s.normal, base + std::size_t(j) * (g + 1) + i); };
+      for (int j = 0; j <= g; ++j)
+        for (int i = 0; i <= g; ++i)
+          for (const auto& [di, dj] : {std::pair{1, 0}, std::pair{0, 1}}) {
+            if (!inside(i - di, j - dj) || !inside(i, j) || !inside(i + di, j + dj)) continue;
+            const Vec a = normal(i - di, j - dj), b = normal(i, j), c = normal(i + di, j + dj);
+            if (norm(a) == 0 || norm(b) == 0 || norm(c) == 0) continue;  // singular: no normal
+            const double d = norm({a[0] - 2 * b[0] + c[0], a[1] - 2 * b[1] + c[1], a[2] - 2 * b[2] + c[2]});
+            worst[p] = std::max(worst[p], 2.0 * std::asin(std::min(1.0, 0.5 * d)));
+          }
+    }
   }
   return worst;
 }
@@ -135,82 +140,98 @@ SmoothnessReport smoothness_report(const LimitSurface& surface, const double* po
   if (!(diagonal > 0)) throw std::invalid_argument("points: all points coincide; the surface has no extent");
 
   const EdgeTopology topo = edge_topology(mesh);
+  const std::vector<double> cvs = surface.patch_points(points);
+  const std::vector<double> reference_cvs = o.reference ? surface.patch_points(o.reference) : std::vector<double>();
+  const std::vector<double> face_normal = face_normals(mesh, points);
   SmoothnessReport r;
-  // Samples: K per side of every interior edge, then one per face (per sub-quad of n-gons).
+  std::vector<char> face_flipped(mesh.face_count(), 0);
+
+  // One batch of samples: the checked surface there, and which samples are singular or flipped.
   std::vector<int> ptex, owner;  // owner: the base face each sample lies in
   std::vector<double> uv;
-  std::vector<int> interior;     // the interior edges, in the order of their samples
   auto add = [&](const PtexPoint& p, int face) {
     ptex.push_back(p.ptex);
     uv.insert(uv.end(), {p.u, p.v});
     owner.push_back(face);
   };
-  const std::size_t edge_count = topo.edges.size() / 2;
-  for (std::size_t e = 0; e < edge_count; ++e) {
-    const int first = topo.face_offsets[e];
-    if (topo.face_offsets[e + 1] - first != 2) {
-      ++r.boundary_edges;
-      continue;
+  std::vector<char> singular;
+  auto run_batch = [&]() {
+    const std::size_t n = ptex.size();
+    LimitSamples ls = checked_surface(surface, cvs, ptex, uv, o.deformer);
+    std::vector<double> expected;  // the normal each sample should agree with in sign
+    if (o.reference)
+      expected = surface.evaluate(reference_cvs, ptex.data(), uv.data(), n, 1).normal;
+    else if (o.deformer)  // the undeformed surface: a flip is where the map turned it over
+      expected = surface.evaluate(cvs, ptex.data(), uv.data(), n, 1).normal;
+    singular.assign(n, 0);
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec du = at(ls.du, i), dv = at(ls.dv, i);
+      const double scale = norm(du) * norm(dv);
+      const double regularity = scale > 0 ? norm(cross(du, dv)) / scale : 0.0;
+      r.min_regularity = std::min(r.min_regularity, regularity);
+      const Vec want = expected.empty() ? at(face_normal, owner[i]) : at(expected, i);
+      if (regularity <= 1e-12) {
+        singular[i] = 1;
+        ++r.degenerate_samples;
+      } else if (dot(at(ls.normal, i), want) < 0) {
+        ++r.flipped_samples;
+        face_flipped[owner[i]] = 1;
+      }
     }
-    const int f = topo.face_of[first], g = topo.face_of[first + 1];
-    for (int k = 0; k < samples_per_edge; ++k) {
-      const double t = (k + 0.5) / samples_per_edge;
-      // Consistent winding: g runs along the shared edge the other way.
-      add(surface.edge_point(f, topo.local_of[first], t), f);
-      add(surface.edge_point(g, topo.local_of[first + 1], 1.0 - t), g);
-    }
-    interior.push_back(int(e));
-  }
-  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
-    const int subs = mesh.scheme == SubdivisionScheme::CatmullClark && mesh.face_sizes[f] != 4 ? mesh.face_sizes[f] : 1;
-    for (int s = 0; s < subs; ++s) add(surface.interior_point(int(f), s), int(f));
-  }
-  const std::size_t n = ptex.size();
-  const std::vector<double> cvs = surface.patch_points(points);
-  const LimitSamples ls = checked_surface(surface, cvs, ptex, uv, o.deformer);
-  std::vector<double> expected;  // the normal each sample should agree with in sign
-  if (o.reference)
-    expected = surface.evaluate(surface.patch_points(o.reference), ptex.data(), uv.data(), n, 1).normal;
-  else if (o.deformer)  // the undeformed surface: a flip is where the map turned it over
-    expected = surface.evaluate(cvs, ptex.data(), uv.data(), n, 1).normal;
-  else {
-    const std::vector<double> fn = face_normals(mesh, points);
-    expected.resize(3 * n);
-    for (std::size_t i = 0; i < n; ++i) std::copy(&fn[3 * owner[i]], &fn[3 * owner[i]] + 3, &expected[3 * i]);
-  }
+    r.sample_count += long(n);
+    return ls;
+  };
+  auto clear = [&]() { ptex.clear(), uv.clear(), owner.clear(); };
 
-  std::vector<char> singular(n, 0), face_flipped(mesh.face_count(), 0);
-  for (std::size_t i = 0; i < n; ++i) {
-    const Vec du = at(ls.du, i), dv = at(ls.dv, i);
-    const double scale = norm(du) * norm(dv);
-    const double regularity = scale > 0 ? norm(cross(du, dv)) / scale : 0.0;
-    r.min_regularity = std::min(r.min_regularity, regularity);
-    if (regularity <= 1e-12) {
-      singular[i] = 1;
-      ++r.degenerate_samples;
-    } else if (dot(at(ls.normal, i), at(expected, i)) < 0) {
-      ++r.flipped_samples;
-      face_flipped[owner[i]] = 1;
+  // Edges in batches of about 2^20 samples, which bounds the memory on large meshes.
+  const std::size_t edge_count = topo.edges.size() / 2;
+  const std::size_t batch = std::max<std::size_t>(1, (std::size_t(1) << 20) / (2 * samples_per_edge));
+  std::vector<int> interior;  // the interior edges of the current batch
+  for (std::size_t e0 = 0; e0 < edge_count; e0 += batch) {
+    clear();
+    interior.clear();
+    for (std::size_t e = e0; e < std::min(edge_count, e0 + batch); ++e) {
+      const int first = topo.face_offsets[e];
+      if (topo.face_offsets[e + 1] - first != 2) {
+        ++r.boundary_edges;
+        continue;
+      }
+      const int f = topo.face_of[first], g = topo.face_of[first + 1];
+      for (int k = 0; k < samples_per_edge; ++k) {
+        const double t = (k + 0.5) / samples_per_edge;
+        // Consistent winding: g runs along the shared edge the other way.
+        add(surface.edge_point(f, topo.local_of[first], t), f);
+        add(surface.edge_point(g, topo.local_of[first + 1], 1.0 - t), g);
+      }
+      interior.push_back(int(e));
+    }
+    const LimitSamples ls = run_batch();
+    for (std::size_t j = 0; j < interior.size(); ++j) {
+      r.edges.insert(r.edges.end(), {topo.edges[2 * interior[j]], topo.edges[2 * interior[j] + 1]});
+      double gap = 0.0, turn = 0.0;
+      for (int k = 0; k < samples_per_edge; ++k) {
+        const std::size_t a = 2 * (j * samples_per_edge + k), b = a + 1;
+        const Vec pa = at(ls.position, a), pb = at(ls.position, b);
+        gap = std::max(gap, norm({pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]}) / diagonal);
+        if (!singular[a] && !singular[b]) turn = std::max(turn, angle(at(ls.normal, a), at(ls.normal, b)));
+      }
+      r.edge_gap.push_back(gap);
+      r.edge_angle.push_back(turn);
+      r.max_angle = std::max(r.max_angle, turn);
+      r.max_gap = std::max(r.max_gap, gap);
     }
   }
-  r.sample_count = long(n);
+  // Face interiors (one sample per face, per sub-quad of n-gons): flips and degeneracies only.
+  for (std::size_t f0 = 0; f0 < mesh.face_count(); f0 += std::size_t(1) << 20) {
+    clear();
+    for (std::size_t f = f0; f < std::min(mesh.face_count(), f0 + (std::size_t(1) << 20)); ++f) {
+      const bool split = mesh.scheme == SubdivisionScheme::CatmullClark && mesh.face_sizes[f] != 4;
+      for (int sub = 0; sub < (split ? mesh.face_sizes[f] : 1); ++sub) add(surface.interior_point(int(f), sub), int(f));
+    }
+    run_batch();
+  }
   for (std::size_t f = 0; f < mesh.face_count(); ++f)
     if (face_flipped[f]) r.flipped_faces.push_back(int(f));
-
-  r.edges.reserve(2 * interior.size());
-  r.edge_angle.assign(interior.size(), 0.0);
-  r.edge_gap.assign(interior.size(), 0.0);
-  for (std::size_t j = 0; j < interior.size(); ++j) {
-    r.edges.insert(r.edges.end(), {topo.edges[2 * interior[j]], topo.edges[2 * interior[j] + 1]});
-    for (int k = 0; k < samples_per_edge; ++k) {
-      const std::size_t a = 2 * (j * samples_per_edge + k), b = a + 1;
-      const Vec pa = at(ls.position, a), pb = at(ls.position, b);
-      r.edge_gap[j] = std::max(r.edge_gap[j], norm({pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]}) / diagonal);
-      if (!singular[a] && !singular[b]) r.edge_angle[j] = std::max(r.edge_angle[j], angle(at(ls.normal, a), at(ls.normal, b)));
-    }
-    r.max_angle = std::max(r.max_angle, r.edge_angle[j]);
-    r.max_gap = std::max(r.max_gap, r.edge_gap[j]);
-  }
   r.worst_edges = largest_first(r.edge_angle, o.worst);
 
   if (o.deformer) {
