@@ -201,6 +201,7 @@ PySubdivider make_subdivider(const py::object& points, const py::object& faces, 
   Cage cage = cage_with_uvs(points, faces, scheme, boundary, creases, corners, uvs, uv_smooth, max_faces);
   PySubdivider s;
   s.points = cage.points;
+  require_finite_rows(cage.points.data(), cage.mesh.vertex_count, "points");  // the default cage
   py::gil_scoped_release release;
   s.subdivider = std::make_shared<Subdivider>(cage.mesh, level, max_faces);
   return s;
