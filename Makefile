@@ -65,6 +65,7 @@ bench: build
 	$(PY) benchmarks/bench_barr.py
 	$(PY) benchmarks/bench_lattice.py
 	$(PY) benchmarks/bench_surface.py
+	$(PY) benchmarks/bench_subdivision.py
 
 wheel: setup
 	$(PY) -m pip wheel -q --disable-pip-version-check --no-build-isolation --no-deps -w dist .

@@ -1,7 +1,10 @@
 """Helpers the benchmarks share: how busy the machine is, and repeated timings."""
+import ctypes
+import ctypes.util
 import os
 import resource
 import time
+from contextlib import contextmanager
 
 
 def cpu_busy(seconds=0.5):
@@ -59,3 +62,20 @@ def timings(fn, repeats, warmup=1):
         fn()
         ts.append(time.perf_counter() - t0)
     return ts
+
+
+@contextmanager
+def omp_threads(count):
+    """OpenMP threads of the calls made from this thread inside the block (libgomp's
+    omp_set_num_threads; deformkit is built with GCC's OpenMP). Yields False when libgomp is absent."""
+    try:
+        gomp = ctypes.CDLL(ctypes.util.find_library("gomp") or "libgomp.so.1")
+    except OSError:
+        yield False
+        return
+    before = gomp.omp_get_max_threads()
+    gomp.omp_set_num_threads(count)
+    try:
+        yield True
+    finally:
+        gomp.omp_set_num_threads(before)

@@ -75,8 +75,6 @@ one-shot rows (rotation_invariant construction, Blender bind). "other processes 
 CPUs" counts neither this process nor the CGAL child it waited for.
 """
 import argparse
-import ctypes
-import ctypes.util
 import json
 import os
 import pathlib
@@ -85,12 +83,11 @@ import statistics
 import subprocess
 import tempfile
 import time
-from contextlib import contextmanager
 
 import numpy as np
 
 import deformkit as dk
-from bench_common import OtherLoad, cpu_busy, timings
+from bench_common import OtherLoad, cpu_busy, omp_threads, timings
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 MESHES = ROOT.parent / "shared" / "meshes"
@@ -128,23 +125,6 @@ def components(n, faces):
             lab = nxt
         if np.array_equal(lab, old):
             return np.unique(lab, return_inverse=True)[1]
-
-
-@contextmanager
-def omp_threads(count):
-    """OpenMP threads of the calls made from this thread inside the block (libgomp's
-    omp_set_num_threads; deformkit is built with GCC's OpenMP). Yields False when libgomp is absent."""
-    try:
-        gomp = ctypes.CDLL(ctypes.util.find_library("gomp") or "libgomp.so.1")
-    except OSError:
-        yield False
-        return
-    before = gomp.omp_get_max_threads()
-    gomp.omp_set_num_threads(count)
-    try:
-        yield True
-    finally:
-        gomp.omp_set_num_threads(before)
 
 
 def weight_stats(points, faces):

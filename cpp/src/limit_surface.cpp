@@ -120,6 +120,16 @@ LimitSamples LimitSurface::evaluate(const std::vector<double>& cvs, const int* p
     double w[6][20];  // weights of P, Du, Dv, Duu, Duv, Dvv; 20 = the most points a patch has
     for (std::size_t o = begin; o < end; ++o) {
       const std::size_t i = order[o];
+      if (o + 16 < end) {  // samples arrive in face order, so their own rows are scattered: fetch ahead
+        const std::size_t ahead = order[o + 16];
+        __builtin_prefetch(uv + 2 * ahead);
+        __builtin_prefetch(out.position.data() + 3 * ahead, 1);
+        if (derivatives >= 1) {
+          __builtin_prefetch(out.du.data() + 3 * ahead, 1);
+          __builtin_prefetch(out.dv.data() + 3 * ahead, 1);
+          __builtin_prefetch(out.normal.data() + 3 * ahead, 1);
+        }
+      }
       const double u = std::clamp(uv[2 * i], 0.0, 1.0), v = std::clamp(uv[2 * i + 1], 0.0, 1.0);
       const Far::PatchTable::PatchHandle* h = osd_->map->FindPatch(ptex[i], u, v);
       if (!h) {
