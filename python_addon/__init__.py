@@ -1,5 +1,5 @@
-"""deformkit for Blender: Barr deformers, lattices and Laplacian surface editing as
-non-destructive entries beside the modifier stack, plus headless batch processing."""
+"""deformkit for Blender: Barr deformers, lattices, Laplacian surface editing and OpenSubdiv
+subdivision as non-destructive entries beside the modifier stack, plus headless batch processing."""
 
 bl_info = {
     "name": "deformkit",
@@ -7,19 +7,19 @@ bl_info = {
     "version": (0, 1, 0),
     "blender": (3, 4, 0),
     "location": "Properties > Modifiers > deformkit",
-    "description": "Barr's twist, bend, taper and stretch, lattices and Laplacian editing, as non-destructive "
-                   "entries",
+    "description": "Barr's twist, bend, taper and stretch, lattices, Laplacian editing and subdivision, as "
+                   "non-destructive entries",
     "category": "Object",
 }
 
 if "bpy" in locals():  # F8 / script reload
     import importlib
-    for _m in (native, properties, outputs, meshdata, lattices, surface, evaluation,  # noqa: F821
+    for _m in (native, properties, outputs, meshdata, lattices, surface, subdivision, evaluation,  # noqa: F821
                api, operators, ui, handlers):  # noqa: F821
         importlib.reload(_m)
 else:
     from . import (api, evaluation, handlers, lattices, meshdata, native, operators, outputs, properties,
-                   surface, ui)
+                   subdivision, surface, ui)
 
 import bpy  # noqa: E402
 

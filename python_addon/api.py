@@ -12,6 +12,9 @@
     entry = api.add_laplacian(obj, anchors_group="Feet", handles_group="Hand", handle_target="OBJECT",
                               handle_object=empty)  # bound at once; move the empty
     api.unbind_laplacian(obj, 2)
+
+    api.add_entry(obj, "SUBDIVIDE", levels=2, render_levels=3)  # last in the stack
+    figures = api.check_smoothness(obj)  # of the cage; selects the creased edges
 """
 from collections import namedtuple
 
@@ -19,7 +22,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from . import evaluation, lattices, surface
+from . import evaluation, lattices, meshdata, native, subdivision, surface
 from .properties import ENTRY_TYPES, LATTICE_BASES
 
 TYPES = tuple(t[0] for t in ENTRY_TYPES)
@@ -27,7 +30,8 @@ BASES = tuple(b[0] for b in LATTICE_BASES)
 PARAMS = ("name", "show_viewport", "show_render", "angle", "factor", "deform_axis", "origin", "limits",
           "lock_x", "lock_y", "lock_z", "vertex_group", "invert_vertex_group",
           "lattice", "lattice_basis", "strength", "outside",
-          "method", "weights", "iterations", "anchors_group", "handles_group", "handle_target", "handle_object")
+          "method", "weights", "iterations", "anchors_group", "handles_group", "handle_target", "handle_object",
+          "levels", "render_levels", "scheme", "boundary_smooth", "use_creases", "uv_smooth")
 
 
 def _require_mesh(obj):
@@ -37,8 +41,9 @@ def _require_mesh(obj):
 
 
 def add_entry(obj, type="TWIST", **params):
-    """Append an entry of `type` (Twist, Taper, Bend, Stretch, Lattice, Laplacian; case-insensitive)
-    and evaluate. A Laplacian entry starts unbound (see add_laplacian)."""
+    """Append an entry of `type` (Twist, Taper, Bend, Stretch, Lattice, Laplacian, Subdivide;
+    case-insensitive) and evaluate. A Laplacian entry starts unbound (see add_laplacian); a
+    Subdivide entry must stay the last one."""
     _require_mesh(obj)
     kind = str(type).upper()
     if kind not in TYPES:
@@ -314,3 +319,49 @@ def direct_manipulation(obj, index, vertex_indices, targets):
     written = lattices.setup(obj, lattice_entry(obj, index), strength=1.0).deformer.deform(points)
     residual = np.linalg.norm(points + influence[:, None] * (written - points) - targets, axis=1)
     return Manipulated(float(residual.max()), residual, int(result.rank))
+
+
+# Smoothness ------------------------------------------------------------------------------------
+
+def check_smoothness(obj, select=True, worst=10, min_angle=1e-6, samples_per_edge=8):
+    """dk.smoothness_report on obj's cage: the base mesh through the entries above the Subdivide
+    entry (all entries if there is none), with that entry's scheme, boundary and creases (a new
+    entry's defaults without one). Stores the figures on the stack for the panel and, with select,
+    selects the worst edges whose angle exceeds min_angle radians (above rounding, so a smooth
+    surface selects none) and deselects the rest. Returns the report's to_dict() plus
+    "worst_edge" (its vertices) and "selected_edges" (Blender edge indices)."""
+    _require_mesh(obj)
+    mesh = obj.data
+    if obj.mode == "EDIT":
+        # Edit mode keeps the mesh in its own copy, and attributes (creases) read through it: read a
+        # plain copy of the mesh as edit mode leaves it.
+        obj.update_from_editmode()
+        mesh = obj.data.copy()
+    try:
+        entries = obj.deformkit.entries
+        index = next((i for i, e in enumerate(entries) if e.type == "SUBDIVIDE"), len(entries))
+        cage = evaluation.entry_input(obj, index)
+        topo = meshdata.topology(mesh)
+        if topo.faces == 0:
+            raise ValueError("the mesh has no faces: there is no surface to check")
+        kwargs = subdivision.topology_kwargs(mesh, entries[index] if index < len(entries) else None)
+        # Flips are judged against the base mesh's own surface: where the entries turned it over.
+        report = native.dk.smoothness_report(cage, meshdata.polygons(topo), samples_per_edge=samples_per_edge,
+                                             worst=worst, reference=meshdata.base_positions(mesh), **kwargs)
+        edge_index = meshdata.edge_lookup(mesh)
+    finally:
+        if mesh is not obj.data:
+            bpy.data.meshes.remove(mesh)
+    figures = report.to_dict()
+    pairs, angles = report.edges[report.worst_edges], report.edge_angle[report.worst_edges]
+    figures["worst_edge"] = [int(v) for v in pairs[0]] if len(pairs) else None
+    figures["selected_edges"] = sorted(edge_index[tuple(p)] for p in pairs[angles > min_angle].tolist())
+    if select:
+        meshdata.select_edges(obj, figures["selected_edges"])
+    stored = obj.deformkit.smoothness
+    stored.checked = True
+    stored.max_angle, stored.max_gap = report.max_angle, report.max_gap
+    stored.degenerate, stored.flipped = report.degenerate_samples, report.flipped_samples
+    stored.worst_edge = figures["worst_edge"] or (-1, -1)
+    stored.selected = len(figures["selected_edges"])
+    return figures

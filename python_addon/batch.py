@@ -9,7 +9,7 @@ import time
 import bpy
 import numpy as np
 
-from . import api, evaluation
+from . import api, evaluation, subdivision
 
 
 class BatchError(Exception):
@@ -17,11 +17,12 @@ class BatchError(Exception):
 
 
 def resolve_objects(selectors):
-    """Objects named in the recipe; "*" means every mesh object. A missing name is an error."""
+    """Objects named in the recipe; "*" means every mesh object but Subdivide entries' helpers. A
+    missing name is an error."""
     found = []
     for name in selectors:
         if name == "*":
-            found += [o for o in bpy.data.objects if o.type == "MESH"]
+            found += [o for o in bpy.data.objects if o.type == "MESH" and subdivision.OWNER not in o]
             continue
         obj = bpy.data.objects.get(name)
         if obj is None:
@@ -62,11 +63,17 @@ def evaluate_saved():
     return [o for o in bpy.data.objects if o.type == "MESH" and len(o.deformkit.entries) > 0]
 
 
-def describe(obj, seconds):
+def describe(obj, seconds, smoothness=False):
+    """The object's line in the report; with smoothness, api.check_smoothness's figures too (the
+    selection is left alone)."""
     depsgraph = bpy.context.evaluated_depsgraph_get()
     evaluated = obj.evaluated_get(depsgraph)
-    return {"name": obj.name, "vertices": len(obj.data.vertices), "evaluated_vertices": len(evaluated.data.vertices),
-            "entries": [e.type for e in obj.deformkit.entries], "seconds": round(seconds, 4)}
+    found = {"name": obj.name, "vertices": len(obj.data.vertices), "evaluated_vertices": len(evaluated.data.vertices),
+             "evaluated_faces": len(evaluated.data.polygons), "entries": [e.type for e in obj.deformkit.entries],
+             "seconds": round(seconds, 4)}
+    if smoothness:
+        found["smoothness"] = api.check_smoothness(obj, select=False)
+    return found
 
 
 def save_atomically(path):
@@ -115,8 +122,9 @@ def _stored_positions(mesh, base):
     return values.reshape(-1, 3).astype(np.float64)
 
 
-def process(input_path, output_path, recipe=None, preview_path=None):
-    """Open `input_path`, run the recipe (or the saved stacks), save to `output_path`."""
+def process(input_path, output_path, recipe=None, preview_path=None, smoothness=False):
+    """Open `input_path`, run the recipe (or the saved stacks), save to `output_path`. With
+    smoothness (or a recipe's "smoothness": true) the report has each object's smoothness figures."""
     t0 = time.perf_counter()
     result = {"file": input_path, "output": output_path, "status": "failed", "error": "", "objects": []}
     try:
@@ -128,10 +136,11 @@ def process(input_path, output_path, recipe=None, preview_path=None):
         except RuntimeError as exc:
             raise BatchError(f"cannot open as a .blend file: {str(exc).strip()}") from exc
         objects = apply_recipe(recipe) if recipe else evaluate_saved()
+        smoothness = smoothness or bool(recipe and recipe.get("smoothness", False))
         for obj in objects:
             t = time.perf_counter()
             api.evaluate(obj)
-            result["objects"].append(describe(obj, time.perf_counter() - t))
+            result["objects"].append(describe(obj, time.perf_counter() - t, smoothness))
         save_atomically(output_path)
         if preview_path:
             export_preview(objects, preview_path)
@@ -143,12 +152,14 @@ def process(input_path, output_path, recipe=None, preview_path=None):
 
 
 def worker_main(argv=None):
-    """Entry point inside Blender: args after `--` are INPUT OUTPUT RESULT_JSON [RECIPE_JSON] [PREVIEW]."""
+    """Entry point inside Blender: args after `--` are INPUT OUTPUT RESULT_JSON [RECIPE_JSON] [PREVIEW]
+    [SMOOTHNESS] (non-empty: add the smoothness figures)."""
     argv = sys.argv[sys.argv.index("--") + 1:] if argv is None else argv
     input_path, output_path, result_path = argv[:3]
     recipe = json.loads(argv[3]) if len(argv) > 3 and argv[3] else None
     preview = argv[4] if len(argv) > 4 and argv[4] else None
-    result = process(input_path, output_path, recipe, preview)
+    smoothness = len(argv) > 5 and bool(argv[5])
+    result = process(input_path, output_path, recipe, preview, smoothness)
     result["blender"] = bpy.app.version_string
     with open(result_path + ".tmp", "w") as fh:
         json.dump(result, fh)

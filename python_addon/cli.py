@@ -1,15 +1,18 @@
 """deformkit-batch: run deformkit stacks over many .blend files without a window.
 
     deformkit-batch INPUT... --out DIR [--recipe FILE | --evaluate-saved] [--jobs N]
-                    [--blender PATH] [--report PATH] [--preview] [--timeout SECONDS]
+                    [--blender PATH] [--report PATH] [--preview] [--smoothness] [--timeout SECONDS]
 
 Each input runs in its own `blender -b --factory-startup` process with the add-on enabled. Outputs
 go to DIR/<name>.blend (written under a temporary name, then renamed; an input is never
 overwritten), with a JSON report (per file: objects, vertex counts, time, status, error) and, with
 --preview, a before/after PNG per file. A failed file does not stop the others; the exit status
-is 1 if any failed. Recipes are JSON or TOML:
+is 1 if any failed. With --smoothness (or "smoothness": true in the recipe) each object's report
+also has the smoothness figures of its cage (largest normal angle, gap, degenerate and flipped
+samples, worst edges). Recipes are JSON or TOML:
 
-    {"objects": ["Suzanne"], "deformers": [{"type": "TWIST", "angle": 1.57, "deform_axis": "Z"}]}
+    {"objects": ["Suzanne"], "deformers": [{"type": "TWIST", "angle": 1.57, "deform_axis": "Z"},
+                                           {"type": "SUBDIVIDE", "levels": 2}]}
 
 This module needs no bpy: it only starts Blender. Run it with the project's Python
 (`scripts/deformkit-batch`), which also has matplotlib for the pictures.
@@ -116,14 +119,14 @@ def staging_paths(tmp):
     return [addons, lib]
 
 
-def run_one(blender, paths, src, dst, recipe, preview, timeout, work):
+def run_one(blender, paths, src, dst, recipe, preview, timeout, work, smoothness=False):
     result_path = os.path.join(work, os.path.basename(dst) + ".json")
     problem = input_problem(src)
     if problem:
         return {"file": src, "output": dst, "status": "failed", "error": problem, "objects": [], "seconds": 0.0}
     cmd = [blender, "-b", "--factory-startup", "--python-exit-code", "1", "--python-expr",
            WORKER.format(paths=paths), "--", src, dst, result_path, json.dumps(recipe) if recipe else "",
-           preview or ""]
+           preview or "", "1" if smoothness else ""]
     t0 = time.perf_counter()
     try:
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
@@ -166,6 +169,8 @@ def main(argv=None):
     ap.add_argument("--blender", default=os.environ.get("DEFORMKIT_BLENDER", "blender"))
     ap.add_argument("--report", help="report path (default OUT/report.json)")
     ap.add_argument("--preview", action="store_true", help="write a before/after PNG per file")
+    ap.add_argument("--smoothness", action="store_true",
+                    help="add each object's smoothness figures (dk.smoothness_report of its cage) to the report")
     ap.add_argument("--timeout", type=float, default=600.0, help="seconds per file")
     args = ap.parse_args(argv)
     if args.jobs < 1:
@@ -194,7 +199,7 @@ def main(argv=None):
                 result = {"file": src, "output": dst, "status": "failed", "objects": [], "seconds": 0.0,
                           "error": f"refusing to write {dst}: it is one of the inputs"}
             else:
-                result = run_one(blender, paths, src, dst, recipe, preview, args.timeout, work)
+                result = run_one(blender, paths, src, dst, recipe, preview, args.timeout, work, args.smoothness)
             if result["status"] != "ok":  # a Blender killed mid-save leaves its temporary file
                 for leftover in glob.glob(glob.escape(dst) + ".tmp*") + glob.glob(glob.escape(dst) + "@"):
                     os.unlink(leftover)
@@ -219,7 +224,8 @@ def main(argv=None):
 
     failed = sum(r["status"] != "ok" for r in results)
     write_json(report_path, {"started": started, "blender": blender, "recipe": recipe,
-                             "evaluate_saved": args.evaluate_saved, "ok": len(results) - failed,
+                             "evaluate_saved": args.evaluate_saved, "smoothness": args.smoothness,
+                             "ok": len(results) - failed,
                              "failed": failed, "files": results})
     print(f"deformkit-batch: {len(results) - failed} ok, {failed} failed; report: {report_path}")
     return 1 if failed else 0

@@ -4,7 +4,9 @@ The base mesh is never written. The stack's result is stored as a per-point posi
 (and a second one for renders when an entry is hidden in one of them) that a Geometry Nodes
 modifier named "deformkit" stores into the positions, so the result takes part in Blender's own
 modifier stack, saves with the file and survives with the add-on disabled; removing every entry
-removes the modifier and the attributes, which gives back the original mesh bit for bit.
+removes the modifier and the attributes, which gives back the original mesh bit for bit. A
+Subdivide entry, last in the stack, subdivides that result into helper objects whose geometry the
+modifier then outputs instead (subdivision.py).
 """
 import time
 import zlib
@@ -12,7 +14,7 @@ import zlib
 import bpy
 import numpy as np
 
-from . import lattices, meshdata, native, surface
+from . import lattices, meshdata, native, subdivision, surface
 from .meshdata import base_positions, cache_key, vertex_group_weights  # noqa: F401
 from .outputs import (ATTR_RENDER, ATTR_VIEWPORT, ATTR_VOLUME, MODIFIER_NAME, NODE_GROUP_NAME,  # noqa: F401
                       EntryError, ensure_modifier, outputs_present, remove_outputs, write_vector_attribute,
@@ -75,8 +77,12 @@ def entry_weights(obj, entry, reuse_weights=False):
 
 
 def entry_setup(obj, entry, reuse_weights=False):
-    """(deformer, fingerprint of its settings, lattices.Setup, surface.Setup or None) for one
-    entry. A Laplacian entry has no pointwise deformer (None): it needs the whole mesh."""
+    """(deformer, fingerprint of its settings, lattices.Setup, surface.Setup, subdivision.Setup or
+    None) for one entry. Laplacian and Subdivide entries have no pointwise deformer (None): they
+    need the whole mesh."""
+    if entry.type == "SUBDIVIDE":
+        sub = subdivision.setup(obj, entry)
+        return None, sub.fingerprint, sub
     if entry.type == "LAPLACIAN":
         laplacian = surface.setup(obj, entry, reuse_weights)
         return None, laplacian.fingerprint, laplacian
@@ -134,6 +140,7 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
     _evaluating.add(uid)
     try:
         if len(stack.entries) == 0:
+            subdivision.discard(obj)
             remove_outputs(obj)
             _last_inputs.pop(uid, None)
             surface.forget(uid)
@@ -143,18 +150,24 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
             base = cached[1]
         else:
             base = base_positions(obj.data)
-        built, key, failed = [], [len(base), stack.show_volume_ratio], False
+        built, key, failed, sub = [], [len(base), stack.show_volume_ratio], False, None
         surface.keep_only(uid, {e.bind_id for e in stack.entries if e.type == "LAPLACIAN"})
         for index, entry in enumerate(stack.entries):
             try:
+                if sub is not None:
+                    raise EntryError(f"comes after the Subdivide entry '{sub.entry.name}', which must be the last "
+                                     "entry (it changes the topology): move this entry above it")
                 deformer, fingerprint, special = entry_setup(
                     obj, entry, reuse_base if reuse_weights is None else reuse_weights)
             except ValueError as exc:
                 _set_if_changed(entry, "error", str(exc))
                 failed = True
                 continue
-            _set_if_changed(entry, "error", "")
-            built.append((index, entry, deformer, special))
+            if entry.type == "SUBDIVIDE":
+                sub = special  # its error is cleared once it has subdivided
+            else:
+                _set_if_changed(entry, "error", "")
+                built.append((index, entry, deformer, special))
             key.append(fingerprint)
         if failed:
             return False
@@ -175,6 +188,14 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         except ValueError as exc:
             _set_if_changed(stack, "error", str(exc))
             return False
+        subdivided = None
+        if sub is not None:  # before anything is written: a refused subdivision leaves the result as it was
+            try:
+                subdivided = subdivision.results(uid, sub, positions, render_positions)
+            except EntryError as exc:
+                _set_if_changed(sub.entry, "error", str(exc))
+                return False
+            _set_if_changed(sub.entry, "error", "")
         mesh = obj.data
         split = render_positions is not positions
         write_vector_attribute(mesh, ATTR_VIEWPORT, positions)
@@ -190,7 +211,9 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
             write_volume_colors(mesh, ratio)
         elif ATTR_VOLUME in mesh.attributes:
             mesh.attributes.remove(mesh.attributes[ATTR_VOLUME])
-        ensure_modifier(obj, split)
+        helpers = subdivided and subdivision.write(obj, sub, subdivided)  # None: nothing subdivided
+        subdivision.discard(obj, keep=helpers or ())
+        ensure_modifier(obj, split, helpers)
         mesh.update()
         _last_inputs[uid] = (key, base)
         if expect_echo:
@@ -236,6 +259,8 @@ def entry_input(obj, index, kind="viewport"):
     viewport (or render), in the object's space. Raises EntryError for a problem on the way."""
     built = []
     for i, entry in enumerate(obj.deformkit.entries[:index]):
+        if entry.type == "SUBDIVIDE":
+            raise EntryError(f"{entry.name}: a Subdivide entry must be the last entry")
         if (entry.show_viewport if kind == "viewport" else entry.show_render):
             try:
                 deformer, _, special = entry_setup(obj, entry, reuse_weights=True)
@@ -289,6 +314,7 @@ def forget(obj=None):
     meshdata.forget(key)
     lattices.forget(key)
     surface.forget(key)
+    subdivision.forget(key)
 
 
 def apply_entry(obj, index):
@@ -299,11 +325,12 @@ def apply_entry(obj, index):
     entry = stack.entries[index]
     base = base_positions(obj.data)
     deformer, _, special = entry_setup(obj, entry)
-    if entry.type == "LAPLACIAN":
-        deformed = surface.deform(special, base)  # handles from the base mesh (INCOMING)
+    if entry.type == "SUBDIVIDE":
+        subdivision.bake(obj, entry)  # the base mesh's own topology changes, as with Blender's Apply
     else:
-        deformed = deformer.deform(base)
-    obj.data.vertices.foreach_set("co", deformed.ravel())
+        # A Laplacian entry takes its handles from the base mesh (INCOMING).
+        deformed = surface.deform(special, base) if entry.type == "LAPLACIAN" else deformer.deform(base)
+        obj.data.vertices.foreach_set("co", deformed.ravel())
     stack.entries.remove(index)
     stack.active_index = min(stack.active_index, max(0, len(stack.entries) - 1))
     evaluate(obj, force=True)

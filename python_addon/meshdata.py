@@ -1,5 +1,5 @@
 """Reading the base mesh: positions, vertex-group weights (kept between reads, the read is a slow
-Python loop) and the polygons with a fingerprint of their connectivity."""
+Python loop), the polygons with a fingerprint of their connectivity, and edge selection."""
 import zlib
 from collections import namedtuple
 
@@ -66,6 +66,24 @@ def topology(mesh):
     return Topology(len(mesh.vertices), len(mesh.polygons), crc, corners, starts, totals)
 
 
+def corner_order(topo):
+    """The mesh's corners polygon by polygon (their order in `polygons`), or None when that is
+    already their order in the mesh (always since Blender 3.6)."""
+    ends = np.cumsum(topo.totals)
+    if (topo.starts == ends - topo.totals).all():
+        return None
+    return np.concatenate([np.arange(s, s + t) for s, t in zip(topo.starts, topo.totals)])
+
+
+def polygons(topo):
+    """The polygons as deformkit takes them: an (m, k) array when all have k corners, else a list."""
+    order = corner_order(topo)
+    corners = topo.corners if order is None else topo.corners[order]
+    if topo.faces and (topo.totals == topo.totals[0]).all():
+        return corners.reshape(topo.faces, int(topo.totals[0]))
+    return np.split(corners, np.cumsum(topo.totals)[:-1])
+
+
 def triangles(topo):
     """Every polygon fanned from its first corner, as deformkit fans a list of polygons: (m, 3)."""
     count = topo.totals.astype(np.int64) - 2
@@ -74,6 +92,40 @@ def triangles(topo):
     first = topo.starts[polygon].astype(np.int64)
     c = topo.corners
     return np.stack([c[first], c[first + corner], c[first + corner + 1]], axis=1)
+
+
+def edge_lookup(mesh):
+    """{(a, b) with a < b: edge index} of the mesh's edges."""
+    pairs = np.empty(len(mesh.edges) * 2, np.int32)
+    mesh.edges.foreach_get("vertices", pairs)
+    pairs = np.sort(pairs.reshape(-1, 2), axis=1)
+    return {(int(a), int(b)): i for i, (a, b) in enumerate(pairs.tolist())}
+
+
+def select_edges(obj, edges):
+    """Select exactly these edges (and their vertices), in edit mode too."""
+    mesh = obj.data
+    if obj.mode == "EDIT":
+        import bmesh
+        bm = bmesh.from_edit_mesh(mesh)
+        for items in (bm.faces, bm.edges, bm.verts):
+            for item in items:
+                item.select = False
+        bm.edges.ensure_lookup_table()
+        for i in edges:
+            bm.edges[i].select_set(True)
+        bm.select_flush(True)
+        bmesh.update_edit_mesh(mesh)
+        return
+    chosen = np.zeros(len(mesh.edges), bool)
+    chosen[list(edges)] = True
+    pairs = np.empty(len(mesh.edges) * 2, np.int32)
+    mesh.edges.foreach_get("vertices", pairs)
+    vertices = np.zeros(len(mesh.vertices), bool)
+    vertices[pairs.reshape(-1, 2)[chosen].ravel()] = True
+    mesh.vertices.foreach_set("select", vertices)
+    mesh.edges.foreach_set("select", chosen)
+    mesh.polygons.foreach_set("select", np.zeros(len(mesh.polygons), bool))
 
 
 def forget(object_key=None):

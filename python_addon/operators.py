@@ -1,7 +1,7 @@
 """Operators: thin wrappers around `api` with poll, undo and reports."""
 import bpy
 import numpy as np
-from bpy.props import EnumProperty, IntProperty, IntVectorProperty
+from bpy.props import EnumProperty, FloatProperty, IntProperty, IntVectorProperty
 
 from . import api, native
 from .properties import ENTRY_TYPES, LATTICE_BASES
@@ -283,6 +283,36 @@ class DEFORMKIT_OT_laplacian_unbind(_LaplacianOperator, bpy.types.Operator):
         return {"FINISHED"}
 
 
+class DEFORMKIT_OT_check_smoothness(bpy.types.Operator):
+    """Check the limit surface of the cage (as the entries above any Subdivide entry leave it): select creased edges"""
+    bl_idname = "object.deformkit_check_smoothness"
+    bl_label = "Check Smoothness"
+    bl_options = {"REGISTER", "UNDO"}  # the selection changes
+    worst: IntProperty(name="Worst Edges", default=10, min=1, max=100000,
+                       description="How many of the edges with the largest angles to consider for selection")
+    min_angle: FloatProperty(name="Minimum Angle", subtype="ANGLE", default=1e-6, min=0.0, precision=6,
+                             description="Select the worst edges whose angle exceeds this (smooth: rounding only)")
+
+    @classmethod
+    def poll(cls, context):
+        return DEFORMKIT_OT_entry_add.poll(context)
+
+    def execute(self, context):
+        try:
+            figures = api.check_smoothness(context.object, worst=self.worst, min_angle=self.min_angle)
+        except ValueError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        edge = figures["worst_edge"]
+        where = f" at edge {tuple(edge)}" if edge else ""
+        self.report({"WARNING" if figures["selected_edges"] else "INFO"},
+                    f"Max normal angle {figures['max_angle_degrees']:.3g}°{where}; gap {figures['max_gap']:.2g}, "
+                    f"{figures['degenerate_samples']} degenerate, {figures['flipped_samples']} flipped samples; "
+                    f"{len(figures['selected_edges'])} creased edges selected")
+        return {"FINISHED"}
+
+
 classes = (DEFORMKIT_OT_entry_add, DEFORMKIT_OT_entry_remove, DEFORMKIT_OT_entry_move, DEFORMKIT_OT_entry_apply,
            DEFORMKIT_OT_add_lattice, DEFORMKIT_OT_lattice_bind, DEFORMKIT_OT_lattice_reset,
-           DEFORMKIT_OT_lattice_direct, DEFORMKIT_OT_laplacian_bind, DEFORMKIT_OT_laplacian_unbind)
+           DEFORMKIT_OT_lattice_direct, DEFORMKIT_OT_laplacian_bind, DEFORMKIT_OT_laplacian_unbind,
+           DEFORMKIT_OT_check_smoothness)

@@ -4,7 +4,7 @@ import math
 
 import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
-                       FloatVectorProperty, IntProperty, PointerProperty, StringProperty)
+                       FloatVectorProperty, IntProperty, IntVectorProperty, PointerProperty, StringProperty)
 
 # No icons: the Type row shows text only, like Simple Deform's, and stays readable in a narrow editor.
 ENTRY_TYPES = [
@@ -16,6 +16,8 @@ ENTRY_TYPES = [
      "NONE", 4),
     ("LAPLACIAN", "Laplacian", "Laplacian surface editing or as-rigid-as-possible deformation: anchors stay, "
      "handles move and the rest of the surface keeps its shape (Bind first, as Laplacian Deform)", "NONE", 5),
+    ("SUBDIVIDE", "Subdivide", "OpenSubdiv subdivision (Catmull-Clark or Loop, with creases) of the mesh the "
+     "entries above make; the last entry of the stack", "NONE", 6),
 ]
 AXES = [("X", "X", ""), ("Y", "Y", ""), ("Z", "Z", "")]
 LATTICE_BASES = [
@@ -48,6 +50,28 @@ HANDLE_TARGETS = [
      "through the entries above): move them by editing the mesh or with earlier entries, as with Laplacian "
      "Deform", 0),
     ("OBJECT", "Object", "The handles follow the handle object: they move as it moved since bind", 1),
+]
+
+SCHEMES = [
+    ("AUTO", "Auto", "Loop when every face is a triangle, Catmull-Clark otherwise", 0),
+    ("CATMULL_CLARK", "Catmull-Clark", "Catmull-Clark: quads out, any polygons in (as Blender's Subdivision "
+     "Surface)", 1),
+    ("LOOP", "Loop", "Loop: triangles out, triangle meshes only", 2),
+]
+# Blender's Subdivision Surface names and identifiers (boundary_smooth, uv_smooth).
+BOUNDARY_SMOOTH = [
+    ("PRESERVE_CORNERS", "Keep Corners", "Smooth boundaries, but corners are kept sharp", 0),
+    ("ALL", "All", "Smooth boundaries, including corners", 1),
+]
+UV_SMOOTH = [
+    ("NONE", "None", "UVs are not smoothed, boundaries are kept sharp", 0),
+    ("PRESERVE_CORNERS", "Keep Corners", "UVs are smoothed, corners on discontinuous boundary are kept sharp", 1),
+    ("PRESERVE_CORNERS_AND_JUNCTIONS", "Keep Corners, Junctions", "UVs are smoothed, corners on discontinuous "
+     "boundary and junctions of 3 or more regions are kept sharp", 2),
+    ("PRESERVE_CORNERS_JUNCTIONS_AND_CONCAVE", "Keep Corners, Junctions, Concave", "UVs are smoothed, corners on "
+     "discontinuous boundary, junctions of 3 or more regions and darts and concave corners are kept sharp", 3),
+    ("PRESERVE_BOUNDARIES", "Keep Boundaries", "UVs are smoothed, boundaries are kept sharp", 4),
+    ("SMOOTH_ALL", "All", "UVs and boundaries are smoothed", 5),
 ]
 
 
@@ -149,12 +173,44 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
     bind_topology: IntProperty(options={"HIDDEN"})
     handle_matrix: FloatVectorProperty(size=16, options={"HIDDEN"},
                                        default=[float(i % 5 == 0) for i in range(16)])
+    # Subdivide entries, with the Subdivision Surface modifier's names
+    levels: IntProperty(name="Levels Viewport", default=1, min=0, max=8, soft_max=6, update=_changed,
+                        description="Number of subdivisions to perform in the viewport (0: the cage)")
+    render_levels: IntProperty(name="Render", default=2, min=0, max=8, soft_max=6, update=_changed,
+                               description="Number of subdivisions to perform when rendering")
+    scheme: EnumProperty(name="Scheme", items=SCHEMES, default="AUTO", update=_changed,
+                         description="Subdivision rules")
+    boundary_smooth: EnumProperty(name="Boundary Smooth", items=BOUNDARY_SMOOTH, default="PRESERVE_CORNERS",
+                                  update=_changed, description="Controls how open boundaries are smoothed")
+    use_creases: BoolProperty(name="Use Creases", default=True, update=_changed,
+                              description="Use mesh crease information to sharpen edges or corners")
+    uv_smooth: EnumProperty(name="UV Smooth", items=UV_SMOOTH, default="PRESERVE_BOUNDARIES", update=_changed,
+                            description="Controls how smoothing is applied to UVs (the active UV map)")
+    # The helper objects holding the subdivided meshes (see subdivision.py); render: None when the same.
+    subdivision_viewport: PointerProperty(type=bpy.types.Object, options={"HIDDEN"})
+    subdivision_render: PointerProperty(type=bpy.types.Object, options={"HIDDEN"})
     error: StringProperty(options={"HIDDEN", "SKIP_SAVE"})
 
     @property
     def amount(self):
         """The one value Simple Deform uses: the angle for twist and bend, the factor otherwise."""
         return self.angle if self.type in {"TWIST", "BEND"} else self.factor
+
+
+class DEFORMKIT_PG_smoothness(bpy.types.PropertyGroup):
+    """The figures of the last Check Smoothness, for the panel."""
+    checked: BoolProperty(options={"HIDDEN"})
+    max_angle: FloatProperty(name="Max Angle", subtype="ANGLE", options={"HIDDEN"},
+                             description="Largest angle between the limit surface's normals across an edge")
+    max_gap: FloatProperty(name="Max Gap", options={"HIDDEN"},
+                           description="Largest gap between the two sides of an edge, per bounding-box diagonal")
+    degenerate: IntProperty(name="Degenerate", options={"HIDDEN"},
+                            description="Samples where the surface's tangents are parallel")
+    flipped: IntProperty(name="Flipped", options={"HIDDEN"},
+                         description="Samples whose normal points against the control face's normal")
+    worst_edge: IntVectorProperty(name="Worst Edge", size=2, default=(-1, -1), options={"HIDDEN"},
+                                  description="Vertices of the edge with the largest angle")
+    selected: IntProperty(name="Selected", options={"HIDDEN"}, description="Edges selected as creased")
 
 
 class DEFORMKIT_PG_stack(bpy.types.PropertyGroup):
@@ -165,10 +221,11 @@ class DEFORMKIT_PG_stack(bpy.types.PropertyGroup):
         description="Write a color attribute with det(J), stretch red and compression blue "
                     "(shown with Viewport Shading > Color > Attribute). Laplacian entries are left out: "
                     "they have no Jacobian")
+    smoothness: PointerProperty(type=DEFORMKIT_PG_smoothness)
     error: StringProperty(options={"HIDDEN", "SKIP_SAVE"})
 
 
-classes = (DEFORMKIT_PG_entry, DEFORMKIT_PG_stack)
+classes = (DEFORMKIT_PG_entry, DEFORMKIT_PG_smoothness, DEFORMKIT_PG_stack)
 
 
 def register():

@@ -1,10 +1,13 @@
 """Panel in the Modifiers tab, laid out like Blender's own modifier panels."""
+import math
+
 import bpy
 
 from . import evaluation, lattices, native, surface
 from .properties import ENTRY_TYPES
 
-ICONS = {"LATTICE": "MOD_LATTICE", "LAPLACIAN": "MOD_MESHDEFORM"}  # others: MOD_SIMPLEDEFORM
+# The others: MOD_SIMPLEDEFORM.
+ICONS = {"LATTICE": "MOD_LATTICE", "LAPLACIAN": "MOD_MESHDEFORM", "SUBDIVIDE": "MOD_SUBSURF"}
 
 
 class DEFORMKIT_MT_add(bpy.types.Menu):
@@ -73,8 +76,11 @@ class DEFORMKIT_PT_stack(bpy.types.Panel):
             layout.label(text="The 'deformkit' modifier, which shows the result, is hidden", icon="INFO")
         if stack.show_volume_ratio and any(e.type == "LAPLACIAN" and e.show_viewport for e in stack.entries):
             layout.label(text="Volume colors leave out Laplacian entries (no Jacobian)", icon="INFO")
+        if stack.show_volume_ratio and any(e.type == "SUBDIVIDE" for e in stack.entries):
+            layout.label(text="Volume colors are not carried through a Subdivide entry", icon="INFO")
         for entry in stack.entries:
             draw_entry(layout.box(), obj, entry)
+        draw_smoothness(layout.box(), stack)
 
 
 def draw_entry(box, obj, entry):
@@ -105,6 +111,9 @@ def draw_entry(box, obj, entry):
         return
     if entry.type == "LAPLACIAN":
         draw_laplacian(col, obj, entry)
+        return
+    if entry.type == "SUBDIVIDE":
+        draw_subdivide(col, entry)
         return
     col.prop(entry, "angle" if entry.type in {"TWIST", "BEND"} else "factor")
     col.prop(entry, "origin")
@@ -176,6 +185,38 @@ def draw_laplacian(col, obj, entry):
         col.operator("object.deformkit_laplacian_unbind", text="Unbind", icon="UNLINKED").index = index
     else:
         col.operator("object.deformkit_laplacian_bind", text="Bind", icon="LINKED").index = index
+
+
+def draw_subdivide(col, entry):
+    """Laid out like Blender's Subdivision Surface panel, then the size of what it made."""
+    col.prop(entry, "levels", text="Levels Viewport")
+    col.prop(entry, "render_levels", text="Render")
+    col.prop(entry, "scheme")
+    col.separator()
+    col.label(text="Advanced")
+    col.prop(entry, "use_creases")
+    col.prop(entry, "boundary_smooth")
+    col.prop(entry, "uv_smooth")
+    render = entry.subdivision_render
+    for label, helper in (("Viewport" if render else "Viewport and render", entry.subdivision_viewport),
+                          ("Render", render)):
+        if helper is not None:
+            col.label(text=f"{label}: {len(helper.data.vertices)} vertices, {len(helper.data.polygons)} faces")
+
+
+def draw_smoothness(box, stack):
+    """Check Smoothness and the figures of its last run (of the cage, before any Subdivide entry)."""
+    box.operator("object.deformkit_check_smoothness", icon="MOD_SMOOTH")
+    figures = stack.smoothness
+    if not figures.checked:
+        return
+    col = box.column(align=True)
+    col.label(text="Last check, of the cage:")
+    col.label(text=f"Max normal angle: {math.degrees(figures.max_angle):.3g}° at edge {tuple(figures.worst_edge)}")
+    col.label(text=f"Max gap: {figures.max_gap:.2g} of the diagonal")
+    col.label(text=f"Degenerate samples: {figures.degenerate}, flipped: {figures.flipped}")
+    col.label(text=f"Creased edges selected: {figures.selected}",
+              icon="ERROR" if figures.selected else "CHECKMARK")
 
 
 classes = (DEFORMKIT_MT_add, DEFORMKIT_MT_entry_specials, DEFORMKIT_PT_stack)

@@ -190,3 +190,39 @@ def test_bad_command_lines(tmp_path):
     proc = subprocess.run([sys.executable, str(REPO / "python_addon/cli.py"), "x.blend", "--evaluate-saved",
                            "--out", str(tmp_path), "--blender", "/nonexistent/blender"], capture_output=True, text=True)
     assert proc.returncode == 2 and "not found" in proc.stderr
+
+
+def test_smoothness_figures_in_the_report(fixtures, tmp_path, scene):
+    """--smoothness (or the recipe's "smoothness": true) puts each object's figures in the report:
+    those of dk.smoothness_report on its cage, the base mesh twisted, here recomputed from the
+    output file; the Subdivide entry's evaluated mesh has dk.subdivide's counts."""
+    import bpy
+    from addon_helpers import polygons
+    import deformkit as dk
+    recipe = {"objects": ["Column"], "deformers": [{"type": "TWIST", "angle": 1.2, "deform_axis": "Z"},
+                                                   {"type": "SUBDIVIDE", "levels": 1}]}
+    (tmp_path / "r.json").write_text(json.dumps(recipe))
+    (tmp_path / "s.json").write_text(json.dumps({**recipe, "smoothness": True}))
+    runs = ((["--recipe", tmp_path / "r.json", "--smoothness"], "a"), (["--recipe", tmp_path / "s.json"], "b"),
+            (["--recipe", tmp_path / "r.json"], "c"))
+    for flags, out in runs:
+        proc = run_batch(fixtures / "column.blend", *flags, "--out", tmp_path / out)
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+    reports = [json.loads((tmp_path / out / "report.json").read_text()) for out in "abc"]
+    assert reports[0]["smoothness"] and not reports[1]["smoothness"]
+    figures = [r["files"][0]["objects"][0] for r in reports]
+    assert "smoothness" not in figures[2]
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "a" / "column.blend"))
+    obj = bpy.data.objects["Column"]
+    cage = dk.SimpleDeform(mode="TWIST", angle=1.2, deform_axis="Z").deform(positions(obj.data))
+    direct = dk.smoothness_report(cage, polygons(obj.data))
+    counts = dk.subdivide(cage, polygons(obj.data), 1)
+    for found in figures[:2]:
+        assert found["entries"] == ["TWIST", "SUBDIVIDE"]
+        assert (found["evaluated_vertices"], found["evaluated_faces"]) == (len(counts.points), len(counts.faces))
+        smooth = found["smoothness"]
+        assert abs(smooth["max_angle"] - direct.max_angle) < 1e-12 and smooth["max_angle"] < 1e-9
+        assert smooth["degenerate_samples"] == direct.degenerate_samples
+        assert smooth["flipped_samples"] == direct.flipped_samples
+        assert smooth["interior_edges"] == len(direct.edges) and smooth["selected_edges"] == []
+        assert len(smooth["worst_edges"]) == 10

@@ -1,0 +1,323 @@
+"""Subdivide entries: OpenSubdiv subdivision (dk.subdivide) of the cage that the entries above make,
+as Blender's Subdivision Surface modifier placed after them would give.
+
+Subdivision changes the topology, which the stack's usual result (a position attribute that the
+"deformkit" Geometry Nodes modifier stores into the positions) cannot carry. So the subdivided mesh
+goes into a helper mesh and object per result (viewport, and render when it differs), named from
+the object, linked to no scene (nothing to select or see in the outliner's scenes) and kept alive by
+the entry's pointers and the modifier's inputs; the modifier's node group then outputs the helper's
+geometry (Object Info, original space) in place of its input. Helpers are output, not the user's
+data: they are written on every evaluation, and deleted when the entry goes or stops subdividing.
+
+Carried over from the base mesh: the active UV map (face-varying, with UV Smooth), material
+indices and smooth shading (through each face's control face); other attributes are not.
+"""
+import zlib
+from collections import namedtuple
+
+import bpy
+import numpy as np
+
+from . import meshdata, native, outputs
+from .outputs import EntryError
+
+SCHEMES = {"AUTO": "auto", "CATMULL_CLARK": "catmull_clark", "LOOP": "loop"}
+BOUNDARIES = {"PRESERVE_CORNERS": "edge_and_corner", "ALL": "edge_only"}
+KINDS = ("viewport", "render")
+OWNER = "deformkit_subdivision_of"  # on a helper object: the name of the object it belongs to
+
+# topo: meshdata.Topology; kwargs: dk's topology arguments; refine: what a refined topology depends
+# on; fingerprint: everything the result depends on besides the cage's positions.
+Setup = namedtuple("Setup", "entry topo kwargs uvs uv_name uv_smooth material smooth materials refine fingerprint")
+# One result: points and polygons (flat corners, starts, totals), the control face of each polygon,
+# per-corner UVs or None.
+Result = namedtuple("Result", "points corners starts totals face_origin uvs")
+
+_subdividers = {}  # (object cache key, kind) -> (refine key, dk.Subdivider, Result without points)
+_written = {}      # helper mesh name -> the key of the topology and face data it holds
+
+
+def crease_to_sharpness(crease):
+    """Blender's mapping, in its float32: BKE_subdiv_crease_to_sharpness_f(c) = c * c * 10
+    (blenkernel/intern/subdiv_inline.h; subdiv_converter_mesh.cc applies it to edge and vertex
+    creases alike), so a crease of 1 is OpenSubdiv's infinitely sharp 10."""
+    crease = np.asarray(crease, np.float32)
+    return (crease * crease * np.float32(10.0)).astype(np.float64)
+
+
+def _float_layer(mesh, attribute, domain, legacy, count):
+    """A float per element: the attribute (Blender 4.0+), else the legacy crease layer (3.x)."""
+    values = np.empty(count, np.float32)
+    attr = mesh.attributes.get(attribute)
+    if attr is not None and attr.domain == domain and attr.data_type == "FLOAT":
+        attr.data.foreach_get("value", values)
+        return values
+    layers = getattr(mesh, legacy, None)
+    if layers is not None and len(layers):
+        layers[0].data.foreach_get("value", values)
+        return values
+    return None
+
+
+def read_creases(mesh):
+    """(creases, corners) as dk wants them, from the mesh's edge and vertex creases (None where the
+    mesh has none). Loose edges are left out: they bound no face."""
+    edge = _float_layer(mesh, "crease_edge", "EDGE", "edge_creases", len(mesh.edges))
+    if edge is None and "crease" in bpy.types.MeshEdge.bl_rna.properties:  # Blender 3.4: MeshEdge.crease
+        edge = np.empty(len(mesh.edges), np.float32)
+        mesh.edges.foreach_get("crease", edge)
+    creases = corners = None
+    if edge is not None and edge.any():
+        loose = np.empty(len(mesh.edges), bool)
+        mesh.edges.foreach_get("is_loose", loose)
+        pairs = np.empty(len(mesh.edges) * 2, np.int32)
+        mesh.edges.foreach_get("vertices", pairs)
+        keep = (edge != 0) & ~loose
+        creases = (pairs.reshape(-1, 2)[keep], crease_to_sharpness(edge[keep]))
+    vertex = _float_layer(mesh, "crease_vert", "POINT", "vertex_creases", len(mesh.vertices))
+    if vertex is not None and vertex.any():
+        keep = np.flatnonzero(vertex)
+        corners = (keep, crease_to_sharpness(vertex[keep]))
+    return creases, corners
+
+
+def topology_kwargs(mesh, entry=None):
+    """dk's scheme, boundary, creases and corners for a Subdivide entry's settings (None: a new
+    entry's defaults, as Check Smoothness uses them on a stack without one)."""
+    scheme, boundary = (entry.scheme, entry.boundary_smooth) if entry else ("AUTO", "PRESERVE_CORNERS")
+    creases, corners = read_creases(mesh) if entry is None or entry.use_creases else (None, None)
+    return dict(scheme=SCHEMES[scheme], boundary=BOUNDARIES[boundary], creases=creases, corners=corners)
+
+
+def _crc(*arrays):
+    crc = 0
+    for a in arrays:
+        if a is not None:
+            crc = zlib.crc32(np.ascontiguousarray(a).tobytes(), crc)
+    return crc
+
+
+def setup(obj, entry):
+    """What the entry needs besides the cage: the base mesh's topology, creases, UVs, materials."""
+    mesh = obj.data
+    topo = meshdata.topology(mesh)
+    if topo.faces == 0:
+        raise EntryError("the mesh has no faces: subdivision refines faces")
+    kwargs = topology_kwargs(mesh, entry)
+    layer = mesh.uv_layers.active
+    uvs = None
+    if layer is not None:
+        uvs = np.empty(len(mesh.loops) * 2, np.float32)
+        layer.data.foreach_get("uv", uvs)
+        order = meshdata.corner_order(topo)
+        uvs = uvs.reshape(-1, 2) if order is None else uvs.reshape(-1, 2)[order]
+    material, smooth = np.empty(topo.faces, np.int32), np.empty(topo.faces, bool)
+    mesh.polygons.foreach_get("material_index", material)
+    mesh.polygons.foreach_get("use_smooth", smooth)
+    materials = tuple(mesh.materials)
+    creases = kwargs["creases"] or (None, None)
+    corners = kwargs["corners"] or (None, None)
+    refine = (topo.vertices, topo.crc, entry.scheme, entry.boundary_smooth, entry.uv_smooth, _crc(*creases, *corners),
+              None if uvs is None else _crc(uvs))
+    fingerprint = ("SUBDIVIDE", entry.show_viewport, entry.show_render, entry.levels, entry.render_levels,
+                   refine, layer.name if layer else "", _crc(material, smooth), tuple(m and m.name for m in materials))
+    return Setup(entry, topo, kwargs, uvs, layer.name if layer else "", entry.uv_smooth.lower(), material, smooth,
+                 materials, refine, fingerprint)
+
+
+def level(entry, kind):
+    """The entry's level for the viewport or renders: 0 (the cage itself) where it is hidden."""
+    if kind == "viewport":
+        return entry.levels if entry.show_viewport else 0
+    return entry.render_levels if entry.show_render else 0
+
+
+def subdivide(key, sub, level, cage):
+    """The cage subdivided to `level` (level 0: the cage). The refined topology is kept under `key`
+    (None: not kept), so that a new cage of the same mesh, a frame or a parameter edit of the
+    entries above, only costs the interpolation."""
+    topo = sub.topo
+    if level == 0:
+        order = meshdata.corner_order(topo)
+        return Result(cage, topo.corners if order is None else topo.corners[order],
+                      np.cumsum(topo.totals) - topo.totals, topo.totals, np.arange(topo.faces), sub.uvs)
+    cached = _subdividers.get(key) if key else None
+    try:
+        if cached is not None and cached[0] == (sub.refine, level):
+            return cached[2]._replace(points=cached[1].subdivide(cage))
+        subdivider = native.dk.Subdivider(cage, meshdata.polygons(topo), level, uvs=sub.uvs,
+                                          uv_smooth=sub.uv_smooth, **sub.kwargs)
+        m = subdivider.mesh(cage)
+    except (ValueError, TypeError) as exc:
+        raise EntryError(str(exc)) from exc
+    except MemoryError:
+        raise EntryError(f"not enough memory for level {level}: lower the level") from None
+    count, k = m.faces.shape
+    result = Result(m.points, m.faces.ravel(), np.arange(count, dtype=np.int32) * k, np.full(count, k, np.int32),
+                    m.face_origin, m.uvs)
+    if key:
+        _subdividers[key] = ((sub.refine, level), subdivider, result._replace(points=None))
+    return result
+
+
+def results(object_key, sub, viewport_cage, render_cage):
+    """{kind: Result} for the viewport and renders (the same object when they agree), or None
+    when the entry subdivides neither (hidden, or level 0 in both)."""
+    levels = {kind: level(sub.entry, kind) for kind in KINDS}
+    if not any(levels.values()):
+        return None
+    viewport = subdivide((object_key, "viewport"), sub, levels["viewport"], viewport_cage)
+    if levels["render"] == levels["viewport"] and render_cage is viewport_cage:
+        return {"viewport": viewport, "render": viewport}
+    return {"viewport": viewport, "render": subdivide((object_key, "render"), sub, levels["render"], render_cage)}
+
+
+def _set_positions(mesh, points):
+    flat = np.ascontiguousarray(points, np.float32).ravel()
+    position = mesh.attributes.get("position")  # Blender 3.5+
+    if position is not None and position.data_type == "FLOAT_VECTOR" and position.domain == "POINT":
+        position.data.foreach_set("vector", flat)
+    else:
+        mesh.vertices.foreach_set("co", flat)
+
+
+def _attribute(mesh, name, domain, data_type):
+    attr = mesh.attributes.get(name)
+    return attr if attr is not None and attr.domain == domain and attr.data_type == data_type else None
+
+
+def _write(mesh, collection, prop, attribute, domain, data_type, values, new=False):
+    """Write per-element values through the attribute (a copy, ~100x faster than the element
+    properties) where this Blender has it, else through the elements' property."""
+    attr = _attribute(mesh, attribute, domain, data_type)
+    if attr is None and new:
+        attr = mesh.attributes.new(attribute, data_type, domain)
+    if attr is not None:
+        attr.data.foreach_set("vector" if data_type == "FLOAT2" else "value", values)
+    else:
+        collection.foreach_set(prop, values)
+
+
+def fill(mesh, result, sub, materials=True):
+    """Replace the mesh's geometry with `result`: polygons, UVs, material indices, smooth shading."""
+    mesh.clear_geometry()
+    mesh.vertices.add(len(result.points))
+    mesh.loops.add(len(result.corners))
+    mesh.polygons.add(len(result.starts))
+    _set_positions(mesh, result.points)
+    corners = np.ascontiguousarray(result.corners, np.int32)
+    _write(mesh, mesh.loops, "vertex_index", ".corner_vert", "CORNER", "INT", corners)  # 4.0+: an attribute
+    mesh.polygons.foreach_set("loop_start", np.ascontiguousarray(result.starts, np.int32))
+    mesh.polygons.foreach_set("loop_total", np.ascontiguousarray(result.totals, np.int32))  # 3.x needs it
+    mesh.update(calc_edges=True)
+    if result.uvs is not None:
+        layer = mesh.uv_layers.new(name=sub.uv_name)
+        _write(mesh, layer.data, "uv", layer.name, "CORNER", "FLOAT2",
+               np.ascontiguousarray(result.uvs, np.float32).ravel())
+    if materials:
+        mesh.materials.clear()
+        for material in sub.materials:
+            mesh.materials.append(material)
+    material = sub.material[result.face_origin]
+    if material.any():
+        _write(mesh, mesh.polygons, "material_index", "material_index", "FACE", "INT", material, new=True)
+    smooth = sub.smooth[result.face_origin]
+    if bpy.app.version >= (4, 1, 0):  # smooth shading is the absence of a "sharp_face" attribute
+        if not smooth.all():
+            _write(mesh, mesh.polygons, "use_smooth", "sharp_face", "FACE", "BOOLEAN", ~smooth, new=True)
+    else:
+        mesh.polygons.foreach_set("use_smooth", smooth)
+
+
+def _owner_uses(owner, helper):
+    return any(getattr(e, f"subdivision_{kind}", None) == helper for e in owner.deformkit.entries for kind in KINDS)
+
+
+def is_ours(obj, helper):
+    """A helper is obj's if made for it, or if the object it was made for (by name: obj renamed
+    since) no longer uses it. A copy of obj (Shift D) shares its helpers until it makes its own."""
+    owner_name = helper.get(OWNER)
+    if owner_name is None:
+        return False  # not a helper: never the add-on's to write or delete
+    if owner_name == obj.name_full:
+        return True
+    owner = bpy.data.objects.get(owner_name)
+    return owner is None or not _owner_uses(owner, helper)
+
+
+def _helper(obj, entry, kind):
+    prop = f"subdivision_{kind}"
+    helper = getattr(entry, prop)
+    if helper is not None and helper.type == "MESH" and is_ours(obj, helper):
+        if helper[OWNER] != obj.name_full:  # adopted after a rename
+            helper[OWNER] = obj.name_full
+            helper.name = helper.data.name = _helper_name(obj, kind)
+        return helper
+    name = _helper_name(obj, kind)
+    helper = bpy.data.objects.new(name, bpy.data.meshes.new(name))
+    helper[OWNER] = obj.name_full
+    setattr(entry, prop, helper)
+    return helper
+
+
+def _helper_name(obj, kind):
+    return f"{obj.name_full} subdivided" + ("" if kind == "viewport" else " (render)")
+
+
+def write(obj, sub, found):
+    """Write the results into the entry's helper objects; returns (viewport, render) helpers."""
+    helpers = {}
+    for kind in KINDS:
+        if kind == "render" and found["render"] is found["viewport"]:
+            helpers[kind] = helpers["viewport"]
+            continue
+        helper = helpers[kind] = _helper(obj, sub.entry, kind)
+        mesh, result = helper.data, found[kind]
+        key = (sub.fingerprint, level(sub.entry, kind), len(result.points), len(result.starts))
+        if _written.get(mesh.name_full) == key and len(mesh.vertices) == len(result.points):
+            _set_positions(mesh, result.points)  # a new cage: the topology and face data are as written
+        else:
+            fill(mesh, result, sub)
+            _written[mesh.name_full] = key
+        mesh.update()
+    if helpers["render"] is helpers["viewport"]:
+        sub.entry.subdivision_render = None
+    return helpers["viewport"], helpers["render"]
+
+
+def discard(obj, keep=()):
+    """Delete obj's helper objects and meshes except `keep`: those its entries or its modifier
+    refer to (a removed entry's are still on the modifier). Another object's are only let go."""
+    found = {h for h in outputs.helper_objects(obj) if h is not None}
+    for entry in obj.deformkit.entries:
+        for kind in KINDS:
+            helper = getattr(entry, f"subdivision_{kind}")
+            if helper is not None and helper not in keep:
+                setattr(entry, f"subdivision_{kind}", None)
+                found.add(helper)
+    for helper in found - set(keep):
+        if is_ours(obj, helper):
+            mesh = helper.data
+            _written.pop(mesh.name_full, None)
+            bpy.data.objects.remove(helper)
+            if mesh.users == 0:
+                bpy.data.meshes.remove(mesh)
+
+
+def bake(obj, entry):
+    """Apply: the base mesh subdivided at the viewport levels (as Blender applies its modifier),
+    written into the mesh itself. Returns False if there was nothing to do (level 0)."""
+    if entry.levels == 0:
+        return False
+    sub = setup(obj, entry)
+    result = subdivide(None, sub, entry.levels, meshdata.base_positions(obj.data))
+    fill(obj.data, result, sub, materials=False)
+    obj.data.update()
+    return True
+
+
+def forget(object_key=None):
+    for key in [k for k in _subdividers if object_key is None or k[0] == object_key]:
+        del _subdividers[key]
+    if object_key is None:
+        _written.clear()
