@@ -117,3 +117,17 @@ def test_limit_surface_method_equals_function():
     np.testing.assert_array_equal(a.edge_angle, b.edge_angle)
     np.testing.assert_array_equal(a.edges, b.edges)
     assert a.to_dict() == b.to_dict()
+
+
+def test_large_rotations_are_not_flips():
+    """Flips against the reference allow for each neighbourhood's rotation: a half turn, a strong
+    twist or bend turns normals by more than 90 degrees without folding anything."""
+    points, faces = sphere(3)
+    half_turn = points @ np.diag([1.0, -1.0, -1.0]) + 3.0
+    for moved in (half_turn, dk.Twist(rate=4.0).deform(points), dk.Bend(curvature=2.0, region=(-0.4, 0.4)).deform(points)):
+        assert dk.smoothness_report(moved, faces, reference=points).flipped_samples == 0
+    # a bend past its centre (z >= 1/k) does fold: det J < 0 there, and the samples flip
+    folding = dk.Bend(curvature=2.5)
+    assert (folding.volume_ratio(points) < 0).any()
+    assert dk.smoothness_report(folding.deform(points), faces, reference=points).flipped_samples > 0
+    assert dk.smoothness_report(points, faces, deformer=folding).flipped_samples > 0

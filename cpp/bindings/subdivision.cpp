@@ -490,8 +490,10 @@ the bounding-box diagonal; worst_edges indices into edges by decreasing angle.)"
 samples_per_edge points are evaluated on both faces' limit patches and compared (position gap,
 normal angle). A smooth cage gives angles at machine precision (~1e-14 rad); an infinitely sharp
 crease or a kink the deformation put in the cage shows as a large angle on its edges. Also counts
-samples with parallel tangents (degenerate) and normals flipped against reference (rest points of
-the same topology) or, without reference, against the control faces' own normals.
+samples with parallel tangents (degenerate) and flipped normals: with reference (rest points of the
+same topology), a normal opposing the rest surface's normal turned by the best rotation of the
+control face's neighbourhood from rest to points (rigid motions, twists and bends flip nothing; a
+fold does); without reference, a normal opposing its control face's own normal.
 
 The limit surface of any cage is G1, whatever moved its points: subdivision smooths a kink a
 deformation put into the cage. With deformer=F (a deformkit deformer without weights), the report
@@ -501,8 +503,8 @@ per control face, the normal jump inside it: the largest second difference |n_a 
 the unit normal along the lines of a (crease_grid+1)^2 sample grid per ptex face, as an angle. A
 smooth map gives O(h^2) (h = 1/crease_grid); a map that is only C0 somewhere (Barr's bend at its
 region ends, off the bend centre line) gives about the angle of its crease. A crease running
-exactly along a control edge is not seen (both faces evaluate F's Jacobian at the same point). Flips are then judged against
-the undeformed surface unless reference is given.)");
+exactly along a control edge is not seen (both faces evaluate F's Jacobian at the same point).
+A sample is then flipped where det J < 0 (reference is not used).)");
 }
 
 namespace {

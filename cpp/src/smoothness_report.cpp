@@ -1,5 +1,7 @@
 #include "deformkit/smoothness_report.hpp"
 
+#include "deformkit/best_rotation.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -49,7 +51,8 @@ std::vector<double> face_normals(const ControlMesh& mesh, const double* p) {
 
 // Positions and tangents of the checked surface at the samples: S, or F(S) with J Du, J Dv.
 LimitSamples checked_surface(const LimitSurface& surface, const std::vector<double>& cvs, const std::vector<int>& ptex,
-                             const std::vector<double>& uv, const Deformer* deformer) {
+                             const std::vector<double>& uv, const Deformer* deformer,
+                             std::vector<double>* det = nullptr) {
   LimitSamples s = surface.evaluate(cvs, ptex.data(), uv.data(), ptex.size(), 1);
   if (!deformer) return s;
   const std::size_t n = ptex.size();
@@ -57,8 +60,12 @@ LimitSamples checked_surface(const LimitSurface& surface, const std::vector<doub
   deformer->jacobian(s.position.data(), jac.data(), n);
   deformer->deform(s.position.data(), moved.data(), n);
   s.position = std::move(moved);
+  if (det) det->resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     const double* j = &jac[9 * i];
+    if (det)
+      (*det)[i] = j[0] * (j[4] * j[8] - j[5] * j[7]) - j[1] * (j[3] * j[8] - j[5] * j[6]) +
+                  j[2] * (j[3] * j[7] - j[4] * j[6]);
     for (std::vector<double>* t : {&s.du, &s.dv}) {
       const Vec d = at(*t, i);
       for (int r = 0; r < 3; ++r) (*t)[3 * i + r] = j[3 * r] * d[0] + j[3 * r + 1] * d[1] + j[3 * r + 2] * d[2];
@@ -111,6 +118,36 @@ std::vector<double> normal_kinks(const LimitSurface& surface, const std::vector<
   return worst;
 }
 
+// Per control face, the rotation that best carries its neighbourhood (the vertices of every face
+// sharing a vertex with it) from the reference to the points (Kabsch): a sample's reference
+// normal, so rotated, is what its normal should agree with in sign. Rigid motions, twists and
+// bends turn normals by any angle without folding anything; a fold reverses them locally.
+std::vector<Mat3> face_rotations(const ControlMesh& mesh, const double* reference, const double* points) {
+  std::vector<int> start(mesh.face_count() + 1, 0);
+  for (std::size_t f = 0; f < mesh.face_count(); ++f) start[f + 1] = start[f] + mesh.face_sizes[f];
+  std::vector<std::vector<int>> faces_of(mesh.vertex_count);
+  for (std::size_t f = 0; f < mesh.face_count(); ++f)
+    for (int c = start[f]; c < start[f + 1]; ++c) faces_of[mesh.face_vertices[c]].push_back(int(f));
+  std::vector<Mat3> out(mesh.face_count());
+  std::vector<int> ring;
+  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+    ring.clear();
+    for (int c = start[f]; c < start[f + 1]; ++c)
+      for (int g : faces_of[mesh.face_vertices[c]])
+        ring.insert(ring.end(), mesh.face_vertices.begin() + start[g], mesh.face_vertices.begin() + start[g + 1]);
+    std::sort(ring.begin(), ring.end());
+    ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
+    Vec3 pc = Vec3::Zero(), qc = Vec3::Zero();
+    for (int v : ring) pc += Vec3(reference + 3 * v), qc += Vec3(points + 3 * v);
+    pc /= double(ring.size());
+    qc /= double(ring.size());
+    Mat3 cov = Mat3::Zero();
+    for (int v : ring) cov += (Vec3(reference + 3 * v) - pc) * (Vec3(points + 3 * v) - qc).transpose();
+    out[f] = best_rotation(cov);  // maximises tr(R cov): R (p - pc) ~ q - qc
+  }
+  return out;
+}
+
 std::vector<int> largest_first(const std::vector<double>& values, int count) {
   std::vector<int> order(values.size());
   std::iota(order.begin(), order.end(), 0);
@@ -143,6 +180,8 @@ SmoothnessReport smoothness_report(const LimitSurface& surface, const double* po
   const std::vector<double> cvs = surface.patch_points(points);
   const std::vector<double> reference_cvs = o.reference ? surface.patch_points(o.reference) : std::vector<double>();
   const std::vector<double> face_normal = face_normals(mesh, points);
+  const std::vector<Mat3> rotation =
+      o.reference && !o.deformer ? face_rotations(mesh, o.reference, points) : std::vector<Mat3>();
   SmoothnessReport r;
   std::vector<char> face_flipped(mesh.face_count(), 0);
 
@@ -157,23 +196,29 @@ SmoothnessReport smoothness_report(const LimitSurface& surface, const double* po
   std::vector<char> singular;
   auto run_batch = [&]() {
     const std::size_t n = ptex.size();
-    LimitSamples ls = checked_surface(surface, cvs, ptex, uv, o.deformer);
+    std::vector<double> det;  // with a deformer: det J, negative where the map turns the surface over
+    LimitSamples ls = checked_surface(surface, cvs, ptex, uv, o.deformer, &det);
     std::vector<double> expected;  // the normal each sample should agree with in sign
-    if (o.reference)
+    if (!rotation.empty()) {
       expected = surface.evaluate(reference_cvs, ptex.data(), uv.data(), n, 1).normal;
-    else if (o.deformer)  // the undeformed surface: a flip is where the map turned it over
-      expected = surface.evaluate(cvs, ptex.data(), uv.data(), n, 1).normal;
+      for (std::size_t i = 0; i < n; ++i) {
+        const Vec3 turned = rotation[owner[i]] * Vec3(&expected[3 * i]);
+        std::copy(turned.data(), turned.data() + 3, &expected[3 * i]);
+      }
+    }
     singular.assign(n, 0);
     for (std::size_t i = 0; i < n; ++i) {
       const Vec du = at(ls.du, i), dv = at(ls.dv, i);
       const double scale = norm(du) * norm(dv);
       const double regularity = scale > 0 ? norm(cross(du, dv)) / scale : 0.0;
       r.min_regularity = std::min(r.min_regularity, regularity);
-      const Vec want = expected.empty() ? at(face_normal, owner[i]) : at(expected, i);
+      const bool flipped = o.deformer         ? det[i] < 0
+                           : expected.empty() ? dot(at(ls.normal, i), at(face_normal, owner[i])) < 0
+                                              : dot(at(ls.normal, i), at(expected, i)) < 0;
       if (regularity <= 1e-12) {
         singular[i] = 1;
         ++r.degenerate_samples;
-      } else if (dot(at(ls.normal, i), want) < 0) {
+      } else if (flipped) {
         ++r.flipped_samples;
         face_flipped[owner[i]] = 1;
       }

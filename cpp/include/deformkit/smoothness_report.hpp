@@ -38,8 +38,10 @@ struct SmoothnessOptions {
 // Samples t_k = (k + 1/2) / samples_per_edge along every interior edge on both faces' patches;
 // the normal angle is atan2(|n1 x n2|, n1 . n2), exact near 0 where acos is not. A sample whose
 // tangents are parallel (|Du x Dv| <= 1e-12 |Du| |Dv|) is degenerate and has no normal to compare.
-// Flips: edge samples and face interiors whose normal opposes the reference surface's at the same
-// parameters, or the control face's own normal without a reference. Throws std::invalid_argument
+// Flips (edge samples and face interiors): with a reference, a normal opposing the reference
+// surface's normal at the same parameters turned by the best rotation of the face's neighbourhood
+// from reference to points (so rigid motions, twists and bends flip nothing); without one, a normal
+// opposing the control face's own (Newell) normal; with a deformer, det J < 0. Throws std::invalid_argument
 // naming `samples_per_edge` outside 1..1000, `crease_grid` outside 1..64, `worst` below 0,
 // `points` for non-finite or coincident points and `deformer` with per-point weights.
 SmoothnessReport smoothness_report(const LimitSurface& surface, const double* points, const SmoothnessOptions& options);
