@@ -121,6 +121,14 @@ struct PyLimitSurface {
   std::shared_ptr<std::vector<double>> patch_points;
 };
 
+// A 1-D numpy copy (the report keeps its own).
+template <class T>
+py::array_t<T> copy_of(const std::vector<T>& v) {
+  std::vector<T> c = v;
+  const auto n = py::ssize_t(c.size());
+  return owned(std::move(c), {n});
+}
+
 py::dict samples_dict(LimitSamples&& s, py::ssize_t n) {
   py::dict d;
   const std::pair<const char*, std::vector<double>*> fields[] = {
@@ -403,38 +411,15 @@ the bounding-box diagonal; worst_edges indices into edges by decreasing angle.)"
         const auto n = py::ssize_t(e.size() / 2);
         return owned(std::move(e), {n, 2});
       })
-      .def_property_readonly("edge_angle", [](const SmoothnessReport& r) {
-        std::vector<double> a = r.edge_angle;
-        const auto n = py::ssize_t(a.size());
-        return owned(std::move(a), {n});
-      })
-      .def_property_readonly("edge_gap", [](const SmoothnessReport& r) {
-        std::vector<double> a = r.edge_gap;
-        const auto n = py::ssize_t(a.size());
-        return owned(std::move(a), {n});
-      })
-      .def_property_readonly("worst_edges", [](const SmoothnessReport& r) {
-        std::vector<int> a = r.worst_edges;
-        const auto n = py::ssize_t(a.size());
-        return owned(std::move(a), {n});
-      })
-      .def_property_readonly("flipped_faces", [](const SmoothnessReport& r) {
-        std::vector<int> a = r.flipped_faces;
-        const auto n = py::ssize_t(a.size());
-        return owned(std::move(a), {n});
-      })
+      .def_property_readonly("edge_angle", [](const SmoothnessReport& r) { return copy_of(r.edge_angle); })
+      .def_property_readonly("edge_gap", [](const SmoothnessReport& r) { return copy_of(r.edge_gap); })
+      .def_property_readonly("worst_edges", [](const SmoothnessReport& r) { return copy_of(r.worst_edges); })
+      .def_property_readonly("flipped_faces", [](const SmoothnessReport& r) { return copy_of(r.flipped_faces); })
       .def_readonly("max_crease", &SmoothnessReport::max_crease,
                     "With a deformer: the largest normal jump inside a control face (radians).")
-      .def_property_readonly("face_crease", [](const SmoothnessReport& r) {
-        std::vector<double> a = r.face_crease;
-        const auto n = py::ssize_t(a.size());
-        return owned(std::move(a), {n});
-      }, "With a deformer: per control face, the normal jump inside it (radians); empty otherwise.")
-      .def_property_readonly("worst_faces", [](const SmoothnessReport& r) {
-        std::vector<int> a = r.worst_faces;
-        const auto n = py::ssize_t(a.size());
-        return owned(std::move(a), {n});
-      })
+      .def_property_readonly("face_crease", [](const SmoothnessReport& r) { return copy_of(r.face_crease); },
+                             "With a deformer: per control face, the normal jump inside it (radians); empty otherwise.")
+      .def_property_readonly("worst_faces", [](const SmoothnessReport& r) { return copy_of(r.worst_faces); })
       .def("to_dict", [](const SmoothnessReport& r) {
         py::list worst;
         for (int e : r.worst_edges)

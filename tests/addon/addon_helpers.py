@@ -137,8 +137,9 @@ def perturb_lattice(lat, amount=0.15, seed=0):
     return co
 
 
-def twin_with_lattice_modifier(bpy, obj, lattice, **settings):
-    """A copy of obj with Blender's own Lattice modifier on `lattice` and the same settings."""
+def bare_twin(bpy, obj):
+    """A linked copy of obj's object and mesh with no deformkit entries, modifiers or attributes:
+    the base mesh, for Blender's own modifiers to work on."""
     twin = obj.copy()
     twin.data = obj.data.copy()
     twin.name = obj.name + "_blender"
@@ -149,6 +150,12 @@ def twin_with_lattice_modifier(bpy, obj, lattice, **settings):
     for name in ("deformkit_position", "deformkit_position_render", "deformkit_volume_ratio"):
         if name in twin.data.attributes:
             twin.data.attributes.remove(twin.data.attributes[name])
+    return twin
+
+
+def twin_with_lattice_modifier(bpy, obj, lattice, **settings):
+    """A copy of obj with Blender's own Lattice modifier on `lattice` and the same settings."""
+    twin = bare_twin(bpy, obj)
     mod = twin.modifiers.new("Lattice", "LATTICE")
     mod.object = lattice
     for key, value in settings.items():

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from addon_helpers import CheckingLayout, evaluated, make_object, make_tube, polygons, positions, update
+from addon_helpers import CheckingLayout, bare_twin, evaluated, make_object, make_tube, polygons, positions, update
 
 OWNER = "deformkit_subdivision_of"
 
@@ -98,16 +98,7 @@ def twin_with_subsurf(bpy, obj, deforms=(), **settings):
     """A copy of obj's base mesh with Blender's Simple Deform modifiers (mode, settings) and then its
     Subdivision Surface modifier with these settings, without the limit surface (deformkit gives the
     refined points)."""
-    twin = obj.copy()
-    twin.data = obj.data.copy()
-    twin.name = obj.name + "_blender"
-    bpy.context.scene.collection.objects.link(twin)
-    twin.deformkit.entries.clear()
-    for mod in list(twin.modifiers):
-        twin.modifiers.remove(mod)
-    for name in ("deformkit_position", "deformkit_position_render", "deformkit_volume_ratio"):
-        if name in twin.data.attributes:
-            twin.data.attributes.remove(twin.data.attributes[name])
+    twin = bare_twin(bpy, obj)
     for mode, params in deforms:
         mod = twin.modifiers.new(mode, "SIMPLE_DEFORM")
         mod.deform_method = mode
