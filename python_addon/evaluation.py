@@ -141,6 +141,7 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
     try:
         if len(stack.entries) == 0:
             subdivision.discard(obj)
+            subdivision.forget(uid)
             remove_outputs(obj)
             _last_inputs.pop(uid, None)
             surface.forget(uid)
@@ -211,6 +212,8 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
             write_volume_colors(mesh, ratio)
         elif ATTR_VOLUME in mesh.attributes:
             mesh.attributes.remove(mesh.attributes[ATTR_VOLUME])
+        if sub is None:  # no Subdivide entry (any more): its refined topologies go
+            subdivision.forget(uid)
         helpers = subdivided and subdivision.write(obj, sub, subdivided)  # None: nothing subdivided
         subdivision.discard(obj, keep=helpers or ())
         ensure_modifier(obj, split, helpers)

@@ -304,11 +304,35 @@ def discard(obj, keep=()):
                 bpy.data.meshes.remove(mesh)
 
 
+def lost_on_apply(obj):
+    """What of the user's data `fill` would not carry into the subdivided mesh, as phrases."""
+    mesh = obj.data
+    lost = []
+    if len(obj.vertex_groups):
+        lost.append("vertex groups " + ", ".join(repr(g.name) for g in obj.vertex_groups))
+    active = mesh.uv_layers.active
+    others = [layer.name for layer in mesh.uv_layers if active is None or layer.name != active.name]
+    if others:
+        lost.append("UV maps " + ", ".join(map(repr, others)))
+    colors = getattr(mesh, "color_attributes", None)
+    if colors is not None and len(colors):
+        lost.append("color attributes " + ", ".join(repr(c.name) for c in colors))
+    creases, corners = read_creases(mesh)
+    if creases is not None or corners is not None:
+        lost.append("creases")
+    return lost
+
+
 def bake(obj, entry):
     """Apply: the base mesh subdivided at the viewport levels (as Blender applies its modifier),
     written into the mesh itself. Returns False if there was nothing to do (level 0)."""
     if entry.levels == 0:
         return False
+    lost = lost_on_apply(obj)
+    if lost:
+        raise EntryError("apply: the subdivided mesh would lose " + "; ".join(lost) + " (a Subdivide entry carries "
+                         "positions, the active UV map, materials and smooth shading only): remove them first, "
+                         "or keep the entry")
     sub = setup(obj, entry)
     result = subdivide(None, sub, entry.levels, meshdata.base_positions(obj.data))
     fill(obj.data, result, sub, materials=False)

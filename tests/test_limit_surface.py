@@ -127,3 +127,33 @@ def test_ptex_layout():
     toward = s.evaluate(np.arange(5), np.tile([0.999, 0.0], (5, 1)), derivatives=0)["position"]
     mid = s.evaluate(np.roll(np.arange(5), -1), np.tile([0.0, 0.999], (5, 1)), derivatives=0)["position"]
     np.testing.assert_allclose(toward, mid, atol=5e-3)  # both near the midpoint of edge k -> k+1
+
+
+def test_gregory_region_derivatives_are_approximate():
+    """Within 2^-4 of an extraordinary vertex the surface is a Gregory patch whose derivatives are
+    OpenSubdiv's approximation (about 1% off the positions' finite differences); outside, exact."""
+    points, faces = prism()
+    points = points + 0.3 * np.random.default_rng(0).standard_normal(points.shape)
+    s = dk.LimitSurface(points, faces)
+    ptex = np.arange(s.ptex_count)
+    h = 1e-6
+
+    def relative_error(corner):
+        uv = np.tile(corner, (len(ptex), 1))
+        du = s.evaluate(ptex, uv)["du"]
+        fd = (s.evaluate(ptex, uv + [h, 0], derivatives=0)["position"]
+              - s.evaluate(ptex, uv - [h, 0], derivatives=0)["position"]) / (2 * h)
+        return (np.linalg.norm(du - fd, axis=1) / np.linalg.norm(fd, axis=1)).max()
+
+    assert relative_error((0.5, 0.5)) < 1e-8
+    assert 1e-4 < relative_error((0.02, 0.03)) < 0.05
+
+
+def test_the_surface_keeps_its_own_copy_of_the_cage():
+    points, faces = prism()
+    s = dk.LimitSurface(points, faces)
+    sd = dk.Subdivider(points, faces, 1)
+    limit, refined = s.limit_points(), sd.subdivide()
+    points *= 2.0  # the caller's array changes; the surface and the subdivider do not
+    np.testing.assert_array_equal(s.limit_points(), limit)
+    np.testing.assert_array_equal(sd.subdivide(), refined)

@@ -122,3 +122,13 @@ def test_report_errors():
         dk.smoothness_report(P, F, deformer=weighted)
     with pytest.raises(ValueError, match="^crease_grid: must be 1..64"):
         dk.smoothness_report(P, F, deformer=dk.Twist(rate=1.0), crease_grid=0)
+
+
+def test_large_polygon_is_checked_quickly():
+    # a 200,000-gon with its last corner repeating the first: found by sorting, not k^2 comparisons
+    k = 200_000
+    a = 2 * np.pi * np.arange(k) / k
+    points = np.c_[np.cos(a), np.sin(a), np.zeros(k)]
+    face = list(range(k - 1)) + [0]
+    with pytest.raises(ValueError, match="^faces: face 0 repeats vertex 0"):
+        dk.subdivide(points, [face], 1)

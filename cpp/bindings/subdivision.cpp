@@ -84,7 +84,8 @@ struct Cage {
 Cage parse_cage(const py::object& points, const py::object& faces, const std::string& scheme,
                 const std::string& boundary, const py::object& creases, const py::object& corners) {
   Cage cage;
-  cage.points = as_double(points_array(points, "points"));
+  // A copy: the surface keeps this cage, which the caller may change afterwards.
+  cage.points = py::array_t<double, py::array::c_style>(as_double(points_array(points, "points")).request());
   const Faces f = parse_faces(faces);
   cage.mesh = make_control_mesh(std::size_t(cage.points.shape(0)), f.corners, f.offsets, parse_scheme(scheme, f),
                                 parse_boundary(boundary));
@@ -299,8 +300,9 @@ the refined topology for many cages.
 
 )") + kTopologyDoc + kSubdivideDoc).c_str());
 
-  py::class_<PyLimitSurface>(m, "LimitSurface", (std::string(R"(The exact limit surface of a control mesh (OpenSubdiv feature-adaptive patches in double
-precision, Gregory patches at extraordinary vertices).
+  py::class_<PyLimitSurface>(m, "LimitSurface", (std::string(R"(The limit surface of a control mesh (OpenSubdiv feature-adaptive patches in double precision:
+exact B-spline patches, and Gregory patches approximating it within 2^-4 of extraordinary
+vertices, whose derivatives are OpenSubdiv's approximate ones).
 
 )") + kTopologyDoc + R"(
 

@@ -73,11 +73,14 @@ ControlMesh make_control_mesh(std::size_t vertex_count, const std::vector<std::i
       if (corners[c] < 0 || std::size_t(corners[c]) >= vertex_count)
         throw std::invalid_argument(face + " has corner index " + std::to_string(corners[c]) + ", outside 0.." +
                                     std::to_string(std::int64_t(vertex_count) - 1));
-      for (std::int64_t d = begin; d < c; ++d)
-        if (corners[d] == corners[c]) throw std::invalid_argument(face + " repeats vertex " + std::to_string(corners[c]));
-      used[corners[c]] = 1;
       mesh.face_vertices.push_back(int(corners[c]));
     }
+    // Sorted, so that a face of many corners costs k log k, not k^2.
+    std::vector<int> sorted(mesh.face_vertices.end() - (end - begin), mesh.face_vertices.end());
+    std::sort(sorted.begin(), sorted.end());
+    const auto repeat = std::adjacent_find(sorted.begin(), sorted.end());
+    if (repeat != sorted.end()) throw std::invalid_argument(face + " repeats vertex " + std::to_string(*repeat));
+    for (int v : sorted) used[v] = 1;
     mesh.face_sizes.push_back(int(end - begin));
   }
   const auto isolated = std::find(used.begin(), used.end(), 0);

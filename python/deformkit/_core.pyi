@@ -283,7 +283,7 @@ class SmoothnessReport:
     def to_dict(self) -> dict[str, object]: ...
 
 class LimitSurface:
-    """The exact limit surface of a control mesh, evaluated at ptex (face, u, v) samples."""
+    """The limit surface of a control mesh (Gregory patches near extraordinary vertices), at ptex samples."""
     def __init__(self, points: npt.ArrayLike, faces: _Faces, *, scheme: _Scheme = "auto",
                  boundary: _Boundary = "edge_and_corner", creases: _Sharpness | None = None,
                  corners: _Sharpness | None = None) -> None: ...

@@ -366,6 +366,15 @@ def test_apply_bakes_the_subdivided_mesh_as_blender_does(scene):
     api.add_entry(obj, "SUBDIVIDE", levels=2, render_levels=3)
     shown = evaluated_mesh(bpy, obj)
     assert api.apply(obj, 0) == ""
+    # data the subdivided mesh cannot carry: Apply refuses and leaves everything as it was
+    before = positions(obj.data), polygons(obj.data), len(obj.deformkit.entries)
+    obj.data.uv_layers.new(name="Second")
+    with pytest.raises(ValueError, match="would lose vertex groups 'Upper'; UV maps 'Second'"):
+        api.apply(obj, 0)
+    assert np.array_equal(positions(obj.data), before[0]) and polygons(obj.data) == before[1]
+    assert len(obj.deformkit.entries) == before[2] and [g.name for g in obj.vertex_groups] == ["Upper"]
+    obj.vertex_groups.clear()
+    obj.data.uv_layers.remove(obj.data.uv_layers["Second"])
     assert api.apply(obj, 0) == ""  # the Subdivide entry, now first
     assert len(obj.deformkit.entries) == 0 and helpers(bpy) == [] and "deformkit" not in obj.modifiers
     baked = positions(obj.data)
@@ -373,6 +382,7 @@ def test_apply_bakes_the_subdivided_mesh_as_blender_does(scene):
     assert polygons(obj.data) == shown[1]
     assert obj.data.uv_layers.active is not None and [m.name for m in obj.data.materials] == ["Only"]
     other = make_object(bpy, name="Other")  # against Blender's own Apply of its modifier
+    other.vertex_groups.clear()
     api.add_entry(other, "SUBDIVIDE", levels=2)
     api.apply(other, 0)
     twin = make_object(bpy, name="Twin")
@@ -527,3 +537,15 @@ def test_a_copy_of_the_object_gets_its_own_helpers(scene):
     api.remove_entry(copy, 0)
     assert helpers(bpy) == ["Obj subdivided"]
     np.testing.assert_array_equal(evaluated(obj), shown)
+
+
+def test_removing_the_entry_releases_its_refined_topologies(scene):
+    import bpy
+    from deformkit_addon import api, meshdata, subdivision
+    obj = make_object(bpy)
+    api.add_entry(obj, "TWIST", angle=0.5, deform_axis="Z")
+    api.add_entry(obj, "SUBDIVIDE", levels=2, render_levels=3)
+    key = meshdata.cache_key(obj)
+    assert {k[0] for k in subdivision._subdividers} == {key}
+    api.remove_entry(obj, 1)
+    assert not any(k[0] == key for k in subdivision._subdividers)

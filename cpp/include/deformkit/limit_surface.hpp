@@ -1,5 +1,5 @@
 #pragma once
-// The exact limit surface of a subdivision control mesh, evaluated at ptex (face, u, v) samples.
+// The limit surface of a subdivision control mesh, evaluated at ptex (face, u, v) samples.
 #include "deformkit/control_mesh.hpp"
 
 #include <memory>
