@@ -12,6 +12,83 @@ std::string shape_of(const py::array& a) {
   return s + (a.ndim() == 1 ? ",)" : ")");
 }
 
+bool is_float32(const py::array& a) { return a.dtype().kind() == 'f' && a.itemsize() == 4; }
+
+static std::string gigabytes(double bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g GB", bytes / 1e9);
+  return buf;
+}
+
+[[noreturn]] static void throw_memory_error(const std::string& message) {
+  PyErr_SetString(PyExc_MemoryError, message.c_str());
+  throw py::error_already_set();
+}
+
+template <class T>
+static const char* dtype_name() {
+  if (std::is_same<T, float>::value) return "float32";
+  if (std::is_same<T, double>::value) return "float64";
+  return std::is_signed<T>::value ? "int64" : "uint8";
+}
+
+template <class T>
+py::array_t<T, py::array::c_style> c_array(const py::handle& obj, const char* name) {
+  if (py::isinstance<py::array>(obj)) {
+    const auto a = py::reinterpret_borrow<py::array>(obj);
+    if (holds<T>(a) && (a.flags() & py::array::c_style)) return py::reinterpret_borrow<py::array_t<T, py::array::c_style>>(a);
+  }
+  static const py::object& asarray = *new py::object(py::module_::import("numpy").attr("array"));
+  py::object result;
+  try {
+    // A copy in native order, aligned and C-contiguous; numpy's own conversion rules.
+    result = asarray(obj, py::dtype::of<T>(), py::arg("copy") = true, py::arg("order") = "C");
+  } catch (py::error_already_set& e) {
+    if (e.matches(PyExc_MemoryError)) {
+      double bytes = sizeof(T);
+      std::string shape = "";
+      if (py::isinstance<py::array>(obj)) {
+        const auto a = py::reinterpret_borrow<py::array>(obj);
+        bytes *= double(a.size());
+        shape = " of shape " + shape_of(a);
+      }
+      throw_memory_error(std::string(name) + ": not enough memory for a contiguous " + dtype_name<T>() + " copy" +
+                         shape + " (" + gigabytes(bytes) + ")");
+    }
+    if (e.matches(PyExc_TypeError) || e.matches(PyExc_ValueError) || e.matches(PyExc_OverflowError))
+      throw py::type_error(std::string(name) + ": expected an array of numbers, got " +
+                           std::string(py::str(py::type::of(obj).attr("__name__"))) + " (" + e.what() + ")");
+    throw;
+  }
+  const auto a = py::reinterpret_borrow<py::array>(result);
+  if (!holds<T>(a) || !(a.flags() & py::array::c_style))
+    throw py::type_error(std::string(name) + ": could not be converted to a native C-contiguous " + dtype_name<T>() +
+                         " array");
+  return py::reinterpret_borrow<py::array_t<T, py::array::c_style>>(a);
+}
+template py::array_t<float, py::array::c_style> c_array<float>(const py::handle&, const char*);
+template py::array_t<double, py::array::c_style> c_array<double>(const py::handle&, const char*);
+template py::array_t<std::int64_t, py::array::c_style> c_array<std::int64_t>(const py::handle&, const char*);
+
+template <class T>
+py::array_t<T, py::array::c_style> new_array(const std::vector<py::ssize_t>& shape, const char* what) {
+  try {
+    return py::array_t<T, py::array::c_style>(shape);
+  } catch (py::error_already_set& e) {
+    if (!e.matches(PyExc_MemoryError) && !e.matches(PyExc_ValueError)) throw;
+    double bytes = sizeof(T);
+    std::string dims = "(";
+    for (std::size_t i = 0; i < shape.size(); ++i) {
+      bytes *= double(shape[i]);
+      dims += (i ? ", " : "") + std::to_string(shape[i]);
+    }
+    throw_memory_error(std::string("not enough memory for ") + what + ", a " + dtype_name<T>() + " array of shape " +
+                       dims + ") (" + gigabytes(bytes) + ")");
+  }
+}
+template py::array_t<float, py::array::c_style> new_array<float>(const std::vector<py::ssize_t>&, const char*);
+template py::array_t<double, py::array::c_style> new_array<double>(const std::vector<py::ssize_t>&, const char*);
+
 // An (n, 3) float32/float64 array, C-contiguous (copied only when the layout requires it).
 py::array points_array(const py::handle& obj, const char* name) {
   if (!py::isinstance<py::array>(obj))
@@ -27,12 +104,37 @@ py::array points_array(const py::handle& obj, const char* name) {
   if (a.ndim() != 2 || a.shape(1) != 3)
     throw py::value_error(std::string(name) + ": expected shape (n, 3), got " + shape_of(a));
   if (a.shape(0) == 0) throw py::value_error(std::string(name) + ": is empty (0 rows)");
-  if (f32) return py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(a);
-  return py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+  if (f32) return c_array<float>(a, name);
+  return c_array<double>(a, name);
 }
 
-py::array_t<double, py::array::c_style> as_double(const py::array& a) {
-  return py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+py::array_t<double, py::array::c_style> as_double(const py::array& a, const char* name) {
+  return c_array<double>(a, name);
+}
+
+// [lo, hi) of the bytes an array's strides reach.
+static std::pair<std::uintptr_t, std::uintptr_t> byte_bounds(const py::array& a) {
+  auto lo = reinterpret_cast<std::uintptr_t>(a.data()), hi = lo;
+  if (a.size() == 0) return {lo, lo};
+  for (py::ssize_t i = 0; i < a.ndim(); ++i) {
+    const py::ssize_t reach = (a.shape(i) - 1) * a.strides(i);
+    if (reach < 0) lo -= std::uintptr_t(-reach);
+    else hi += std::uintptr_t(reach);
+  }
+  return {lo, hi + std::uintptr_t(a.itemsize())};
+}
+
+bool overlaps(const py::array& a, const py::array& b) {
+  const auto [a0, a1] = byte_bounds(a);
+  const auto [b0, b1] = byte_bounds(b);
+  return a0 < b1 && b0 < a1;
+}
+
+bool same_memory(const py::array& a, const py::array& b) {
+  if (a.data() != b.data() || a.ndim() != b.ndim() || a.itemsize() != b.itemsize()) return false;
+  for (py::ssize_t i = 0; i < a.ndim(); ++i)
+    if (a.shape(i) != b.shape(i) || a.strides(i) != b.strides(i)) return false;
+  return true;
 }
 
 int parse_axis(const py::object& axis, const char* name) {
@@ -65,13 +167,9 @@ void require_real(const py::object& obj, const char* name) {
 Frame parse_frame(const py::object& obj, const char* name) {
   if (obj.is_none()) return Frame{};
   require_real(obj, name);
-  py::array_t<double, py::array::c_style | py::array::forcecast> a;
-  try {
-    a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
-  } catch (const py::error_already_set&) {
-  }
-  if (!a || a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)
-    throw py::value_error(std::string(name) + ": expected a 4x4 matrix" + (a ? ", got shape " + shape_of(a) : ""));
+  const auto a = c_array<double>(obj, name);
+  if (a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)
+    throw py::value_error(std::string(name) + ": expected a 4x4 matrix, got shape " + shape_of(a));
   Mat4 m;
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) m(r, c) = a.at(r, c);
@@ -95,8 +193,9 @@ std::pair<double, double> parse_range(const py::object& obj, const char* name) {
 
 std::vector<double> parse_vector(const py::object& obj, const char* name) {
   require_real(obj, name);
-  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
-  if (!a || a.ndim() != 1) throw py::value_error(std::string(name) + ": expected a 1-D sequence of numbers");
+  const auto a = c_array<double>(obj, name);
+  if (a.ndim() != 1)
+    throw py::value_error(std::string(name) + ": expected a 1-D sequence of numbers, got shape " + shape_of(a));
   return std::vector<double>(a.data(), a.data() + a.size());
 }
 
@@ -124,30 +223,37 @@ void apply_weights(Deformer& d, const py::object& weights) {
   if (!weights.is_none()) d.set_weights(parse_vector(weights, "weights"));
 }
 
-py::array output_array(const py::object& out, py::ssize_t rows, const py::dtype& dtype, const py::array* source) {
-  if (out.is_none()) return py::array(dtype, std::vector<py::ssize_t>{rows, 3});
+template <class T>
+py::array output_array(const py::object& out, py::ssize_t rows, const py::handle& source, bool in_place) {
+  if (out.is_none()) return new_array<T>({rows, 3}, "the result");
   if (!py::isinstance<py::array>(out)) throw py::type_error("out: expected a numpy array or None");
   auto o = py::reinterpret_borrow<py::array>(out);
-  if (!o.dtype().is(dtype)) throw py::type_error("out: must have dtype " + std::string(py::str(dtype)));
+  const char* want = std::is_same<T, float>::value ? "float32" : "float64";
+  if (o.dtype().kind() != 'f' || o.itemsize() != py::ssize_t(sizeof(T)))
+    throw py::type_error(std::string("out: must have dtype ") + want + ", got " + std::string(py::str(o.dtype())));
+  if (!holds<T>(o))
+    throw py::type_error(std::string("out: must be native-order and aligned ") + want + ", got " +
+                         std::string(py::str(o.dtype())) + (o.dtype().byteorder() == '>' ? " (byte-swapped)" : " (unaligned)"));
   if (o.ndim() != 2 || o.shape(0) != rows || o.shape(1) != 3)
     throw py::value_error("out: expected shape (" + std::to_string(rows) + ", 3), got " + shape_of(o));
   if (!(o.flags() & py::array::c_style) || !o.writeable())
     throw py::value_error("out: must be a writeable C-contiguous array");
-  if (source) {
-    const auto* a0 = static_cast<const char*>(source->data());
-    const auto* b0 = static_cast<const char*>(o.data());
-    if (a0 != b0 && a0 < b0 + o.nbytes() && b0 < a0 + source->nbytes())
-      throw py::value_error("out: overlaps points without being the same array (pass points itself for in place)");
+  if (source && py::isinstance<py::array>(source)) {
+    const auto src = py::reinterpret_borrow<py::array>(source);
+    if (overlaps(src, o) && !(in_place && same_memory(src, o)))
+      throw py::value_error(in_place ? "out: overlaps points without being the same array (pass points itself for in place)"
+                                     : "out: overlaps points (this result cannot be written over its input)");
   }
   return o;
 }
+template py::array output_array<float>(const py::object&, py::ssize_t, const py::handle&, bool);
+template py::array output_array<double>(const py::object&, py::ssize_t, const py::handle&, bool);
 
 template <class T>
-static py::array deform_typed(const Deformer& d, const py::array& pts, const py::object& out, Output what) {
+static py::array deform_typed(const Deformer& d, const py::handle& points, const py::array& pts,
+                              const py::object& out, Output what) {
   const auto n = static_cast<std::size_t>(pts.shape(0));
-  if (!out.is_none() && py::isinstance<py::array>(out) && !py::reinterpret_borrow<py::array>(out).dtype().is(pts.dtype()))
-    throw py::type_error("out: must have the dtype of points (" + std::string(py::str(pts.dtype())) + ")");
-  py::array result = output_array(out, pts.shape(0), pts.dtype(), &pts);
+  py::array result = output_array<T>(out, pts.shape(0), points, what == Output::Positions);
   const T* in = static_cast<const T*>(pts.data());
   T* dst = static_cast<T*>(result.mutable_data());
   {
@@ -161,8 +267,8 @@ static py::array deform_typed(const Deformer& d, const py::array& pts, const py:
 py::array deform_or_displace(const Deformer& d, const py::object& points, const py::object& out, Output what) {
   if (!out.is_none() && !py::isinstance<py::array>(out)) throw py::type_error("out: expected a numpy array or None");
   const py::array pts = points_array(points, "points");
-  if (pts.dtype().is(py::dtype::of<float>())) return deform_typed<float>(d, pts, out, what);
-  return deform_typed<double>(d, pts, out, what);
+  if (is_float32(pts)) return deform_typed<float>(d, points, pts, out, what);
+  return deform_typed<double>(d, points, pts, out, what);
 }
 
 py::array py_deform(const Deformer& d, const py::object& points, const py::object& out) {
@@ -173,8 +279,8 @@ py::array py_displacement(const Deformer& d, const py::object& points, const py:
   return deform_or_displace(d, points, out, Output::Displacement);
 }
 
-py::array cast_like(py::array_t<double> result, const py::array& like) {
-  if (like.dtype().is(py::dtype::of<float>())) return result.attr("astype")(py::dtype::of<float>());
+py::array cast_like(py::array result, const py::array& like) {
+  if (is_float32(like)) return result.attr("astype")(py::dtype::of<float>());
   return std::move(result);
 }
 
@@ -182,7 +288,7 @@ py::array py_jacobian(const Deformer& d, const py::object& points) {
   const py::array pts = points_array(points, "points");
   const auto p = as_double(pts);
   const auto n = static_cast<std::size_t>(pts.shape(0));
-  py::array_t<double> jac({pts.shape(0), py::ssize_t(3), py::ssize_t(3)});
+  auto jac = new_array<double>({pts.shape(0), py::ssize_t(3), py::ssize_t(3)}, "the Jacobians");
   const double* in = p.data();
   double* dst = jac.mutable_data();
   {
@@ -198,9 +304,9 @@ py::array py_normals(const Deformer& d, const py::object& points, const py::obje
   if (nrm.shape(0) != pts.shape(0))
     throw py::value_error("normals: has " + std::to_string(nrm.shape(0)) + " rows but points has " +
                           std::to_string(pts.shape(0)));
-  const auto p = as_double(pts), q = as_double(nrm);
+  const auto p = as_double(pts), q = as_double(nrm, "normals");
   const auto n = static_cast<std::size_t>(pts.shape(0));
-  py::array_t<double> out({pts.shape(0), py::ssize_t(3)});
+  auto out = new_array<double>({pts.shape(0), py::ssize_t(3)}, "the normals");
   const double *in = p.data(), *nin = q.data();
   double* dst = out.mutable_data();
   {
@@ -214,7 +320,7 @@ py::array py_volume_ratio(const Deformer& d, const py::object& points) {
   const py::array pts = points_array(points, "points");
   const auto p = as_double(pts);
   const auto n = static_cast<std::size_t>(pts.shape(0));
-  py::array_t<double> out(pts.shape(0));
+  auto out = new_array<double>({pts.shape(0)}, "the volume ratios");
   const double* in = p.data();
   double* dst = out.mutable_data();
   {
@@ -237,7 +343,7 @@ Faces parse_faces(const py::object& faces) {
     const py::array a = py::reinterpret_borrow<py::array>(faces);
     if (a.dtype().kind() != 'i' && a.dtype().kind() != 'u')
       throw py::type_error("faces: expected integer vertex indices, got " + std::string(py::str(a.dtype())));
-    const auto f = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+    const auto f = c_array<std::int64_t>(a, "faces");
     if (f.ndim() != 2 || f.shape(0) == 0 || f.shape(1) < 3)
       throw py::value_error("faces: expected shape (m, k) with m >= 1 and k >= 3, got " + shape_of(f));
     corners.assign(f.data(), f.data() + f.size());

@@ -7,6 +7,7 @@
 #include <pybind11/stl.h>
 
 #include <optional>
+#include <type_traits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -18,10 +19,37 @@ using namespace deformkit;
 
 std::string shape_of(const py::array& a);
 
+// Arrays cross into C++ checked by value -- dtype kind, item size, byte order, alignment, layout --
+// never by dtype identity: a pickled or metadata-carrying float32 dtype is a different object
+// with the same meaning.
+template <class T>
+bool holds(const py::array& a) {
+  const char kind = std::is_floating_point<T>::value ? 'f' : std::is_signed<T>::value ? 'i' : 'u';
+  const char order = a.dtype().byteorder();
+  return a.dtype().kind() == kind && a.itemsize() == py::ssize_t(sizeof(T)) && order != '>' &&
+         (a.flags() & py::detail::npy_api::NPY_ARRAY_ALIGNED_);
+}
+bool is_float32(const py::array& a);
+
+// `obj` as a C-contiguous, aligned, native-order array of T, copied only when needed. Allocation
+// failure is a MemoryError naming `name` and the size; anything that is not numbers, an error
+// naming `name`.
+template <class T>
+py::array_t<T, py::array::c_style> c_array(const py::handle& obj, const char* name);
+
+// A new array of T, or a MemoryError naming `what`.
+template <class T>
+py::array_t<T, py::array::c_style> new_array(const std::vector<py::ssize_t>& shape, const char* what);
+
 // An (n, 3) float32/float64 array, C-contiguous (copied only when the layout requires it).
 py::array points_array(const py::handle& obj, const char* name);
 
-py::array_t<double, py::array::c_style> as_double(const py::array& a);
+py::array_t<double, py::array::c_style> as_double(const py::array& a, const char* name = "points");
+
+// True when the memory of a and b intersects (by the bounds their strides reach), and
+// same_memory when they are exactly one another's layout.
+bool overlaps(const py::array& a, const py::array& b);
+bool same_memory(const py::array& a, const py::array& b);
 
 int parse_axis(const py::object& axis, const char* name);
 
@@ -44,8 +72,10 @@ void apply_weights(Deformer& d, const py::object& weights);
 
 enum class Output { Positions, Displacement };
 
-// `out` checked (dtype, shape, layout, no partial overlap with `source`), or a new (rows, 3) array.
-py::array output_array(const py::object& out, py::ssize_t rows, const py::dtype& dtype, const py::array* source);
+// `out` checked (dtype, shape, layout, writeable, no overlap with the caller's `source` unless it
+// is that very array and `in_place` allows it), or a new (rows, 3) array.
+template <class T>
+py::array output_array(const py::object& out, py::ssize_t rows, const py::handle& source, bool in_place);
 
 py::array deform_or_displace(const Deformer& d, const py::object& points, const py::object& out, Output what);
 
@@ -53,7 +83,7 @@ py::array py_deform(const Deformer& d, const py::object& points, const py::objec
 
 py::array py_displacement(const Deformer& d, const py::object& points, const py::object& out);
 
-py::array cast_like(py::array_t<double> result, const py::array& like);
+py::array cast_like(py::array result, const py::array& like);
 
 py::array py_jacobian(const Deformer& d, const py::object& points);
 

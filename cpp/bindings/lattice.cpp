@@ -50,8 +50,8 @@ LatticeBox parse_box(const py::object& origin, const py::object& edges, const py
     if (!origin.is_none() || !edges.is_none())
       throw py::value_error("frame: give either frame or origin/edges, not both");
     require_real(frame, "frame");
-    auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(frame);
-    if (!a || a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)
+    const auto a = c_array<double>(frame, "frame");
+    if (a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)
       throw py::value_error("frame: expected a 4x4 matrix");
     Mat4 m;
     for (int r = 0; r < 4; ++r)
@@ -62,8 +62,8 @@ LatticeBox parse_box(const py::object& origin, const py::object& edges, const py
   Mat3 e = Mat3::Identity();
   if (!edges.is_none()) {
     require_real(edges, "edges");
-    auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(edges);
-    if (!a || a.ndim() != 2 || a.shape(0) != 3 || a.shape(1) != 3)
+    const auto a = c_array<double>(edges, "edges");
+    if (a.ndim() != 2 || a.shape(0) != 3 || a.shape(1) != 3)
       throw py::value_error("edges: expected three edge vectors S, T, U as a 3x3 array (one per row)");
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) e(c, r) = a.at(r, c);
@@ -119,11 +119,11 @@ const char* interpolation_name(BasisKind k) {
 // A (nu, nv, nw, 3) grid as a flat vector, checked against the lattice's resolution.
 std::vector<double> parse_grid(const py::object& obj, std::array<int, 3> res, const char* name) {
   require_real(obj, name);
-  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  const auto a = c_array<double>(obj, name);
   const std::string want = "(" + std::to_string(res[0]) + ", " + std::to_string(res[1]) + ", " +
                            std::to_string(res[2]) + ", 3)";
-  if (!a || a.ndim() != 4 || a.shape(0) != res[0] || a.shape(1) != res[1] || a.shape(2) != res[2] || a.shape(3) != 3)
-    throw py::value_error(std::string(name) + ": expected shape " + want + (a ? ", got " + shape_of(a) : ""));
+  if (a.ndim() != 4 || a.shape(0) != res[0] || a.shape(1) != res[1] || a.shape(2) != res[2] || a.shape(3) != 3)
+    throw py::value_error(std::string(name) + ": expected shape " + want + ", got " + shape_of(a));
   return std::vector<double>(a.data(), a.data() + a.size());
 }
 
@@ -146,22 +146,23 @@ PyBinding py_bind(const std::shared_ptr<ControlLattice>& lat, const py::object& 
   auto b = std::make_shared<LatticeBinding>();
   {
     py::gil_scoped_release release;
-    if (pts.dtype().is(py::dtype::of<float>())) *b = lat->bind(static_cast<const float*>(pts.data()), n);
+    if (is_float32(pts)) *b = lat->bind(static_cast<const float*>(pts.data()), n);
     else *b = lat->bind(static_cast<const double*>(pts.data()), n);
   }
   return PyBinding{b, lat};
 }
 
 py::array parameters_array(const LatticeBinding& b) {
-  py::array_t<double> a({py::ssize_t(b.size()), py::ssize_t(3)});
+  auto a = new_array<double>({py::ssize_t(b.size()), py::ssize_t(3)}, "the lattice coordinates");
   std::copy(b.parameters.begin(), b.parameters.end(), a.mutable_data());
   return std::move(a);
 }
 
 py::array py_deform_bound(const ControlLattice& lat, const PyBinding& pb, const py::object& out) {
   const LatticeBinding& b = *pb.binding;
-  const py::dtype dtype = b.single_precision ? py::dtype::of<float>() : py::dtype::of<double>();
-  py::array result = output_array(out, py::ssize_t(b.size()), dtype, nullptr);
+  const auto rows = py::ssize_t(b.size());
+  py::array result = b.single_precision ? output_array<float>(out, rows, py::none(), false)
+                                        : output_array<double>(out, rows, py::none(), false);
   {
     py::gil_scoped_release release;
     if (b.single_precision) lat.deform_bound(b, static_cast<float*>(result.mutable_data()));
@@ -184,7 +185,7 @@ py::tuple py_weights(const PyBinding& pb) {
 
 PyDirect py_direct(const ControlLattice& lat, const py::object& points, const py::object& targets) {
   const auto p = as_double(points_array(points, "points"));
-  const auto t = as_double(points_array(targets, "targets"));
+  const auto t = as_double(points_array(targets, "targets"), "targets");
   if (t.shape(0) != p.shape(0))
     throw py::value_error("targets: has " + std::to_string(t.shape(0)) + " rows but points has " +
                           std::to_string(p.shape(0)));
@@ -221,9 +222,9 @@ double py_mesh_volume(const py::object& points, const py::object& faces) {
   if (!py::isinstance<py::array>(faces) && !py::isinstance<py::sequence>(faces))
     throw py::type_error("faces: expected an (m, k) integer array");
   const py::array fa = py::array::ensure(faces);
-  if (!fa || fa.dtype().kind() != 'i' && fa.dtype().kind() != 'u')
+  if (!fa || (fa.dtype().kind() != 'i' && fa.dtype().kind() != 'u'))
     throw py::type_error("faces: expected integer corner indices");
-  const auto f = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(fa);
+  const auto f = c_array<std::int64_t>(fa, "faces");
   if (f.ndim() != 2 || f.shape(0) == 0 || f.shape(1) < 3)
     throw py::value_error("faces: expected shape (m, k) with m >= 1 and k >= 3, got " + shape_of(f));
   py::gil_scoped_release release;
@@ -373,10 +374,9 @@ points take the boundary's displacement ('clamp', the default); 'unchanged' is a
   auto make_effd = [](const py::object& rest, const py::object& cps, double strength, const py::object& weights,
                       double tolerance, int max_iterations) {
     require_real(rest, "rest_control_points");
-    auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(rest);
-    if (!a || a.ndim() != 4 || a.shape(3) != 3)
-      throw py::value_error("rest_control_points: expected shape (3a+1, 3b+1, 3c+1, 3)" +
-                            (a ? ", got " + shape_of(a) : std::string()));
+    const auto a = c_array<double>(rest, "rest_control_points");
+    if (a.ndim() != 4 || a.shape(3) != 3)
+      throw py::value_error("rest_control_points: expected shape (3a+1, 3b+1, 3c+1, 3), got " + shape_of(a));
     const std::array<int, 3> counts{int(a.shape(0)), int(a.shape(1)), int(a.shape(2))};
     NewtonSettings newton{finite_param(tolerance, "tolerance"), max_iterations};
     auto l = std::make_shared<ExtendedFFD>(counts, std::vector<double>(a.data(), a.data() + a.size()),
@@ -409,8 +409,8 @@ u along the axis over `height`, centred at `center`. The seam and the axis are m
       .def_static("prism", [make_effd](const py::object& triangle, const py::object& height, const py::object& blocks,
                                        double strength, const py::object& weights, double tolerance, int max_iterations) {
         require_real(triangle, "triangle");
-        auto tri = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(triangle);
-        if (!tri || tri.ndim() != 2 || tri.shape(0) != 3 || tri.shape(1) != 3)
+        const auto tri = c_array<double>(triangle, "triangle");
+        if (tri.ndim() != 2 || tri.shape(0) != 3 || tri.shape(1) != 3)
           throw py::value_error("triangle: expected three corners A, B, C as a 3x3 array (one per row)");
         const Vec3 a(tri.at(0, 0), tri.at(0, 1), tri.at(0, 2)), b(tri.at(1, 0), tri.at(1, 1), tri.at(1, 2)),
             c(tri.at(2, 0), tri.at(2, 1), tri.at(2, 2));

@@ -29,14 +29,14 @@ std::vector<std::int64_t> int_rows(const py::object& obj, const char* name, py::
   if (!ok)
     throw py::value_error(std::string(name) + ": expected shape " + (columns == 1 ? "(k,)" : "(k, 2)") + ", got " +
                           shape_of(a));
-  const auto v = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+  const auto v = c_array<std::int64_t>(a, name);
   return {v.data(), v.data() + v.size()};
 }
 
 std::vector<double> real_vector(const py::object& obj, const char* name) {
   require_real(obj, name);
-  const auto v = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
-  if (!v || v.ndim() != 1) throw py::value_error(std::string(name) + ": expected a 1-D sequence of sharpness values");
+  const auto v = c_array<double>(obj, name);
+  if (v.ndim() != 1) throw py::value_error(std::string(name) + ": expected a 1-D sequence of sharpness values");
   return {v.data(), v.data() + v.size()};
 }
 
@@ -102,7 +102,7 @@ Cage parse_cage(const py::object& points, const py::object& faces, const std::st
 
 // A cage for an existing topology: `points` (n, 3) of the same vertex count.
 py::array_t<double, py::array::c_style> same_cage(const py::object& points, std::size_t n, const char* name) {
-  auto p = as_double(points_array(points, name));
+  auto p = as_double(points_array(points, name), name);
   if (std::size_t(p.shape(0)) != n)
     throw py::value_error(std::string(name) + ": expected " + std::to_string(n) + " rows (the control mesh's vertices), got " +
                           std::to_string(p.shape(0)));
@@ -182,7 +182,7 @@ Cage cage_with_uvs(const py::object& points, const py::object& faces, const std:
   if (!a || a.ndim() != 2 || a.shape(1) != 2)
     throw py::value_error("uvs: expected shape (corners, 2)" + (a ? ", got " + shape_of(a) : std::string()));
   require_real(uvs, "uvs");
-  const auto d = as_double(a);
+  const auto d = as_double(a, "uvs");
   set_uvs(cage.mesh, d.data(), std::size_t(d.shape(0)), smooth);
   return cage;
 }
@@ -343,7 +343,7 @@ ptex_offset[f+1] - 1.)").c_str())
           throw py::value_error("uv: expected shape (" + std::to_string(faces.size()) + ", 2), one row per ptex sample" +
                                 (uva ? ", got " + shape_of(uva) : std::string()));
         require_real(uv, "uv");
-        const auto uvd = as_double(uva);
+        const auto uvd = as_double(uva, "uv");
         std::vector<int> f32(faces.size());
         for (std::size_t i = 0; i < faces.size(); ++i) {
           if (faces[i] < 0 || faces[i] >= s.surface->ptex_count())

@@ -23,7 +23,7 @@ std::vector<int> parse_indices(const py::object& obj, const char* name, std::siz
   if (!a || (a.size() > 0 && a.dtype().kind() != 'i' && a.dtype().kind() != 'u'))
     throw py::type_error(std::string(name) + ": expected a sequence of integer vertex indices");
   if (a.ndim() > 1) throw py::value_error(std::string(name) + ": expected a 1-D sequence of vertex indices");
-  const auto v = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+  const auto v = c_array<std::int64_t>(a, name);
   std::vector<int> out;
   for (py::ssize_t i = 0; i < v.size(); ++i) {
     const std::int64_t x = v.data()[i];
@@ -108,13 +108,13 @@ so that they are met only approximately, more closely as w grows.)")
                                 (t ? ", got " + shape_of(t) : std::string()));
         if (t.dtype().kind() != 'f' && t.dtype().kind() != 'i' && t.dtype().kind() != 'u')
           throw py::type_error("handle_targets: expected real numbers");
-        const auto td = as_double(t);
+        const auto td = as_double(t, "handle_targets");
         std::vector<double> out;
         {
           py::gil_scoped_release release;
           out = d.deform(td.data());
         }
-        py::array_t<double> result({py::ssize_t(d.vertex_count()), py::ssize_t(3)});
+        auto result = new_array<double>({py::ssize_t(d.vertex_count()), py::ssize_t(3)}, "the deformed points");
         std::copy(out.begin(), out.end(), result.mutable_data());
         return result;
       }, "handle_targets"_a, "Deformed points (n, 3) with the handles at handle_targets (len(handles), 3).")

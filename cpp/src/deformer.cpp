@@ -64,9 +64,10 @@ static void blend(const std::vector<double>& w, const T* in, T* out, std::size_t
 
 // After an implementation reported a non-finite row: blame the input if it is the culprit,
 // otherwise the parameters, which made a finite point overflow.
+// In place (in == out) the input was checked before it was overwritten: only the parameters remain.
 template <class T>
 static void report_non_finite(const T* in, const T* out, std::size_t n) {
-  require_finite_rows(in, n, "points");
+  if (in != out) require_finite_rows(in, n, "points");
   for (std::size_t i = 0; i < n; ++i)
     if (!std::isfinite(out[3 * i]) || !std::isfinite(out[3 * i + 1]) || !std::isfinite(out[3 * i + 2]))
       throw std::invalid_argument("deformer: row " + std::to_string(i) +

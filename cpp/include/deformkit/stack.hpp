@@ -4,10 +4,16 @@
 
 namespace deformkit {
 
+// Members that are stacks without weights are spliced in (a Stack of Stacks is one Stack);
+// weighted stacks keep their own members, nested at most kMaxStackDepth deep.
+constexpr int kMaxStackDepth = 64;
+
 class Stack : public Deformer {
  public:
   explicit Stack(std::vector<DeformerPtr> deformers);
   const std::vector<DeformerPtr>& deformers() const { return deformers_; }
+  // Weighted stacks nested inside this one (0 when no member is a stack).
+  int depth() const { return depth_; }
 
  protected:
   bool deform_impl(const float* in, float* out, std::size_t n) const override;
@@ -17,6 +23,7 @@ class Stack : public Deformer {
  private:
   template <class T> bool deform_any(const T* in, T* out, std::size_t n) const;
   std::vector<DeformerPtr> deformers_;
+  int depth_ = 0;
 };
 
 }  // namespace deformkit
