@@ -157,6 +157,20 @@ double finite_param(double v, const char* name) {
   return v;
 }
 
+int int_arg(std::int64_t v, const char* name, int lo, int hi) {
+  if (v < lo || v > hi)
+    throw py::value_error(std::string(name) + ": must be " + std::to_string(lo) + ".." + std::to_string(hi) +
+                          ", got " + std::to_string(v));
+  return static_cast<int>(v);
+}
+
+bool bool_arg(const py::handle& v, const char* name) {
+  static const py::object& numpy_bool = *new py::object(py::module_::import("numpy").attr("bool_"));
+  if (py::isinstance<py::bool_>(v) || py::isinstance(v, numpy_bool)) return PyObject_IsTrue(v.ptr()) == 1;
+  throw py::type_error(std::string(name) + ": expected True or False, got " +
+                       std::string(py::str(py::type::of(v).attr("__name__"))) + " " + std::string(py::repr(v)));
+}
+
 // Real numbers only: forcecast would silently drop an imaginary part or call into objects.
 void require_real(const py::object& obj, const char* name) {
   const py::array a = py::array::ensure(obj);
@@ -188,6 +202,9 @@ std::pair<double, double> parse_range(const py::object& obj, const char* name) {
   if (v.size() != 2) throw py::value_error(std::string(name) + ": expected (lo, hi)");
   if (std::isnan(v[0]) || std::isnan(v[1])) throw py::value_error(std::string(name) + ": contains NaN");
   if (v[0] > v[1]) throw py::value_error(std::string(name) + ": lo must not exceed hi");
+  if (v[0] == inf || v[1] == -inf)
+    throw py::value_error(std::string(name) + ": expected lo < +inf and hi > -inf, got (" + std::to_string(v[0]) + ", " +
+                          std::to_string(v[1]) + ")");
   return {v[0], v[1]};
 }
 

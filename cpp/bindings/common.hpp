@@ -55,6 +55,13 @@ int parse_axis(const py::object& axis, const char* name);
 
 double finite_param(double v, const char* name);
 
+// An integer argument narrowed to int: outside lo..hi it is refused naming `name` (the core's
+// own range, repeated here only so that values beyond int's range are reported as given).
+int int_arg(std::int64_t v, const char* name, int lo, int hi);
+
+// True or False (Python's or numpy's) only: pybind11's bool would take any object with a truth value.
+bool bool_arg(const py::handle& v, const char* name);
+
 // Real numbers only: forcecast would silently drop an imaginary part or call into objects.
 void require_real(const py::object& obj, const char* name);
 

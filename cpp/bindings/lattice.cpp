@@ -372,13 +372,13 @@ points take the boundary's displacement ('clamp', the default); 'unchanged' is a
       });
 
   auto make_effd = [](const py::object& rest, const py::object& cps, double strength, const py::object& weights,
-                      double tolerance, int max_iterations) {
+                      double tolerance, std::int64_t max_iterations) {
     require_real(rest, "rest_control_points");
     const auto a = c_array<double>(rest, "rest_control_points");
     if (a.ndim() != 4 || a.shape(3) != 3)
       throw py::value_error("rest_control_points: expected shape (3a+1, 3b+1, 3c+1, 3), got " + shape_of(a));
     const std::array<int, 3> counts{int(a.shape(0)), int(a.shape(1)), int(a.shape(2))};
-    NewtonSettings newton{finite_param(tolerance, "tolerance"), max_iterations};
+    NewtonSettings newton{finite_param(tolerance, "tolerance"), int_arg(max_iterations, "max_iterations", 1, 1000)};
     auto l = std::make_shared<ExtendedFFD>(counts, std::vector<double>(a.data(), a.data() + a.size()),
                                            finite_param(strength, "strength"), newton);
     return finish(l, cps, weights);
@@ -395,7 +395,7 @@ move together (handle_index).)")
            "strength"_a = 1.0, "weights"_a = py::none(), "tolerance"_a = 1e-10, "max_iterations"_a = 30)
       .def_static("cylinder", [make_effd](double radius, double height, const py::object& blocks, const py::object& center,
                                           const py::object& axis, double strength, const py::object& weights,
-                                          double tolerance, int max_iterations) {
+                                          double tolerance, std::int64_t max_iterations) {
         const auto b = parse_counts(blocks, "blocks");
         const Vec3 c = center.is_none() ? Vec3::Zero() : parse_vec3(center, "center");
         const auto grid = ExtendedFFD::cylinder_grid(finite_param(radius, "radius"), finite_param(height, "height"), b, c,
@@ -407,7 +407,7 @@ move together (handle_index).)")
          R"(A cylindrical lattice: s runs from the axis out to `radius`, t once around (cubic Bezier arcs, blocks[1] >= 3),
 u along the axis over `height`, centred at `center`. The seam and the axis are merged handles.)")
       .def_static("prism", [make_effd](const py::object& triangle, const py::object& height, const py::object& blocks,
-                                       double strength, const py::object& weights, double tolerance, int max_iterations) {
+                                       double strength, const py::object& weights, double tolerance, std::int64_t max_iterations) {
         require_real(triangle, "triangle");
         const auto tri = c_array<double>(triangle, "triangle");
         if (tri.ndim() != 2 || tri.shape(0) != 3 || tri.shape(1) != 3)

@@ -134,7 +134,9 @@ points given: k = amount / (L1 - L0), measured in the origin frame on each call;
 is that of the map with these bounds held fixed.)")
       .def(py::init([](const std::string& mode, std::optional<double> angle, std::optional<double> factor,
                        const py::object& deform_axis, const py::object& origin, const py::object& limits,
-                       bool lock_x, bool lock_y, bool lock_z, const py::object& weights, bool invert_weights) {
+                       const py::object& lock_x, const py::object& lock_y, const py::object& lock_z,
+                       const py::object& weights, const py::object& invert_weights_arg) {
+             const bool invert_weights = bool_arg(invert_weights_arg, "invert_weights");
              if (angle && factor) throw py::value_error("angle: give angle or factor (they are one value), not both");
              SimpleDeformSettings s;
              s.mode = parse_mode(mode);
@@ -144,7 +146,7 @@ is that of the map with these bounds held fixed.)")
              const auto [lo, hi] = parse_range(limits, "limits");
              s.limit_lo = lo;
              s.limit_hi = hi;
-             s.lock = {lock_x, lock_y, lock_z};
+             s.lock = {bool_arg(lock_x, "lock_x"), bool_arg(lock_y, "lock_y"), bool_arg(lock_z, "lock_z")};
              auto d = std::make_shared<SimpleDeform>(s);
              if (!weights.is_none()) {
                auto w = parse_vector(weights, "weights");

@@ -5,6 +5,7 @@
 #include "deformkit/smoothness_report.hpp"
 #include "deformkit/subdivide.hpp"
 
+#include <limits>
 #include <memory>
 
 namespace deformkit_py {
@@ -152,14 +153,14 @@ std::shared_ptr<Deformer> parse_deformer(const py::object& deformer) {
   }
 }
 
-SmoothnessOptions options(int samples_per_edge, const double* reference, int worst, const Deformer* deformer,
-                          int crease_grid) {
+SmoothnessOptions options(std::int64_t samples_per_edge, const double* reference, std::int64_t worst,
+                          const Deformer* deformer, std::int64_t crease_grid) {
   SmoothnessOptions o;
-  o.samples_per_edge = samples_per_edge;
+  o.samples_per_edge = int_arg(samples_per_edge, "samples_per_edge", 1, 1000);
   o.reference = reference;
-  o.worst = worst;
+  o.worst = int_arg(worst, "worst", 0, std::numeric_limits<int>::max());
   o.deformer = deformer;
-  o.crease_grid = crease_grid;
+  o.crease_grid = int_arg(crease_grid, "crease_grid", 1, 64);
   return o;
 }
 
@@ -204,9 +205,10 @@ struct PySubdivider {
   py::array_t<double, py::array::c_style> points;
 };
 
-PySubdivider make_subdivider(const py::object& points, const py::object& faces, int level, const std::string& scheme,
+PySubdivider make_subdivider(const py::object& points, const py::object& faces, std::int64_t level_arg, const std::string& scheme,
                              const std::string& boundary, const py::object& creases, const py::object& corners,
                              const py::object& uvs, const std::string& uv_smooth, std::int64_t max_faces) {
+  const int level = int_arg(level_arg, "level", 1, kMaxSubdivisionLevel);
   Cage cage = cage_with_uvs(points, faces, scheme, boundary, creases, corners, uvs, uv_smooth, max_faces);
   PySubdivider s;
   s.points = cage.points;
@@ -282,9 +284,11 @@ void bind_subdivision(py::module_& m) {
         return owned(std::move(f), {n});
       });
 
-  m.def("subdivide", [](const py::object& points, const py::object& faces, int level, const std::string& scheme,
-                        const std::string& boundary, const py::object& creases, const py::object& corners,
-                        const py::object& uvs, const std::string& uv_smooth, std::int64_t max_faces) {
+  m.def("subdivide", [](const py::object& points, const py::object& faces, std::int64_t level_arg,
+                        const std::string& scheme, const std::string& boundary, const py::object& creases,
+                        const py::object& corners, const py::object& uvs, const std::string& uv_smooth,
+                        std::int64_t max_faces) {
+    const int level = int_arg(level_arg, "level", 1, kMaxSubdivisionLevel);
     Cage cage = cage_with_uvs(points, faces, scheme, boundary, creases, corners, uvs, uv_smooth, max_faces);
     SubdividedMesh out;
     {
@@ -334,9 +338,8 @@ ptex_offset[f+1] - 1.)").c_str())
       .def_property_readonly("vertex_count", [](const PyLimitSurface& s) { return s.surface->mesh().vertex_count; })
       .def_property_readonly("scheme", [](const PyLimitSurface& s) { return scheme_name(s.surface->mesh().scheme); })
       .def("evaluate", [](const PyLimitSurface& s, const py::object& ptex, const py::object& uv,
-                          const py::object& points, int derivatives) {
-        if (derivatives < 0 || derivatives > 2)
-          throw py::value_error("derivatives: expected 0, 1 or 2, got " + std::to_string(derivatives));
+                          const py::object& points, std::int64_t derivatives_arg) {
+        const int derivatives = int_arg(derivatives_arg, "derivatives", 0, 2);
         const std::vector<std::int64_t> faces = int_rows(ptex, "ptex", 1);
         const py::array uva = py::array::ensure(uv);
         if (!uva || uva.ndim() != 2 || uva.shape(1) != 2 || std::size_t(uva.shape(0)) != faces.size())
@@ -377,9 +380,9 @@ same topology (a deformed one) without rebuilding the patches.)")
         }
         return owned(std::move(out), {py::ssize_t(s.surface->mesh().vertex_count), 3});
       }, "points"_a = py::none(), "The limit position of every control vertex, (n, 3).")
-      .def("smoothness_report", [](const PyLimitSurface& s, const py::object& points, int samples_per_edge,
-                                   const py::object& reference, int worst, const py::object& deformer,
-                                   int crease_grid) {
+      .def("smoothness_report", [](const PyLimitSurface& s, const py::object& points, std::int64_t samples_per_edge,
+                                   const py::object& reference, std::int64_t worst, const py::object& deformer,
+                                   std::int64_t crease_grid) {
         py::array_t<double, py::array::c_style> cage = s.points, ref;
         if (!points.is_none()) cage = same_cage(points, s.surface->mesh().vertex_count, "points");
         if (!reference.is_none()) ref = same_cage(reference, s.surface->mesh().vertex_count, "reference");
@@ -455,8 +458,8 @@ the bounding-box diagonal; worst_edges indices into edges by decreasing angle.)"
 
   m.def("smoothness_report", [](const py::object& points, const py::object& faces, const std::string& scheme,
                                 const std::string& boundary, const py::object& creases, const py::object& corners,
-                                int samples_per_edge, const py::object& reference, int worst, const py::object& deformer,
-                                int crease_grid) {
+                                std::int64_t samples_per_edge, const py::object& reference, std::int64_t worst,
+                                const py::object& deformer, std::int64_t crease_grid) {
     Cage cage = parse_cage(points, faces, scheme, boundary, creases, corners);
     const std::shared_ptr<Deformer> map = parse_deformer(deformer);
     py::array_t<double, py::array::c_style> ref;

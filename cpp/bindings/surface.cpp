@@ -72,7 +72,7 @@ eq. 5), or 2 w^2 ||x_i - c_i||^2 to the ARAP energy (whose sum over edges counts
 so that they are met only approximately, more closely as w grows.)")
       .def(py::init([](const py::object& points, const py::object& faces, const py::object& anchors,
                        const py::object& handles, const py::object& roi, const std::string& method,
-                       const std::string& weights, int iterations, double tolerance,
+                       const std::string& weights, std::int64_t iterations, double tolerance,
                        const std::optional<double>& constraint_weight) {
              SurfaceSettings s;
              if (method == "arap") s.method = SurfaceMethod::Arap;
@@ -82,7 +82,7 @@ so that they are met only approximately, more closely as w grows.)")
              if (weights == "cotangent") s.uniform_weights = false;
              else if (weights == "uniform") s.uniform_weights = true;
              else throw py::value_error("weights: expected 'cotangent' or 'uniform', got '" + weights + "'");
-             s.iterations = iterations;
+             s.iterations = int_arg(iterations, "iterations", 1, 10000);
              s.tolerance = tolerance;
              if (constraint_weight) {
                if (!(*constraint_weight > 0.0))

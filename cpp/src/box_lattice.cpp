@@ -25,11 +25,11 @@ LatticeAxes uniform_axes(BasisKind kind, std::array<int, 3> counts, const char* 
           AxisBasis::make(kind, counts[2], argument)};
 }
 
-const LatticeAxes& checked(const LatticeAxes& axes, Outside outside) {
+const LatticeAxes& checked(const LatticeAxes& axes, Outside outside, const char* counts_name) {
   // Each control point costs 48 bytes twice over; beyond this a typo, not a lattice.
   const double total = double(axes[0].count) * axes[1].count * axes[2].count;
   if (total > double(kMaxControlPoints))
-    throw std::invalid_argument("resolution: " + std::to_string(static_cast<long long>(total)) +
+    throw std::invalid_argument(std::string(counts_name) + ": " + std::to_string(static_cast<long long>(total)) +
                                 " control points is more than the limit of " + std::to_string(kMaxControlPoints));
   if (outside == Outside::Extrapolate)
     for (const auto& a : axes)
@@ -41,8 +41,9 @@ const LatticeAxes& checked(const LatticeAxes& axes, Outside outside) {
 
 }  // namespace
 
-BoxLattice::BoxLattice(const LatticeBox& box, const LatticeAxes& axes, Outside outside, double strength)
-    : ControlLattice(axes, rest_grid(box, checked(axes, outside)), outside, strength), box_(box) {}
+BoxLattice::BoxLattice(const LatticeBox& box, const LatticeAxes& axes, Outside outside, double strength,
+                       const char* counts_name)
+    : ControlLattice(axes, rest_grid(box, checked(axes, outside, counts_name)), outside, strength), box_(box) {}
 
 PointStatus BoxLattice::locate(const Vec3& x, Vec3& parameters) const {
   parameters = box_.coordinates(x);
@@ -53,7 +54,7 @@ PointStatus BoxLattice::locate(const Vec3& x, Vec3& parameters) const {
 
 FFD::FFD(const LatticeBox& box, std::array<int, 3> degree, Outside outside, double strength)
     : BoxLattice(box, uniform_axes(BasisKind::Bernstein, {degree[0] + 1, degree[1] + 1, degree[2] + 1}, "degree"),
-                 outside, strength) {}
+                 outside, strength, "degree") {}
 
 BezierFFD::BezierFFD(const LatticeBox& box, std::array<int, 3> blocks, Outside outside, double strength)
     : BoxLattice(box, [&] {
@@ -61,11 +62,12 @@ BezierFFD::BezierFFD(const LatticeBox& box, std::array<int, 3> blocks, Outside o
           if (b < 1 || b > 1024) throw std::invalid_argument("blocks: expected 1..1024 blocks per axis, got " + std::to_string(b));
         return uniform_axes(BasisKind::BezierBlocks, {3 * blocks[0] + 1, 3 * blocks[1] + 1, 3 * blocks[2] + 1},
                             "blocks");
-      }(), outside, strength) {}
+      }(), outside, strength, "blocks") {}
 
 BSplineLattice::BSplineLattice(const LatticeBox& box, std::array<int, 3> resolution, Outside outside,
                                double strength)
-    : BoxLattice(box, uniform_axes(BasisKind::UniformBSpline, resolution, "resolution"), outside, strength) {}
+    : BoxLattice(box, uniform_axes(BasisKind::UniformBSpline, resolution, "resolution"), outside, strength,
+                 "resolution") {}
 
 BlenderLattice::BlenderLattice(const LatticeBox& box, std::array<int, 3> resolution,
                                std::array<BasisKind, 3> interpolation, Outside outside, double strength)
@@ -77,6 +79,6 @@ BlenderLattice::BlenderLattice(const LatticeBox& box, std::array<int, 3> resolut
                                       AxisBasis::make(interpolation[1], resolution[1], "resolution"),
                                       AxisBasis::make(interpolation[2], resolution[2], "resolution")};
                  }(),
-                 outside, strength) {}
+                 outside, strength, "resolution") {}
 
 }  // namespace deformkit

@@ -184,10 +184,22 @@ Mat3 ExtendedFFD::parameter_jacobian(const Vec3& parameters) const {
   return d.completeOrthogonalDecomposition().pseudoInverse();
 }
 
+// Generated lattices stay where their determinants (products of three lengths) are representable.
+constexpr double kMaxLatticeExtent = 1e100, kMinLatticeExtent = 1e-100;
+
 std::vector<double> ExtendedFFD::prism_grid(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& height,
                                             std::array<int, 3> blocks) {
   if (!a.allFinite() || !b.allFinite() || !c.allFinite() || !height.allFinite())
     throw std::invalid_argument("triangle: corners and height must be finite");
+  // Beyond this scale the rest lattice's determinants (cubes of lengths) overflow or underflow.
+  const double extent = std::max({a.cwiseAbs().maxCoeff(), b.cwiseAbs().maxCoeff(), c.cwiseAbs().maxCoeff()});
+  if (extent > kMaxLatticeExtent || height.norm() > kMaxLatticeExtent)
+    throw std::invalid_argument("triangle: corners and height must lie within 1e100 of the origin");
+  const Vec3 normal = (b - a).cross(c - a);
+  if (!(normal.norm() > 1e-12 * (b - a).norm() * (c - a).norm()) || (b - a).norm() < kMinLatticeExtent)
+    throw std::invalid_argument("triangle: corners are collinear or coincide; a prism needs a triangle with area");
+  if (!(std::abs(normal.normalized().dot(height)) > 1e-12 * height.norm()) || height.norm() < kMinLatticeExtent)
+    throw std::invalid_argument("height: must be a vector out of the triangle's plane (got one in it, or zero)");
   for (int n : blocks)
     if (n < 1 || n > 256) throw std::invalid_argument("blocks: a prism needs 1..256 blocks per axis");
   const int ns = 3 * blocks[0] + 1, nt = 3 * blocks[1] + 1, nu = 3 * blocks[2] + 1;
@@ -209,8 +221,10 @@ std::vector<double> ExtendedFFD::prism_grid(const Vec3& a, const Vec3& b, const 
 
 std::vector<double> ExtendedFFD::cylinder_grid(double radius, double height, std::array<int, 3> blocks,
                                                const Vec3& center, int axis) {
-  if (!(radius > 0.0) || !std::isfinite(radius)) throw std::invalid_argument("radius: must be a positive number");
-  if (!(height > 0.0) || !std::isfinite(height)) throw std::invalid_argument("height: must be a positive number");
+  if (!(radius >= kMinLatticeExtent && radius <= kMaxLatticeExtent))
+    throw std::invalid_argument("radius: must be in 1e-100..1e100, got " + std::to_string(radius));
+  if (!(height >= kMinLatticeExtent && height <= kMaxLatticeExtent))
+    throw std::invalid_argument("height: must be in 1e-100..1e100, got " + std::to_string(height));
   if (!center.allFinite()) throw std::invalid_argument("center: is not finite");
   if (blocks[0] < 1 || blocks[2] < 1 || blocks[1] < 3 || blocks[0] > 64 || blocks[1] > 256 || blocks[2] > 256)
     throw std::invalid_argument("blocks: a cylinder needs 1..64 radial, 3..256 angular and 1..256 axial blocks");

@@ -14,6 +14,10 @@ limit surface is smooth.
 >>> out = dk.Stack([dk.Twist(rate=1.0), dk.Bend(curvature=0.5)]).deform(pts)
 """
 
+from . import _arguments, _core
+
+_arguments.install(_core)  # refused calls name their argument
+
 from ._core import (
     Bend,
     BezierFFD,

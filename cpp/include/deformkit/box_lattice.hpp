@@ -10,7 +10,9 @@ class BoxLattice : public ControlLattice {
  public:
   // Throws std::invalid_argument naming `resolution` for counts the bases cannot take, and
   // `outside` for Extrapolate with Blender's bases.
-  BoxLattice(const LatticeBox& box, const LatticeAxes& axes, Outside outside, double strength);
+  // counts_name: the constructor argument that set the control-point counts, for errors.
+  BoxLattice(const LatticeBox& box, const LatticeAxes& axes, Outside outside, double strength,
+             const char* counts_name);
   const LatticeBox& box() const { return box_; }
 
  protected:

@@ -1,0 +1,187 @@
+"""Every public entry point, every parameter: a wrongly typed value or a misspelt keyword gets an
+error that names the argument (and, for a keyword, the nearest valid name) -- never pybind11's
+generic "incompatible function arguments". The parameters are read from each entry point's own
+signature, so a parameter added later is walked too."""
+import numpy as np
+import pytest
+
+import deformkit as dk
+from deformkit._arguments import parse_signature
+
+GRID = np.array([[x, y, 0.1 * x * y] for y in range(3) for x in range(3)], float)
+QUADS = np.array([[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6], [4, 5, 8, 7]])
+CUBE = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+CUBE_FACES = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
+PTS = np.random.default_rng(3).uniform(-1, 1, (20, 3))
+TRIANGLE = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
+
+
+def ffd():
+    return dk.FFD(2)
+
+
+def surface():
+    return dk.SurfaceDeformer(GRID, QUADS, anchors=[0, 1, 2], handles=[8])
+
+
+def limit():
+    return dk.LimitSurface(CUBE, CUBE_FACES)
+
+
+def subdivider():
+    return dk.Subdivider(CUBE, CUBE_FACES, 1)
+
+
+# name -> (the callable, its name in its docstring, valid positional arguments, valid keywords)
+ENTRY_POINTS = {
+    "Twist": (dk.Twist, "__init__", (), {}),
+    "Taper": (dk.Taper, "__init__", (), {}),
+    "Stretch": (dk.Stretch, "__init__", (), {}),
+    "Bend": (dk.Bend, "__init__", (), {}),
+    "SimpleDeform": (dk.SimpleDeform, "__init__", (), {}),
+    "Stack": (dk.Stack, "__init__", ([dk.Twist()],), {}),
+    "FFD": (dk.FFD, "__init__", (), {}),
+    "BezierFFD": (dk.BezierFFD, "__init__", (), {}),
+    "BSplineLattice": (dk.BSplineLattice, "__init__", (), {}),
+    "BlenderLattice": (dk.BlenderLattice, "__init__", (), {}),
+    "ExtendedFFD": (dk.ExtendedFFD, "__init__", (dk.BezierFFD(1).rest_control_points,), {}),
+    "ExtendedFFD.cylinder": (dk.ExtendedFFD.cylinder, "cylinder", (), {}),
+    "ExtendedFFD.prism": (dk.ExtendedFFD.prism, "prism", (TRIANGLE, [0, 0, 1]), {}),
+    "SurfaceDeformer": (dk.SurfaceDeformer, "__init__", (GRID, QUADS), {"anchors": [0, 1, 2], "handles": [8]}),
+    "Subdivider": (dk.Subdivider, "__init__", (CUBE, CUBE_FACES, 1), {}),
+    "LimitSurface": (dk.LimitSurface, "__init__", (CUBE, CUBE_FACES), {}),
+    "subdivide": (dk.subdivide, "subdivide", (CUBE, CUBE_FACES, 1), {}),
+    "smoothness_report": (dk.smoothness_report, "smoothness_report", (CUBE, CUBE_FACES), {}),
+    "mesh_volume": (dk.mesh_volume, "mesh_volume", (CUBE, CUBE_FACES), {}),
+    "cotangent_laplacian": (dk.cotangent_laplacian, "cotangent_laplacian", (GRID, QUADS), {}),
+    "deform": (lambda *a, **k: dk.Twist().deform(*a, **k), "deform", (PTS,), {}),
+    "displacement": (lambda *a, **k: dk.Twist().displacement(*a, **k), "displacement", (PTS,), {}),
+    "jacobian": (lambda *a, **k: dk.Twist().jacobian(*a, **k), "jacobian", (PTS,), {}),
+    "transform_normals": (lambda *a, **k: dk.Twist().transform_normals(*a, **k), "transform_normals", (PTS, PTS), {}),
+    "volume_ratio": (lambda *a, **k: dk.Twist().volume_ratio(*a, **k), "volume_ratio", (PTS,), {}),
+    "bind": (lambda *a, **k: ffd().bind(*a, **k), "bind", (PTS,), {}),
+    "deform_bound": (lambda *a, **k: ffd().deform_bound(*a, **k), "deform_bound", (ffd().bind(PTS),), {}),
+    "lattice_coordinates": (lambda *a, **k: ffd().lattice_coordinates(*a, **k), "lattice_coordinates", (PTS,), {}),
+    "direct_manipulation": (lambda *a, **k: ffd().direct_manipulation(*a, **k), "direct_manipulation",
+                            (PTS[:3], PTS[:3] + 0.1), {}),
+    "SurfaceDeformer.deform": (lambda *a, **k: surface().deform(*a, **k), "deform", (GRID[[8]] + 0.2,), {}),
+    "Subdivider.subdivide": (lambda *a, **k: subdivider().subdivide(*a, **k), "subdivide", (), {}),
+    "Subdivider.mesh": (lambda *a, **k: subdivider().mesh(*a, **k), "mesh", (), {}),
+    "LimitSurface.evaluate": (lambda *a, **k: limit().evaluate(*a, **k), "evaluate", ([0], [[0.5, 0.5]]), {}),
+    "LimitSurface.limit_points": (lambda *a, **k: limit().limit_points(*a, **k), "limit_points", (), {}),
+    "LimitSurface.smoothness_report": (lambda *a, **k: limit().smoothness_report(*a, **k), "smoothness_report", (), {}),
+}
+DOC_OWNER = {  # where each entry point's signature is documented
+    "deform": dk.Deformer.deform, "displacement": dk.Deformer.displacement, "jacobian": dk.Deformer.jacobian,
+    "transform_normals": dk.Deformer.transform_normals, "volume_ratio": dk.Deformer.volume_ratio,
+    "bind": dk.Lattice.bind, "deform_bound": dk.Lattice.deform_bound,
+    "lattice_coordinates": dk.Lattice.lattice_coordinates, "direct_manipulation": dk.Lattice.direct_manipulation,
+    "SurfaceDeformer.deform": dk.SurfaceDeformer.deform, "Subdivider.subdivide": dk.Subdivider.subdivide,
+    "Subdivider.mesh": dk.Subdivider.mesh, "LimitSurface.evaluate": dk.LimitSurface.evaluate,
+    "LimitSurface.limit_points": dk.LimitSurface.limit_points,
+    "LimitSurface.smoothness_report": dk.LimitSurface.smoothness_report,
+}
+BAD_VALUES = [1j, "not-a-value", object(), 10**400, b"\x00", {"a": 1}]
+BAD_INTEGERS = [-(2**63) - 1, 2**64, 2.5, True and 1j]  # for integer parameters
+
+
+def parameters(entry):
+    function, doc_name, _, _ = ENTRY_POINTS[entry]
+    owner = DOC_OWNER.get(entry, function)
+    doc = (owner.__init__ if doc_name == "__init__" else owner).__doc__
+    params = parse_signature(doc, doc_name)
+    assert params, f"{entry}: no signature in its docstring"
+    return [p for p in params if p.name != "self"]
+
+
+def call_with(entry, name, value):
+    function, _, args, kwargs = ENTRY_POINTS[entry]
+    params = parameters(entry)
+    positional = [p.name for p in params if not p.keyword_only][:len(args)]
+    given = dict(zip(positional, args), **kwargs)
+    given[name] = value
+    # Positional-only use would hide the keyword path: pass every argument by name.
+    return function(**given)
+
+
+def names_argument(message, name):
+    return f"{name}:" in message or f"'{name}'" in message
+
+
+CASES = [(entry, p.name) for entry in ENTRY_POINTS for p in parameters(entry)]
+
+
+def test_every_entry_point_is_walked():
+    """The table covers the whole public API: every class and function deformkit exports."""
+    exported = {n for n in dk.__all__ if callable(getattr(dk, n))}
+    walked = {e.split(".")[0] for e in ENTRY_POINTS} | {"Deformer", "Lattice"}
+    results = {"LatticeBinding", "DirectManipulation", "SubdividedMesh", "SmoothnessReport", "build_info"}
+    assert exported - walked - results == set()
+
+
+def test_valid_calls_succeed():
+    for entry, (function, _, args, kwargs) in ENTRY_POINTS.items():
+        function(*args, **kwargs)
+
+
+@pytest.mark.parametrize("entry, name", CASES, ids=[f"{e}-{n}" for e, n in CASES])
+def test_wrong_values_name_their_argument(entry, name):
+    annotation = next(p.annotation for p in parameters(entry) if p.name == name)
+    for value in BAD_VALUES + (BAD_INTEGERS if "SupportsInt" in annotation else []):
+        try:
+            call_with(entry, name, value)
+        except (TypeError, ValueError, OverflowError) as exc:
+            message = str(exc)
+            assert "incompatible function arguments" not in message and "incompatible constructor" not in message
+            assert names_argument(message, name), f"{entry}({name}={value!r}): {message}"
+        else:
+            pytest.fail(f"{entry}({name}={value!r}) was accepted")
+
+
+@pytest.mark.parametrize("entry", list(ENTRY_POINTS))
+def test_misspelt_keywords_suggest_the_nearest_name(entry):
+    function, _, args, kwargs = ENTRY_POINTS[entry]
+    for p in parameters(entry):
+        if len(p.name) < 4:
+            continue
+        typo = p.name + "s"
+        if typo in {q.name for q in parameters(entry)}:
+            continue
+        with pytest.raises(TypeError) as info:
+            function(*args, **dict(kwargs, **{typo: 1}))
+        message = str(info.value)
+        assert f"unknown keyword argument '{typo}'" in message, message
+        assert f"did you mean '{p.name}'" in message, message
+
+
+@pytest.mark.parametrize("entry", list(ENTRY_POINTS))
+def test_too_many_positional_arguments(entry):
+    function, _, args, kwargs = ENTRY_POINTS[entry]
+    positional = [p for p in parameters(entry) if not p.keyword_only]
+    filler = list(args) + [None] * (len(positional) - len(args)) + [None]
+    with pytest.raises(TypeError, match=rf"takes at most {len(positional)} positional argument"):
+        function(*filler)
+
+
+def test_messages_blame_the_right_argument():
+    cases = [
+        (lambda: dk.Bend(region=(np.inf, np.inf)), "region:"),
+        (lambda: dk.BezierFFD(blocks=(64, 64, 64)), "blocks:"),
+        (lambda: dk.FFD(degree=(15, 15, 15)), None),
+        (lambda: dk.ExtendedFFD.prism([[0, 0, 0], [1, 0, 0], [2, 0, 0]], [0, 0, 1]), "triangle:"),
+        (lambda: dk.ExtendedFFD.prism(TRIANGLE, [1, 1, 0]), "height:"),
+        (lambda: dk.ExtendedFFD.cylinder(radius=1e300), "radius:"),
+        (lambda: dk.ExtendedFFD.cylinder(height=1e300), "height:"),
+        (lambda: dk.ExtendedFFD.cylinder(radius=1e-300), "radius:"),
+        (lambda: dk.SurfaceDeformer(GRID, QUADS, anchors=[0], iterations=2**31), "iterations: must be 1..10000"),
+        (lambda: dk.subdivide(CUBE, CUBE_FACES, 2**31), "level: must be 1..8, got 2147483648"),
+        (lambda: limit().evaluate([0], [[0.5, 0.5]], derivatives=2**31), "derivatives: must be 0..2"),
+        (lambda: dk.ExtendedFFD.cylinder(max_iterations=2**40), "max_iterations: must be 1..1000"),
+    ]
+    for make, words in cases:
+        if words is None:
+            make()
+            continue
+        with pytest.raises(ValueError) as info:
+            make()
+        assert str(info.value).startswith(words), str(info.value)
