@@ -203,7 +203,7 @@ std::pair<double, double> parse_range(const py::object& obj, const char* name) {
   if (std::isnan(v[0]) || std::isnan(v[1])) throw py::value_error(std::string(name) + ": contains NaN");
   if (v[0] > v[1]) throw py::value_error(std::string(name) + ": lo must not exceed hi");
   if (v[0] == inf || v[1] == -inf)
-    throw py::value_error(std::string(name) + ": expected lo < +inf and hi > -inf, got (" + std::to_string(v[0]) + ", " +
+    throw py::value_error(std::string(name) + ": expected lo <= hi with lo < +inf and hi > -inf, got (" + std::to_string(v[0]) + ", " +
                           std::to_string(v[1]) + ")");
   return {v[0], v[1]};
 }
@@ -247,7 +247,8 @@ py::array output_array(const py::object& out, py::ssize_t rows, const py::handle
   auto o = py::reinterpret_borrow<py::array>(out);
   const char* want = std::is_same<T, float>::value ? "float32" : "float64";
   if (o.dtype().kind() != 'f' || o.itemsize() != py::ssize_t(sizeof(T)))
-    throw py::type_error(std::string("out: must have dtype ") + want + ", got " + std::string(py::str(o.dtype())));
+    throw py::type_error(std::string(source.is_none() ? "out: must have dtype " : "out: must have the dtype of points (") +
+                         want + (source.is_none() ? "" : ")") + ", got " + std::string(py::str(o.dtype())));
   if (!holds<T>(o))
     throw py::type_error(std::string("out: must be native-order and aligned ") + want + ", got " +
                          std::string(py::str(o.dtype())) + (o.dtype().byteorder() == '>' ? " (byte-swapped)" : " (unaligned)"));
@@ -257,6 +258,7 @@ py::array output_array(const py::object& out, py::ssize_t rows, const py::handle
     throw py::value_error("out: must be a writeable C-contiguous array");
   if (source && py::isinstance<py::array>(source)) {
     const auto src = py::reinterpret_borrow<py::array>(source);
+    if (!in_place && same_memory(src, o)) throw py::value_error("out: displacement cannot be written over points");
     if (overlaps(src, o) && !(in_place && same_memory(src, o)))
       throw py::value_error(in_place ? "out: overlaps points without being the same array (pass points itself for in place)"
                                      : "out: overlaps points (this result cannot be written over its input)");
