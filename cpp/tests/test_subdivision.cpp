@@ -187,7 +187,7 @@ void expect_matches_bfr(const Cage& c, SubdivisionScheme scheme, double toleranc
   const LimitSurface surface(control(c, scheme));
   std::unique_ptr<Refiner> refiner = make_refiner(control(c, scheme), false);
   Bfr::RefinerSurfaceFactory<> factory(*refiner, Bfr::RefinerSurfaceFactory<>::Options().SetApproxLevelSmooth(4));
-  const std::vector<double> cvs = surface.patch_points(c.points.data());
+  const PatchPoints cvs = surface.patch_points(c.points.data());
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   int checked = 0;
@@ -270,7 +270,7 @@ void expect_passes_through_refined_limit_points(const Cage& c, int level) {
   const Far::TopologyLevel& last = refiner->GetLevel(level);
   std::vector<Point3> limit(last.GetNumVertices());
   primvar.Limit(src, limit);
-  const std::vector<double> cvs = surface.patch_points(c.points.data());
+  const PatchPoints cvs = surface.patch_points(c.points.data());
   double worst = 0;
   int checked = 0;
   for (int f = 0; f < last.GetNumFaces(); ++f) {
@@ -358,7 +358,7 @@ TEST(LimitSurface, DerivativesMatchFiniteDifferences) {
                                   std::pair{twisted_cube(), SubdivisionScheme::CatmullClark},
                                   std::pair{octahedron(), SubdivisionScheme::Loop}}) {
     const LimitSurface surface(control(c, scheme));
-    const std::vector<double> cvs = surface.patch_points(c.points.data());
+    const PatchPoints cvs = surface.patch_points(c.points.data());
     const Samples s = random_samples(surface, 4, 5);
     const double h = 1e-6;
     for (std::size_t i = 0; i < s.ptex.size(); ++i) {
