@@ -181,7 +181,7 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
     # Catmull-Clark on every mesh, all-triangle ones too, as Blender's modifier (Auto picks Loop there).
     scheme: EnumProperty(name="Scheme", items=SCHEMES, default="CATMULL_CLARK", update=_changed,
                          description="Subdivision rules")
-    boundary_smooth: EnumProperty(name="Boundary Smooth", items=BOUNDARY_SMOOTH, default="PRESERVE_CORNERS",
+    boundary_smooth: EnumProperty(name="Boundary Smooth", items=BOUNDARY_SMOOTH, default="ALL",
                                   update=_changed, description="Controls how open boundaries are smoothed")
     use_creases: BoolProperty(name="Use Creases", default=True, update=_changed,
                               description="Use mesh crease information to sharpen edges or corners")

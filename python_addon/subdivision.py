@@ -84,7 +84,7 @@ def read_creases(mesh):
 def topology_kwargs(mesh, entry=None):
     """dk's scheme, boundary, creases and corners for a Subdivide entry's settings (None: a new
     entry's defaults, as Check Smoothness uses them on a stack without one)."""
-    scheme, boundary = (entry.scheme, entry.boundary_smooth) if entry else ("CATMULL_CLARK", "PRESERVE_CORNERS")
+    scheme, boundary = (entry.scheme, entry.boundary_smooth) if entry else ("CATMULL_CLARK", "ALL")
     creases, corners = read_creases(mesh) if entry is None or entry.use_creases else (None, None)
     sharpen = entry.sharpen_two_edge_vertices if entry else True
     return dict(scheme=SCHEMES[scheme], boundary=BOUNDARIES[boundary], creases=creases, corners=corners,
