@@ -31,7 +31,8 @@ PARAMS = ("name", "show_viewport", "show_render", "angle", "factor", "deform_axi
           "lock_x", "lock_y", "lock_z", "vertex_group", "invert_vertex_group",
           "lattice", "lattice_basis", "strength", "outside",
           "method", "weights", "iterations", "anchors_group", "handles_group", "handle_target", "handle_object",
-          "levels", "render_levels", "scheme", "boundary_smooth", "use_creases", "uv_smooth")
+          "levels", "render_levels", "scheme", "boundary_smooth", "use_creases", "uv_smooth", "use_limit_surface",
+          "sharpen_two_edge_vertices")
 
 
 def _require_mesh(obj):

@@ -178,14 +178,23 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
                         description="Number of subdivisions to perform in the viewport (0: the cage)")
     render_levels: IntProperty(name="Render", default=2, min=0, max=8, soft_max=6, update=_changed,
                                description="Number of subdivisions to perform when rendering")
-    scheme: EnumProperty(name="Scheme", items=SCHEMES, default="AUTO", update=_changed,
+    # Catmull-Clark on every mesh, all-triangle ones too, as Blender's modifier (Auto picks Loop there).
+    scheme: EnumProperty(name="Scheme", items=SCHEMES, default="CATMULL_CLARK", update=_changed,
                          description="Subdivision rules")
-    boundary_smooth: EnumProperty(name="Boundary Smooth", items=BOUNDARY_SMOOTH, default="PRESERVE_CORNERS",
+    boundary_smooth: EnumProperty(name="Boundary Smooth", items=BOUNDARY_SMOOTH, default="ALL",
                                   update=_changed, description="Controls how open boundaries are smoothed")
     use_creases: BoolProperty(name="Use Creases", default=True, update=_changed,
                               description="Use mesh crease information to sharpen edges or corners")
     uv_smooth: EnumProperty(name="UV Smooth", items=UV_SMOOTH, default="PRESERVE_BOUNDARIES", update=_changed,
                             description="Controls how smoothing is applied to UVs (the active UV map)")
+    use_limit_surface: BoolProperty(name="Use Limit Surface", default=True, update=_changed,
+                                    description="Place vertices at the surface that would be produced with infinite "
+                                                "levels of subdivision (exact limit points: Blender's at a Quality "
+                                                "of at least the level)")
+    sharpen_two_edge_vertices: BoolProperty(name="Sharpen Two-Edge Vertices", default=True, update=_changed,
+                                            description="A vertex with exactly two edges takes the smaller of their "
+                                                        "creases, so creased borders keep their corners (what "
+                                                        "Blender's Subdivision Surface does)")
     # The helper objects holding the subdivided meshes (see subdivision.py); render: None when the same.
     subdivision_viewport: PointerProperty(type=bpy.types.Object, options={"HIDDEN"})
     subdivision_render: PointerProperty(type=bpy.types.Object, options={"HIDDEN"})

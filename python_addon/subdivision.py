@@ -84,9 +84,11 @@ def read_creases(mesh):
 def topology_kwargs(mesh, entry=None):
     """dk's scheme, boundary, creases and corners for a Subdivide entry's settings (None: a new
     entry's defaults, as Check Smoothness uses them on a stack without one)."""
-    scheme, boundary = (entry.scheme, entry.boundary_smooth) if entry else ("AUTO", "PRESERVE_CORNERS")
+    scheme, boundary = (entry.scheme, entry.boundary_smooth) if entry else ("CATMULL_CLARK", "ALL")
     creases, corners = read_creases(mesh) if entry is None or entry.use_creases else (None, None)
-    return dict(scheme=SCHEMES[scheme], boundary=BOUNDARIES[boundary], creases=creases, corners=corners)
+    sharpen = entry.sharpen_two_edge_vertices if entry else True
+    return dict(scheme=SCHEMES[scheme], boundary=BOUNDARIES[boundary], creases=creases, corners=corners,
+                sharpen_two_edge_vertices=sharpen)
 
 
 def _crc(*arrays):
@@ -118,7 +120,7 @@ def setup(obj, entry):
     creases = kwargs["creases"] or (None, None)
     corners = kwargs["corners"] or (None, None)
     refine = (topo.vertices, topo.crc, entry.scheme, entry.boundary_smooth, entry.uv_smooth, _crc(*creases, *corners),
-              None if uvs is None else _crc(uvs))
+              None if uvs is None else _crc(uvs), entry.sharpen_two_edge_vertices, entry.use_limit_surface)
     fingerprint = ("SUBDIVIDE", entry.show_viewport, entry.show_render, entry.levels, entry.render_levels,
                    refine, layer.name if layer else "", _crc(material, smooth), tuple(m and m.name for m in materials))
     return Setup(entry, topo, kwargs, uvs, layer.name if layer else "", entry.uv_smooth.lower(), material, smooth,
@@ -146,7 +148,8 @@ def subdivide(key, sub, level, cage):
         if cached is not None and cached[0] == (sub.refine, level):
             return cached[2]._replace(points=cached[1].subdivide(cage))
         subdivider = native.dk.Subdivider(cage, meshdata.polygons(topo), level, uvs=sub.uvs,
-                                          uv_smooth=sub.uv_smooth, **sub.kwargs)
+                                          uv_smooth=sub.uv_smooth, limit_surface=sub.entry.use_limit_surface,
+                                          **sub.kwargs)
         m = subdivider.mesh(cage)
     except (ValueError, TypeError) as exc:
         raise EntryError(str(exc)) from exc

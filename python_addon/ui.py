@@ -194,7 +194,9 @@ def draw_subdivide(col, entry):
     col.prop(entry, "scheme")
     col.separator()
     col.label(text="Advanced")
+    col.prop(entry, "use_limit_surface")
     col.prop(entry, "use_creases")
+    col.prop(entry, "sharpen_two_edge_vertices")
     col.prop(entry, "boundary_smooth")
     col.prop(entry, "uv_smooth")
     render = entry.subdivision_render

@@ -157,3 +157,58 @@ def test_the_surface_keeps_its_own_copy_of_the_cage():
     points *= 2.0  # the caller's array changes; the surface and the subdivider do not
     np.testing.assert_array_equal(s.limit_points(), limit)
     np.testing.assert_array_equal(sd.subdivide(), refined)
+
+
+def test_smooth_boundary_corner_is_the_exact_limit():
+    """With boundary="edge_only" a valence-2 corner is smooth and its boundary curves are cubic
+    B-splines, so its limit is (p_prev + 4 p + p_next) / 6 of its two border neighbours (and every
+    border vertex's likewise). Blender at quality 10 gives the same (0.1667, 0.1667, ...)."""
+    for n in (2, 3):
+        points, faces = grid(n, bump=0.3)
+        s = dk.LimitSurface(points, faces, boundary="edge_only")
+        limit = s.limit_points()
+        last = n * (n + 1)
+        for corner, a, b in ((0, 1, n + 1), (n, n - 1, 2 * n + 1), (last, last - n - 1, last + 1),
+                             (last + n, last + n - 1, last - 1)):
+            np.testing.assert_allclose(limit[corner], (points[a] + 4 * points[corner] + points[b]) / 6, atol=1e-14)
+        for v in range(1, n):  # the bottom border's other vertices
+            np.testing.assert_allclose(limit[v], (points[v - 1] + 4 * points[v] + points[v + 1]) / 6, atol=1e-14)
+        at_corner = s.evaluate([0], [[0.0, 0.0]], derivatives=0)["position"][0]
+        np.testing.assert_allclose(at_corner, limit[0], atol=1e-14)
+
+
+def test_subnormal_parameters_are_the_boundary():
+    """u or v of 5e-324 is 0 to double precision: the result is finite and equals the one at 0,
+    Gregory patches (every cube vertex is extraordinary) and n-gons included."""
+    for points, faces in (MESHES["cube"](), prism(), MESHES["octahedron"]()):
+        s = dk.LimitSurface(points, faces)
+        ptex = np.arange(s.ptex_count)
+        for tiny, zero in (([5e-324, 0.0], [0.0, 0.0]), ([0.0, 5e-324], [0.0, 0.0]),
+                           ([5e-324, 5e-324], [0.0, 0.0]), ([1e-310, 0.25], [0.0, 0.25])):
+            a = s.evaluate(ptex, np.tile(tiny, (len(ptex), 1)), derivatives=2)
+            b = s.evaluate(ptex, np.tile(zero, (len(ptex), 1)), derivatives=2)
+            for key in a:
+                assert np.isfinite(a[key]).all(), (key, tiny)
+                np.testing.assert_array_equal(a[key], b[key])
+
+
+@pytest.mark.parametrize("scale", [1e-200, 1e-100, 1e103, 1e150, 1e200, 1e300])
+def test_the_limit_surface_is_scale_invariant(scale):
+    """Limit positions and derivatives scale with the cage, unit normals do not change: no product
+    inside may overflow (du x dv at 1e103 did) or underflow."""
+    for name in ("cube", "prism", "grid"):
+        points, faces = MESHES[name]()
+        s, big = dk.LimitSurface(points, faces), dk.LimitSurface(points * scale, faces)
+        ptex, uv = samples(s, 3, 5)
+        a, b = s.evaluate(ptex, uv, derivatives=2), big.evaluate(ptex, uv, derivatives=2)
+        for key in ("position", "du", "dv", "duu", "duv", "dvv"):
+            np.testing.assert_allclose(b[key] / scale, a[key], rtol=1e-12, atol=1e-12 * np.abs(a[key]).max())
+        np.testing.assert_allclose(b["normal"], a["normal"], atol=1e-13)
+        np.testing.assert_allclose(big.limit_points() / scale, s.limit_points(), rtol=1e-12, atol=1e-13)
+
+
+def test_a_limit_beyond_the_double_range_is_refused():
+    s = dk.LimitSurface(CUBE_POINTS * 1.6e308, CUBE_FACES)  # the cage is finite; its derivatives are not
+    with pytest.raises(ValueError, match="^points: the limit surface at sample .* exceeds the double range"):
+        s.evaluate(np.arange(6), np.full((6, 2), 0.5), derivatives=1)
+    assert np.isfinite(s.limit_points()).all()

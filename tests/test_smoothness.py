@@ -131,3 +131,34 @@ def test_large_rotations_are_not_flips():
     assert (folding.volume_ratio(points) < 0).any()
     assert dk.smoothness_report(folding.deform(points), faces, reference=points).flipped_samples > 0
     assert dk.smoothness_report(points, faces, deformer=folding).flipped_samples > 0
+
+
+@pytest.mark.parametrize("scale", [1e-200, 1e103, 1e150, 1e200, 1e300])
+def test_the_report_is_scale_invariant(scale):
+    """Every figure is a ratio or an angle: the same for the cage scaled by any factor (1e103 made
+    the normals' squares overflow and the report said 'smooth' on NaN normals)."""
+    rng = np.random.default_rng(7)
+    points = CUBE_POINTS + 0.05 * rng.standard_normal(CUBE_POINTS.shape)
+    flat, grid_faces = grid(4, bump=0.0)
+    folded = flat.copy()
+    folded[12, :2] += (2.5, 0.0)  # pushed over its neighbours: the surface folds
+    creases = (np.array([[0, 1]]), np.array([10.0]))
+    cases = [(points, CUBE_FACES, dict(creases=creases)), (folded, grid_faces, dict(reference=flat)),
+             (folded, grid_faces, {})]
+    for cage, faces, kwargs in cases:
+        a = dk.smoothness_report(cage, faces, **kwargs)
+        if "reference" in kwargs:
+            kwargs = dict(reference=kwargs["reference"] * scale)
+        b = dk.smoothness_report(cage * scale, faces, **kwargs)
+        np.testing.assert_allclose(b.edge_angle, a.edge_angle, atol=1e-12)
+        np.testing.assert_allclose(b.edge_gap, a.edge_gap, atol=1e-15)
+        assert b.min_regularity == pytest.approx(a.min_regularity, abs=1e-12)
+        assert (b.flipped_samples, b.degenerate_samples) == (a.flipped_samples, a.degenerate_samples)
+    assert dk.smoothness_report(points, CUBE_FACES, creases=creases).max_angle > 0.5
+    assert dk.smoothness_report(folded, grid_faces, reference=flat).flipped_samples > 0
+    # with a deformer the cage is used as it is (a deformer is not scale-invariant); an empty Stack
+    # is the identity at any scale, so the figures must be those of the plain surface
+    c = dk.smoothness_report(points * scale, CUBE_FACES, deformer=dk.Stack([]), creases=creases)
+    d = dk.smoothness_report(points, CUBE_FACES, deformer=dk.Stack([]), creases=creases)
+    np.testing.assert_allclose(c.edge_angle, d.edge_angle, atol=1e-12)
+    assert c.max_crease == pytest.approx(d.max_crease, abs=1e-9)

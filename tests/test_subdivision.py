@@ -164,3 +164,83 @@ def test_inputs_are_not_modified():
     dk.smoothness_report(points, faces)
     np.testing.assert_array_equal(points, p0)
     assert faces == f0
+
+
+def two_edge_mesh():
+    """A cube whose bottom front edge is split by a vertex (8) off the line: two pentagons share
+    it, and it has exactly two edges."""
+    points = np.r_[CUBE_POINTS, [[0.2, -1.2, -1.1]]]
+    faces = [[0, 2, 3, 1, 8], [4, 5, 7, 6], [0, 8, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]]
+    return points, faces
+
+
+def test_a_creased_border_keeps_its_corners():
+    """The issue's plane: 2 x 2 quads, all 8 border edges infinitely sharp, Smooth boundary. A
+    corner between two infinitely sharp edges is a corner (it stays put, as Blender keeps it);
+    OpenSubdiv's plain rules make it a crease vertex, (a + 6 v + b) / 8 = (0.125, 0.125, 0)."""
+    points, faces = grid(2)
+    border = np.array([[0, 1], [1, 2], [2, 5], [5, 8], [8, 7], [7, 6], [6, 3], [3, 0]])
+    creases = (border, np.full(8, 10.0))
+    m = dk.subdivide(points, faces, 1, scheme="catmull_clark", boundary="edge_only", creases=creases)
+    for c in (0, 2, 6, 8):
+        np.testing.assert_array_equal(m.points[c], points[c])
+    plain = dk.subdivide(points, faces, 1, boundary="edge_only", creases=creases, sharpen_two_edge_vertices=False)
+    np.testing.assert_allclose(plain.points[0], (points[1] + 6 * points[0] + points[3]) / 8, atol=1e-15)
+
+
+@pytest.mark.parametrize("boundary", ["edge_only", "edge_and_corner"])
+def test_two_edge_vertices_take_the_smaller_crease(boundary):
+    """Blender's rule written out: every vertex with exactly two edges gets its own sharpness plus
+    the smaller of those edges' (at most 10). The same mesh with that sharpness given as corners
+    and the rule off must subdivide, and have a limit surface, identically."""
+    rng = np.random.default_rng(4)
+    cases = [(two_edge_mesh(), [[0, 8], [8, 1], [4, 5]], [2]), (grid(3, bump=0.3), [[0, 1], [0, 4], [3, 7], [2, 3]], [3])]
+    for (points, faces), pairs, vertex in cases:
+        pairs = np.array(pairs)
+        sharpness = rng.uniform(0.3, 4.0, len(pairs))
+        corner_sharpness = np.array([1.5])
+        edges, counts = edges_of(faces)
+        degree = np.bincount(edges.ravel(), minlength=len(points))
+        expected = np.zeros(len(points))
+        expected[vertex] = corner_sharpness
+        for v in np.flatnonzero(degree == 2):
+            touching = [s for (a, b), s in zip(pairs, sharpness) if v in (a, b)]
+            smaller = min(touching) if len(touching) == 2 else 0.0  # an uncreased edge counts 0
+            expected[v] = min(expected[v] + smaller, 10.0)
+        corners = (np.flatnonzero(expected), expected[expected > 0])
+        kwargs = dict(scheme="catmull_clark", boundary=boundary, creases=(pairs, sharpness))
+        ours = dk.subdivide(points, faces, 2, corners=(np.array(vertex), corner_sharpness), **kwargs)
+        written = dk.subdivide(points, faces, 2, corners=corners, sharpen_two_edge_vertices=False, **kwargs)
+        np.testing.assert_allclose(ours.points, written.points, atol=1e-6)  # OpenSubdiv keeps sharpness in float32
+        surface = dk.LimitSurface(points, faces, corners=(np.array(vertex), corner_sharpness), **kwargs)
+        written_surface = dk.LimitSurface(points, faces, corners=corners, sharpen_two_edge_vertices=False, **kwargs)
+        np.testing.assert_allclose(surface.limit_points(), written_surface.limit_points(), atol=1e-6)
+        off = dk.subdivide(points, faces, 2, corners=(np.array(vertex), corner_sharpness),
+                           sharpen_two_edge_vertices=False, **kwargs)
+        if boundary == "edge_only" or points is cases[0][0][0]:  # Keep Corners makes border corners sharp anyway
+            assert np.abs(off.points - ours.points).max() > 1e-3  # the rule moves something here
+
+
+def test_limit_surface_option_gives_the_limit_of_every_refined_vertex():
+    """Refinement keeps the limit surface, so the limit point of each refined vertex is the refined
+    cage's own limit_points(): an independent path (no ptex parameters). Uncreased meshes, whose
+    refined cages carry every rule: quads, n-gons, both boundary rules, Loop."""
+    cases = [(two_edge_mesh(), {}), (prism(), {}), (grid(3, bump=0.3), dict(boundary="edge_only")),
+             (grid(3, bump=0.3), dict(boundary="edge_and_corner")),
+             ((OCTAHEDRON_POINTS, OCTAHEDRON_FACES), dict(scheme="loop"))]
+    for (points, faces), kwargs in cases:
+        for level in (1, 2, 3):
+            refined = dk.subdivide(points, faces, level, **kwargs)
+            limit = dk.subdivide(points, faces, level, limit_surface=True, **kwargs)
+            np.testing.assert_array_equal(limit.faces, refined.faces)
+            truth = dk.LimitSurface(refined.points, refined.faces, **kwargs).limit_points()
+            np.testing.assert_allclose(limit.points, truth, atol=1e-12, err_msg=f"{kwargs} level {level}")
+            assert np.abs(limit.points - refined.points).max() > 1e-3
+    points, faces = prism()
+    s = dk.Subdivider(points, faces, 2, limit_surface=True)
+    bent = dk.Bend(curvature=0.5).deform(points)
+    assert s.limit_surface
+    np.testing.assert_array_equal(s.subdivide(bent), dk.subdivide(bent, faces, 2, limit_surface=True).points)
+    ptex, uv = s.vertex_parameters()
+    surface = dk.LimitSurface(points, faces)
+    np.testing.assert_array_equal(surface.evaluate(ptex, uv, points=bent, derivatives=0)["position"], s.subdivide(bent))

@@ -83,13 +83,15 @@ struct Cage {
 };
 
 Cage parse_cage(const py::object& points, const py::object& faces, const std::string& scheme,
-                const std::string& boundary, const py::object& creases, const py::object& corners) {
+                const std::string& boundary, const py::object& creases, const py::object& corners,
+                bool sharpen_two_edge_vertices) {
   Cage cage;
   // A copy: the surface keeps this cage, which the caller may change afterwards.
   cage.points = py::array_t<double, py::array::c_style>(as_double(points_array(points, "points")).request());
   const Faces f = parse_faces(faces);
   cage.mesh = make_control_mesh(std::size_t(cage.points.shape(0)), f.corners, f.offsets, parse_scheme(scheme, f),
                                 parse_boundary(boundary));
+  cage.mesh.sharpen_two_edge_vertices = sharpen_two_edge_vertices;
   if (!creases.is_none()) {
     const auto [edges, sharpness] = pair_of(creases, "creases", "edges (k, 2)");
     set_creases(cage.mesh, int_rows(edges, "creases", 2), real_vector(sharpness, "creases"));
@@ -120,7 +122,7 @@ struct PySubdividedMesh {
 struct PyLimitSurface {
   std::shared_ptr<LimitSurface> surface;
   py::array_t<double, py::array::c_style> points;  // the cage given at construction
-  std::shared_ptr<std::vector<double>> patch_points;
+  std::shared_ptr<PatchPoints> patch_points;
 };
 
 // A 1-D numpy copy (the report keeps its own).
@@ -170,12 +172,15 @@ uvs: one (u, v) per face corner in the order of faces (Blender's loop UVs); corn
 with equal UVs are welded, seams stay seams. uv_smooth takes Blender's UV Smooth names: 'none',
 'preserve_corners', 'preserve_corners_and_junctions', 'preserve_corners_junctions_and_concave',
 'preserve_boundaries' (default) or 'smooth_all'. A level whose output would have more than
-max_faces faces (default SUBDIVISION_MAX_FACES = 2**24) is refused before any work.)";
+max_faces faces (default SUBDIVISION_MAX_FACES = 2**24) is refused before any work.
+limit_surface=True (Blender's "Use Limit Surface") gives the limit surface at every refined vertex
+(LimitSurface at its exact ptex parameters) instead of the refined points.)";
 
 Cage cage_with_uvs(const py::object& points, const py::object& faces, const std::string& scheme,
                    const std::string& boundary, const py::object& creases, const py::object& corners,
-                   const py::object& uvs, const std::string& uv_smooth, std::int64_t max_faces) {
-  Cage cage = parse_cage(points, faces, scheme, boundary, creases, corners);
+                   bool sharpen_two_edge_vertices, const py::object& uvs, const std::string& uv_smooth,
+                   std::int64_t max_faces) {
+  Cage cage = parse_cage(points, faces, scheme, boundary, creases, corners, sharpen_two_edge_vertices);
   if (max_faces < 1) throw py::value_error("max_faces: must be >= 1, got " + std::to_string(max_faces));
   const UvSmooth smooth = parse_uv_smooth(uv_smooth);
   if (uvs.is_none()) return cage;
@@ -207,14 +212,17 @@ struct PySubdivider {
 
 PySubdivider make_subdivider(const py::object& points, const py::object& faces, std::int64_t level_arg, const std::string& scheme,
                              const std::string& boundary, const py::object& creases, const py::object& corners,
-                             const py::object& uvs, const std::string& uv_smooth, std::int64_t max_faces) {
+                             const py::object& sharpen_two_edge_vertices, const py::object& uvs,
+                             const std::string& uv_smooth, std::int64_t max_faces, const py::object& limit_surface_arg) {
   const int level = int_arg(level_arg, "level", 1, kMaxSubdivisionLevel);
-  Cage cage = cage_with_uvs(points, faces, scheme, boundary, creases, corners, uvs, uv_smooth, max_faces);
+  const bool limit_surface = bool_arg(limit_surface_arg, "limit_surface");
+  Cage cage = cage_with_uvs(points, faces, scheme, boundary, creases, corners,
+                            bool_arg(sharpen_two_edge_vertices, "sharpen_two_edge_vertices"), uvs, uv_smooth, max_faces);
   PySubdivider s;
   s.points = cage.points;
   require_finite_rows(cage.points.data(), cage.mesh.vertex_count, "points");  // the default cage
   py::gil_scoped_release release;
-  s.subdivider = std::make_shared<Subdivider>(cage.mesh, level, max_faces);
+  s.subdivider = std::make_shared<Subdivider>(cage.mesh, level, max_faces, limit_surface);
   return s;
 }
 
@@ -222,8 +230,11 @@ const char* kTopologyDoc = R"(scheme 'auto' (Loop when every face is a triangle,
 'loop'; boundary 'edge_and_corner' (boundary edges are B-spline curves and corners of valence 2
 stay put: Blender's Keep Corners) or 'edge_only' (Blender's Smooth); creases (edges (k, 2),
 sharpness (k,)) and corners (vertices (c,), sharpness (c,)) in OpenSubdiv's units, 10 or more
-being infinitely sharp. faces must form a manifold: every vertex in a face, at most two faces on
-an edge, consistently wound.)";
+being infinitely sharp. sharpen_two_edge_vertices (default True, as Blender's OpenSubdiv topology
+code does) gives every vertex with exactly two edges the smaller of their sharpnesses on top of its
+own (at most 10): a plane whose border edges are creased keeps its corners, as in Blender; False
+gives OpenSubdiv's plain rules. faces must form a manifold: every vertex in a face, at most two
+faces on an edge, consistently wound.)";
 
 }  // namespace
 
@@ -232,7 +243,8 @@ void bind_subdivision(py::module_& m) {
   m.attr("SUBDIVISION_MAX_FACES") = kDefaultMaxFaces;
 
   py::class_<PySubdividedMesh>(m, "SubdividedMesh", "The result of subdivide().")
-      .def_readonly("points", &PySubdividedMesh::points, "(N, 3) float64 refined vertices (not projected to the limit).")
+      .def_readonly("points", &PySubdividedMesh::points,
+                    "(N, 3) float64 refined vertices (on the limit surface with limit_surface=True).")
       .def_readonly("faces", &PySubdividedMesh::faces, "(M, 4) int32 quads (Catmull-Clark) or (M, 3) triangles (Loop).")
       .def_readonly("face_origin", &PySubdividedMesh::face_origin, "(M,) int32: the control face each face comes from.")
       .def_readonly("uvs", &PySubdividedMesh::uvs, "(M * k, 2) float64 per face corner, or None.")
@@ -248,8 +260,9 @@ void bind_subdivision(py::module_& m) {
 
 )") + kTopologyDoc + kSubdivideDoc).c_str())
       .def(py::init(&make_subdivider), "points"_a, "faces"_a, "level"_a, py::kw_only(), "scheme"_a = "auto",
-           "boundary"_a = "edge_and_corner", "creases"_a = py::none(), "corners"_a = py::none(), "uvs"_a = py::none(),
-           "uv_smooth"_a = "preserve_boundaries", "max_faces"_a = kDefaultMaxFaces)
+           "boundary"_a = "edge_and_corner", "creases"_a = py::none(), "corners"_a = py::none(),
+           "sharpen_two_edge_vertices"_a = true, "uvs"_a = py::none(), "uv_smooth"_a = "preserve_boundaries",
+           "max_faces"_a = kDefaultMaxFaces, "limit_surface"_a = false)
       .def("subdivide", [](const PySubdivider& s, const py::object& points) {
         py::array_t<double, py::array::c_style> cage = s.points;
         if (!points.is_none()) cage = same_cage(points, s.subdivider->control().vertex_count, "points");
@@ -282,23 +295,35 @@ void bind_subdivision(py::module_& m) {
         std::vector<int> f = s.subdivider->face_origin();
         const auto n = py::ssize_t(f.size());
         return owned(std::move(f), {n});
-      });
+      })
+      .def_property_readonly("limit_surface", [](const PySubdivider& s) { return s.subdivider->limit_surface(); })
+      .def("vertex_parameters", [](const PySubdivider& s) {
+        const std::vector<PtexPoint> params = s.subdivider->vertex_parameters();
+        std::vector<int> ptex(params.size());
+        std::vector<double> uv(2 * params.size());
+        for (std::size_t i = 0; i < params.size(); ++i) ptex[i] = params[i].ptex, uv[2 * i] = params[i].u, uv[2 * i + 1] = params[i].v;
+        const auto n = py::ssize_t(params.size());
+        return py::make_tuple(owned(std::move(ptex), {n}), owned(std::move(uv), {n, 2}));
+      }, "(ptex (N,), uv (N, 2)): where each refined vertex lies on LimitSurface(points, faces) of the same settings.");
 
   m.def("subdivide", [](const py::object& points, const py::object& faces, std::int64_t level_arg,
                         const std::string& scheme, const std::string& boundary, const py::object& creases,
-                        const py::object& corners, const py::object& uvs, const std::string& uv_smooth,
-                        std::int64_t max_faces) {
+                        const py::object& corners, const py::object& sharpen_two_edge_vertices, const py::object& uvs,
+                        const std::string& uv_smooth, std::int64_t max_faces, const py::object& limit_surface_arg) {
     const int level = int_arg(level_arg, "level", 1, kMaxSubdivisionLevel);
-    Cage cage = cage_with_uvs(points, faces, scheme, boundary, creases, corners, uvs, uv_smooth, max_faces);
+    const bool limit_surface = bool_arg(limit_surface_arg, "limit_surface");
+    Cage cage = cage_with_uvs(points, faces, scheme, boundary, creases, corners,
+                              bool_arg(sharpen_two_edge_vertices, "sharpen_two_edge_vertices"), uvs, uv_smooth,
+                              max_faces);
     SubdividedMesh out;
     {
       py::gil_scoped_release release;
-      out = subdivide(cage.mesh, cage.points.data(), level, max_faces);
+      out = subdivide(cage.mesh, cage.points.data(), level, max_faces, limit_surface);
     }
     return to_python(std::move(out));
   }, "points"_a, "faces"_a, "level"_a, py::kw_only(), "scheme"_a = "auto", "boundary"_a = "edge_and_corner",
-     "creases"_a = py::none(), "corners"_a = py::none(), "uvs"_a = py::none(),
-     "uv_smooth"_a = "preserve_boundaries", "max_faces"_a = kDefaultMaxFaces,
+     "creases"_a = py::none(), "corners"_a = py::none(), "sharpen_two_edge_vertices"_a = true, "uvs"_a = py::none(),
+     "uv_smooth"_a = "preserve_boundaries", "max_faces"_a = kDefaultMaxFaces, "limit_surface"_a = false,
      (std::string(R"(Uniform subdivision with OpenSubdiv to level 1..SUBDIVISION_MAX_LEVEL (8); Subdivider keeps
 the refined topology for many cages.
 
@@ -316,19 +341,21 @@ Samples are ptex faces with (u, v): a quad (Catmull-Clark) or a triangle (Loop) 
 k -> k+1, v towards that of edge k-1 -> k. Face f owns ptex faces ptex_offset[f] ..
 ptex_offset[f+1] - 1.)").c_str())
       .def(py::init([](const py::object& points, const py::object& faces, const std::string& scheme,
-                       const std::string& boundary, const py::object& creases, const py::object& corners) {
-             Cage cage = parse_cage(points, faces, scheme, boundary, creases, corners);
+                       const std::string& boundary, const py::object& creases, const py::object& corners,
+                       const py::object& sharpen_two_edge_vertices) {
+             Cage cage = parse_cage(points, faces, scheme, boundary, creases, corners,
+                                    bool_arg(sharpen_two_edge_vertices, "sharpen_two_edge_vertices"));
              PyLimitSurface s;
              s.points = cage.points;
              {
                py::gil_scoped_release release;
                s.surface = std::make_shared<LimitSurface>(std::move(cage.mesh));
-               s.patch_points = std::make_shared<std::vector<double>>(s.surface->patch_points(s.points.data()));
+               s.patch_points = std::make_shared<PatchPoints>(s.surface->patch_points(s.points.data()));
              }
              return s;
            }),
            "points"_a, "faces"_a, py::kw_only(), "scheme"_a = "auto", "boundary"_a = "edge_and_corner",
-           "creases"_a = py::none(), "corners"_a = py::none())
+           "creases"_a = py::none(), "corners"_a = py::none(), "sharpen_two_edge_vertices"_a = true)
       .def_property_readonly("ptex_count", [](const PyLimitSurface& s) { return s.surface->ptex_count(); })
       .def_property_readonly("ptex_offset", [](const PyLimitSurface& s) {
         std::vector<int> o = s.surface->ptex_offset();
@@ -354,14 +381,14 @@ ptex_offset[f+1] - 1.)").c_str())
                                   ", outside 0.." + std::to_string(s.surface->ptex_count() - 1));
           f32[i] = int(faces[i]);
         }
-        std::shared_ptr<std::vector<double>> cvs = s.patch_points;
+        std::shared_ptr<PatchPoints> cvs = s.patch_points;
         py::array_t<double, py::array::c_style> cage;
         if (!points.is_none()) cage = same_cage(points, s.surface->mesh().vertex_count, "points");
         LimitSamples out;
         {
           py::gil_scoped_release release;
           s.surface->check_samples(f32.data(), uvd.data(), f32.size());
-          if (!points.is_none()) cvs = std::make_shared<std::vector<double>>(s.surface->patch_points(cage.data()));
+          if (!points.is_none()) cvs = std::make_shared<PatchPoints>(s.surface->patch_points(cage.data()));
           out = s.surface->evaluate(*cvs, f32.data(), uvd.data(), f32.size(), derivatives);
         }
         return samples_dict(std::move(out), py::ssize_t(f32.size()));
@@ -458,9 +485,11 @@ the bounding-box diagonal; worst_edges indices into edges by decreasing angle.)"
 
   m.def("smoothness_report", [](const py::object& points, const py::object& faces, const std::string& scheme,
                                 const std::string& boundary, const py::object& creases, const py::object& corners,
-                                std::int64_t samples_per_edge, const py::object& reference, std::int64_t worst,
-                                const py::object& deformer, std::int64_t crease_grid) {
-    Cage cage = parse_cage(points, faces, scheme, boundary, creases, corners);
+                                const py::object& sharpen_two_edge_vertices, std::int64_t samples_per_edge,
+                                const py::object& reference, std::int64_t worst, const py::object& deformer,
+                                std::int64_t crease_grid) {
+    Cage cage = parse_cage(points, faces, scheme, boundary, creases, corners,
+                           bool_arg(sharpen_two_edge_vertices, "sharpen_two_edge_vertices"));
     const std::shared_ptr<Deformer> map = parse_deformer(deformer);
     py::array_t<double, py::array::c_style> ref;
     if (!reference.is_none()) ref = same_cage(reference, cage.mesh.vertex_count, "reference");
@@ -474,7 +503,8 @@ the bounding-box diagonal; worst_edges indices into edges by decreasing angle.)"
     }
     return report_object(std::move(r));
   }, "points"_a, "faces"_a, py::kw_only(), "scheme"_a = "auto", "boundary"_a = "edge_and_corner",
-     "creases"_a = py::none(), "corners"_a = py::none(), "samples_per_edge"_a = 8, "reference"_a = py::none(),
+     "creases"_a = py::none(), "corners"_a = py::none(), "sharpen_two_edge_vertices"_a = true,
+     "samples_per_edge"_a = 8, "reference"_a = py::none(),
      "worst"_a = 10, "deformer"_a = py::none(), "crease_grid"_a = 16,
      R"(Check that the limit surface of (points, faces) is smooth: along every interior edge,
 samples_per_edge points are evaluated on both faces' limit patches and compared (position gap,

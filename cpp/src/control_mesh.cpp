@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <stdexcept>
 #include <tuple>
@@ -156,6 +157,47 @@ void set_uvs(ControlMesh& mesh, const double* corner_uvs, std::size_t corner_cou
     mesh.uv_indices[c] = it->second;
   }
   mesh.uv_smooth = smooth;
+}
+
+namespace {
+
+// Index of edge (a, b) in the sorted edge list of edge_topology (it must be an edge).
+std::size_t edge_index(const std::vector<int>& edges, int a, int b) {
+  std::size_t lo = 0, hi = edges.size() / 2;
+  const std::pair<int, int> key{std::min(a, b), std::max(a, b)};
+  while (lo < hi) {
+    const std::size_t mid = (lo + hi) / 2;
+    if (std::pair<int, int>{edges[2 * mid], edges[2 * mid + 1]} < key) lo = mid + 1;
+    else hi = mid;
+  }
+  return lo;
+}
+
+}  // namespace
+
+std::vector<double> vertex_sharpness(const ControlMesh& mesh) {
+  std::vector<double> sharpness(mesh.vertex_count, 0.0);
+  for (std::size_t k = 0; k < mesh.corner_vertices.size(); ++k) sharpness[mesh.corner_vertices[k]] = mesh.corner_sharpness[k];
+  if (!mesh.sharpen_two_edge_vertices) return sharpness;
+  const EdgeTopology topo = edge_topology(mesh);
+  const std::size_t edge_count = topo.edges.size() / 2;
+  std::vector<double> edge_sharpness(edge_count, 0.0);
+  for (std::size_t k = 0; k < mesh.crease_sharpness.size(); ++k)
+    edge_sharpness[edge_index(topo.edges, mesh.crease_edges[2 * k], mesh.crease_edges[2 * k + 1])] =
+        mesh.crease_sharpness[k];
+  // Per vertex: how many edges, and the smallest sharpness among them.
+  std::vector<int> degree(mesh.vertex_count, 0);
+  std::vector<double> softest(mesh.vertex_count, std::numeric_limits<double>::infinity());
+  for (std::size_t e = 0; e < edge_count; ++e)
+    for (int end = 0; end < 2; ++end) {
+      const int v = topo.edges[2 * e + end];
+      ++degree[v];
+      softest[v] = std::min(softest[v], edge_sharpness[e]);
+    }
+  // Blender's intern/opensubdiv topology_refiner_factory.cc, assignComponentTags (as of 3.x to 5.x).
+  for (std::size_t v = 0; v < mesh.vertex_count; ++v)
+    if (degree[v] == 2) sharpness[v] = std::min(sharpness[v] + softest[v], kInfiniteSharpness);
+  return sharpness;
 }
 
 EdgeTopology edge_topology(const ControlMesh& mesh) {

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -33,9 +34,49 @@ int isolation_level(const ControlMesh& mesh) {
   int level = 4;
   for (double s : mesh.crease_sharpness)
     if (s < kInfiniteSharpness) level = std::max(level, int(std::ceil(s)));
-  for (double s : mesh.corner_sharpness)
+  for (double s : vertex_sharpness(mesh))
     if (s < kInfiniteSharpness) level = std::max(level, int(std::ceil(s)));
   return std::min(level, 10);
+}
+
+// The power of two that brings the largest |value| into [0.5, 1): 0 for all zeros.
+int scale_exponent(const double* values, std::size_t n) {
+  double largest = 0.0;
+  for (std::size_t i = 0; i < n; ++i) largest = std::max(largest, std::abs(values[i]));
+  int exponent = 0;
+  if (largest > 0) std::frexp(largest, &exponent);
+  return exponent;
+}
+
+// A sample's u or v as the patch basis takes it: in [0, 1] (check_samples allowed 1e-12 beyond),
+// and a subnormal as 0, which OpenSubdiv's Gregory basis would turn into 0/0.
+double sample_parameter(double t) {
+  t = std::clamp(t, 0.0, 1.0);
+  return t < std::numeric_limits<double>::min() ? 0.0 : t;
+}
+
+// du x dv normalised, from tangents scaled to unit largest component first so that neither the
+// cross product nor its length can overflow or underflow; zero where the tangents are parallel.
+void unit_normal(const double* du, const double* dv, double* normal) {
+  double a[3], b[3];
+  const double sa = std::max({std::abs(du[0]), std::abs(du[1]), std::abs(du[2])});
+  const double sb = std::max({std::abs(dv[0]), std::abs(dv[1]), std::abs(dv[2])});
+  for (int c = 0; c < 3; ++c) a[c] = sa > 0 ? du[c] / sa : 0.0, b[c] = sb > 0 ? dv[c] / sb : 0.0;
+  const double n[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+  const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  for (int c = 0; c < 3; ++c) normal[c] = len > 0 ? n[c] / len : 0.0;
+}
+
+// Positions and derivatives back in the cage's units (exact: a power of two); refused where the
+// true value lies beyond the double range.
+void scale_back(LimitSamples& s, int exponent) {
+  for (std::vector<double>* field : {&s.position, &s.du, &s.dv, &s.duu, &s.duv, &s.dvv}) {
+    for (double& x : *field) x = std::ldexp(x, exponent);
+    for (std::size_t i = 0; i < field->size(); ++i)
+      if (!std::isfinite((*field)[i]))
+        throw std::invalid_argument("points: the limit surface at sample " + std::to_string(i / 3) +
+                                    " exceeds the double range (coordinates near 1e308); scale the points down");
+  }
 }
 
 }  // namespace
@@ -46,6 +87,9 @@ LimitSurface::LimitSurface(ControlMesh mesh) : mesh_(std::move(mesh)), osd_(std:
   options.SetPatchPrecision<double>();
   options.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
   options.useInfSharpPatch = true;  // infinitely sharp creases are exact patches, not deep isolation
+  // The legacy patch at a smooth corner (edge-only boundary, one face) is a sharp-corner B-spline
+  // patch whose corner is a refined point, not the limit; without it the corner is exact.
+  options.generateLegacySharpCornerPatches = false;
   osd_->refiner->RefineAdaptive(options.GetRefineAdaptiveOptions());
   osd_->patches.reset(Far::PatchTableFactory::Create(*osd_->refiner, options));
   osd_->map = std::make_unique<Far::PatchMap>(*osd_->patches);
@@ -61,12 +105,16 @@ LimitSurface::LimitSurface(ControlMesh mesh) : mesh_(std::move(mesh)), osd_(std:
 
 LimitSurface::~LimitSurface() = default;
 
-std::vector<double> LimitSurface::patch_points(const double* points) const {
+PatchPoints LimitSurface::patch_points(const double* points) const {
   require_finite_rows(points, mesh_.vertex_count, "points");
   const Refiner& refiner = *osd_->refiner;
   const int refined = refiner.GetNumVerticesTotal(), local = osd_->patches->GetNumLocalPoints();
+  PatchPoints out;
+  out.exponent = scale_exponent(points, 3 * mesh_.vertex_count);
+  const double down = std::ldexp(1.0, -out.exponent);
   std::vector<Point3> buffer(std::size_t(refined) + local);
-  for (std::size_t i = 0; i < mesh_.vertex_count; ++i) buffer[i] = {points[3 * i], points[3 * i + 1], points[3 * i + 2]};
+  for (std::size_t i = 0; i < mesh_.vertex_count; ++i)
+    buffer[i] = {points[3 * i] * down, points[3 * i + 1] * down, points[3 * i + 2] * down};
   const Far::PrimvarRefinerReal<double> primvar(refiner);
   Point3* src = buffer.data();
   for (int l = 1; l < refiner.GetNumLevels(); ++l) {
@@ -76,11 +124,11 @@ std::vector<double> LimitSurface::patch_points(const double* points) const {
   }
   if (local > 0)
     osd_->patches->GetLocalPointStencilTable<double>()->UpdateValues(buffer.data(), buffer.data() + refined);
-  std::vector<double> out(3 * buffer.size());
+  out.values.resize(3 * buffer.size());
   for (std::size_t i = 0; i < buffer.size(); ++i) {
-    out[3 * i] = buffer[i].x;
-    out[3 * i + 1] = buffer[i].y;
-    out[3 * i + 2] = buffer[i].z;
+    out.values[3 * i] = buffer[i].x;
+    out.values[3 * i + 1] = buffer[i].y;
+    out.values[3 * i + 2] = buffer[i].z;
   }
   return out;
 }
@@ -101,8 +149,9 @@ void LimitSurface::check_samples(const int* ptex, const double* uv, std::size_t 
   }
 }
 
-LimitSamples LimitSurface::evaluate(const std::vector<double>& cvs, const int* ptex, const double* uv, std::size_t n,
+LimitSamples LimitSurface::evaluate(const PatchPoints& patch_points, const int* ptex, const double* uv, std::size_t n,
                                     int derivatives) const {
+  const std::vector<double>& cvs = patch_points.values;
   check_samples(ptex, uv, n);
   LimitSamples out;
   out.position.resize(3 * n);
@@ -130,7 +179,7 @@ LimitSamples LimitSurface::evaluate(const std::vector<double>& cvs, const int* p
           __builtin_prefetch(out.normal.data() + 3 * ahead, 1);
         }
       }
-      const double u = std::clamp(uv[2 * i], 0.0, 1.0), v = std::clamp(uv[2 * i + 1], 0.0, 1.0);
+      const double u = sample_parameter(uv[2 * i]), v = sample_parameter(uv[2 * i + 1]);
       const Far::PatchTable::PatchHandle* h = osd_->map->FindPatch(ptex[i], u, v);
       if (!h) {
         missing = true;
@@ -162,16 +211,11 @@ LimitSamples LimitSurface::evaluate(const std::vector<double>& cvs, const int* p
       }
       std::vector<double>* targets[6] = {&out.position, &out.du, &out.dv, &out.duu, &out.duv, &out.dvv};
       for (int d = 0; d < kinds; ++d) std::copy(acc[d], acc[d] + 3, targets[d]->data() + 3 * i);
-      if (derivatives >= 1) {
-        const double* a = acc[1];
-        const double* b = acc[2];
-        double nrm[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-        const double len = std::sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
-        for (int c = 0; c < 3; ++c) out.normal[3 * i + c] = len > 0 ? nrm[c] / len : 0.0;  // singular: zero
-      }
+      if (derivatives >= 1) unit_normal(acc[1], acc[2], out.normal.data() + 3 * i);
     }
   });
   if (missing) throw std::invalid_argument("ptex: a sample lies in a face without limit surface");
+  scale_back(out, patch_points.exponent);
   return out;
 }
 

@@ -31,12 +31,16 @@ std::unique_ptr<Refiner> make_refiner(const ControlMesh& mesh, bool with_uvs) {
   desc.numVertsPerFace = mesh.face_sizes.data();
   desc.vertIndicesPerFace = mesh.face_vertices.data();
   std::vector<float> crease_weights(mesh.crease_sharpness.begin(), mesh.crease_sharpness.end());
-  std::vector<float> corner_weights(mesh.corner_sharpness.begin(), mesh.corner_sharpness.end());
+  std::vector<int> corner_vertices;
+  std::vector<float> corner_weights;
+  const std::vector<double> sharpness = vertex_sharpness(mesh);
+  for (std::size_t v = 0; v < sharpness.size(); ++v)
+    if (sharpness[v] > 0) corner_vertices.push_back(int(v)), corner_weights.push_back(float(sharpness[v]));
   desc.numCreases = int(crease_weights.size());
   desc.creaseVertexIndexPairs = mesh.crease_edges.data();
   desc.creaseWeights = crease_weights.data();
   desc.numCorners = int(corner_weights.size());
-  desc.cornerVertexIndices = mesh.corner_vertices.data();
+  desc.cornerVertexIndices = corner_vertices.data();
   desc.cornerWeights = corner_weights.data();
   Far::TopologyDescriptor::FVarChannel channel;
   if (with_uvs && !mesh.uv_indices.empty()) {

@@ -20,7 +20,17 @@ Vec cross(const Vec& a, const Vec& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
 double dot(const Vec& a, const Vec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-double norm(const Vec& a) { return std::sqrt(dot(a, a)); }
+// Scaled by the largest component first: no overflow of the squares at 1e200, no underflow at 1e-200.
+double norm(const Vec& a) {
+  const double m = std::max({std::abs(a[0]), std::abs(a[1]), std::abs(a[2])});
+  if (!(m > 0) || !std::isfinite(m)) return m;
+  const Vec b{a[0] / m, a[1] / m, a[2] / m};
+  return m * std::sqrt(dot(b, b));
+}
+Vec unit(const Vec& a) {
+  const double n = norm(a);
+  return n > 0 ? Vec{a[0] / n, a[1] / n, a[2] / n} : Vec{0, 0, 0};
+}
 // Robust near 0 and pi, where acos of a rounded dot product is not (algorithms.md A.7).
 double angle(const Vec& a, const Vec& b) { return std::atan2(norm(cross(a, b)), dot(a, b)); }
 
@@ -29,6 +39,16 @@ double bounding_diagonal(const double* p, std::size_t n) {
   for (std::size_t i = 1; i < n; ++i)
     for (int c = 0; c < 3; ++c) lo[c] = std::min(lo[c], p[3 * i + c]), hi[c] = std::max(hi[c], p[3 * i + c]);
   return norm({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+}
+
+std::vector<double> unit_scaled(const double* p, std::size_t n) {
+  double largest = 0.0;
+  for (std::size_t i = 0; i < 3 * n; ++i) largest = std::max(largest, std::abs(p[i]));
+  int exponent = 0;
+  if (largest > 0) std::frexp(largest, &exponent);
+  std::vector<double> out(p, p + 3 * n);
+  for (double& x : out) x = std::ldexp(x, -exponent);
+  return out;
 }
 
 // Newell's normal of each control face: the orientation a limit normal is expected to share.
@@ -50,7 +70,7 @@ std::vector<double> face_normals(const ControlMesh& mesh, const double* p) {
 }
 
 // Positions and tangents of the checked surface at the samples: S, or F(S) with J Du, J Dv.
-LimitSamples checked_surface(const LimitSurface& surface, const std::vector<double>& cvs, const std::vector<int>& ptex,
+LimitSamples checked_surface(const LimitSurface& surface, const PatchPoints& cvs, const std::vector<int>& ptex,
                              const std::vector<double>& uv, const Deformer* deformer,
                              std::vector<double>* det = nullptr) {
   LimitSamples s = surface.evaluate(cvs, ptex.data(), uv.data(), ptex.size(), 1);
@@ -59,6 +79,10 @@ LimitSamples checked_surface(const LimitSurface& surface, const std::vector<doub
   std::vector<double> jac(9 * n), moved(3 * n);
   deformer->jacobian(s.position.data(), jac.data(), n);
   deformer->deform(s.position.data(), moved.data(), n);
+  for (std::size_t i = 0; i < 9 * n; ++i)
+    if (!std::isfinite(jac[i]) || (i < 3 * n && !std::isfinite(moved[i])))
+      throw std::invalid_argument("deformer: maps limit-surface sample " + std::to_string(i < 3 * n ? i / 3 : i / 9) +
+                                  " to a non-finite point or Jacobian (the points are out of its range)");
   s.position = std::move(moved);
   if (det) det->resize(n);
   for (std::size_t i = 0; i < n; ++i) {
@@ -70,9 +94,8 @@ LimitSamples checked_surface(const LimitSurface& surface, const std::vector<doub
       const Vec d = at(*t, i);
       for (int r = 0; r < 3; ++r) (*t)[3 * i + r] = j[3 * r] * d[0] + j[3 * r + 1] * d[1] + j[3 * r + 2] * d[2];
     }
-    const Vec nrm = cross(at(s.du, i), at(s.dv, i));
-    const double len = norm(nrm);
-    for (int c = 0; c < 3; ++c) s.normal[3 * i + c] = len > 0 ? nrm[c] / len : 0.0;
+    const Vec nrm = unit(cross(unit(at(s.du, i)), unit(at(s.dv, i))));
+    std::copy(nrm.begin(), nrm.end(), s.normal.begin() + 3 * i);
   }
   return s;
 }
@@ -80,7 +103,7 @@ LimitSamples checked_surface(const LimitSurface& surface, const std::vector<doub
 // The largest second difference of the unit normal along the grid lines of every ptex face,
 // on a (g+1)^2 grid, as an angle: |n(a) - 2 n(b) + n(c)| is O(h^2) where the normal field is
 // smooth and about the jump angle where a crease passes between the three samples.
-std::vector<double> normal_kinks(const LimitSurface& surface, const std::vector<double>& cvs, const Deformer* deformer,
+std::vector<double> normal_kinks(const LimitSurface& surface, const PatchPoints& cvs, const Deformer* deformer,
                                  int g) {
   const bool triangles = surface.mesh().scheme == SubdivisionScheme::Loop;
   const int per = (g + 1) * (g + 1), faces = surface.ptex_count();
@@ -173,15 +196,24 @@ SmoothnessReport smoothness_report(const LimitSurface& surface, const double* po
   const ControlMesh& mesh = surface.mesh();
   require_finite_rows(points, mesh.vertex_count, "points");
   if (o.reference) require_finite_rows(o.reference, mesh.vertex_count, "reference");
+  // Every figure but a deformer's is scale-invariant: work on the points scaled by a power of two
+  // (exact) to unit size, so that no product overflows at 1e200 or underflows at 1e-200.
+  const std::vector<double> scaled = o.deformer ? std::vector<double>() : unit_scaled(points, mesh.vertex_count);
+  const std::vector<double> scaled_reference =
+      o.reference && !o.deformer ? unit_scaled(o.reference, mesh.vertex_count) : std::vector<double>();
+  if (!o.deformer) points = scaled.data();
+  const double* reference = o.reference && !o.deformer ? scaled_reference.data() : o.reference;
   const double diagonal = bounding_diagonal(points, mesh.vertex_count);
   if (!(diagonal > 0)) throw std::invalid_argument("points: all points coincide; the surface has no extent");
+  if (!std::isfinite(diagonal))
+    throw std::invalid_argument("points: the bounding box is wider than the double range (coordinates near 1e308)");
 
   const EdgeTopology topo = edge_topology(mesh);
-  const std::vector<double> cvs = surface.patch_points(points);
-  const std::vector<double> reference_cvs = o.reference ? surface.patch_points(o.reference) : std::vector<double>();
+  const PatchPoints cvs = surface.patch_points(points);
+  const PatchPoints reference_cvs = reference ? surface.patch_points(reference) : PatchPoints();
   const std::vector<double> face_normal = face_normals(mesh, points);
   const std::vector<Mat3> rotation =
-      o.reference && !o.deformer ? face_rotations(mesh, o.reference, points) : std::vector<Mat3>();
+      reference && !o.deformer ? face_rotations(mesh, reference, points) : std::vector<Mat3>();
   SmoothnessReport r;
   std::vector<char> face_flipped(mesh.face_count(), 0);
 
@@ -208,9 +240,7 @@ SmoothnessReport smoothness_report(const LimitSurface& surface, const double* po
     }
     singular.assign(n, 0);
     for (std::size_t i = 0; i < n; ++i) {
-      const Vec du = at(ls.du, i), dv = at(ls.dv, i);
-      const double scale = norm(du) * norm(dv);
-      const double regularity = scale > 0 ? norm(cross(du, dv)) / scale : 0.0;
+      const double regularity = norm(cross(unit(at(ls.du, i)), unit(at(ls.dv, i))));
       r.min_regularity = std::min(r.min_regularity, regularity);
       const bool flipped = o.deformer         ? det[i] < 0
                            : expected.empty() ? dot(at(ls.normal, i), at(face_normal, owner[i])) < 0

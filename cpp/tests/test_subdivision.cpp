@@ -187,7 +187,7 @@ void expect_matches_bfr(const Cage& c, SubdivisionScheme scheme, double toleranc
   const LimitSurface surface(control(c, scheme));
   std::unique_ptr<Refiner> refiner = make_refiner(control(c, scheme), false);
   Bfr::RefinerSurfaceFactory<> factory(*refiner, Bfr::RefinerSurfaceFactory<>::Options().SetApproxLevelSmooth(4));
-  const std::vector<double> cvs = surface.patch_points(c.points.data());
+  const PatchPoints cvs = surface.patch_points(c.points.data());
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   int checked = 0;
@@ -237,8 +237,10 @@ TEST(LimitSurface, MatchesBfrSurfaces) {
 // the dyadic parameters of the refined vertices; the surface must pass through them. Each refined
 // corner's parameters come from a linearly interpolated face-varying channel holding every base
 // quad's own corner parameters.
-void expect_passes_through_refined_limit_points(const Cage& c, int level) {
-  ControlMesh mesh = control(c, SubdivisionScheme::CatmullClark);
+void expect_passes_through_refined_limit_points(const Cage& c, int level,
+                                                BoundaryRule boundary = BoundaryRule::EdgeAndCorner) {
+  ControlMesh mesh = make_control_mesh(c.points.size() / 3, c.corners, c.offsets, SubdivisionScheme::CatmullClark,
+                                       boundary);
   std::vector<double> corner_uv;
   for (std::size_t f = 0; f < mesh.face_count(); ++f) corner_uv.insert(corner_uv.end(), {0, 0, 1, 0, 1, 1, 0, 1});
   set_uvs(mesh, corner_uv.data(), corner_uv.size() / 2, UvSmooth::None);
@@ -270,7 +272,7 @@ void expect_passes_through_refined_limit_points(const Cage& c, int level) {
   const Far::TopologyLevel& last = refiner->GetLevel(level);
   std::vector<Point3> limit(last.GetNumVertices());
   primvar.Limit(src, limit);
-  const std::vector<double> cvs = surface.patch_points(c.points.data());
+  const PatchPoints cvs = surface.patch_points(c.points.data());
   double worst = 0;
   int checked = 0;
   for (int f = 0; f < last.GetNumFaces(); ++f) {
@@ -294,6 +296,13 @@ void expect_passes_through_refined_limit_points(const Cage& c, int level) {
 TEST(LimitSurface, PassesThroughLimitPointsOfRefinedVertices) {
   expect_passes_through_refined_limit_points(open_grid(), 2);
   expect_passes_through_refined_limit_points(twisted_cube(), 3);
+}
+
+// Smooth corners (edge-only boundary) are exact only without OpenSubdiv's legacy sharp-corner
+// patches, which put a refined point there.
+TEST(LimitSurface, PassesThroughLimitPointsAtSmoothCorners) {
+  expect_passes_through_refined_limit_points(open_grid(), 2, BoundaryRule::EdgeOnly);
+  expect_passes_through_refined_limit_points(open_grid(), 3, BoundaryRule::EdgeOnly);
 }
 
 TEST(Subdivide, CountsFollowTheSchemes) {
@@ -358,7 +367,7 @@ TEST(LimitSurface, DerivativesMatchFiniteDifferences) {
                                   std::pair{twisted_cube(), SubdivisionScheme::CatmullClark},
                                   std::pair{octahedron(), SubdivisionScheme::Loop}}) {
     const LimitSurface surface(control(c, scheme));
-    const std::vector<double> cvs = surface.patch_points(c.points.data());
+    const PatchPoints cvs = surface.patch_points(c.points.data());
     const Samples s = random_samples(surface, 4, 5);
     const double h = 1e-6;
     for (std::size_t i = 0; i < s.ptex.size(); ++i) {

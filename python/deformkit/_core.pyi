@@ -230,19 +230,21 @@ class SubdividedMesh:
 
 def subdivide(points: npt.ArrayLike, faces: _Faces, level: int, *, scheme: _Scheme = "auto",
               boundary: _Boundary = "edge_and_corner", creases: _Sharpness | None = None,
-              corners: _Sharpness | None = None, uvs: npt.ArrayLike | None = None,
+              corners: _Sharpness | None = None, sharpen_two_edge_vertices: bool = True,
+              uvs: npt.ArrayLike | None = None,
               uv_smooth: Literal["none", "preserve_corners", "preserve_corners_and_junctions",
                                  "preserve_corners_junctions_and_concave", "preserve_boundaries",
                                  "smooth_all"] = "preserve_boundaries",
-              max_faces: int = ...) -> SubdividedMesh:
+              max_faces: int = ..., limit_surface: bool = False) -> SubdividedMesh:
     """Uniform OpenSubdiv subdivision (Catmull-Clark or Loop) to level 1..SUBDIVISION_MAX_LEVEL."""
 
 class Subdivider:
     """The refined topology of a control mesh at one level, kept to subdivide many cages of it."""
     def __init__(self, points: npt.ArrayLike, faces: _Faces, level: int, *, scheme: _Scheme = "auto",
                  boundary: _Boundary = "edge_and_corner", creases: _Sharpness | None = None,
-                 corners: _Sharpness | None = None, uvs: npt.ArrayLike | None = None,
-                 uv_smooth: str = "preserve_boundaries", max_faces: int = ...) -> None: ...
+                 corners: _Sharpness | None = None, sharpen_two_edge_vertices: bool = True,
+                 uvs: npt.ArrayLike | None = None, uv_smooth: str = "preserve_boundaries", max_faces: int = ...,
+                 limit_surface: bool = False) -> None: ...
     def subdivide(self, points: npt.ArrayLike | None = None) -> npt.NDArray[np.float64]: ...
     def mesh(self, points: npt.ArrayLike | None = None) -> SubdividedMesh: ...
     @property
@@ -255,6 +257,9 @@ class Subdivider:
     def faces(self) -> npt.NDArray[np.int32]: ...
     @property
     def face_origin(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def limit_surface(self) -> bool: ...
+    def vertex_parameters(self) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.float64]]: ...
 
 class SmoothnessReport:
     """Normal angles and position gaps of the limit surface across the interior edges."""
@@ -286,7 +291,7 @@ class LimitSurface:
     """The limit surface of a control mesh (Gregory patches near extraordinary vertices), at ptex samples."""
     def __init__(self, points: npt.ArrayLike, faces: _Faces, *, scheme: _Scheme = "auto",
                  boundary: _Boundary = "edge_and_corner", creases: _Sharpness | None = None,
-                 corners: _Sharpness | None = None) -> None: ...
+                 corners: _Sharpness | None = None, sharpen_two_edge_vertices: bool = True) -> None: ...
     @property
     def ptex_count(self) -> int: ...
     @property
@@ -304,7 +309,8 @@ class LimitSurface:
 
 def smoothness_report(points: npt.ArrayLike, faces: _Faces, *, scheme: _Scheme = "auto",
                       boundary: _Boundary = "edge_and_corner", creases: _Sharpness | None = None,
-                      corners: _Sharpness | None = None, samples_per_edge: int = 8,
+                      corners: _Sharpness | None = None, sharpen_two_edge_vertices: bool = True,
+                      samples_per_edge: int = 8,
                       reference: npt.ArrayLike | None = None, worst: int = 10,
                       deformer: Deformer | None = None, crease_grid: int = 16) -> SmoothnessReport:
     """Check that the limit surface (or, with deformer, its image F(S)) is smooth: normal angles

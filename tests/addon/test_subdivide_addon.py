@@ -154,7 +154,7 @@ def test_subdivide_equals_dk_and_blenders_modifier(scene, mesh, levels, settings
     base = positions(obj.data).copy()
     if creased:  # semi-sharp and sharp edges, and a vertex crease, at edges of every polygon kind
         set_creases(bpy, obj.data, edges={0: 0.35, 5: 1.0, len(obj.data.edges) - 1: 0.8}, vertices={3: 0.6})
-    entry = api.add_entry(obj, "SUBDIVIDE", levels=levels, scheme="CATMULL_CLARK", **settings)
+    entry = api.add_entry(obj, "SUBDIVIDE", levels=levels, use_limit_surface=False, **settings)
     assert entry.error == "" and obj.deformkit.error == ""
     ours, faces, _, _, _ = evaluated_mesh(bpy, obj)
     # dk.subdivide on the same mesh, with Blender's crease mapping written out: sharpness 10 c^2
@@ -182,7 +182,7 @@ def test_loop_on_a_triangle_mesh(scene, scheme):
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2)
     obj = bpy.context.active_object
     api.add_entry(obj, "TAPER", factor=0.4, deform_axis="Z")
-    api.add_entry(obj, "SUBDIVIDE", levels=2, scheme=scheme)
+    api.add_entry(obj, "SUBDIVIDE", levels=2, scheme=scheme, use_limit_surface=False)
     ours, faces, _, _, _ = evaluated_mesh(bpy, obj)
     cage = dk().SimpleDeform(mode="TAPER", factor=0.4, deform_axis="Z").deform(positions(obj.data))
     m = dk().subdivide(cage, polygons(obj.data), 2, scheme="loop")
@@ -199,7 +199,7 @@ def test_deformers_before_it_are_applied_first(scene):
     deforms = [("TWIST", dict(angle=1.4, deform_axis="Z")), ("BEND", dict(angle=0.8, deform_axis="X"))]
     for mode, params in deforms:
         api.add_entry(obj, mode, **params)
-    api.add_entry(obj, "SUBDIVIDE", levels=2)
+    api.add_entry(obj, "SUBDIVIDE", levels=2, use_limit_surface=False)
     ours = evaluated_mesh(bpy, obj)[0]
     theirs = evaluated_mesh(bpy, twin_with_subsurf(bpy, obj, deforms, levels=2))[0]
     assert set_distance(ours, theirs) < 1e-5 * 3
@@ -227,7 +227,7 @@ def test_uvs_materials_and_smooth_shading_are_carried(scene):
     mesh.polygons.foreach_set("material_index", (centre_z > 0.2).astype(np.int32))
     mesh.polygons.foreach_set("use_smooth", np.arange(len(mesh.polygons)) % 3 == 0)
     mesh.update()
-    entry = api.add_entry(obj, "SUBDIVIDE", levels=2)
+    entry = api.add_entry(obj, "SUBDIVIDE", levels=2, use_limit_surface=False)
     for uv_smooth in ("PRESERVE_BOUNDARIES", "SMOOTH_ALL", "NONE"):
         entry.uv_smooth = uv_smooth
         twin = twin_with_subsurf(bpy, obj, levels=2, uv_smooth=uv_smooth)
@@ -273,7 +273,7 @@ def test_hidden_or_level_zero_and_render_levels(scene, tmp_path):
     obj = make_cube(bpy, cuts=1)
     twist = api.add_entry(obj, "TWIST", angle=0.7, deform_axis="Z")
     cage = evaluated(obj).copy()
-    entry = api.add_entry(obj, "SUBDIVIDE", levels=0, render_levels=3)
+    entry = api.add_entry(obj, "SUBDIVIDE", levels=0, render_levels=3, use_limit_surface=False)
     np.testing.assert_array_equal(evaluated(obj), cage)
     entry.levels = 2
     entry.show_viewport = False
@@ -383,7 +383,7 @@ def test_apply_bakes_the_subdivided_mesh_as_blender_does(scene):
     assert obj.data.uv_layers.active is not None and [m.name for m in obj.data.materials] == ["Only"]
     other = make_object(bpy, name="Other")  # against Blender's own Apply of its modifier
     other.vertex_groups.clear()
-    api.add_entry(other, "SUBDIVIDE", levels=2)
+    api.add_entry(other, "SUBDIVIDE", levels=2, use_limit_surface=False)
     api.apply(other, 0)
     twin = make_object(bpy, name="Twin")
     twin.modifiers.new("Subdivision", "SUBSURF").use_limit_surface = False
@@ -512,8 +512,9 @@ def test_panel_shows_the_subdivide_entry_and_smoothness(scene):
     ui.DEFORMKIT_PT_stack.draw(types.SimpleNamespace(layout=CheckingLayout(log)), context)
     ui.DEFORMKIT_MT_add.draw(types.SimpleNamespace(layout=CheckingLayout(log)), context)
     drawn = {name for kind, name in log if kind != "label"}
-    assert {"levels", "render_levels", "scheme", "boundary_smooth", "use_creases", "uv_smooth",
-            "object.deformkit_check_smoothness", "deformkit.entry_add"} <= drawn
+    assert {"levels", "render_levels", "scheme", "use_limit_surface", "boundary_smooth", "use_creases",
+            "sharpen_two_edge_vertices", "uv_smooth", "object.deformkit_check_smoothness",
+            "deformkit.entry_add"} <= drawn
     faces = len(dk().subdivide(positions(obj.data), polygons(obj.data), 2).faces)
     assert any(kind == "label" and text.startswith("Render:") and text.endswith(f"{faces} faces")
                for kind, text in log)
@@ -549,3 +550,127 @@ def test_removing_the_entry_releases_its_refined_topologies(scene):
     assert {k[0] for k in subdivision._subdividers} == {key}
     api.remove_entry(obj, 1)
     assert not any(k[0] == key for k in subdivision._subdividers)
+
+
+def mesh_object(bpy, name, points, faces, location=(0.2, -0.1, 0.3)):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata([tuple(map(float, p)) for p in points], [], [list(map(int, f)) for f in faces])
+    mesh.update()
+    obj = bpy.data.objects.new(name, mesh)
+    obj.location = location
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def make_plane(bpy, crease=None):
+    """3 x 3 bumpy quads; with crease, every border edge creased (its corners have two edges)."""
+    j, i = np.mgrid[0:4, 0:4]
+    points = np.c_[i.ravel(), j.ravel(), 0.3 * np.sin(i.ravel() + 2.0 * j.ravel())] * 0.6
+    k = np.arange(16).reshape(4, 4)[:3, :3].ravel()
+    obj = mesh_object(bpy, "Plane", points, np.c_[k, k + 1, k + 5, k + 4])
+    if crease is not None:
+        mesh = obj.data
+        faces_of = {}
+        for p in mesh.polygons:
+            for key in p.edge_keys:
+                faces_of[key] = faces_of.get(key, 0) + 1
+        on_border = [e.index for e in mesh.edges if faces_of[tuple(sorted(e.vertices))] == 1]
+        assert len(on_border) == 12
+        set_creases(bpy, mesh, edges={i: crease for i in on_border})
+    return obj
+
+
+def make_two_edge_cube(bpy, crease=None):
+    """A cube whose bottom front edge is split by a vertex off the line: it has two edges, between
+    two pentagons; with crease, both of its edges creased."""
+    points = np.r_[[[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], [[0.2, -1.2, -1.1]]]
+    faces = [[0, 2, 3, 1, 8], [4, 5, 7, 6], [0, 8, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]]
+    obj = mesh_object(bpy, "TwoEdge", points, faces)
+    if crease is not None:
+        pairs = {(0, 8), (1, 8)}
+        set_creases(bpy, obj.data, edges={e.index: crease for e in obj.data.edges
+                                          if tuple(sorted(e.vertices)) in pairs})
+    return obj
+
+
+def make_ico(bpy):
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2, location=(0.1, 0.2, -0.3))
+    return bpy.context.active_object
+
+
+TWO_EDGE_CASES = [(mesh, crease, boundary) for mesh, crease in (("plane", 1.0), ("plane", 0.5), ("cube", 1.0),
+                                                                 ("cube", 0.6))
+                  for boundary in ("ALL", "PRESERVE_CORNERS")]
+
+
+@pytest.mark.parametrize("mesh, crease, boundary", TWO_EDGE_CASES,
+                         ids=[f"{m}-{c}-{b}" for m, c, b in TWO_EDGE_CASES])
+def test_creased_borders_and_two_edge_vertices_equal_blenders_modifier(scene, mesh, crease, boundary):
+    """Blender gives a vertex of exactly two edges the smaller of their creases: a creased border
+    keeps its corners, and so does a creased two-edge vertex between n-gons. The entry does too
+    (sharpen_two_edge_vertices, on by default); without it, it is OpenSubdiv's plain rules."""
+    import bpy
+    from deformkit_addon import api
+    obj = (make_plane if mesh == "plane" else make_two_edge_cube)(bpy, crease)
+    scale = float(np.ptp(positions(obj.data), axis=0).max())
+    entry = api.add_entry(obj, "SUBDIVIDE", levels=2, boundary_smooth=boundary, use_limit_surface=False)
+    twin = twin_with_subsurf(bpy, obj, levels=2, boundary_smooth=boundary)
+    theirs = evaluated_mesh(bpy, twin)[0]
+    assert entry.error == "" and set_distance(evaluated_mesh(bpy, obj)[0], theirs) < 1e-5 * scale
+    entry.sharpen_two_edge_vertices = False
+    plain = evaluated_mesh(bpy, obj)[0]
+    if mesh == "cube" or boundary == "ALL":  # Keep Corners makes the plane's corners sharp anyway
+        assert set_distance(plain, theirs, reach=1.0) > 1e-3 * scale
+
+
+LIMIT_CASES = [("sphere", {}), ("ico", {}), ("grid", {"quality": 10}), ("grid", {"boundary_smooth": "PRESERVE_CORNERS"}),
+               ("plane-creased", {}), ("plane-creased", {"boundary_smooth": "PRESERVE_CORNERS"}), ("cube", {}),
+               ("tube", {})]
+
+
+@pytest.mark.parametrize("mesh, settings", LIMIT_CASES,
+                         ids=[f"{m}-{'-'.join(map(str, s.values()))}" for m, s in LIMIT_CASES])
+@pytest.mark.parametrize("levels", [1, 2])
+def test_use_limit_surface_equals_blenders_modifier(scene, mesh, settings, levels):
+    """With Use Limit Surface (the default, as Blender's) every vertex is on the limit surface:
+    Blender's modifier at its default Quality 3 evaluates it exactly at these levels on smooth and
+    infinitely sharp features. Its smooth boundary corners (Boundary Smooth All, the default) and
+    semi-sharp creases are the exact limit only at a higher Quality (10 here): the entry's are exact."""
+    import bpy
+    from deformkit_addon import api
+    make = {"sphere": make_object, "ico": make_ico, "grid": make_grid, "tube": make_tube,
+            "plane-creased": lambda bpy: make_plane(bpy, 1.0), "cube": make_two_edge_cube}[mesh]
+    obj = make(bpy)
+    scale = float(np.ptp(positions(obj.data), axis=0).max())
+    entry = api.add_entry(obj, "SUBDIVIDE", levels=levels,
+                          **{k: v for k, v in settings.items() if k != "quality"})
+    assert entry.use_limit_surface and entry.error == ""
+    twin = twin_with_subsurf(bpy, obj, levels=levels, use_limit_surface=True, **settings)
+    ours, theirs = evaluated_mesh(bpy, obj)[0], evaluated_mesh(bpy, twin)[0]
+    assert len(ours) == len(theirs) and set_distance(ours, theirs) < 1e-5 * scale, set_distance(ours, theirs)
+    entry.use_limit_surface = False
+    refined = evaluated_mesh(bpy, obj)[0]
+    assert set_distance(refined, theirs, reach=1.0) > 1e-3 * scale  # the limit is not the refined mesh
+
+
+@pytest.mark.parametrize("mesh", ["sphere", "ico", "tube", "cube"])
+def test_a_new_entry_equals_a_new_modifier(scene, mesh):
+    """Default settings on both sides: Catmull-Clark on every mesh (all-triangle ones too), the
+    limit surface, Boundary Smooth All, creases, viewport level 1 and render level 2."""
+    import bpy
+    from deformkit_addon import api
+    obj = {"sphere": make_object, "ico": make_ico, "tube": make_tube, "cube": make_two_edge_cube}[mesh](bpy)
+    if mesh == "cube":  # the creased loop around the pentagon: its two-edge vertex becomes a corner
+        loop = {(0, 2), (2, 3), (1, 3), (1, 8), (0, 8)}
+        set_creases(bpy, obj.data, edges={e.index: 1.0 for e in obj.data.edges if tuple(sorted(e.vertices)) in loop})
+    scale = float(np.ptp(positions(obj.data), axis=0).max())
+    entry = api.add_entry(obj, "SUBDIVIDE")
+    assert (entry.scheme, entry.boundary_smooth, entry.uv_smooth) == ("CATMULL_CLARK", "ALL", "PRESERVE_BOUNDARIES")
+    twin = bare_twin(bpy, obj)
+    mod = twin.modifiers.new("Subdivision", "SUBSURF")
+    assert (mod.levels, mod.render_levels, entry.levels, entry.render_levels) == (1, 2, 1, 2)
+    update()
+    ours, faces = evaluated_mesh(bpy, obj)[:2]
+    theirs, their_faces = evaluated_mesh(bpy, twin)[:2]
+    assert {len(f) for f in faces} == {4} and len(faces) == len(their_faces)
+    assert set_distance(ours, theirs) < 1e-5 * scale, set_distance(ours, theirs)

@@ -30,6 +30,9 @@ struct ControlMesh {
   SubdivisionScheme scheme = SubdivisionScheme::CatmullClark;
   BoundaryRule boundary = BoundaryRule::EdgeAndCorner;
   UvSmooth uv_smooth = UvSmooth::PreserveBoundaries;
+  // Blender's topology rule: a vertex with exactly two edges also takes the smaller of their
+  // crease sharpnesses (vertex sharpness + min, capped at 10), so creased borders keep corners.
+  bool sharpen_two_edge_vertices = true;
 
   std::size_t face_count() const { return face_sizes.size(); }
 };
@@ -57,6 +60,10 @@ struct EdgeTopology {
   std::vector<int> face_of, local_of;
 };
 EdgeTopology edge_topology(const ControlMesh& mesh);
+
+// The sharpness OpenSubdiv gets for every vertex: `corners` (the last value of a repeated vertex,
+// as OpenSubdiv reads them) and, with sharpen_two_edge_vertices, Blender's two-edge rule on top.
+std::vector<double> vertex_sharpness(const ControlMesh& mesh);
 
 std::string scheme_name(SubdivisionScheme s);
 

@@ -15,6 +15,14 @@ struct LimitSamples {
 // A ptex face and its (u, v): quads and Loop triangles are one ptex face each; a Catmull-Clark
 // n-gon (n != 4) is n sub-quads, sub-quad k having (0, 0) at corner k, u towards the midpoint of
 // edge k -> k + 1 and v towards the midpoint of edge k - 1 -> k.
+// The control points of every patch for one cage, stored as points * 2^-exponent with the largest
+// coordinate below 1 (a power of two is exact): evaluation then cannot overflow in its products and
+// cross products whatever the cage's scale, and its results are scaled back exactly.
+struct PatchPoints {
+  std::vector<double> values;  // 3 per point
+  int exponent = 0;
+};
+
 struct PtexPoint {
   int ptex;
   double u, v;
@@ -36,12 +44,14 @@ class LimitSurface {
 
   // The control points of every patch (refined vertices, then end-cap points) for one cage.
   // Throws std::invalid_argument naming `points` for non-finite points.
-  std::vector<double> patch_points(const double* points) const;
+  PatchPoints patch_points(const double* points) const;
 
   // Throws std::invalid_argument naming `ptex` or `uv` for out-of-range samples.
   void check_samples(const int* ptex, const double* uv, std::size_t n) const;
   // derivatives: 0 = position, 1 = and du, dv, unit normal, 2 = and duu, duv, dvv. On both cores.
-  LimitSamples evaluate(const std::vector<double>& patch_points, const int* ptex, const double* uv, std::size_t n,
+  // Subnormal u or v are taken as 0 (they are 0 to double precision). Throws std::invalid_argument
+  // naming `points` where a result exceeds the double range (coordinates near 1e308).
+  LimitSamples evaluate(const PatchPoints& patch_points, const int* ptex, const double* uv, std::size_t n,
                         int derivatives) const;
 
   // The point of base face `face`'s local edge `edge` (corner edge -> edge + 1) at t in [0, 1].

@@ -1,6 +1,7 @@
 #pragma once
 // Uniform subdivision of a control mesh with OpenSubdiv (Catmull-Clark or Loop).
 #include "deformkit/control_mesh.hpp"
+#include "deformkit/limit_surface.hpp"
 
 #include <cstdint>
 #include <memory>
@@ -27,8 +28,10 @@ struct SubdividedMesh {
 class Subdivider {
  public:
   // Throws std::invalid_argument naming `level` outside 1..kMaxSubdivisionLevel or when the
-  // output would exceed max_faces faces (checked before any allocation).
-  Subdivider(const ControlMesh& mesh, int level, std::int64_t max_faces);
+  // output would exceed max_faces faces (checked before any allocation). With limit_surface the
+  // points are the limit surface at every refined vertex (Blender's "Use Limit Surface"), not
+  // the refined points.
+  Subdivider(const ControlMesh& mesh, int level, std::int64_t max_faces, bool limit_surface = false);
   ~Subdivider();
   Subdivider(const Subdivider&) = delete;
   Subdivider& operator=(const Subdivider&) = delete;
@@ -45,12 +48,19 @@ class Subdivider {
   const std::vector<int>& face_origin() const { return origin_; }
   const std::vector<double>& uvs() const { return uvs_; }
   int corners_per_face() const { return control_.scheme == SubdivisionScheme::Loop ? 3 : 4; }
+  bool limit_surface() const { return limit_ != nullptr; }
+  // Where every refined vertex lies on the limit surface: its ptex face and (u, v) there, in the
+  // ptex convention of LimitSurface (exact dyadic parameters).
+  std::vector<PtexPoint> vertex_parameters() const;
 
  private:
   struct Osd;
   ControlMesh control_;
   int level_;
   std::unique_ptr<Osd> osd_;
+  std::unique_ptr<LimitSurface> limit_;
+  std::vector<int> limit_ptex_;
+  std::vector<double> limit_uv_;
   std::vector<int> faces_, origin_;
   std::vector<double> uvs_;
 };
@@ -58,7 +68,8 @@ class Subdivider {
 // Faces a uniform refinement to `level` makes: n-gons split into n quads, then each face into 4.
 std::int64_t subdivided_face_count(const ControlMesh& mesh, int level);
 
-// One cage, once: Subdivider(mesh, level, max_faces).mesh(points).
-SubdividedMesh subdivide(const ControlMesh& mesh, const double* points, int level, std::int64_t max_faces);
+// One cage, once: Subdivider(mesh, level, max_faces, limit_surface).mesh(points).
+SubdividedMesh subdivide(const ControlMesh& mesh, const double* points, int level, std::int64_t max_faces,
+                         bool limit_surface = false);
 
 }  // namespace deformkit
