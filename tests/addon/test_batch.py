@@ -186,7 +186,7 @@ def test_bad_command_lines(tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text('{"deformers": []}')
     proc = run_batch("x.blend", "--recipe", bad, "--out", tmp_path)
-    assert proc.returncode != 0 and "needs a non-empty 'deformers' list" in proc.stderr
+    assert proc.returncode == 2 and "deformers: expected a non-empty list of tables" in proc.stderr
     proc = subprocess.run([sys.executable, str(REPO / "python_addon/cli.py"), "x.blend", "--evaluate-saved",
                            "--out", str(tmp_path), "--blender", "/nonexistent/blender"], capture_output=True, text=True)
     assert proc.returncode == 2 and "not found" in proc.stderr
