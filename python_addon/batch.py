@@ -94,7 +94,10 @@ def save_atomically(path, token=None):
     token = token or batch_io.new_run_token()
     tmp, blender_tmp = batch_io.run_temporaries(path, token)
     try:
-        bpy.ops.wm.save_as_mainfile(filepath=tmp, copy=True)
+        try:
+            bpy.ops.wm.save_as_mainfile(filepath=tmp, copy=True)
+        except RuntimeError as exc:  # Blender's message alone can be a stale errno: add the facts
+            raise RuntimeError(f"cannot save {path}: {str(exc).strip()} ({save_conditions(path)})") from exc
         if not os.path.exists(tmp):
             raise BatchError(f"Blender did not write {tmp}")
         os.replace(tmp, path)
@@ -102,6 +105,27 @@ def save_atomically(path, token=None):
         for leftover in (tmp, blender_tmp):
             if os.path.exists(leftover):
                 os.unlink(leftover)
+
+
+def save_conditions(path):
+    """What can stop a save: the folder's free space and write access, a file-size limit."""
+    folder = os.path.dirname(path) or "."
+    facts = []
+    try:
+        free = os.statvfs(folder)
+        facts.append(f"{free.f_bavail * free.f_frsize / 1e6:.1f} MB free in {folder}")
+    except OSError as exc:
+        facts.append(f"{folder}: {exc.strerror}")
+    if not os.access(folder, os.W_OK):
+        facts.append("the folder is not writable")
+    try:
+        import resource
+        limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+        if limit != resource.RLIM_INFINITY:
+            facts.append(f"file-size limit (ulimit -f) {limit} bytes")
+    except ImportError:
+        pass
+    return "; ".join(facts)
 
 
 def open_blend(path):

@@ -100,7 +100,7 @@ def mesh_warnings(mesh):
     finally:
         bpy.data.meshes.remove(copy)
     if changed:
-        details = [line for line in lines if line][:5]
+        details = [line.split("\t")[-1].strip() for line in lines if line][:5]  # drop the source location
         found.append(f"mesh '{mesh.name}': Blender's Mesh.validate finds invalid data (the file may be damaged)"
                      + (": " + " | ".join(details) if details else ""))
     for label, collection, attribute, width, count in _float_layers(mesh):

@@ -73,9 +73,13 @@ def describe_failure(error):
     return f"{kind}{error['message']}" + (f" ({where})" if where else "")
 
 
-def die_with_parent(parent_pid):
-    """Ask Linux to kill this process when its parent dies (a SIGKILLed launcher must not leave
-    Blenders running); exit at once if the parent is already gone. Elsewhere, nothing."""
+def prepare_worker(parent_pid):
+    """Under a file-size limit (ulimit -f) a write must fail with EFBIG, which the worker reports
+    as it reports a full disk, rather than SIGXFSZ killing Blender without a word. And ask Linux
+    to kill this process when its parent dies (a SIGKILLed launcher must not leave Blenders
+    running); exit at once if the parent is already gone."""
+    if hasattr(signal, "SIGXFSZ"):
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     try:
         ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
     except (OSError, AttributeError):

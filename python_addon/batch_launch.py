@@ -1,5 +1,6 @@
 """The launcher's side of one file: the environment Blender runs in, the run's staging folder, the
 Blender process and what it left behind (its result file, or why there is none). No bpy."""
+import contextlib
 import json
 import os
 import re
@@ -21,7 +22,7 @@ import importlib.util, json, os, sys
 spec = importlib.util.spec_from_file_location("deformkit_batch_io", {batch_io!r})
 io = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(io)
-io.die_with_parent({launcher!r})
+io.prepare_worker({launcher!r})
 sys.path[:0] = {paths!r}
 job = {job!r}
 try:
@@ -89,6 +90,39 @@ def pid_alive(pid):
     return True
 
 
+@contextlib.contextmanager
+def runs_locked(folder=None):
+    """Serialise the runs' start-up (clean stale staging, check reports, make staging) on one
+    lock file in the system temp folder, so that two runs starting together see each other."""
+    path = os.path.join(folder or tempfile.gettempdir(), batch_io.STAGING_PREFIX + "startup.lock")
+    try:
+        import fcntl
+    except ImportError:  # no flock: the checks still run, only not atomically
+        yield
+        return
+    with open(path, "a") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def live_runs(folder=None):
+    """{staging folder: report path} of the runs in progress."""
+    folder = folder or tempfile.gettempdir()
+    runs = {}
+    for name in os.listdir(folder):
+        match = STAGING.match(name)
+        if match and pid_alive(int(match.group(1))):
+            try:
+                with open(os.path.join(folder, name, "report-path"), encoding="utf-8") as fh:
+                    runs[os.path.join(folder, name)] = fh.read()
+            except OSError:
+                pass
+    return runs
+
+
 def clean_stale_staging(folder=None):
     """Remove the staging folders of runs whose launcher is gone (killed, so it could not clean
     up); those of live runs are left alone. Returns the folders removed."""
@@ -102,13 +136,16 @@ def clean_stale_staging(folder=None):
     return removed
 
 
-def make_staging(token):
+def make_staging(token, report_path):
     """This run's folder in the system temp folder: the add-on under its package name and the
-    deformkit module (symbolic links), and the workers' job and result files."""
+    deformkit module (symbolic links), the report's path (for runs starting later), and the
+    workers' job and result files."""
     work = os.path.join(tempfile.gettempdir(), batch_io.STAGING_PREFIX + token)
     addons, lib = os.path.join(work, "addons"), os.path.join(work, "lib")
     os.makedirs(addons)
     os.makedirs(lib)
+    with open(os.path.join(work, "report-path"), "w", encoding="utf-8") as fh:
+        fh.write(os.path.realpath(report_path))
     os.symlink(ADDON_DIR, os.path.join(addons, "deformkit_addon"))
     try:
         import deformkit
@@ -185,7 +222,8 @@ def run_one(blender, env, paths, job, timeout):
     with open(script, "w", encoding="utf-8") as fh:
         fh.write(WORKER.format(batch_io=os.path.join(ADDON_DIR, "batch_io.py"), launcher=os.getpid(),
                                paths=paths, job=job_path))
-    cmd = [blender, "-b", "--factory-startup", "--python-exit-code", "1", "--python", script]
+    # -noaudio: a batch needs no sound, and the audio client maps 64 MB of shared memory at start-up
+    cmd = [blender, "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1", "--python", script]
     t0 = time.perf_counter()
     try:
         proc = subprocess.run(cmd, capture_output=True, text=True, errors="replace", timeout=timeout, env=env)

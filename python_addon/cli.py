@@ -250,8 +250,13 @@ def main(argv=None):
     header = {"started": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
               "blender": blender, "recipe": recipe, "evaluate_saved": args.evaluate_saved,
               "smoothness": args.smoothness, "path_left_out_for_blender": dropped}
-    batch_launch.clean_stale_staging()
-    work, paths = batch_launch.make_staging(token)
+    with batch_launch.runs_locked():
+        batch_launch.clean_stale_staging()
+        for staging, other in batch_launch.live_runs().items():
+            if other == os.path.realpath(report_path):
+                ap.error(f"--report: {report_path} is the report of a run in progress ({staging}); "
+                         "give this run its own --report")
+        work, paths = batch_launch.make_staging(token, report_path)
     try:
         try:
             report = Report(report_path, token, header, inputs, outputs)
