@@ -47,6 +47,7 @@ def apply_recipe(recipe, objects=None, where=None):
     returns the objects. `where` (a dict) follows the object and entry being worked on."""
     recipe = checked_recipe(recipe)
     where = {} if where is None else where
+    recipe_entries = where.setdefault("recipe_entries", {})
     objects = resolve_objects(recipe["objects"]) if objects is None else objects
     for obj in objects:
         where["object"] = obj.name
@@ -65,10 +66,20 @@ def apply_recipe(recipe, objects=None, where=None):
             # A Laplacian entry does nothing until bound: "bind": true binds it to what comes in.
             bind = spec.pop("bind", False)
             api.add_entry(obj, kind, **spec)
+            recipe_entries[(obj.name, len(obj.deformkit.entries) - 1)] = where["entry"]
             if bind:
                 api.bind_laplacian(obj, len(obj.deformkit.entries) - 1)
         where["entry"] = None
     return objects
+
+
+def failing_entry(obj, recipe_entries):
+    """The recipe path (or, for a saved entry, the stack position and name) of obj's first entry
+    with an error."""
+    for i, entry in enumerate(obj.deformkit.entries):
+        if entry.error:
+            return recipe_entries.get((obj.name, i), f"stack entry {i} '{entry.name}'")
+    return None
 
 
 def evaluate_saved():
@@ -181,7 +192,7 @@ def process(input_path, output_path, recipe=None, preview_path=None, smoothness=
     t0 = time.perf_counter()
     result = {"file": input_path, "output": output_path, "status": "failed", "error": "", "objects": [],
               "warnings": []}
-    where = {"stage": "open", "object": None, "entry": None}
+    where = {"stage": "open", "object": None, "entry": None, "recipe_entries": {}}
 
     def stage(name):
         where.update(stage=name, object=None, entry=None)
@@ -208,7 +219,11 @@ def process(input_path, output_path, recipe=None, preview_path=None, smoothness=
         for obj in objects:
             where["object"] = obj.name
             t = time.perf_counter()
-            api.evaluate(obj)
+            try:
+                api.evaluate(obj)
+            except ValueError:
+                where["entry"] = failing_entry(obj, where["recipe_entries"])
+                raise
             result["objects"].append(describe(obj, time.perf_counter() - t, smoothness))
         stage("save")
         save_atomically(output_path, token)
@@ -233,13 +248,13 @@ def worker_main(job_path):
     def write(result, where=None):
         progress = {**result, "blender": bpy.app.version_string}
         if where is not None:
-            progress.update(status="running", stage=dict(where))
+            progress.update(status="running", stage={k: where[k] for k in ("stage", "object", "entry")})
         batch_io.write_json_atomically(job["result"], progress, job["token"])
 
     def progress(result, where):
         try:
             write(result, where)
-        except OSError:
+        except (OSError, ValueError, TypeError):
             pass  # only a hint for a crash; the final result says what happened
 
     try:
