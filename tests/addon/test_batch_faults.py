@@ -216,6 +216,7 @@ def test_killed_launcher_leaves_a_report_and_the_next_run_cleans_up(fixtures, re
             return False
 
     wait_for(finished_one)
+    assert launcher.poll() is None, "the report appeared only when the run was over"
     launcher.send_signal(signal.SIGKILL)
     launcher.wait()
     report = report_of(out / "report.json")  # valid JSON: replaced atomically, never torn
