@@ -1,6 +1,10 @@
 """Batch work inside Blender: apply a recipe (or re-evaluate saved stacks) to the open file, save the
 result under a temporary name and rename it, and describe what happened. Plain functions, so the
-CLI worker and the tests call the same code; `cli.py` runs this in one Blender per input file."""
+CLI worker and the tests call the same code; `cli.py` runs this in one Blender per input file.
+
+Whatever goes wrong is caught here and written to the result file as a structured record (the
+exception's type and message, the stage, the object and the recipe entry it was on), so that the
+launcher's report says what happened instead of "Blender exited with status 1"."""
 import json
 import os
 import sys
@@ -9,7 +13,7 @@ import time
 import bpy
 import numpy as np
 
-from . import api, evaluation, subdivision
+from . import api, batch_checks, batch_io, evaluation, recipe_schema, subdivision
 
 
 class BatchError(Exception):
@@ -31,17 +35,28 @@ def resolve_objects(selectors):
     return list(dict.fromkeys(found))
 
 
-def apply_recipe(recipe):
-    """Add the recipe's deformers to its objects and evaluate them; returns the objects."""
-    objects = resolve_objects(recipe.get("objects", ["*"]))
+def checked_recipe(recipe):
+    try:
+        return recipe_schema.validate(recipe)
+    except recipe_schema.RecipeError as exc:
+        raise BatchError(f"recipe: {exc}") from exc
+
+
+def apply_recipe(recipe, objects=None, where=None):
+    """Add the recipe's deformers to its objects (default: those it names) and evaluate them;
+    returns the objects. `where` (a dict) follows the object and entry being worked on."""
+    recipe = checked_recipe(recipe)
+    where = {} if where is None else where
+    recipe_entries = where.setdefault("recipe_entries", {})
+    objects = resolve_objects(recipe["objects"]) if objects is None else objects
     for obj in objects:
+        where["object"] = obj.name
         if recipe.get("replace", False):
             obj.deformkit.entries.clear()
-        for spec in recipe.get("deformers", []):
+        for i, spec in enumerate(recipe["deformers"]):
+            where["entry"] = f"deformers[{i}]"
             spec = dict(spec)
-            kind = spec.pop("type", None)
-            if kind is None:
-                raise BatchError("recipe: every deformer needs a 'type'")
+            kind = spec.pop("type")
             for prop in ("origin", "lattice", "handle_object"):  # objects are named in the recipe
                 if prop in spec:
                     found = bpy.data.objects.get(spec[prop])
@@ -49,14 +64,22 @@ def apply_recipe(recipe):
                         raise BatchError(f"recipe: {prop} object '{spec[prop]}' not found")
                     spec[prop] = found
             # A Laplacian entry does nothing until bound: "bind": true binds it to what comes in.
-            bind = str(kind).upper() == "LAPLACIAN" and bool(spec.pop("bind", False))
-            try:
-                api.add_entry(obj, kind, **spec)
-                if bind:
-                    api.bind_laplacian(obj, len(obj.deformkit.entries) - 1)
-            except (ValueError, TypeError) as exc:
-                raise BatchError(f"{obj.name}: {exc}") from exc
+            bind = spec.pop("bind", False)
+            api.add_entry(obj, kind, **spec)
+            recipe_entries[(obj.name, len(obj.deformkit.entries) - 1)] = where["entry"]
+            if bind:
+                api.bind_laplacian(obj, len(obj.deformkit.entries) - 1)
+        where["entry"] = None
     return objects
+
+
+def failing_entry(obj, recipe_entries):
+    """The recipe path (or, for a saved entry, the stack position and name) of obj's first entry
+    with an error."""
+    for i, entry in enumerate(obj.deformkit.entries):
+        if entry.error:
+            return recipe_entries.get((obj.name, i), f"stack entry {i} '{entry.name}'")
+    return None
 
 
 def evaluate_saved():
@@ -76,17 +99,55 @@ def describe(obj, seconds, smoothness=False):
     return found
 
 
-def save_atomically(path):
-    """Save a copy of the open file as `path`: written under a temporary name, then renamed."""
-    tmp = f"{path}.tmp{os.getpid()}.blend"
+def save_atomically(path, token=None):
+    """Save a copy of the open file as `path`: written under a name unique to this run (`token`),
+    then renamed. Only that run's own temporaries are ever removed."""
+    token = token or batch_io.new_run_token()
+    tmp, blender_tmp = batch_io.run_temporaries(path, token)
     try:
-        bpy.ops.wm.save_as_mainfile(filepath=tmp, copy=True)
+        try:
+            bpy.ops.wm.save_as_mainfile(filepath=tmp, copy=True)
+        except RuntimeError as exc:  # Blender's message alone can be a stale errno: add the facts
+            raise RuntimeError(f"cannot save {path}: {str(exc).strip()} ({save_conditions(path)})") from exc
         if not os.path.exists(tmp):
             raise BatchError(f"Blender did not write {tmp}")
         os.replace(tmp, path)
     finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+        for leftover in (tmp, blender_tmp):
+            if os.path.exists(leftover):
+                os.unlink(leftover)
+
+
+def save_conditions(path):
+    """What can stop a save: the folder's free space and write access, a file-size limit."""
+    folder = os.path.dirname(path) or "."
+    facts = []
+    try:
+        free = os.statvfs(folder)
+        facts.append(f"{free.f_bavail * free.f_frsize / 1e6:.1f} MB free in {folder}")
+    except OSError as exc:
+        facts.append(f"{folder}: {exc.strerror}")
+    if not os.access(folder, os.W_OK):
+        facts.append("the folder is not writable")
+    try:
+        import resource
+        limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+        if limit != resource.RLIM_INFINITY:
+            facts.append(f"file-size limit (ulimit -f) {limit} bytes")
+    except ImportError:
+        pass
+    return "; ".join(facts)
+
+
+def open_blend(path):
+    """Open `path`; returns what Blender said while reading it (warnings), raises BatchError if it
+    cannot."""
+    with batch_checks.captured_output() as lines:
+        try:
+            bpy.ops.wm.open_mainfile(filepath=path, load_ui=False)
+        except RuntimeError as exc:
+            raise BatchError(f"cannot open as a .blend file: {str(exc).strip()}") from exc
+    return batch_checks.reading_messages(lines)
 
 
 def export_preview(objects, path):
@@ -122,46 +183,89 @@ def _stored_positions(mesh, base):
     return values.reshape(-1, 3).astype(np.float64)
 
 
-def process(input_path, output_path, recipe=None, preview_path=None, smoothness=False):
+def process(input_path, output_path, recipe=None, preview_path=None, smoothness=False, token=None,
+            on_stage=None):
     """Open `input_path`, run the recipe (or the saved stacks), save to `output_path`. With
-    smoothness (or a recipe's "smoothness": true) the report has each object's smoothness figures."""
+    smoothness (or a recipe's "smoothness": true) the report has each object's smoothness figures.
+    Never raises: a failure is the result's "error" (one line) and "exception" (type, message,
+    stage, object, entry). on_stage(result, where) is called as the work moves on."""
     t0 = time.perf_counter()
-    result = {"file": input_path, "output": output_path, "status": "failed", "error": "", "objects": []}
+    result = {"file": input_path, "output": output_path, "status": "failed", "error": "", "objects": [],
+              "warnings": []}
+    where = {"stage": "open", "object": None, "entry": None, "recipe_entries": {}}
+
+    def stage(name):
+        where.update(stage=name, object=None, entry=None)
+        if on_stage:
+            on_stage(result, where)
+
     try:
         if os.path.realpath(input_path) == os.path.realpath(output_path) or (
                 os.path.exists(output_path) and os.path.samefile(input_path, output_path)):
             raise BatchError("the output would overwrite the input")
-        try:
-            bpy.ops.wm.open_mainfile(filepath=input_path, load_ui=False)
-        except RuntimeError as exc:
-            raise BatchError(f"cannot open as a .blend file: {str(exc).strip()}") from exc
-        objects = apply_recipe(recipe) if recipe else evaluate_saved()
+        stage("open")
+        result["warnings"] += open_blend(input_path)
+        stage("recipe" if recipe else "evaluate")
+        if recipe:
+            recipe = checked_recipe(recipe)
+            objects = resolve_objects(recipe["objects"])
+        else:
+            objects = evaluate_saved()
+        result["warnings"] += batch_checks.damage_warnings(objects)
+        if recipe:
+            apply_recipe(recipe, objects, where)
         smoothness = smoothness or bool(recipe and recipe.get("smoothness", False))
+        stage("evaluate")
         for obj in objects:
+            where["object"] = obj.name
             t = time.perf_counter()
-            api.evaluate(obj)
+            try:
+                api.evaluate(obj)
+            except ValueError:
+                where["entry"] = failing_entry(obj, where["recipe_entries"])
+                raise
             result["objects"].append(describe(obj, time.perf_counter() - t, smoothness))
-        save_atomically(output_path)
+        stage("save")
+        save_atomically(output_path, token)
         if preview_path:
+            stage("preview")
             export_preview(objects, preview_path)
         result["status"] = "ok"
-    except (BatchError, ValueError) as exc:
-        result["error"] = str(exc)
+    except Exception as exc:  # any of them: the report must say what it was and where
+        result["exception"] = batch_io.exception_record(exc, where["stage"], where["object"], where["entry"])
+        result["error"] = batch_io.describe_failure(result["exception"])
     result["seconds"] = round(time.perf_counter() - t0, 4)
     return result
 
 
-def worker_main(argv=None):
-    """Entry point inside Blender: args after `--` are INPUT OUTPUT RESULT_JSON [RECIPE_JSON] [PREVIEW]
-    [SMOOTHNESS] (non-empty: add the smoothness figures)."""
-    argv = sys.argv[sys.argv.index("--") + 1:] if argv is None else argv
-    input_path, output_path, result_path = argv[:3]
-    recipe = json.loads(argv[3]) if len(argv) > 3 and argv[3] else None
-    preview = argv[4] if len(argv) > 4 and argv[4] else None
-    smoothness = len(argv) > 5 and bool(argv[5])
-    result = process(input_path, output_path, recipe, preview, smoothness)
-    result["blender"] = bpy.app.version_string
-    with open(result_path + ".tmp", "w") as fh:
-        json.dump(result, fh)
-    os.replace(result_path + ".tmp", result_path)
+def worker_main(job_path):
+    """Entry point inside Blender: the job file (JSON, written by the launcher) names the input,
+    the output, the result file, the recipe, the preview path, smoothness and the run's token. The
+    result file is rewritten at every stage, so that if Blender dies the launcher knows where."""
+    with open(job_path, encoding="utf-8") as fh:
+        job = json.load(fh)
+
+    def write(result, where=None):
+        progress = {**result, "blender": bpy.app.version_string}
+        if where is not None:
+            progress.update(status="running", stage={k: where[k] for k in ("stage", "object", "entry")})
+        batch_io.write_json_atomically(job["result"], progress, job["token"])
+
+    def progress(result, where):
+        try:
+            write(result, where)
+        except (OSError, ValueError, TypeError):
+            pass  # only a hint for a crash; the final result says what happened
+
+    try:
+        result = process(job["input"], job["output"], job.get("recipe"), job.get("preview"),
+                         job.get("smoothness", False), job["token"], on_stage=progress)
+    except Exception as exc:  # a bug of ours: still a result, with its traceback's last frames
+        record = batch_io.exception_record(exc, "worker")
+        result = {"file": job["input"], "output": job["output"], "status": "failed", "objects": [],
+                  "warnings": [], "error": batch_io.describe_failure(record), "exception": record}
+    try:
+        write(result)
+    except OSError as exc:  # e.g. a full disk: the launcher reads this line from stdout instead
+        print(batch_io.RESULT_LINE + json.dumps({**result, "result_file_error": str(exc)}, default=str), flush=True)
     return 0 if result["status"] == "ok" else 1

@@ -1,6 +1,7 @@
 """The add-on tests run twice: in this process under the PyPI bpy module (Blender 5.0), and inside
 Debian's Blender 3.4 binary (test_blender34.py starts it with run_in_blender.py)."""
 import pathlib
+import subprocess
 import sys
 import tempfile
 
@@ -35,3 +36,15 @@ def scene(bpy_module, addon):
     if not hasattr(bpy_module.types.Object, "deformkit"):
         addon.register()
     yield bpy_module.context.scene
+
+
+@pytest.fixture(scope="session")
+def fixtures(tmp_path_factory):
+    """The .blend fixtures (blend_fixtures/make_fixtures.py, in Blender 3.4), made once per session
+    for the batch tests."""
+    out = tmp_path_factory.mktemp("fixtures")
+    proc = subprocess.run(["/usr/bin/blender", "-b", "--factory-startup", "--python-exit-code", "1", "-P",
+                           str(REPO / "blend_fixtures/make_fixtures.py"), "--", str(out)],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    return out

@@ -18,16 +18,6 @@ RECIPE = {"objects": ["*"], "deformers": [{"type": "TWIST", "angle": 1.2, "defor
                                           {"type": "BEND", "angle": 0.9, "deform_axis": "X"}]}
 
 
-@pytest.fixture(scope="module")
-def fixtures(tmp_path_factory):
-    out = tmp_path_factory.mktemp("fixtures")
-    proc = subprocess.run([BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "-P",
-                           str(REPO / "blend_fixtures/make_fixtures.py"), "--", str(out)],
-                          capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    return out
-
-
 def run_batch(*args):
     proc = subprocess.run([sys.executable, str(REPO / "python_addon/cli.py"), "--blender", BLENDER, *map(str, args)],
                           capture_output=True, text=True, timeout=600)
@@ -186,7 +176,7 @@ def test_bad_command_lines(tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text('{"deformers": []}')
     proc = run_batch("x.blend", "--recipe", bad, "--out", tmp_path)
-    assert proc.returncode != 0 and "needs a non-empty 'deformers' list" in proc.stderr
+    assert proc.returncode == 2 and "deformers: expected a non-empty list of tables" in proc.stderr
     proc = subprocess.run([sys.executable, str(REPO / "python_addon/cli.py"), "x.blend", "--evaluate-saved",
                            "--out", str(tmp_path), "--blender", "/nonexistent/blender"], capture_output=True, text=True)
     assert proc.returncode == 2 and "not found" in proc.stderr

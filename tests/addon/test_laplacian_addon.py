@@ -390,7 +390,7 @@ def test_batch_recipe_binds_laplacian_entries(scene):
     assert surface.is_bound(entry) and entry.error == "" and entry.handle_object.name == "Handle"
     with pytest.raises(batch.BatchError, match="handle_object object 'Nope' not found"):
         batch.apply_recipe({"objects": ["Tube"], "deformers": [{**spec, "handle_object": "Nope"}]})
-    with pytest.raises(batch.BatchError, match="bind: not a deformkit entry parameter"):
+    with pytest.raises(batch.BatchError, match=r"deformers\[0\].bind: not a key here"):
         batch.apply_recipe({"objects": ["Tube"], "deformers": [{"type": "TWIST", "bind": True}]})
 
 

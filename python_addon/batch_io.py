@@ -1,0 +1,88 @@
+"""What the batch launcher and its Blender workers share, without bpy: atomic JSON files, the
+structured record of an exception, and the names that tie temporaries to the run that made them."""
+import ctypes
+import json
+import math
+import os
+import secrets
+import signal
+import traceback
+
+STAGING_PREFIX = "deformkit-batch-run-"  # + "<launcher pid>-<random>": the system temp folder's
+TEMP_MARK = ".deformkit-"                # OUTPUT + ".deformkit-<run token>.tmp.blend"
+RESULT_LINE = "DEFORMKIT-BATCH-RESULT "  # a worker that cannot write its result file prints it
+PR_SET_PDEATHSIG = 1
+
+
+def new_run_token():
+    """Unique to this run: the pid tells the next run whether its owner is still alive, the random
+    part keeps two runs apart even when a pid is reused."""
+    return f"{os.getpid()}-{secrets.token_hex(4)}"
+
+
+def output_temporary(output, token):
+    return f"{output}{TEMP_MARK}{token}.tmp.blend"
+
+
+def run_temporaries(output, token):
+    """The files a run's worker may leave beside `output`: its temporary and Blender's own
+    `<file>@` (Blender writes there first, then renames)."""
+    tmp = output_temporary(output, token)
+    return [tmp, tmp + "@"]
+
+
+def finite(data):
+    """`data` with non-finite floats as None: the report stays standard JSON."""
+    if isinstance(data, float):
+        return data if math.isfinite(data) else None
+    if isinstance(data, dict):
+        return {k: finite(v) for k, v in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [finite(v) for v in data]
+    return data
+
+
+def write_json_atomically(path, data, token):
+    """Write `data` to a name unique to this run, then rename it over `path`: a reader (or a run
+    killed half-way) sees the previous version or the new one, never a torn file."""
+    tmp = f"{path}{TEMP_MARK}{token}.tmp"
+    try:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            json.dump(finite(data), fh, indent=1, allow_nan=False, default=str)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def exception_record(exc, stage, obj=None, entry=None):
+    """The report's view of an exception: its type, its message, where the worker was."""
+    frames = traceback.extract_tb(exc.__traceback__)[-3:]
+    return {"type": type(exc).__name__, "message": str(exc).strip() or repr(exc), "stage": stage,
+            "object": obj, "entry": entry,
+            "where": [f"{os.path.basename(f.filename)}:{f.lineno} in {f.name}" for f in frames]}
+
+
+def describe_failure(error):
+    """One line for the console and the report's "error": the message, then where it happened."""
+    where = ", ".join(f"{k} {error[k]}" for k in ("object", "entry") if error.get(k) is not None)
+    kind = "" if error["type"] in ("BatchError", "InputError") else f"{error['type']}: "
+    return f"{kind}{error['message']}" + (f" ({where})" if where else "")
+
+
+def prepare_worker(parent_pid):
+    """Under a file-size limit (ulimit -f) a write must fail with EFBIG, which the worker reports
+    as it reports a full disk, rather than SIGXFSZ killing Blender without a word. And ask Linux
+    to kill this process when its parent dies (a SIGKILLed launcher must not leave Blenders
+    running); exit at once if the parent is already gone."""
+    if hasattr(signal, "SIGXFSZ"):
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    except (OSError, AttributeError):
+        return
+    if os.getppid() != parent_pid:
+        os._exit(1)

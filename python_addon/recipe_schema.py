@@ -1,0 +1,226 @@
+"""The batch recipe's schema, checked before any file is opened, without bpy.
+
+The accepted values of each entry parameter come from the add-on's own property definitions: this
+module reads DEFORMKIT_PG_entry in properties.py (its source, so the launcher needs no Blender) and
+takes each property's kind, hard min/max, vector size and enum identifiers from there. Only which
+parameters each entry type uses is written here. A value Blender would clamp, round to zero or
+reinterpret is refused, with the key path (`deformers[2].limits`) and what the key accepts.
+"""
+import ast
+import datetime
+import difflib
+import math
+import os
+
+PROPERTIES_PY = os.path.join(os.path.dirname(os.path.abspath(__file__)), "properties.py")
+FLT_MAX = 3.4028234663852886e38   # a FloatProperty without min/max: RNA's hard range is +-FLT_MAX
+FLT_TRUE_MIN = 1.401298464324817e-45  # smaller magnitudes are stored as 0.0 (float32)
+INT_MIN, INT_MAX = -2 ** 31, 2 ** 31 - 1
+
+# Which parameters each entry type uses (the panel shows exactly these; others would be ignored).
+COMMON = ("type", "name", "show_viewport", "show_render")
+SIMPLE = ("origin", "deform_axis", "limits", "vertex_group", "invert_vertex_group")
+LOCKS = ("lock_x", "lock_y", "lock_z")  # Simple Deform has no locks in Bend mode
+TYPE_KEYS = {
+    "TWIST": ("angle",) + SIMPLE + LOCKS,
+    "BEND": ("angle",) + SIMPLE,
+    "TAPER": ("factor",) + SIMPLE + LOCKS,
+    "STRETCH": ("factor",) + SIMPLE + LOCKS,
+    "LATTICE": ("lattice", "lattice_basis", "outside", "strength", "vertex_group", "invert_vertex_group"),
+    "LAPLACIAN": ("method", "weights", "iterations", "anchors_group", "handles_group", "handle_target",
+                  "handle_object", "bind"),
+    "SUBDIVIDE": ("levels", "render_levels", "scheme", "boundary_smooth", "use_creases", "uv_smooth"),
+}
+BATCH_ONLY = {"bind": {"kind": "bool"}}  # a Laplacian entry is bound to what comes in
+TOP_LEVEL = {"objects": "a list of object names (\"*\": every mesh)", "deformers": "a non-empty list of tables",
+             "replace": "true or false (clear the objects' stacks first)",
+             "smoothness": "true or false (smoothness figures in the report)"}
+
+
+class RecipeError(ValueError):
+    """A recipe that cannot run; str() names every bad key path."""
+
+    def __init__(self, problems):
+        super().__init__("; ".join(problems))
+        self.problems = list(problems)
+
+
+def _literal(node, names):
+    if isinstance(node, ast.Name) and node.id in names:
+        node = names[node.id]
+    return ast.literal_eval(node)
+
+
+def read_property_table(path=PROPERTIES_PY):
+    """{parameter: spec} for every property of DEFORMKIT_PG_entry, from properties.py's source."""
+    with open(path, encoding="utf-8") as fh:
+        tree = ast.parse(fh.read(), path)
+    names = {t.id: node.value for node in tree.body if isinstance(node, ast.Assign)
+             for t in node.targets if isinstance(t, ast.Name)}
+    entry = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == "DEFORMKIT_PG_entry")
+    table = {}
+    for node in entry.body:
+        if not (isinstance(node, ast.AnnAssign) and isinstance(node.annotation, ast.Call)):
+            continue
+        call, key = node.annotation, node.target.id
+        kw = {k.arg: k.value for k in call.keywords}
+        table[key] = _spec(call.func.id, {k: v for k, v in kw.items() if k in ("min", "max", "size", "items")},
+                           names)
+    return table
+
+
+def _spec(prop, kw, names):
+    if prop in ("FloatProperty", "FloatVectorProperty"):
+        spec = {"kind": "float", "min": float(_literal(kw["min"], names)) if "min" in kw else -FLT_MAX,
+                "max": float(_literal(kw["max"], names)) if "max" in kw else FLT_MAX}
+        if prop == "FloatVectorProperty":
+            spec["size"] = _literal(kw.get("size", ast.Constant(3)), names)
+        return spec
+    if prop == "IntProperty":
+        return {"kind": "int", "min": int(_literal(kw["min"], names)) if "min" in kw else INT_MIN,
+                "max": int(_literal(kw["max"], names)) if "max" in kw else INT_MAX}
+    if prop == "BoolProperty":
+        return {"kind": "bool"}
+    if prop == "EnumProperty":
+        return {"kind": "enum", "items": tuple(item[0] for item in _literal(kw["items"], names))}
+    if prop == "StringProperty":
+        return {"kind": "string"}
+    if prop == "PointerProperty":
+        return {"kind": "object"}
+    return {"kind": "other"}
+
+
+PROPERTIES = read_property_table()
+ENTRY_TYPES = PROPERTIES["type"]["items"]
+
+
+def _got(value):
+    if isinstance(value, (datetime.date, datetime.time)):  # TOML dates, times and datetimes
+        return f"a TOML {type(value).__name__} ({value.isoformat()})"
+    text = repr(value)
+    return f"{type(value).__name__} {text if len(text) <= 60 else text[:57] + '...'}"
+
+
+def _is_number(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _float_problem(value, spec):
+    accepts = f"a finite number in [{spec['min']:.9g}, {spec['max']:.9g}]"
+    if not _is_number(value):
+        return f"expected {accepts}, got {_got(value)}"
+    try:
+        x = float(value)
+    except OverflowError:
+        return f"expected {accepts}, got an integer of {len(str(abs(value)))} digits"
+    if not math.isfinite(x) or not spec["min"] <= x <= spec["max"]:
+        return f"expected {accepts} (Blender would clamp it), got {value!r}"
+    if 0.0 < abs(x) < FLT_TRUE_MIN:
+        return f"expected {accepts}; {value!r} is too small for Blender's 32-bit float (it would become 0)"
+    return ""
+
+
+def _int_problem(value, spec):
+    accepts = f"an integer in {spec['min']}..{spec['max']}"
+    if not isinstance(value, int) or isinstance(value, bool):
+        return f"expected {accepts}, got {_got(value)}"
+    if not spec["min"] <= value <= spec["max"]:
+        return f"expected {accepts} (Blender would clamp it), got {value}"
+    return ""
+
+
+def value_problem(value, spec):
+    """'' when Blender stores `value` unchanged in a property of this spec, else what is wrong."""
+    kind = spec["kind"]
+    if kind == "bool":
+        return "" if isinstance(value, bool) else f"expected true or false, got {_got(value)}"
+    if kind == "enum":
+        if isinstance(value, str) and value in spec["items"]:
+            return ""
+        return f"expected one of {', '.join(spec['items'])}, got {_got(value)}"
+    if kind in ("string", "object"):
+        if not isinstance(value, str):
+            return f"expected {'an object name' if kind == 'object' else 'a string'}, got {_got(value)}"
+        if "\x00" in value:
+            return "expected a string without NUL characters (Blender would cut it there)"
+        return "" if value or kind == "string" else "expected an object name, got an empty string"
+    if kind == "int":
+        return _int_problem(value, spec)
+    if kind == "float" and "size" in spec:
+        if not isinstance(value, (list, tuple)) or len(value) != spec["size"]:
+            return f"expected a list of {spec['size']} numbers in [{spec['min']:g}, {spec['max']:g}], got {_got(value)}"
+        for i, x in enumerate(value):
+            problem = _float_problem(x, spec)
+            if problem:
+                return f"[{i}]: {problem}"
+        return ""
+    if kind == "float":
+        return _float_problem(value, spec)
+    return f"cannot be set from a recipe (got {_got(value)})"
+
+
+def _unknown_key(key, accepted, where):
+    near = difflib.get_close_matches(str(key), accepted, n=1)
+    hint = f" (did you mean '{near[0]}'?)" if near else ""
+    return f"{where}{key}: not a key here{hint}; accepted: {', '.join(accepted)}"
+
+
+def entry_problems(spec, path):
+    """Problems of one deformer table at key path `path` (e.g. "deformers[2]")."""
+    if not isinstance(spec, dict):
+        return [f"{path}: expected a table with a 'type', got {_got(spec)}"]
+    kind = spec.get("type")
+    if not isinstance(kind, str) or kind.upper() not in TYPE_KEYS:
+        return [f"{path}.type: expected one of {', '.join(ENTRY_TYPES)}, got "
+                + (_got(kind) if "type" in spec else "nothing")]
+    kind = kind.upper()
+    accepted = COMMON + TYPE_KEYS[kind]
+    problems = []
+    for key, value in spec.items():
+        if key == "type":
+            continue
+        if key not in accepted:
+            problems.append(_unknown_key(key, accepted, f"{path}.") + f" (for a {kind.title()} entry)")
+            continue
+        problem = value_problem(value, BATCH_ONLY.get(key) or PROPERTIES[key])
+        if not problem and key == "limits" and value[0] > value[1]:
+            problem = f"the lower limit {value[0]!r} is above the upper limit {value[1]!r} (expected [lo, hi], lo <= hi)"
+        if problem:
+            problems.append(f"{path}.{key}{'' if problem.startswith('[') else ': '}{problem}")
+    return problems
+
+
+def recipe_problems(recipe):
+    """Every problem of a parsed recipe, each naming its key path; [] for a good recipe."""
+    if not isinstance(recipe, dict):
+        return [f"recipe: expected a table with 'deformers', got {_got(recipe)}"]
+    problems = [_unknown_key(key, tuple(TOP_LEVEL), "") for key in recipe if key not in TOP_LEVEL]
+    for key in ("replace", "smoothness"):
+        if key in recipe and not isinstance(recipe[key], bool):
+            problems.append(f"{key}: expected true or false, got {_got(recipe[key])}")
+    objects = recipe.get("objects", ["*"])
+    if not isinstance(objects, list) or not objects:
+        problems.append(f"objects: expected {TOP_LEVEL['objects']}, got {_got(objects)}")
+    else:
+        problems += [f"objects[{i}]: expected an object name, got {_got(o)}"
+                     for i, o in enumerate(objects) if not isinstance(o, str) or not o or "\x00" in o]
+    deformers = recipe.get("deformers")
+    if not isinstance(deformers, list) or not deformers:
+        problems.append(f"deformers: expected {TOP_LEVEL['deformers']}, got "
+                        + (_got(deformers) if "deformers" in recipe else "nothing"))
+        return problems
+    for i, spec in enumerate(deformers):
+        problems += entry_problems(spec, f"deformers[{i}]")
+    subdivide = [i for i, s in enumerate(deformers) if isinstance(s, dict) and str(s.get("type")).upper() == "SUBDIVIDE"]
+    if subdivide and subdivide[0] != len(deformers) - 1:
+        problems.append(f"deformers[{subdivide[0]}]: a Subdivide entry must be the last deformer "
+                        f"(the stack subdivides what the entries above make), but {len(deformers) - 1 - subdivide[0]} follow it")
+    return problems
+
+
+def validate(recipe):
+    """The recipe with "objects" defaulted, or RecipeError naming every bad key path."""
+    problems = recipe_problems(recipe)
+    if problems:
+        raise RecipeError(problems)
+    return {**recipe, "objects": recipe.get("objects", ["*"])}
