@@ -29,7 +29,8 @@ TYPE_KEYS = {
     "LATTICE": ("lattice", "lattice_basis", "outside", "strength", "vertex_group", "invert_vertex_group"),
     "LAPLACIAN": ("method", "weights", "iterations", "anchors_group", "handles_group", "handle_target",
                   "handle_object", "bind"),
-    "SUBDIVIDE": ("levels", "render_levels", "scheme", "boundary_smooth", "use_creases", "uv_smooth"),
+    "SUBDIVIDE": ("levels", "render_levels", "scheme", "boundary_smooth", "use_creases", "uv_smooth", "use_limit_surface",
+                  "sharpen_two_edge_vertices"),
 }
 BATCH_ONLY = {"bind": {"kind": "bool"}}  # a Laplacian entry is bound to what comes in
 TOP_LEVEL = {"objects": "a list of object names (\"*\": every mesh)", "deformers": "a non-empty list of tables",
