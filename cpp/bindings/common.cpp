@@ -310,9 +310,10 @@ py::array py_jacobian(const Deformer& d, const py::object& points) {
   auto jac = new_array<double>({pts.shape(0), py::ssize_t(3), py::ssize_t(3)}, "the Jacobians");
   const double* in = p.data();
   double* dst = jac.mutable_data();
+  const bool single = pts.dtype().is(py::dtype::of<float>());  // as cast_like: the core checks the float range
   {
     py::gil_scoped_release release;
-    d.jacobian(in, dst, n);
+    d.jacobian(in, dst, n, single);
   }
   return cast_like(jac, pts);
 }
@@ -342,9 +343,10 @@ py::array py_volume_ratio(const Deformer& d, const py::object& points) {
   auto out = new_array<double>({pts.shape(0)}, "the volume ratios");
   const double* in = p.data();
   double* dst = out.mutable_data();
+  const bool single = pts.dtype().is(py::dtype::of<float>());  // as cast_like: the core checks the float range
   {
     py::gil_scoped_release release;
-    volume_ratio(d, in, dst, n);
+    volume_ratio(d, in, dst, n, single);
   }
   return cast_like(out, pts);
 }

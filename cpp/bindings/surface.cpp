@@ -66,8 +66,8 @@ weights 'cotangent' or 'uniform'. The systems over the free vertices are factori
 deform() only back-substitutes. Negative cotangent weights are
 raised to a small positive floor, which keeps the system positive definite and the ARAP energy
 monotone. A connected component with no anchor or handle stays where it is (see warnings).
-constraint_weight None makes anchors and handles hard constraints, met exactly; a number w > 0
-makes them soft: each adds w^2 ||x_i - c_i||^2 to the least-squares energy (Sorkine et al. 2004,
+constraint_weight None makes anchors and handles hard constraints, met exactly; a number w in
+[1e-4, 1e8] makes them soft: each adds w^2 ||x_i - c_i||^2 to the least-squares energy (Sorkine et al. 2004,
 eq. 5), or 2 w^2 ||x_i - c_i||^2 to the ARAP energy (whose sum over edges counts each edge twice),
 so that they are met only approximately, more closely as w grows.)")
       .def(py::init([](const py::object& points, const py::object& faces, const py::object& anchors,
@@ -84,11 +84,7 @@ so that they are met only approximately, more closely as w grows.)")
              else throw py::value_error("weights: expected 'cotangent' or 'uniform', got '" + weights + "'");
              s.iterations = int_arg(iterations, "iterations", 1, 10000);
              s.tolerance = tolerance;
-             if (constraint_weight) {
-               if (!(*constraint_weight > 0.0))
-                 throw py::value_error("constraint_weight: must be None (hard constraints) or a number > 0");
-               s.constraint_weight = *constraint_weight;
-             }
+             s.constraint_weight = constraint_weight;  // its range is checked (and named) by the core
              TriangleMesh mesh = parse_mesh(points, faces);
              std::optional<std::vector<int>> region;
              const std::size_t n = mesh.vertex_count();

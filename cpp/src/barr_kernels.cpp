@@ -46,62 +46,66 @@ HWY_INLINE bool Run(const BarrKernelParams& p, const T* in, T* out, size_t n) {
   const V B0 = set(p.B[0]), B1 = set(p.B[1]), B2 = set(p.B[2]), B3 = set(p.B[3]), B4 = set(p.B[4]),
           B5 = set(p.B[5]), B6 = set(p.B[6]), B7 = set(p.B[7]), B8 = set(p.B[8]);
   const V m0 = set(p.m[0]), m1 = set(p.m[1]), m2 = set(p.m[2]);
-  const V t0 = set(p.t[0]), t1 = set(p.t[1]), t2 = set(p.t[2]);
   const V ux = set(p.unlocked[0]), uy = set(p.unlocked[1]);
-  const V kx = set(1.0 - p.unlocked[0]), ky = set(1.0 - p.unlocked[1]);
-  const V off = set(p.offset), slope = set(p.slope), lo = set(p.lo), hi = set(p.hi);
-  const V k = set(p.k), center = set(p.center), half_k = set(0.5 * p.k), one = set(1.0), two = set(2.0);
+  const V off = set(p.offset), off_minus_1 = set(p.offset - 1.0), slope = set(p.slope), lo = set(p.lo), hi = set(p.hi);
+  const V k = set(p.k), center = set(p.center), half_k = set(0.5 * p.k), half = set(0.5), one = set(1.0),
+          two = set(2.0), minus_two = set(-2.0);
   V bad = hn::Zero(d);
 
+  // Each operator as its displacement in canonical coordinates (see barr_offset_with_jacobian),
+  // exactly zero at rest, added to the object point through B: x' = x + B (g(c) - c).
   auto step = [&](const T* src, T* dst) HWY_ATTR {
-    V x, y, z;
-    hn::LoadInterleaved3(d, src, x, y, z);
+    V px, py, pz;
+    hn::LoadInterleaved3(d, src, px, py, pz);
     // 0 * v is NaN exactly when v is NaN or infinite (per coordinate: a sum could overflow).
-    bad = hn::MulAdd(hn::Zero(d), x, hn::MulAdd(hn::Zero(d), y, hn::MulAdd(hn::Zero(d), z, bad)));
+    bad = hn::MulAdd(hn::Zero(d), px, hn::MulAdd(hn::Zero(d), py, hn::MulAdd(hn::Zero(d), pz, bad)));
+    V x = px, y = py, z = pz;
     if (!kIdentity) {
-      const V px = x, py = y, pz = z;
       x = hn::MulAdd(M0, px, hn::MulAdd(M1, py, hn::MulAdd(M2, pz, m0)));
       y = hn::MulAdd(M3, px, hn::MulAdd(M4, py, hn::MulAdd(M5, pz, m1)));
       z = hn::MulAdd(M6, px, hn::MulAdd(M7, py, hn::MulAdd(M8, pz, m2)));
     }
-    V ox, oy, oz;
-    if (kKind == 3) {  // bend, half-angle form (see barr_apply_with_jacobian)
+    V dx, dy, dz;
+    if (kKind == 3) {  // bend, half-angle form
       const V yc = hn::Min(hn::Max(y, lo), hi);
       V h, c2;
       SinCos(d, hn::Mul(half_k, hn::Sub(yc, center)), h, c2);
       const V s = hn::Mul(two, hn::Mul(h, c2));
-      const V cs = hn::NegMulAdd(two, hn::Mul(h, h), one);
+      const V cm1 = hn::Mul(minus_two, hn::Mul(h, h));  // cos(t) - 1
       const V q2 = hn::Div(hn::Mul(two, h), k);  // 2 sin(t/2) / k
       const V dd = hn::Sub(y, yc);
-      ox = x;
-      oy = hn::MulAdd(q2, c2, hn::NegMulAdd(s, z, hn::MulAdd(cs, dd, center)));
-      oz = hn::MulAdd(cs, z, hn::MulAdd(q2, h, hn::Mul(s, dd)));
+      dx = hn::Zero(d);
+      dy = hn::MulAdd(cm1, dd, hn::NegMulAdd(s, z, hn::MulSub(q2, c2, hn::Sub(yc, center))));
+      dz = hn::MulAdd(cm1, z, hn::MulAdd(q2, h, hn::Mul(s, dd)));
     } else {
       const V zc = hn::Min(hn::Max(z, lo), hi);
       const V qx = hn::Mul(ux, x), qy = hn::Mul(uy, y);
-      const V rx = hn::Mul(kx, x), ry = hn::Mul(ky, y);
-      oz = z;
-      if (kKind == 0) {  // twist
-        V s, c;
-        SinCos(d, hn::MulAdd(slope, zc, off), s, c);
-        ox = hn::MulAdd(qx, c, hn::NegMulAdd(qy, s, rx));
-        oy = hn::MulAdd(qx, s, hn::MulAdd(qy, c, ry));
-      } else if (kKind == 1) {  // taper
-        const V r = hn::MulAdd(slope, zc, off);
-        ox = hn::MulAdd(qx, r, rx);
-        oy = hn::MulAdd(qy, r, ry);
-      } else {  // stretch
-        const V s = hn::MulAdd(k, hn::MulSub(zc, zc, one), one);
-        ox = hn::MulAdd(qx, s, rx);
-        oy = hn::MulAdd(qy, s, ry);
-        oz = hn::MulAdd(k, zc, z);
+      dz = hn::Zero(d);
+      if (kKind == 0) {  // twist: cos(t) - 1 = -2 sin^2(t/2), exactly 0 at t = 0
+        V h, c2;
+        SinCos(d, hn::Mul(half, hn::MulAdd(slope, zc, off)), h, c2);
+        const V s = hn::Mul(two, hn::Mul(h, c2));
+        const V cm1 = hn::Mul(minus_two, hn::Mul(h, h));
+        dx = hn::NegMulAdd(qy, s, hn::Mul(qx, cm1));
+        dy = hn::MulAdd(qx, s, hn::Mul(qy, cm1));
+      } else if (kKind == 1) {  // taper: r - 1
+        const V rm1 = hn::MulAdd(slope, zc, off_minus_1);
+        dx = hn::Mul(qx, rm1);
+        dy = hn::Mul(qy, rm1);
+      } else {  // stretch: s - 1 = k (z^2 - 1)
+        const V sm1 = hn::Mul(k, hn::MulSub(zc, zc, one));
+        dx = hn::Mul(qx, sm1);
+        dy = hn::Mul(qy, sm1);
+        dz = hn::Mul(k, zc);
       }
     }
-    if (!kIdentity) {
-      const V cx = ox, cy = oy, cz = oz;
-      ox = hn::MulAdd(B0, cx, hn::MulAdd(B1, cy, hn::MulAdd(B2, cz, t0)));
-      oy = hn::MulAdd(B3, cx, hn::MulAdd(B4, cy, hn::MulAdd(B5, cz, t1)));
-      oz = hn::MulAdd(B6, cx, hn::MulAdd(B7, cy, hn::MulAdd(B8, cz, t2)));
+    V ox, oy, oz;
+    if (kIdentity) {
+      ox = hn::Add(px, dx), oy = hn::Add(py, dy), oz = hn::Add(pz, dz);
+    } else {
+      ox = hn::Add(px, hn::MulAdd(B0, dx, hn::MulAdd(B1, dy, hn::Mul(B2, dz))));
+      oy = hn::Add(py, hn::MulAdd(B3, dx, hn::MulAdd(B4, dy, hn::Mul(B5, dz))));
+      oz = hn::Add(pz, hn::MulAdd(B6, dx, hn::MulAdd(B7, dy, hn::Mul(B8, dz))));
     }
     bad = hn::MulAdd(hn::Zero(d), ox, hn::MulAdd(hn::Zero(d), oy, hn::MulAdd(hn::Zero(d), oz, bad)));
     hn::StoreInterleaved3(ox, oy, oz, d, dst);

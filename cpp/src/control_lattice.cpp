@@ -215,17 +215,6 @@ void ControlLattice::jacobian_impl(const double* in, double* jac, std::size_t n)
 
 namespace {
 
-template <class T>
-bool all_rows_finite(const T* out, std::size_t n) {
-  std::atomic<bool> finite{true};
-  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    T acc = 0;
-    for (std::size_t i = 3 * begin; i < 3 * end; ++i) acc += out[i] * T(0);  // NaN iff some entry is not finite
-    if (acc != acc) finite = false;
-  });
-  return finite;
-}
-
 // The kernel's view of an axis, and the control points a piece touches in that view.
 KernelAxis kernel_axis(const AxisBasis& a) {
   switch (a.kind) {
@@ -518,10 +507,7 @@ static void blend_bound(const LatticeBinding& b, const std::vector<double>& w, c
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       const std::size_t p = b.order[i];
-      for (int a = 0; a < 3; ++a) {
-        const double x = sorted[(3 + a) * n + i];
-        out[3 * p + a] = static_cast<T>(x + w[p] * (static_cast<double>(out[3 * p + a]) - x));
-      }
+      for (int a = 0; a < 3; ++a) out[3 * p + a] = static_cast<T>(blend_toward(sorted[(3 + a) * n + i], out[3 * p + a], w[p]));
     }
   });
 }
@@ -532,27 +518,17 @@ static void require_bound_weights(const std::vector<double>& w, const LatticeBin
                                 std::to_string(b.size()) + " points");
 }
 
-// As deform(): a result that overflows is an error, not inf or NaN handed back.
-template <class T>
-static void require_finite_result(const T* out, std::size_t n) {
-  if (all_rows_finite(out, n)) return;
-  for (std::size_t i = 0; i < n; ++i)
-    if (!std::isfinite(out[3 * i]) || !std::isfinite(out[3 * i + 1]) || !std::isfinite(out[3 * i + 2]))
-      throw std::invalid_argument("deformer: row " + std::to_string(i) +
-                                  " maps to a non-finite position: the control points or strength overflow there");
-}
-
+// As deform(): a result that overflows is an error, not inf or NaN handed back. Weights in [0, 1]
+// keep a blend of finite positions finite, so only the kernel's own report needs checking.
 void ControlLattice::deform_bound(const LatticeBinding& b, double* out) const {
   require_bound_weights(weights(), b);
-  const bool finite = deform_bound_points(b, out);
+  if (!deform_bound_points(b, out)) require_finite_results(out, b.size(), 3, "position");
   blend_bound(b, weights(), b.sorted_d, out);
-  if (!finite || !weights().empty()) require_finite_result(out, b.size());
 }
 void ControlLattice::deform_bound(const LatticeBinding& b, float* out) const {
   require_bound_weights(weights(), b);
-  const bool finite = deform_bound_points(b, out);
+  if (!deform_bound_points(b, out)) require_finite_results(out, b.size(), 3, "position");
   blend_bound(b, weights(), b.sorted_f, out);
-  if (!finite || !weights().empty()) require_finite_result(out, b.size());
 }
 
 SparseWeights ControlLattice::weights_matrix(const LatticeBinding& b) const {

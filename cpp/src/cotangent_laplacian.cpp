@@ -24,18 +24,30 @@ void add_edge(std::vector<Eigen::Triplet<double>>& e, int i, int j, double w) {
   e.emplace_back(j, j, w);
 }
 
+// A cotangent is scale-free: edges whose products would leave the double range are brought near
+// 1 by a power of two (exact) first, so a mesh at 1e200 gets the weights it has at 1.
+void rescale_if_extreme(Vec3& u, Vec3& w) {
+  const double top = std::max(u.cwiseAbs().maxCoeff(), w.cwiseAbs().maxCoeff());
+  if (top >= 0x1p-250 && top <= 0x1p250) return;  // squared cross products stay in range
+  if (!(top > 0.0)) return;
+  const double s = std::ldexp(1.0, -std::ilogb(top));
+  u *= s, w *= s;
+}
+
 }  // namespace
 
 SparseMatrix cotangent_laplacian(const TriangleMesh& mesh) {
   std::vector<Eigen::Triplet<double>> entries;
   entries.reserve(12 * mesh.triangle_count());
-  auto p = [&](int v) { return Vec3(mesh.points[3 * v], mesh.points[3 * v + 1], mesh.points[3 * v + 2]); };
+  // Halved (exactly), so that an edge between coordinates near +-DBL_MAX cannot overflow.
+  auto p = [&](int v) -> Vec3 { return 0.5 * Vec3(mesh.points[3 * v], mesh.points[3 * v + 1], mesh.points[3 * v + 2]); };
   for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
     const int* v = &mesh.triangles[3 * t];
     for (int k = 0; k < 3; ++k) {
       // The angle at corner k is opposite the edge (k+1, k+2).
       const int a = v[k], b = v[(k + 1) % 3], c = v[(k + 2) % 3];
-      const Vec3 u = p(b) - p(a), w = p(c) - p(a);
+      Vec3 u = p(b) - p(a), w = p(c) - p(a);
+      rescale_if_extreme(u, w);
       const double cross = u.cross(w).norm(), dot = u.dot(w);
       double cot = cross > 0.0 ? dot / cross : (dot >= 0.0 ? kMaxCotangent : -kMaxCotangent);
       cot = std::clamp(cot, -kMaxCotangent, kMaxCotangent);

@@ -1,9 +1,12 @@
 #include "deformkit/deformer.hpp"
 
 #include "deformkit/parallel.hpp"
+#include "deformkit/scale_free.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -24,24 +27,63 @@ void require_finite_rows(const T* data, std::size_t n, const char* argument) {
 template void require_finite_rows<float>(const float*, std::size_t, const char*);
 template void require_finite_rows<double>(const double*, std::size_t, const char*);
 
-// 0 * v is NaN exactly when v is NaN or infinite; the simd reduction lets this vectorise.
+void throw_non_finite_result(std::size_t row, const char* what) {
+  throw std::invalid_argument("deformer: row " + std::to_string(row) + " maps to a non-finite " + what +
+                              ": the parameters overflow there");
+}
+
+constexpr double kDoubleMax = std::numeric_limits<double>::max();
+
+// 0 * v is NaN exactly when v is NaN or infinite; the simd reductions let this vectorise. rows
+// of `width` values; with a limit below DBL_MAX the largest magnitude is compared too.
 template <class T>
-static bool all_finite(const T* data, std::size_t count) {
+static bool all_finite(const T* data, std::size_t rows, std::size_t width, double limit = kDoubleMax) {
   std::atomic<bool> finite{true};
-  parallel_blocks(count / 3, [&](std::size_t begin, std::size_t end) {
-    T acc = 0;
+  parallel_blocks(rows, [&](std::size_t begin, std::size_t end) {
+    T acc = 0, top = 0;
+    if (limit < kDoubleMax) {
+#pragma omp simd reduction(+ : acc) reduction(max : top)
+      for (std::size_t i = width * begin; i < width * end; ++i) {
+        acc += data[i] * T(0);
+        top = std::max(top, std::abs(data[i]));
+      }
+    } else {
 #pragma omp simd reduction(+ : acc)
-    for (std::size_t i = 3 * begin; i < 3 * end; ++i) acc += data[i] * T(0);
-    if (acc != acc) finite = false;
+      for (std::size_t i = width * begin; i < width * end; ++i) acc += data[i] * T(0);
+    }
+    if (acc != acc || !(top <= limit)) finite = false;
   });
   return finite;
 }
 
+template <class T>
+static bool row_is_bad(const T* row, std::size_t width, double limit) {
+  for (std::size_t e = 0; e < width; ++e)
+    if (!(std::abs(row[e]) <= limit)) return true;  // NaN included
+  return false;
+}
+
+template <class T>
+void require_finite_results(const T* values, std::size_t n, std::size_t width, const char* what, double limit) {
+  if (all_finite(values, n, width, limit)) return;
+  for (std::size_t i = 0; i < n; ++i)
+    if (row_is_bad(values + width * i, width, limit)) throw_non_finite_result(i, what);
+}
+template void require_finite_results<float>(const float*, std::size_t, std::size_t, const char*, double);
+template void require_finite_results<double>(const double*, std::size_t, std::size_t, const char*, double);
+
 void Deformer::set_weights(std::vector<double> weights) {
   if (weights.empty()) throw std::invalid_argument("weights: is empty (pass None for no weights)");
-  for (std::size_t i = 0; i < weights.size(); ++i)
+  for (std::size_t i = 0; i < weights.size(); ++i) {
     if (!std::isfinite(weights[i]))
       throw std::invalid_argument("weights: entry " + std::to_string(i) + " is not finite");
+    if (!(weights[i] >= 0.0 && weights[i] <= 1.0)) {
+      std::ostringstream msg;
+      msg << "weights: entry " << i << " is " << weights[i] << "; expected a number in [0, 1] (as Blender's "
+          << "vertex-group weights)";
+      throw std::invalid_argument(msg.str());
+    }
+  }
   weights_ = std::move(weights);
 }
 
@@ -56,8 +98,7 @@ static void blend(const std::vector<double>& w, const T* in, T* out, std::size_t
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i)
       for (int a = 0; a < 3; ++a) {
-        const double x = in[3 * i + a];
-        out[3 * i + a] = static_cast<T>(x + w[i] * (static_cast<double>(out[3 * i + a]) - x));
+        out[3 * i + a] = static_cast<T>(blend_toward(in[3 * i + a], out[3 * i + a], w[i]));
       }
   });
 }
@@ -67,11 +108,23 @@ static void blend(const std::vector<double>& w, const T* in, T* out, std::size_t
 // In place (in == out) the input was checked before it was overwritten: only the parameters remain.
 template <class T>
 static void report_non_finite(const T* in, const T* out, std::size_t n) {
-  if (in != out) require_finite_rows(in, n, "points");
-  for (std::size_t i = 0; i < n; ++i)
-    if (!std::isfinite(out[3 * i]) || !std::isfinite(out[3 * i + 1]) || !std::isfinite(out[3 * i + 2]))
-      throw std::invalid_argument("deformer: row " + std::to_string(i) +
-                                  " maps to a non-finite position: the parameters overflow there");
+  if (in != out) {
+    require_finite_rows(in, n, "points");
+    // A point beyond ~1e150 overflows under any non-trivial map (squares of coordinates): it, not
+    // the parameters, is what is too large.
+    for (std::size_t i = 0; i < n; ++i) {
+      const T* x = in + 3 * i;
+      if (std::isfinite(out[3 * i]) && std::isfinite(out[3 * i + 1]) && std::isfinite(out[3 * i + 2])) continue;
+      if (std::max({std::abs(double(x[0])), std::abs(double(x[1])), std::abs(double(x[2]))}) > 1e150) {
+        std::ostringstream msg;
+        msg << "points: row " << i << " (" << x[0] << ", " << x[1] << ", " << x[2]
+            << ") is too large: it maps to a non-finite position";
+        throw std::invalid_argument(msg.str());
+      }
+      break;
+    }
+  }
+  require_finite_results(out, n, 3, "position");
 }
 
 template <class T>
@@ -79,7 +132,7 @@ void Deformer::deform_checked(const T* in, T* out, std::size_t n, bool input_ver
   const std::vector<double>& w = weights_;
   require_weight_count(w, n);
   // In place, a non-finite row must be reported before anything is overwritten.
-  if (in == out && !input_verified && !all_finite(in, 3 * n)) require_finite_rows(in, n, "points");
+  if (in == out && !input_verified && !all_finite(in, n, 3)) require_finite_rows(in, n, "points");
   if (w.empty()) {
     if (!deform_impl(in, out, n)) report_non_finite(in, out, n);
     return;
@@ -104,27 +157,41 @@ template <class T>
 static void displace(const Deformer& d, const T* in, T* out, std::size_t n) {
   if (in == out) throw std::invalid_argument("out: displacement cannot be written over points");
   d.deform(in, out, n);
+  std::atomic<bool> finite{true};
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = 3 * begin; i < 3 * end; ++i) out[i] -= in[i];
+    T acc = 0;  // F(x) and x finite, F(x) - x may still overflow (x near the range's end, moved far)
+#pragma omp simd reduction(+ : acc)
+    for (std::size_t i = 3 * begin; i < 3 * end; ++i) {
+      out[i] -= in[i];
+      acc += out[i] * T(0);
+    }
+    if (acc != acc) finite = false;
   });
+  if (!finite) require_finite_results(out, n, 3, "displacement");
 }
 
 void Deformer::displacement(const float* in, float* out, std::size_t n) const { displace(*this, in, out, n); }
 void Deformer::displacement(const double* in, double* out, std::size_t n) const { displace(*this, in, out, n); }
 
-void Deformer::jacobian(const double* in, double* jac, std::size_t n) const {
-  require_weight_count(weights_, n);
-  require_finite_rows(in, n, "points");
-  jacobian_impl(in, jac, n);
-  if (weights_.empty()) return;
+static void blend_jacobians(const std::vector<double>& w, double* jac, std::size_t n) {
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i)
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) {
           double& j = jac[9 * i + 3 * r + c];
-          j = weights_[i] * j + (r == c ? 1.0 - weights_[i] : 0.0);
+          j = w[i] * j + (r == c ? 1.0 - w[i] : 0.0);
         }
   });
+}
+
+void Deformer::jacobian(const double* in, double* jac, std::size_t n, bool float32_result) const {
+  require_weight_count(weights_, n);
+  require_finite_rows(in, n, "points");
+  jacobian_impl(in, jac, n);
+  // (1 - w) I + w J with w in [0, 1] is finite where J is: one check after the blend serves both.
+  const double limit = float32_result ? double(std::numeric_limits<float>::max()) : kDoubleMax;
+  if (!weights_.empty()) blend_jacobians(weights_, jac, n);
+  require_finite_results(jac, n, 9, "Jacobian", limit);
 }
 
 Mat3 cofactor(const Mat3& j) {
@@ -150,21 +217,20 @@ void transform_normals(const Deformer& d, const double* points, const double* no
   d.jacobian(points, jac.data(), n);
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
-      const Vec3 nrm(normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]);
-      Vec3 m = cofactor(read_mat(&jac[9 * i])) * nrm;
-      const double len = m.norm();
-      if (len > 0.0) m /= len;  // a collapsed point (det J = 0 on the normal's plane) keeps 0
+      const Vec3 m = normal_direction(read_mat(&jac[9 * i]), Vec3(normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]));
       for (int a = 0; a < 3; ++a) out[3 * i + a] = m[a];
     }
   });
 }
 
-void volume_ratio(const Deformer& d, const double* points, double* out, std::size_t n) {
+void volume_ratio(const Deformer& d, const double* points, double* out, std::size_t n, bool float32_result) {
   std::vector<double> jac(9 * n);
   d.jacobian(points, jac.data(), n);
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) out[i] = read_mat(&jac[9 * i]).determinant();
+    for (std::size_t i = begin; i < end; ++i) out[i] = scaled_determinant(read_mat(&jac[9 * i]));
   });
+  const double limit = float32_result ? double(std::numeric_limits<float>::max()) : kDoubleMax;
+  require_finite_results(out, n, 1, "volume ratio", limit);
 }
 
 }  // namespace deformkit

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <mutex>
+#include <sstream>
 #include <stdexcept>
 
 namespace deformkit {
@@ -50,6 +51,16 @@ SparseMatrix with_positive_weights(const SparseMatrix& l) {
   return out;
 }
 
+void require_meaningful_constraint_weight(const std::optional<double>& w) {
+  if (!w || (*w >= kMinConstraintWeight && *w <= kMaxConstraintWeight)) return;
+  std::ostringstream msg;
+  msg << "constraint_weight: expected None (hard constraints) or a number in [" << kMinConstraintWeight << ", "
+      << kMaxConstraintWeight << "], got " << *w;
+  throw std::invalid_argument(msg.str());
+}
+
+double soft_weight_squared(const SurfaceSettings& s) { return s.constraint_weight ? *s.constraint_weight * *s.constraint_weight : 0.0; }
+
 }  // namespace
 
 // True if a held component has all its held vertices on one line (or fewer than three of them).
@@ -79,9 +90,8 @@ SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, st
     throw std::invalid_argument("iterations: must be 1..10000");
   if (!(settings.tolerance >= 0.0) || !std::isfinite(settings.tolerance))
     throw std::invalid_argument("tolerance: must be a finite number >= 0");
-  if (!(settings.constraint_weight >= 0.0) || !(settings.constraint_weight <= 1e8))
-    throw std::invalid_argument("constraint_weight: must be 0 (hard constraints) or a number in (0, 1e8]");
-  const bool soft = settings.constraint_weight > 0.0;
+  require_meaningful_constraint_weight(settings.constraint_weight);
+  const bool soft = settings.constraint_weight.has_value();
   anchors = checked_indices(std::move(anchors), n, "anchors");
   handles_ = checked_indices(std::move(handles), n, "handles");
   if (anchors.empty() && handles_.empty())
@@ -134,7 +144,7 @@ SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, st
   for (int k = 0; k < laplacian_.outerSize(); ++k)
     for (SparseMatrix::InnerIterator it(laplacian_, k); it; ++it)
       if (it.row() != it.col()) neighbors_[k].emplace_back(int(it.row()), -it.value());
-  const double w2 = settings.constraint_weight * settings.constraint_weight;
+  const double w2 = soft_weight_squared(settings);
 
   delta_ = laplacian_ * rest_;
   if (settings.method == SurfaceMethod::RotationInvariant) factorize_rotation_invariant(component, components, held);
@@ -192,7 +202,7 @@ void SurfaceDeformer::factorize_rotation_invariant(const std::vector<int>& compo
     warnings_.push_back("rotation_invariant: a component is held by fewer than three non-collinear vertices, "
                         "so it may turn freely about them; the solution nearest the 'laplacian' method's is used");
   }
-  const double w2 = settings_.constraint_weight * settings_.constraint_weight;
+  const double w2 = soft_weight_squared(settings_);
   for (int s : soft_)
     for (int a = 0; a < 3; ++a) normal.coeffRef(3 * s + a, 3 * s + a) += w2;
   if (!ri_solver_.factorize(normal, CholeskyKind::Supernodal))
@@ -325,7 +335,7 @@ std::vector<double> SurfaceDeformer::deform(const double* targets) {
     if (fixed_index_[handles_[h]] >= 0)
       fixed.row(fixed_index_[handles_[h]]) = Eigen::RowVector3d(targets[3 * h], targets[3 * h + 1], targets[3 * h + 2]);
   const Matrix pulls = soft_targets(targets);
-  const double w2 = settings_.constraint_weight * settings_.constraint_weight;
+  const double w2 = soft_weight_squared(settings_);
   energy_.clear();
   Matrix x = rest_;
   for (std::size_t i = 0; i < fixed_.size(); ++i) x.row(fixed_[i]) = fixed.row(Eigen::Index(i));

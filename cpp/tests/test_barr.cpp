@@ -1,6 +1,7 @@
 #include "test_util.hpp"
 
 #include "deformkit/barr_kernels.hpp"
+#include "deformkit/scale_free.hpp"
 
 #include <gtest/gtest.h>
 
@@ -261,6 +262,61 @@ TEST(Frame, SingularAndNonAffineMatricesAreRejected) {
   Mat4 tiny = Mat4::Identity() * 1e-3;
   tiny(3, 3) = 1.0;
   EXPECT_NO_THROW(Frame::from_matrix(tiny));
+}
+
+template <class T>
+void expect_identity_at_rest(const BarrDeformer& d, const char* name) {
+  for (std::size_t n : {1u, 7u, 16u, 1001u}) {
+    const auto pts = random_points(n, -1.5, 1.5, unsigned(50 + n));
+    const std::vector<T> in(pts.begin(), pts.end());
+    std::vector<T> out(3 * n);
+    d.deform(in.data(), out.data(), n);
+    for (std::size_t i = 0; i < 3 * n; ++i) ASSERT_EQ(out[i], in[i]) << name << " n=" << n << " entry " << i;
+  }
+}
+
+TEST(Barr, AtRestEveryKernelIsTheIdentityToTheBit) {
+  // Angle 0, radius 1, factor 0, curvature 0: SIMD (linear laws) and scalar (splines) kernels, float32
+  // and float64, any axis and frame, give back the input exactly, and J = I exactly.
+  const Profile zero = Profile::spline({-1.0, 0.0, 1.0}, {0.0, 0.0, 0.0}), one = Profile::spline({-1.0, 1.0}, {1.0, 1.0});
+  for (int axis = 0; axis < 3; ++axis)
+    for (const Frame& f : {Frame{}, random_frame(60 + axis)}) {
+      const std::vector<std::pair<const char*, std::shared_ptr<BarrDeformer>>> rest = {
+          {"twist", std::make_shared<Twist>(Profile::linear(0.0, 0.0), axis, f)},
+          {"twist limited", std::make_shared<Twist>(Profile::linear(0.0, 0.0, -0.5, 0.5), axis, f)},
+          {"twist spline", std::make_shared<Twist>(zero, axis, f)},
+          {"taper", std::make_shared<Taper>(Profile::linear(1.0, 0.0), axis, f)},
+          {"taper spline", std::make_shared<Taper>(one, axis, f)},
+          {"stretch", std::make_shared<Stretch>(0.0, -0.5, 0.7, axis, f)},
+          {"bend", std::make_shared<Bend>(0.0, 0.1, -0.4, 0.5, axis, f)},
+      };
+      for (const auto& [name, d] : rest) {
+        expect_identity_at_rest<float>(*d, name);
+        expect_identity_at_rest<double>(*d, name);
+        const auto pts = random_points(20, -1.5, 1.5, 70);
+        std::vector<double> jac(9 * 20);
+        d->jacobian(pts.data(), jac.data(), 20);
+        for (std::size_t e = 0; e < jac.size(); ++e) ASSERT_EQ(jac[e], (e % 9) % 4 == 0 ? 1.0 : 0.0) << name;
+      }
+    }
+}
+
+TEST(ScaleFree, NormalsAndDeterminantsOfExtremeJacobians) {
+  // J = diag(a, b, c): cof(J) = diag(bc, ac, ab) and det J = abc, whose products leave the double range.
+  const Mat3 big = Vec3(1e300, 1e300, 1e-300).asDiagonal();  // cof = diag(1, 1, 1e600)
+  EXPECT_LT((normal_direction(big, Vec3(1, 1, 1)) - Vec3(0, 0, 1)).norm(), 1e-15);
+  EXPECT_LT((normal_direction(big, Vec3(1, 0, 0)) - Vec3(1, 0, 0)).norm(), 1e-15);
+  const Mat3 flat = Vec3(1e-300, 1.0, 1.0).asDiagonal();  // cof = diag(1, 1e-300, 1e-300)
+  EXPECT_LT((normal_direction(flat, Vec3(1e-200, 0, 1e-200)) - Vec3(1, 0, 0)).norm(), 1e-15);
+  EXPECT_LT((normal_direction(flat, Vec3(1e-200, 1e-200, 0)).normalized() - Vec3(1, 1e-300, 0).normalized()).norm(), 1e-15);
+  EXPECT_DOUBLE_EQ(scaled_determinant(Vec3(1e200, 1e200, 1e-300).asDiagonal()), 1e100);
+  EXPECT_DOUBLE_EQ(scaled_determinant(Vec3(1e-200, 1e-200, 1e300).asDiagonal()), 1e-100);
+  EXPECT_TRUE(std::isinf(scaled_determinant(Vec3(1e200, 1e200, 1e-90).asDiagonal())));
+  // A rotation times those scales keeps the direction law: cof(R D) n = R cof(D) n for a rotation R.
+  const Mat3 r = Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  EXPECT_LT((normal_direction(r * big, Vec3(1, 1, 1)) - r.col(2)).norm(), 1e-15);
+  EXPECT_EQ(normal_direction(big, Vec3::Zero()), Vec3::Zero());
+  EXPECT_EQ(normalized_or_zero(Vec3(5e-324, 0, -0.0)), Vec3(1, 0, 0));
 }
 
 TEST(Simd, ReportsATarget) { EXPECT_STRNE(simd_target(), ""); }

@@ -30,5 +30,7 @@ struct BarrOp {
 Vec3 barr_apply(const BarrOp& op, const Vec3& c);
 // Position and Jacobian d(out)/d(c) together.
 void barr_apply_with_jacobian(const BarrOp& op, const Vec3& c, Vec3& out, Mat3& jacobian);
+// As barr_apply_with_jacobian, with out - c in place of out: exactly zero at rest.
+void barr_offset_with_jacobian(const BarrOp& op, const Vec3& c, Vec3& offset, Mat3& jacobian);
 
 }  // namespace deformkit

@@ -8,7 +8,7 @@ namespace deformkit {
 struct BarrKernelParams {
   int kind;                 // BarrKind
   double M[9], m[3];        // object -> canonical
-  double B[9], t[3];        // canonical -> object
+  double B[9];              // canonical -> object, linear part (the kernels add offsets)
   bool identity_placement;
   double unlocked[3];       // 1 for a free canonical axis, 0 for a locked one
   double offset, slope, lo, hi;  // linear law f = offset + slope * clamp(z, lo, hi) (twist/taper)

@@ -21,11 +21,18 @@ struct SurfaceSettings {
   bool uniform_weights = false;
   int iterations = 10;     // ARAP local/global iterations; rotation-invariant rotation passes
   double tolerance = 0.0;  // > 0: stop when the relative energy decrease falls below it
-  // 0: anchors and handles are hard constraints (met exactly). > 0: soft, each adding
+  // None: anchors and handles are hard constraints (met exactly). w: soft, each adding
   // w^2 ||x_i - c_i||^2 to the least-squares energy (Sorkine et al. 2004, eq. 5), 2 w^2 ||.||^2 to
-  // ARAP's, whose sum over edges counts every edge twice.
-  double constraint_weight = 0.0;
+  // ARAP's, whose sum over edges counts every edge twice. w must lie in [kMinConstraintWeight,
+  // kMaxConstraintWeight].
+  std::optional<double> constraint_weight;
 };
+
+// The Laplacian's weights are dimensionless and near 1 (cotangents, or 1), so w^2 is measured
+// against 1: beyond 1e16 the Laplacian terms are lost in the rounding of the soft ones (the
+// solve is the hard one), below 1e-8 the soft terms are lost in the Laplacian's (they hold
+// nothing, and a mesh held only by them is singular).
+constexpr double kMinConstraintWeight = 1e-4, kMaxConstraintWeight = 1e8;
 
 class SurfaceDeformer {
  public:
