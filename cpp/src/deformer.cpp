@@ -117,8 +117,8 @@ static void report_non_finite(const T* in, const T* out, std::size_t n) {
       if (std::isfinite(out[3 * i]) && std::isfinite(out[3 * i + 1]) && std::isfinite(out[3 * i + 2])) continue;
       if (std::max({std::abs(double(x[0])), std::abs(double(x[1])), std::abs(double(x[2]))}) > 1e150) {
         std::ostringstream msg;
-        msg << "points: row " << i << " (" << x[0] << ", " << x[1] << ", " << x[2]
-            << ") is too large: it maps to a non-finite position";
+        msg << "points: row " << i << " maps to a non-finite position: its coordinates (" << x[0] << ", " << x[1]
+            << ", " << x[2] << ") are too large for this deformer";
         throw std::invalid_argument(msg.str());
       }
       break;
