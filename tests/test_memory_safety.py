@@ -223,3 +223,23 @@ def test_out_overlapping_a_strided_input_is_refused(d, dtype):
 def run_child(code):
     proc = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, f"child exited with {proc.returncode}\n{proc.stdout}\n{proc.stderr}"
+
+
+def test_an_overflow_inside_a_stack_names_the_member():
+    """The caller's finite points are not blamed for what a later member does with them."""
+    pts = np.full((5, 3), 10.0)
+    overflowing = dk.Taper(rate=1e308)
+    for out in (None, "in place"):
+        x = pts.copy()
+        with pytest.raises(ValueError, match=r"^deformers\[1\]: row 0 maps to a non-finite position"):
+            dk.Stack([dk.Twist(), overflowing, dk.Bend()]).deform(x, out=x if out else None)
+    weighted = dk.Stack([dk.Bend(), overflowing], weights=np.ones(5))
+    with pytest.raises(ValueError, match=r"^deformers\[1\]\.deformers\[1\]: row 0 maps to a non-finite"):
+        dk.Stack([dk.Twist(), weighted]).deform(pts)
+    bad = pts.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(ValueError, match=r"^points: row 3 is not finite"):
+        dk.Stack([dk.Twist(), overflowing]).deform(bad)
+    # A point too large for any map is the point's fault, not the parameters'.
+    with pytest.raises(ValueError, match=r"^points: row 0 maps to a non-finite position: its coordinates"):
+        dk.Taper(rate=1.0).deform(np.array([[1e308, 1e308, 1.0]]))
