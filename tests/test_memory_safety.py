@@ -243,3 +243,11 @@ def test_an_overflow_inside_a_stack_names_the_member():
     # A point too large for any map is the point's fault, not the parameters'.
     with pytest.raises(ValueError, match=r"^points: row 0 maps to a non-finite position: its coordinates"):
         dk.Taper(rate=1.0).deform(np.array([[1e308, 1e308, 1.0]]))
+
+
+def test_float_range_checks_follow_the_dtype_by_value():
+    """A float32 Jacobian that overflows float32 raises, whichever float32 dtype object it came in."""
+    pts = np.array([[1e19, 1e19, 1e19]], np.float32)
+    for variant in [pts] + list(same_meaning_variants(pts).values()):
+        with pytest.raises(ValueError, match="maps to a non-finite"):
+            dk.Taper(rate=1.0).jacobian(variant)

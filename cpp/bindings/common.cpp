@@ -310,7 +310,7 @@ py::array py_jacobian(const Deformer& d, const py::object& points) {
   auto jac = new_array<double>({pts.shape(0), py::ssize_t(3), py::ssize_t(3)}, "the Jacobians");
   const double* in = p.data();
   double* dst = jac.mutable_data();
-  const bool single = pts.dtype().is(py::dtype::of<float>());  // as cast_like: the core checks the float range
+  const bool single = is_float32(pts);  // as cast_like: the core checks the float range
   {
     py::gil_scoped_release release;
     d.jacobian(in, dst, n, single);
@@ -343,7 +343,7 @@ py::array py_volume_ratio(const Deformer& d, const py::object& points) {
   auto out = new_array<double>({pts.shape(0)}, "the volume ratios");
   const double* in = p.data();
   double* dst = out.mutable_data();
-  const bool single = pts.dtype().is(py::dtype::of<float>());  // as cast_like: the core checks the float range
+  const bool single = is_float32(pts);  // as cast_like: the core checks the float range
   {
     py::gil_scoped_release release;
     volume_ratio(d, in, dst, n, single);
