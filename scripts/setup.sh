@@ -18,9 +18,10 @@ declare -A APT_PINS=(
   [libsuitesparse-dev]=5.12.0
   [libopenblas0-serial]=0.3.21
 )
-# Shared libraries that the PyPI bpy wheel loads on a headless machine; numpy and pytest for Blender 3.4.
+# Shared libraries that the PyPI bpy wheel loads on a headless machine; numpy and pytest for Blender 3.4;
+# chattr (e2fsprogs) for the batch tests' read-only folder, which root cannot otherwise make.
 APT_RUNTIME=(python3-pytest libgl1 libegl1 libglib2.0-0 libsm6 libxext6 libxrender1 libxi6 libxxf86vm1
-             libxfixes3 libxkbcommon0 build-essential python3-numpy)
+             libxfixes3 libxkbcommon0 build-essential python3-numpy e2fsprogs)
 
 source scripts/apt_pins.sh
 apt_install_pinned APT_PINS "${APT_RUNTIME[@]}"
