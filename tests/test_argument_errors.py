@@ -82,7 +82,7 @@ DOC_OWNER = {  # where each entry point's signature is documented
     "LimitSurface.smoothness_report": dk.LimitSurface.smoothness_report,
 }
 BAD_VALUES = [1j, "not-a-value", object(), 10**400, b"\x00", {"a": 1}]
-BAD_INTEGERS = [-(2**63) - 1, 2**64, 2.5, True and 1j]  # for integer parameters
+BAD_INTEGERS = [-(2**63) - 1, 2**64, 2.5, np.eye(2), np.array([np.nan]), np.array(["a"])]  # integer parameters
 
 
 def parameters(entry):
@@ -185,3 +185,26 @@ def test_messages_blame_the_right_argument():
         with pytest.raises(ValueError) as info:
             make()
         assert str(info.value).startswith(words), str(info.value)
+
+
+@pytest.mark.parametrize("make, name", [
+    (lambda: dk.Twist(limits=np.array(1.0)), "limits"),
+    (lambda: dk.Twist(profile=np.array(1.0)), "profile"),
+    (lambda: dk.Bend(region=np.array(0.5)), "region"),
+    (lambda: dk.BezierFFD(blocks=np.array([1, 2])), "blocks"),
+    (lambda: dk.Stack(np.array(1.0)), "deformers"),
+    (lambda: dk.BlenderLattice(2, np.array("linear")), "interpolation"),
+    (lambda: dk.subdivide(CUBE, np.array(3), 1), "faces"),
+])
+def test_zero_dimensional_arrays_for_sequences(make, name):
+    """A 0-d array passes for a sequence but has no length: named, not "len() of unsized object"."""
+    with pytest.raises((TypeError, ValueError)) as info:
+        make()
+    assert str(info.value).startswith(name + ":"), str(info.value)
+
+
+def test_unbound_methods_called_on_the_wrong_object():
+    with pytest.raises(TypeError, match=r"^Lattice.bind\(\): called on Twist .*, not on a Lattice"):
+        dk.Lattice.bind(dk.Twist(), PTS)
+    with pytest.raises(TypeError, match=r"^Deformer.deform\(\): called on NoneType None, not on a Deformer"):
+        dk.Deformer.deform(None, PTS)

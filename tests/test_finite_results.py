@@ -10,7 +10,8 @@ import pytest
 import deformkit as dk
 
 RNG = np.random.default_rng(12)
-OVERFLOW = r"deformer: row 0 maps to a non-finite (position|displacement|Jacobian|volume ratio)"
+# Named by the deformer's type ("Taper: row 0 ..."), or by points where they are what is too large.
+OVERFLOW = r"^[A-Za-z]+: row 0 maps to a non-finite (position|displacement|Jacobian|volume ratio)"
 
 
 def ffd_stretched_along_x(strength):
@@ -190,6 +191,60 @@ def test_a_deformer_at_rest_is_exactly_the_identity(dtype):
         assert bad.size == 0, (repr(d), bad[:5], (out - p)[bad[:3]])
         np.testing.assert_array_equal(d.jacobian(p[:64].astype(np.float64)), np.broadcast_to(np.eye(3), (64, 3, 3)),
                                       err_msg=repr(d))
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_at_rest_the_input_comes_back_however_extreme(dtype):
+    """Huge coordinates (beyond what any formula squares), signed zeros and denormals: a deformer
+    at rest hands back the very bits it got, with weights and through a binding too."""
+    big = np.finfo(dtype).max / 4
+    tiny = np.finfo(dtype).smallest_subnormal
+    p = np.array([[big, -big, big], [-0.0, -0.0, 0.5], [tiny, -tiny, -0.0], [1e10, 2e10, -3e10]], dtype)
+    weights = np.array([0.0, 0.25, 0.5, 1.0])
+    extrapolating = [dk.FFD(2, outside="extrapolate"), dk.BezierFFD(1, outside="extrapolate"),
+                     dk.BSplineLattice(4, outside="extrapolate")]
+    for d in at_rest() + extrapolating + [dk.Stretch(factor=0.0, weights=weights), dk.FFD(2, weights=weights),
+                                          dk.Stack([dk.Twist(rate=0.0), dk.Taper(rate=0.0)], weights=weights)]:
+        got = d.deform(p)
+        assert got.tobytes() == p.tobytes(), (repr(d), got)
+        if isinstance(d, dk.Lattice) and d.outside != "extrapolate" and d.weights is None:
+            assert d.deform_bound(d.bind(p[1:])).tobytes() == p[1:].tobytes(), repr(d)
+
+
+def test_direct_manipulation_honours_the_lattices_per_point_weights():
+    """deform() moves a point of weight v v times as far; the solve must plan for that, and a
+    point of weight 0 cannot move, which its residual must say."""
+    x = np.array([[0.5, 0.5, 0.5], [0.3, 0.6, 0.4], [0.7, 0.2, 0.6]])
+    t = x + [[0.1, 0.0, 0.05], [-0.05, 0.1, 0.0], [0.0, 0.0, 0.1]]
+    for make in (lambda w: dk.FFD(2, weights=w), lambda w: dk.BSplineLattice(5, weights=w),
+                 lambda w: dk.BezierFFD(1, weights=w), lambda w: dk.BlenderLattice(3, weights=w)):
+        lat = make(np.array([0.5, 1.0, 0.0]))
+        r = lat.direct_manipulation(x, t)
+        lat.control_points = r.control_points
+        reached = np.linalg.norm(lat.deform(x) - t, axis=1)
+        np.testing.assert_allclose(r.residual, reached, atol=1e-12)
+        assert reached[:2].max() < 1e-12  # reachable
+        np.testing.assert_allclose(r.residual[2], np.linalg.norm(t[2] - x[2]), rtol=1e-12)  # weight 0: stays
+
+
+def test_extrapolated_weights_that_overflow_are_refused():
+    binding = dk.FFD(2, outside="extrapolate").bind(np.full((1, 3), 1e154))
+    with pytest.raises(ValueError, match="binding: point 0 lies so far outside the lattice"):
+        binding.weights()
+
+
+def test_overflow_errors_name_the_deformer_or_the_points():
+    with pytest.raises(ValueError, match=r"^Taper: row 0 maps to a non-finite volume ratio"):
+        dk.Taper(rate=1e300).volume_ratio(np.ones((1, 3)))
+    with pytest.raises(ValueError, match=r"^Taper: row 0 maps to a non-finite position"):
+        dk.Taper(rate=1e308).deform(np.full((1, 3), 10.0))
+    with pytest.raises(ValueError, match=r"^points: row 0 maps to a non-finite position: its coordinates"):
+        dk.Twist(rate=1.0).deform(np.full((1, 3), 3e38, np.float32))
+    with pytest.raises(ValueError, match=r"^points: row 0 maps to a non-finite Jacobian: its coordinates"):
+        dk.Stretch(factor=0.5).jacobian(np.full((1, 3), 1e300))
+    with pytest.raises(ValueError, match=r"^deformers\[1\]: the points it receives: row 0 maps to a non-finite "
+                                         r"Jacobian: its coordinates"):
+        dk.Stack([dk.Twist(), dk.Stretch(factor=0.5)]).jacobian(np.full((1, 3), 1e300))
 
 
 def test_direct_manipulation_residual_is_finite_or_refused():

@@ -153,7 +153,12 @@ def test_allocations_under_an_address_space_limit():
                             (lambda: dk.FFD(2).deform(big), "points: not enough memory for a contiguous float64"),
                             (lambda: dk.FFD(2).bind(big), "points: not enough memory for a contiguous float64"),
                             # the float64 copy (288 MB) fits; 9 doubles a row (864 MB) do not
-                            (lambda: dk.Twist(rate=1.0).jacobian(pts), "not enough memory for the Jacobians")]:
+                            (lambda: dk.Twist(rate=1.0).jacobian(pts), "not enough memory for the Jacobians"),
+                            # working arrays the core allocates itself, named too
+                            (lambda: dk.Twist(rate=1.0).volume_ratio(pts), "the Jacobians behind the volume ratios"),
+                            (lambda: dk.FFD(2).bind(pts), "not enough memory for the lattice binding"),
+                            (lambda: dk.BSplineLattice(4).lattice_coordinates(pts), "the lattice binding"),
+                            (lambda: dk.Twist(rate=1.0).transform_normals(pts, pts), "not enough memory for")]:
             try:
                 call()
             except MemoryError as e:

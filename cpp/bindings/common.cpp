@@ -14,13 +14,17 @@ std::string shape_of(const py::array& a) {
 
 bool is_float32(const py::array& a) { return a.dtype().kind() == 'f' && a.itemsize() == 4; }
 
-static std::string gigabytes(double bytes) {
+std::string gigabytes(double bytes) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.3g GB", bytes / 1e9);
   return buf;
 }
 
-[[noreturn]] static void throw_memory_error(const std::string& message) {
+std::string working_size(std::size_t n, double bytes_per_point) {
+  return std::to_string(n) + " points, " + gigabytes(double(n) * bytes_per_point);
+}
+
+[[noreturn]] void throw_memory_error(const std::string& message) {
   PyErr_SetString(PyExc_MemoryError, message.c_str());
   throw py::error_already_set();
 }
@@ -171,6 +175,13 @@ bool bool_arg(const py::handle& v, const char* name) {
                        std::string(py::str(py::type::of(v).attr("__name__"))) + " " + std::string(py::repr(v)));
 }
 
+py::ssize_t sequence_length(const py::handle& obj) {
+  if (py::isinstance<py::str>(obj) || py::isinstance<py::bytes>(obj) || !PySequence_Check(obj.ptr())) return -1;
+  const py::ssize_t n = PySequence_Size(obj.ptr());  // a 0-d array is a "sequence" without a length
+  if (n < 0) PyErr_Clear();
+  return n;
+}
+
 // Real numbers only: forcecast would silently drop an imaginary part or call into objects.
 void require_real(const py::object& obj, const char* name) {
   const py::array a = py::array::ensure(obj);
@@ -195,11 +206,14 @@ std::pair<double, double> parse_range(const py::object& obj, const char* name) {
   if (obj.is_none()) return {-inf, inf};
   std::vector<double> v;
   require_real(obj, name);
-  try {
-    v = obj.cast<std::vector<double>>();
-  } catch (const py::cast_error&) {
+  if (sequence_length(obj) == 2) {
+    try {
+      v = obj.cast<std::vector<double>>();
+    } catch (const py::cast_error&) {
+    }
   }
-  if (v.size() != 2) throw py::value_error(std::string(name) + ": expected (lo, hi)");
+  if (v.size() != 2)
+    throw py::value_error(std::string(name) + ": expected (lo, hi), got " + std::string(py::repr(obj)).substr(0, 60));
   if (std::isnan(v[0]) || std::isnan(v[1])) throw py::value_error(std::string(name) + ": contains NaN");
   if (v[0] > v[1]) throw py::value_error(std::string(name) + ": lo must not exceed hi");
   if (v[0] == inf || v[1] == -inf)
@@ -230,7 +244,7 @@ Profile parse_law(double offset, const std::optional<double>& rate, const py::ob
   if (rate) throw py::value_error("rate: give either rate or profile, not both");
   if (!limits.is_none()) throw py::value_error("limits: a profile sets its own range; give either limits or profile");
   py::sequence seq;
-  if (!py::isinstance<py::sequence>(profile) || py::len(profile) != 2)
+  if (sequence_length(profile) != 2)
     throw py::value_error("profile: expected a pair (positions, values)");
   seq = profile;
   return Profile::spline(parse_vector(seq[0], "profile positions"), parse_vector(seq[1], "profile values"), ext);
@@ -275,11 +289,10 @@ static py::array deform_typed(const Deformer& d, const py::handle& points, const
   py::array result = output_array<T>(out, pts.shape(0), points, what == Output::Positions);
   const T* in = static_cast<const T*>(pts.data());
   T* dst = static_cast<T*>(result.mutable_data());
-  {
-    py::gil_scoped_release release;
+  without_gil("the deformer's working arrays (" + working_size(n, 3.0 * sizeof(T)) + ")", [&] {
     if (what == Output::Positions) d.deform(in, dst, n);
     else d.displacement(in, dst, n);
-  }
+  });
   return result;
 }
 
@@ -311,10 +324,7 @@ py::array py_jacobian(const Deformer& d, const py::object& points) {
   const double* in = p.data();
   double* dst = jac.mutable_data();
   const bool single = is_float32(pts);  // as cast_like: the core checks the float range
-  {
-    py::gil_scoped_release release;
-    d.jacobian(in, dst, n, single);
-  }
+  without_gil("the Jacobians' working arrays (" + working_size(n, 72.0) + ")", [&] { d.jacobian(in, dst, n, single); });
   return cast_like(jac, pts);
 }
 
@@ -329,10 +339,8 @@ py::array py_normals(const Deformer& d, const py::object& points, const py::obje
   auto out = new_array<double>({pts.shape(0), py::ssize_t(3)}, "the normals");
   const double *in = p.data(), *nin = q.data();
   double* dst = out.mutable_data();
-  {
-    py::gil_scoped_release release;
-    transform_normals(d, in, nin, dst, n);
-  }
+  without_gil("the Jacobians behind the normals (" + working_size(n, 72.0) + ")",
+              [&] { transform_normals(d, in, nin, dst, n); });
   return cast_like(out, nrm);
 }
 
@@ -344,10 +352,8 @@ py::array py_volume_ratio(const Deformer& d, const py::object& points) {
   const double* in = p.data();
   double* dst = out.mutable_data();
   const bool single = is_float32(pts);  // as cast_like: the core checks the float range
-  {
-    py::gil_scoped_release release;
-    volume_ratio(d, in, dst, n, single);
-  }
+  without_gil("the Jacobians behind the volume ratios (" + working_size(n, 72.0) + ")",
+              [&] { volume_ratio(d, in, dst, n, single); });
   return cast_like(out, pts);
 }
 
@@ -371,7 +377,7 @@ Faces parse_faces(const py::object& faces) {
     for (py::ssize_t i = 1; i <= f.shape(0); ++i) offsets.push_back(i * f.shape(1));
     return {corners, offsets};
   }
-  if (!py::isinstance<py::sequence>(faces) || py::isinstance<py::str>(faces))
+  if (sequence_length(faces) < 0)
     throw py::type_error("faces: expected an (m, k) integer array or a list of index lists");
   for (const py::handle& face : py::reinterpret_borrow<py::sequence>(faces)) {
     std::vector<std::int64_t> idx;

@@ -6,6 +6,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <new>
 #include <optional>
 #include <type_traits>
 #include <string>
@@ -41,6 +42,28 @@ py::array_t<T, py::array::c_style> c_array(const py::handle& obj, const char* na
 template <class T>
 py::array_t<T, py::array::c_style> new_array(const std::vector<py::ssize_t>& shape, const char* what);
 
+[[noreturn]] void throw_memory_error(const std::string& message);
+
+// Runs `work` without the GIL; std::bad_alloc inside it becomes a MemoryError naming `what` (the
+// core's working arrays are allocated there, on the user's behalf).
+template <class F>
+void without_gil(const std::string& what, F&& work) {
+  bool out_of_memory = false;
+  {
+    py::gil_scoped_release release;
+    try {
+      work();
+    } catch (const std::bad_alloc&) {
+      out_of_memory = true;
+    }
+  }
+  if (out_of_memory) throw_memory_error("not enough memory for " + what);
+}
+
+// "n points (x GB)": the size of a working array of `bytes_per_point` bytes a point, for messages.
+std::string working_size(std::size_t n, double bytes_per_point);
+std::string gigabytes(double bytes);
+
 // An (n, 3) float32/float64 array, C-contiguous (copied only when the layout requires it).
 py::array points_array(const py::handle& obj, const char* name);
 
@@ -61,6 +84,9 @@ int int_arg(std::int64_t v, const char* name, int lo, int hi);
 
 // True or False (Python's or numpy's) only: pybind11's bool would take any object with a truth value.
 bool bool_arg(const py::handle& v, const char* name);
+
+// The length of a list, tuple or other sized sequence (not a string, not a 0-d array), else -1.
+py::ssize_t sequence_length(const py::handle& obj);
 
 // Real numbers only: forcecast would silently drop an imaginary part or call into objects.
 void require_real(const py::object& obj, const char* name);

@@ -30,9 +30,9 @@ std::array<int, 3> parse_counts(const py::object& obj, const char* name) {
     if (PyErr_Occurred()) PyErr_Clear();
     return static_cast<int>(std::clamp<long long>(v, -1, 1 << 24));  // out-of-range values still read as out of range
   };
-  if (!py::isinstance<py::str>(obj) && py::isinstance<py::sequence>(obj)) {
+  if (sequence_length(obj) >= 0) {
     const auto seq = py::reinterpret_borrow<py::sequence>(obj);
-    if (py::len(seq) != 3) throw py::value_error(std::string(name) + ": expected an int or three ints");
+    if (sequence_length(obj) != 3) throw py::value_error(std::string(name) + ": expected an int or three ints");
     return {as_int(seq[0]), as_int(seq[1]), as_int(seq[2])};
   }
   const int v = as_int(obj);
@@ -101,7 +101,7 @@ std::array<BasisKind, 3> parse_interpolation(const py::object& obj) {
     const BasisKind k = parse_interpolation_one(obj);
     return {k, k, k};
   }
-  if (!py::isinstance<py::sequence>(obj) || py::len(obj) != 3)
+  if (sequence_length(obj) != 3)
     throw py::value_error("interpolation: expected a string or three strings (u, v, w)");
   const auto seq = py::reinterpret_borrow<py::sequence>(obj);
   return {parse_interpolation_one(seq[0]), parse_interpolation_one(seq[1]), parse_interpolation_one(seq[2])};
@@ -144,11 +144,11 @@ PyBinding py_bind(const std::shared_ptr<ControlLattice>& lat, const py::object& 
   const py::array pts = points_array(points, "points");
   const auto n = static_cast<std::size_t>(pts.shape(0));
   auto b = std::make_shared<LatticeBinding>();
-  {
-    py::gil_scoped_release release;
+  // The binding keeps coordinates, cells and sorted copies of the points: about 100 bytes a point.
+  without_gil("the lattice binding (" + working_size(n, 100.0) + ")", [&] {
     if (is_float32(pts)) *b = lat->bind(static_cast<const float*>(pts.data()), n);
     else *b = lat->bind(static_cast<const double*>(pts.data()), n);
-  }
+  });
   return PyBinding{b, lat};
 }
 
@@ -163,20 +163,17 @@ py::array py_deform_bound(const ControlLattice& lat, const PyBinding& pb, const 
   const auto rows = py::ssize_t(b.size());
   py::array result = b.single_precision ? output_array<float>(out, rows, py::none(), false)
                                         : output_array<double>(out, rows, py::none(), false);
-  {
-    py::gil_scoped_release release;
+  without_gil("the lattice's working arrays", [&] {
     if (b.single_precision) lat.deform_bound(b, static_cast<float*>(result.mutable_data()));
     else lat.deform_bound(b, static_cast<double*>(result.mutable_data()));
-  }
+  });
   return result;
 }
 
 py::tuple py_weights(const PyBinding& pb) {
   SparseWeights w;
-  {
-    py::gil_scoped_release release;
-    w = pb.lattice->weights_matrix(*pb.binding);
-  }
+  without_gil("the sparse weight matrix (" + working_size(pb.binding->size(), 12.0 * 64) + " at most)",
+              [&] { w = pb.lattice->weights_matrix(*pb.binding); });
   py::array_t<std::int64_t> indptr(py::ssize_t(w.indptr.size()), w.indptr.data());
   py::array_t<std::int32_t> indices(py::ssize_t(w.indices.size()), w.indices.data());
   py::array_t<double> values(py::ssize_t(w.values.size()), w.values.data());
@@ -190,10 +187,8 @@ PyDirect py_direct(const ControlLattice& lat, const py::object& points, const py
     throw py::value_error("targets: has " + std::to_string(t.shape(0)) + " rows but points has " +
                           std::to_string(p.shape(0)));
   DirectManipulationResult r;
-  {
-    py::gil_scoped_release release;
-    r = direct_manipulation(lat, p.data(), t.data(), std::size_t(p.shape(0)));
-  }
+  without_gil("the dense least-squares system of the direct manipulation",
+              [&] { r = direct_manipulation(lat, p.data(), t.data(), std::size_t(p.shape(0))); });
   PyDirect d;
   d.control_points = grid_array(r.control_points, lat.resolution());
   d.displacement = grid_array(r.displacement, lat.resolution());

@@ -173,8 +173,21 @@ is that of the map with these bounds held fixed.)")
 
 F = F_n o ... o F_1, with the chain rule J = J_n(F_n-1(...)) ... J_1(x) for jacobian, normals and
 volume ratio. Stacks nest.)")
-      .def(py::init([](const std::vector<std::shared_ptr<Deformer>>& deformers, const py::object& weights) {
-             std::vector<DeformerPtr> list(deformers.begin(), deformers.end());
+      .def(py::init([](const py::object& deformers, const py::object& weights) {
+             const py::ssize_t count = sequence_length(deformers);
+             if (count < 0)
+               throw py::type_error("deformers: expected a list of deformers, got " +
+                                    std::string(py::str(py::type::of(deformers).attr("__name__"))));
+             std::vector<DeformerPtr> list;
+             for (py::ssize_t i = 0; i < count; ++i) {
+               const py::object item = py::reinterpret_borrow<py::sequence>(deformers)[i];
+               if (item.is_none()) throw py::value_error("deformers: entry " + std::to_string(i) + " is None, not a deformer");
+               if (!py::isinstance<Deformer>(item))
+                 throw py::type_error("deformers: entry " + std::to_string(i) + " is " +
+                                      std::string(py::str(py::type::of(item).attr("__name__"))) +
+                                      ", not a deformkit deformer (Twist, Bend, FFD, Stack, ...)");
+               list.push_back(item.cast<std::shared_ptr<Deformer>>());
+             }
              auto d = std::make_shared<Stack>(std::move(list));
              apply_weights(*d, weights);
              return d;

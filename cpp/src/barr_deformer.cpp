@@ -104,6 +104,16 @@ BarrDeformer::BarrDeformer(BarrOp op, Placement placement) : op_(std::move(op)),
     throw std::invalid_argument("limits: expected lo <= hi with lo < +inf and hi > -inf");
 }
 
+bool BarrDeformer::is_identity() const {
+  switch (op_.kind) {
+    case BarrKind::Twist: return op_.profile.is_constant(0.0);
+    case BarrKind::Taper: return op_.profile.is_constant(1.0);
+    case BarrKind::Stretch: return op_.k == 0.0;
+    case BarrKind::Bend: return op_.is_identity_bend();
+  }
+  return false;
+}
+
 static BarrKernelParams kernel_params(const BarrOp& op, const Placement& pl) {
   BarrKernelParams p{};
   p.kind = static_cast<int>(op.kind);

@@ -120,7 +120,11 @@ void ControlLattice::set_control_points(std::vector<double> grid) {
                                   " coincide at rest and are one merged handle; move them together");
   }
   control_ = std::move(grid);
-  for (std::size_t i = 0; i < control_.size(); ++i) offset_[i] = control_[i] - rest_[i];
+  at_rest_ = true;
+  for (std::size_t i = 0; i < control_.size(); ++i) {
+    offset_[i] = control_[i] - rest_[i];
+    at_rest_ = at_rest_ && offset_[i] == 0.0;
+  }
 }
 
 std::uint64_t ControlLattice::layout() const {
@@ -375,6 +379,14 @@ void ControlLattice::cell_block(const std::array<std::int32_t, 3>& cell, T* bloc
       }
 }
 
+// At rest the bound points come back as they were bound, bit for bit.
+template <class T>
+static void copy_bound(const LatticeBinding& b, const Buffer<T>& sorted, T* out) {
+  const std::size_t n = b.size();
+  for (std::size_t i = 0; i < n; ++i)
+    for (int a = 0; a < 3; ++a) out[3 * std::size_t(b.order[i]) + a] = sorted[(3 + a) * n + i];
+}
+
 template <class T>
 bool ControlLattice::deform_bound_points(const LatticeBinding& b, T* out) const {
   if (b.layout != layout())
@@ -387,6 +399,10 @@ bool ControlLattice::deform_bound_points(const LatticeBinding& b, T* out) const 
   if (sorted.size() != 6 * b.size())
     throw std::invalid_argument(std::string("binding: holds ") + (b.single_precision ? "float32" : "float64") +
                                 " points; deform them into an array of that dtype");
+  if (is_identity()) {
+    copy_bound(b, sorted, out);
+    return true;
+  }
   const std::size_t n = b.size();
   const KernelAxis kaxes[3] = {kernel_axis(axes_[0]), kernel_axis(axes_[1]), kernel_axis(axes_[2])};
   const std::size_t block_size = 3 * std::size_t(kaxes[0].width) * kaxes[1].width * kaxes[2].width;
@@ -523,12 +539,12 @@ static void require_bound_weights(const std::vector<double>& w, const LatticeBin
 void ControlLattice::deform_bound(const LatticeBinding& b, double* out) const {
   require_bound_weights(weights(), b);
   if (!deform_bound_points(b, out)) require_finite_results(out, b.size(), 3, "position");
-  blend_bound(b, weights(), b.sorted_d, out);
+  if (!is_identity()) blend_bound(b, weights(), b.sorted_d, out);
 }
 void ControlLattice::deform_bound(const LatticeBinding& b, float* out) const {
   require_bound_weights(weights(), b);
   if (!deform_bound_points(b, out)) require_finite_results(out, b.size(), 3, "position");
-  blend_bound(b, weights(), b.sorted_f, out);
+  if (!is_identity()) blend_bound(b, weights(), b.sorted_f, out);
 }
 
 SparseWeights ControlLattice::weights_matrix(const LatticeBinding& b) const {
@@ -551,6 +567,9 @@ SparseWeights ControlLattice::weights_matrix(const LatticeBinding& b) const {
         for (int q = 0; q < ax[1].width; ++q)
           for (int r = 0; r < ax[2].width; ++r) {
             const double w = ax[0].w[p] * ax[1].w[q] * ax[2].w[r];
+            if (!std::isfinite(w))  // 'extrapolate' far outside: the polynomials overflow
+              throw std::invalid_argument("binding: point " + std::to_string(i) + " lies so far outside the lattice "
+                                          "that its extrapolated weights overflow");
             if (w != 0.0) row.emplace_back((ax[0].index[p] * nv + ax[1].index[q]) * nw + ax[2].index[r], w);
           }
       std::sort(row.begin(), row.end());

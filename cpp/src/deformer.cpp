@@ -70,6 +70,33 @@ void require_finite_results(const T* values, std::size_t n, std::size_t width, c
     if (row_is_bad(values + width * i, width, limit)) throw_non_finite_result(i, what);
 }
 template void require_finite_results<float>(const float*, std::size_t, std::size_t, const char*, double);
+
+// Row i's `what` overflowed. A point beyond the square root of the result's range (1.3e154 for
+// float64, 1.8e19 for float32) overflows under any non-trivial map: it is to blame, otherwise
+// the parameters are.
+template <class T>
+[[noreturn]] static void blame_row(std::size_t i, const char* what, const T* x, double limit) {
+  if (std::max({std::abs(double(x[0])), std::abs(double(x[1])), std::abs(double(x[2]))}) > std::sqrt(limit)) {
+    std::ostringstream msg;
+    msg << "points: row " << i << " maps to a non-finite " << what << ": its coordinates (" << x[0] << ", " << x[1]
+        << ", " << x[2] << ") are too large for this deformer";
+    throw std::invalid_argument(msg.str());
+  }
+  throw_non_finite_result(i, what);
+}
+
+template <class T>
+void require_finite_results_of(const T* values, std::size_t n, std::size_t width, const char* what, const T* points,
+                               double limit) {
+  if (all_finite(values, n, width, limit)) return;
+  for (std::size_t i = 0; i < n; ++i)
+    if (row_is_bad(values + width * i, width, limit))
+      blame_row(i, what, points + 3 * i, std::min(limit, double(std::numeric_limits<T>::max())));
+}
+template void require_finite_results_of<float>(const float*, std::size_t, std::size_t, const char*, const float*,
+                                               double);
+template void require_finite_results_of<double>(const double*, std::size_t, std::size_t, const char*, const double*,
+                                                double);
 template void require_finite_results<double>(const double*, std::size_t, std::size_t, const char*, double);
 
 void Deformer::set_weights(std::vector<double> weights) {
@@ -108,23 +135,9 @@ static void blend(const std::vector<double>& w, const T* in, T* out, std::size_t
 // In place (in == out) the input was checked before it was overwritten: only the parameters remain.
 template <class T>
 static void report_non_finite(const T* in, const T* out, std::size_t n) {
-  if (in != out) {
-    require_finite_rows(in, n, "points");
-    // A point beyond ~1e150 overflows under any non-trivial map (squares of coordinates): it, not
-    // the parameters, is what is too large.
-    for (std::size_t i = 0; i < n; ++i) {
-      const T* x = in + 3 * i;
-      if (std::isfinite(out[3 * i]) && std::isfinite(out[3 * i + 1]) && std::isfinite(out[3 * i + 2])) continue;
-      if (std::max({std::abs(double(x[0])), std::abs(double(x[1])), std::abs(double(x[2]))}) > 1e150) {
-        std::ostringstream msg;
-        msg << "points: row " << i << " maps to a non-finite position: its coordinates (" << x[0] << ", " << x[1]
-            << ", " << x[2] << ") are too large for this deformer";
-        throw std::invalid_argument(msg.str());
-      }
-      break;
-    }
-  }
-  require_finite_results(out, n, 3, "position");
+  if (in == out) return require_finite_results(out, n, 3, "position");
+  require_finite_rows(in, n, "points");
+  require_finite_results_of(out, n, 3, "position", in);
 }
 
 template <class T>
@@ -133,6 +146,13 @@ void Deformer::deform_checked(const T* in, T* out, std::size_t n, bool input_ver
   require_weight_count(w, n);
   // In place, a non-finite row must be reported before anything is overwritten.
   if (in == out && !input_verified && !all_finite(in, n, 3)) require_finite_rows(in, n, "points");
+  if (is_identity()) {  // exact, with no arithmetic that could round, flip -0.0 or overflow
+    if (in != out) {
+      if (!input_verified && !all_finite(in, n, 3)) require_finite_rows(in, n, "points");
+      std::copy(in, in + 3 * n, out);
+    }
+    return;
+  }
   if (w.empty()) {
     if (!deform_impl(in, out, n)) report_non_finite(in, out, n);
     return;
@@ -167,7 +187,7 @@ static void displace(const Deformer& d, const T* in, T* out, std::size_t n) {
     }
     if (acc != acc) finite = false;
   });
-  if (!finite) require_finite_results(out, n, 3, "displacement");
+  if (!finite) require_finite_results_of(out, n, 3, "displacement", in);
 }
 
 void Deformer::displacement(const float* in, float* out, std::size_t n) const { displace(*this, in, out, n); }
@@ -187,11 +207,17 @@ static void blend_jacobians(const std::vector<double>& w, double* jac, std::size
 void Deformer::jacobian(const double* in, double* jac, std::size_t n, bool float32_result) const {
   require_weight_count(weights_, n);
   require_finite_rows(in, n, "points");
+  if (is_identity()) {
+    for (std::size_t i = 0; i < 9 * n; ++i) jac[i] = (i % 9) % 4 == 0 ? 1.0 : 0.0;
+    return;
+  }
   jacobian_impl(in, jac, n);
   // (1 - w) I + w J with w in [0, 1] is finite where J is: one check after the blend serves both.
   const double limit = float32_result ? double(std::numeric_limits<float>::max()) : kDoubleMax;
   if (!weights_.empty()) blend_jacobians(weights_, jac, n);
-  require_finite_results(jac, n, 9, "Jacobian", limit);
+  if (!all_finite(jac, n, 9, limit))
+    for (std::size_t i = 0; i < n; ++i)
+      if (row_is_bad(jac + 9 * i, 9, limit)) blame_row(i, "Jacobian", in + 3 * i, limit);
 }
 
 Mat3 cofactor(const Mat3& j) {
@@ -230,7 +256,9 @@ void volume_ratio(const Deformer& d, const double* points, double* out, std::siz
     for (std::size_t i = begin; i < end; ++i) out[i] = scaled_determinant(read_mat(&jac[9 * i]));
   });
   const double limit = float32_result ? double(std::numeric_limits<float>::max()) : kDoubleMax;
-  require_finite_results(out, n, 1, "volume ratio", limit);
+  if (!all_finite(out, n, 1, limit))
+    for (std::size_t i = 0; i < n; ++i)
+      if (row_is_bad(out + i, 1, limit)) blame_row(i, "volume ratio", points + 3 * i, limit);
 }
 
 }  // namespace deformkit

@@ -14,6 +14,9 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
   require_finite_rows(targets, m, "targets");
   if (lattice.strength() == 0.0)
     throw std::invalid_argument("strength: is 0, so no change of the control points can move the points");
+  if (!lattice.weights().empty() && lattice.weights().size() != m)
+    throw std::invalid_argument("weights: the lattice has " + std::to_string(lattice.weights().size()) +
+                                " per-point weights but points has " + std::to_string(m) + " rows");
   const int handles = lattice.handle_count();
   // A dense complete orthogonal decomposition keeps rank-deficient and contradicting constraints
   // exact (normal equations would square the conditioning); it costs m h min(m, h) operations and
@@ -25,15 +28,19 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
                                 "or a coarser lattice");
   const LatticeBinding binding = lattice.bind(points, m);
   const SparseWeights w = lattice.weights_matrix(binding);
-  // Where the points are now, x + strength W (P - R): the lattice's own per-point weights belong
-  // to the points it deforms, not to these constraints.
+  // Where deform() puts the points now, x + v strength W (P - R), with v the lattice's per-point
+  // weights (the binding checked their count): a point of weight v moves v times as far, so its
+  // constraint row is scaled by v, and a point of weight 0 cannot be moved at all.
   const auto& control = lattice.control_points();
   const auto& rest = lattice.rest_control_points();
+  const std::vector<double>& point_weight = lattice.weights();
+  auto weight_of = [&](std::size_t r) { return point_weight.empty() ? 1.0 : point_weight[r]; };
   std::vector<double> current(points, points + 3 * m);
   for (std::size_t r = 0; r < m; ++r)
     for (std::int64_t e = w.indptr[r]; e < w.indptr[r + 1]; ++e)
       for (int a = 0; a < 3; ++a)
-        current[3 * r + a] += lattice.strength() * w.values[e] * (control[3 * w.indices[e] + a] - rest[3 * w.indices[e] + a]);
+        current[3 * r + a] += weight_of(r) * lattice.strength() * w.values[e] *
+                              (control[3 * w.indices[e] + a] - rest[3 * w.indices[e] + a]);
 
   // B (m x h) over handles: merged control points add up in their handle.
   const auto& handle_of = lattice.handle_of();
@@ -44,7 +51,8 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
   // Minimum-norm least squares: B^+ dQ (B^T (B B^T)^-1 dQ at full row rank), algorithms.md B.3.
   Eigen::MatrixXd b = Eigen::MatrixXd::Zero(Eigen::Index(m), handles);
   for (std::size_t r = 0; r < m; ++r)
-    for (std::int64_t e = w.indptr[r]; e < w.indptr[r + 1]; ++e) b(Eigen::Index(r), handle_of[w.indices[e]]) += w.values[e];
+    for (std::int64_t e = w.indptr[r]; e < w.indptr[r + 1]; ++e)
+      b(Eigen::Index(r), handle_of[w.indices[e]]) += weight_of(r) * w.values[e];
   const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(b);
   const Eigen::MatrixXd dp = cod.solve(dq);
   const int rank = static_cast<int>(cod.rank());

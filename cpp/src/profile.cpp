@@ -111,4 +111,12 @@ double Profile::derivative(double z) const {
   return df;
 }
 
+bool Profile::is_constant(double v) const {
+  if (is_linear()) return slope_ == 0.0 ? offset_ == v : lo_ == hi_ && value(lo_) == v;
+  // A natural spline through equal values is that value, and so are its end tangents.
+  for (double f : values_)
+    if (f != v) return false;
+  return true;
+}
+
 }  // namespace deformkit

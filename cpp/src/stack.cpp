@@ -17,6 +17,7 @@ std::invalid_argument member_error(std::size_t index, const std::invalid_argumen
   const std::string msg = e.what(), name = "deformers[" + std::to_string(index) + "]";
   if (msg.rfind("deformer: ", 0) == 0) return std::invalid_argument(name + ": " + msg.substr(10));
   if (msg.rfind("deformers[", 0) == 0) return std::invalid_argument(name + "." + msg);
+  if (msg.rfind("points: ", 0) == 0) return std::invalid_argument(name + ": the points it receives: " + msg.substr(8));
   return std::invalid_argument(name + ": " + msg);
 }
 
@@ -48,6 +49,12 @@ Stack::Stack(std::vector<DeformerPtr> deformers) {
                                 std::to_string(kMaxStackDepth) + " (flatten them, or combine their weights)");
 }
 
+bool Stack::is_identity() const {
+  for (const auto& d : deformers_)
+    if (!d->is_identity()) return false;
+  return true;
+}
+
 template <class T>
 bool Stack::deform_any(const T* in, T* out, std::size_t n) const {
   if (deformers_.empty()) {
@@ -60,7 +67,7 @@ bool Stack::deform_any(const T* in, T* out, std::size_t n) const {
   } catch (const std::invalid_argument& e) {
     // Bad points are the caller's; anything else (an in-place call has checked its input before
     // writing) is the member's.
-    if (!rows_finite(in, n)) throw;
+    if (!rows_finite(in, n) || std::string(e.what()).rfind("points: ", 0) == 0) throw;
     throw member_error(0, e);
   }
   for (std::size_t i = 1; i < deformers_.size(); ++i) {
@@ -93,7 +100,7 @@ void Stack::jacobian_impl(const double* in, double* jac, std::size_t n) const {
       });
       if (s + 1 < deformers_.size()) deformers_[s]->deform_verified(points.data(), points.data(), n);
     } catch (const std::invalid_argument& e) {
-      if (s == 0 && !rows_finite(in, n)) throw;
+      if (s == 0 && (!rows_finite(in, n) || std::string(e.what()).rfind("points: ", 0) == 0)) throw;
       throw member_error(s, e);
     }
   }

@@ -88,7 +88,11 @@ def _type_problem(annotation, value, module):
             return "expected an integer, not a float"
         if not isinstance(value, numbers.Integral) and not hasattr(value, "__index__"):
             return "expected an integer"
-        if not -_INT64 <= int(value) < _INT64:
+        try:
+            as_int = int(value.__index__()) if hasattr(value, "__index__") else int(value)
+        except (TypeError, ValueError, OverflowError):
+            return "expected an integer"
+        if not -_INT64 <= as_int < _INT64:
             return "out of range for a 64-bit integer"
         return None
     if "bool" in alternatives:
@@ -161,24 +165,40 @@ def diagnose(title, params, args, kwargs, module):
     return None
 
 
-def _wrap(function, title, doc_name, module, bound):
+def _wrap(function, title, doc_name, module, owner=None):
     params = parse_signature(function.__doc__, doc_name)
     if params is None:
         return function
-    if bound:
+    if owner is not None:
         params = params[1:]  # self
 
     @functools.wraps(function)
     def checked(*args, **kwargs):
         try:
             return function(*args, **kwargs)
+        except MemoryError as exc:
+            # What the core allocated without naming it (a path with no named guard): name the call.
+            if str(exc) not in ("std::bad_alloc", ""):
+                raise
+            renamed = MemoryError(f"{title}: not enough memory for its working arrays (the C++ core's "
+                                  f"allocation failed)")
+        except ValueError as exc:
+            # The core says "deformer: ..." for the object whose parameters overflow: name its type.
+            message = str(exc)
+            if owner is None or not args or not message.startswith("deformer: "):
+                raise
+            renamed = ValueError(f"{type(args[0]).__name__}: {message[len('deformer: '):]}")
         except TypeError as exc:
             if not _REFUSED.search(str(exc)):
                 raise
-            error = diagnose(title, params, args[1:] if bound else args, kwargs, module)
+            if owner is not None and (not args or not isinstance(args[0], owner)):
+                got = _describe(args[0]) if args else "nothing"
+                raise TypeError(f"{title}: called on {got}, not on a {owner.__name__}") from None
+            error = diagnose(title, params, args[1:] if owner is not None else args, kwargs, module)
             if error is None:
                 raise
-        raise error from None
+            raise error from None
+        raise renamed from None
 
     return checked
 
@@ -196,10 +216,10 @@ def install(module):
                     continue
                 title = f"{name}()" if attr == "__init__" else f"{name}.{attr}()"
                 if isinstance(member, staticmethod):
-                    setattr(obj, attr, staticmethod(_wrap(member.__func__, title, attr, module, False)))
+                    setattr(obj, attr, staticmethod(_wrap(member.__func__, title, attr, module)))
                 elif type(member).__name__ == "instancemethod":
-                    setattr(obj, attr, _wrap(member.__func__, title, attr, module, True))
+                    setattr(obj, attr, _wrap(member.__func__, title, attr, module, owner=obj))
         elif type(obj).__name__ == "builtin_function_or_method":
-            setattr(module, name, _wrap(obj, f"{name}()", name, module, False))
+            setattr(module, name, _wrap(obj, f"{name}()", name, module))
     module._arguments_installed = True
 

@@ -11,6 +11,7 @@ class BarrDeformer : public Deformer {
   BarrDeformer(BarrOp op, Placement placement);
   const BarrOp& op() const { return op_; }
   const Placement& placement() const { return placement_; }
+  bool is_identity() const override;
 
  protected:
   bool deform_impl(const float* in, float* out, std::size_t n) const override;

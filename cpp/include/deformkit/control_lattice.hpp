@@ -61,6 +61,7 @@ class ControlLattice : public Deformer {
   // merged control points given different positions.
   void set_control_points(std::vector<double> grid);
   double strength() const { return strength_; }
+  bool is_identity() const override { return strength_ == 0.0 || at_rest_; }
   Outside outside() const { return outside_; }
   // Control points merged into one handle (extended FFD: coincident at rest); identity otherwise.
   const std::vector<int>& handle_of() const { return handle_of_; }
@@ -114,6 +115,7 @@ class ControlLattice : public Deformer {
 
   LatticeAxes axes_;
   std::vector<double> rest_, control_, offset_;  // offset_ = control_ - rest_
+  bool at_rest_ = true;                           // offset_ is all zero
   Outside outside_;
   double strength_;
   std::vector<int> handle_of_;

@@ -28,6 +28,10 @@ class Deformer {
   void displacement(const float* in, float* out, std::size_t n) const;
   void displacement(const double* in, double* out, std::size_t n) const;
 
+  // True when the map is the identity for every point (zero angle, factor or curvature, control
+  // points at rest): deform then returns its input bit for bit, however large, and J = I.
+  virtual bool is_identity() const { return false; }
+
   // Per-point blend between the original and the deformed position (Blender's vertex group):
   // x' = x + w (F(x) - x), so J' = (1 - w) I + w J. Each weight must lie in [0, 1], Blender's
   // range, so that x' lies between x and F(x) and is finite wherever F(x) is.
@@ -72,6 +76,11 @@ void require_finite_rows(const T* data, std::size_t n, const char* argument);
 template <class T>
 void require_finite_results(const T* values, std::size_t n, std::size_t width, const char* what,
                             double limit = 1.7976931348623157e308);
+// As require_finite_results, for results of `points` (3 per row): a row whose coordinates exceed
+// 1e150, which squares past the double range under any non-trivial map, is blamed on `points`.
+template <class T>
+void require_finite_results_of(const T* values, std::size_t n, std::size_t width, const char* what, const T* points,
+                               double limit = 1.7976931348623157e308);
 
 // Blender's vertex-group blend x + w (f - x) for w in [0, 1]; where f - x overflows, the equal
 // (1 - w) x + w f, which lies between x and f and so is finite whenever both are.

@@ -19,6 +19,8 @@ class Profile {
   static Profile spline(std::vector<double> z, std::vector<double> f, Extend extend = Extend::Constant);
 
   bool is_linear() const { return knots_.empty(); }
+  // f(z) == v for every z.
+  bool is_constant(double v) const;
   double value(double z) const;
   double derivative(double z) const;
   void evaluate(double z, double& f, double& df) const;

@@ -23,6 +23,8 @@ class SimpleDeform : public Deformer {
  public:
   explicit SimpleDeform(SimpleDeformSettings settings);
   const SimpleDeformSettings& settings() const { return settings_; }
+  // Every mode with a zero angle or factor leaves points where they are (MOD_simpledeform).
+  bool is_identity() const override { return settings_.factor == 0.0; }
   // The Barr operator Blender would apply to these points (bounds measured from them);
   // nullptr when Blender leaves them unchanged (bend with |k| < 1e-6).
   template <class T>

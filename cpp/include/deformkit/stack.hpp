@@ -14,6 +14,7 @@ class Stack : public Deformer {
   const std::vector<DeformerPtr>& deformers() const { return deformers_; }
   // Weighted stacks nested inside this one (0 when no member is a stack).
   int depth() const { return depth_; }
+  bool is_identity() const override;
 
  protected:
   bool deform_impl(const float* in, float* out, std::size_t n) const override;
