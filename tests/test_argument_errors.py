@@ -208,3 +208,29 @@ def test_unbound_methods_called_on_the_wrong_object():
         dk.Lattice.bind(dk.Twist(), PTS)
     with pytest.raises(TypeError, match=r"^Deformer.deform\(\): called on NoneType None, not on a Deformer"):
         dk.Deformer.deform(None, PTS)
+
+
+def test_generated_lattices_are_scale_free_and_name_their_own_arguments():
+    """A cylinder or prism of any size or aspect a double can hold is built; one it cannot is refused
+    naming the generator's arguments, not rest_control_points (which the caller never gave)."""
+    for make in (lambda: dk.ExtendedFFD.cylinder(radius=1e-5), lambda: dk.ExtendedFFD.cylinder(radius=1e8),
+                 lambda: dk.ExtendedFFD.cylinder(height=1e6),
+                 lambda: dk.ExtendedFFD.prism(np.eye(3) * 1e-100, [0, 0, 1e-100]),
+                 lambda: dk.ExtendedFFD.prism(np.eye(3) * 1e60, [0, 0, 1e60])):
+        lattice = make()
+        inside = lattice.rest_control_points.reshape(-1, 3).mean(axis=0, keepdims=True)
+        np.testing.assert_array_equal(lattice.deform(inside), inside)
+    for make, words in [(lambda: dk.ExtendedFFD.cylinder(1e39), "radius, height, center: the cylinder"),
+                        (lambda: dk.ExtendedFFD.cylinder(center=[1e20, 0, 0]), "radius, height, center: the cylinder"),
+                        (lambda: dk.ExtendedFFD.prism(np.eye(3), [0, 0, np.nan]), "height: must be finite"),
+                        (lambda: dk.ExtendedFFD.prism(np.eye(3), [0, 0, 1e300]), "height: must be at most 1e100")]:
+        with pytest.raises(ValueError) as info:
+            make()
+        assert str(info.value).startswith(words), str(info.value)
+
+
+def test_direct_manipulation_from_absurd_control_points_names_them():
+    lattice = dk.FFD(2)
+    lattice.control_points = lattice.rest_control_points * 1e308
+    with pytest.raises(ValueError, match="^targets: .* where the current control_points put the points"):
+        lattice.direct_manipulation(np.full((1, 3), 0.5), np.full((1, 3), 0.6))

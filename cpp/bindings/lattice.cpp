@@ -140,6 +140,21 @@ std::shared_ptr<L> finish(std::shared_ptr<L> lat, const py::object& control_poin
   return lat;
 }
 
+// A generated extended FFD (cylinder, prism) whose rest lattice the core refuses: the caller gave
+// the generator's arguments, not rest_control_points, so the error names those.
+template <class Make>
+std::shared_ptr<ExtendedFFD> generated_effd(const Make& make, const py::array& grid, double strength,
+                                            const py::object& weights, double tolerance, std::int64_t max_iterations,
+                                            const char* what) {
+  try {
+    return make(grid, py::none(), strength, weights, tolerance, max_iterations);
+  } catch (const std::invalid_argument& e) {
+    const std::string msg = e.what(), prefix = "rest_control_points: ";
+    if (msg.rfind(prefix, 0) != 0) throw;
+    throw py::value_error(std::string(what) + " is degenerate at double precision: " + msg.substr(prefix.size()));
+  }
+}
+
 PyBinding py_bind(const std::shared_ptr<ControlLattice>& lat, const py::object& points) {
   const py::array pts = points_array(points, "points");
   const auto n = static_cast<std::size_t>(pts.shape(0));
@@ -396,7 +411,8 @@ move together (handle_index).)")
         const auto grid = ExtendedFFD::cylinder_grid(finite_param(radius, "radius"), finite_param(height, "height"), b, c,
                                                      parse_axis(axis, "axis"));
         const std::array<int, 3> counts{3 * b[0] + 1, 3 * b[1] + 1, 3 * b[2] + 1};
-        return make_effd(grid_array(grid, counts), py::none(), strength, weights, tolerance, max_iterations);
+        return generated_effd(make_effd, grid_array(grid, counts), strength, weights, tolerance, max_iterations,
+                              "radius, height, center: the cylinder they give");
       }, "radius"_a = 1.0, "height"_a = 1.0, "blocks"_a = py::make_tuple(1, 4, 1), "center"_a = py::none(),
          "axis"_a = "z", "strength"_a = 1.0, "weights"_a = py::none(), "tolerance"_a = 1e-10, "max_iterations"_a = 30,
          R"(A cylindrical lattice: s runs from the axis out to `radius`, t once around (cubic Bezier arcs, blocks[1] >= 3),
@@ -412,7 +428,8 @@ u along the axis over `height`, centred at `center`. The seam and the axis are m
         const auto n = parse_counts(blocks, "blocks");
         const auto grid = ExtendedFFD::prism_grid(a, b, c, parse_vec3(height, "height"), n);
         const std::array<int, 3> counts{3 * n[0] + 1, 3 * n[1] + 1, 3 * n[2] + 1};
-        return make_effd(grid_array(grid, counts), py::none(), strength, weights, tolerance, max_iterations);
+        return generated_effd(make_effd, grid_array(grid, counts), strength, weights, tolerance, max_iterations,
+                              "triangle, height: the prism they give");
       }, "triangle"_a, "height"_a, "blocks"_a = 1, "strength"_a = 1.0, "weights"_a = py::none(), "tolerance"_a = 1e-10,
          "max_iterations"_a = 30,
          R"(A triangular prism: the triangle A, B, C swept along `height`. s runs from A to B, t toward C

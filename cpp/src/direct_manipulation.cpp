@@ -42,6 +42,11 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
         current[3 * r + a] += weight_of(r) * lattice.strength() * w.values[e] *
                               (control[3 * w.indices[e] + a] - rest[3 * w.indices[e] + a]);
 
+  for (std::size_t i = 0; i < 3 * m; ++i)
+    if (!std::isfinite(current[i]))
+      throw std::invalid_argument("control_points: the lattice's current control points move point " +
+                                  std::to_string(i / 3) + " beyond the double range");
+
   // B (m x h) over handles: merged control points add up in their handle.
   const auto& handle_of = lattice.handle_of();
   Eigen::MatrixXd dq(Eigen::Index(m), 3);
@@ -57,8 +62,8 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
   const Eigen::MatrixXd dp = cod.solve(dq);
   const int rank = static_cast<int>(cod.rank());
   if (!dp.allFinite())
-    throw std::invalid_argument("targets: the control-point change needed overflows (targets too far, or strength "
-                                "too small)");
+    throw std::invalid_argument("targets: the control-point change needed overflows (targets too far from where "
+                                "the current control_points put the points, or strength too small)");
   const Eigen::MatrixXd reached = b * dp;
 
   DirectManipulationResult result;

@@ -72,14 +72,19 @@ void ExtendedFFD::require_one_to_one() const {
   constexpr double kSamples[3] = {0.15, 0.5, 0.85};
   int sign = 0;
   for (int b = 0; b < int(bounds_.size()); ++b) {
-    const double extent = (bounds_[b].max() - bounds_[b].min()).norm();
     for (double s : kSamples)
       for (double t : kSamples)
         for (double u : kSamples) {
           Mat3 d;
           block_point(b, Vec3(s, t, u), &d);
-          const double det = d.determinant();
-          const int here = det > 1e-9 * extent * extent * extent ? 1 : det < -1e-9 * extent * extent * extent ? -1 : 0;
+          // det of the unit columns, |det| / (|d_s| |d_t| |d_u|) (Hadamard's bound is 1): how far the
+          // three directions are from a plane, whatever the block's size or aspect ratio.
+          double det = 0.0;
+          const Vec3 n0 = d.col(0).stableNormalized(), n1 = d.col(1).stableNormalized(), n2 = d.col(2).stableNormalized();
+          if (n0.allFinite() && n1.allFinite() && n2.allFinite() && n0.squaredNorm() > 0.5 && n1.squaredNorm() > 0.5 &&
+              n2.squaredNorm() > 0.5)
+            det = n0.dot(n1.cross(n2));
+          const int here = det > 1e-9 ? 1 : det < -1e-9 ? -1 : 0;
           if (here == 0 || (sign != 0 && here != sign)) {
             const int bk = b % blocks_[2], bj = (b / blocks_[2]) % blocks_[1], bi = b / (blocks_[1] * blocks_[2]);
             throw std::invalid_argument("rest_control_points: block (" + std::to_string(bi) + ", " + std::to_string(bj) +
@@ -189,16 +194,20 @@ constexpr double kMaxLatticeExtent = 1e100, kMinLatticeExtent = 1e-100;
 
 std::vector<double> ExtendedFFD::prism_grid(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& height,
                                             std::array<int, 3> blocks) {
-  if (!a.allFinite() || !b.allFinite() || !c.allFinite() || !height.allFinite())
-    throw std::invalid_argument("triangle: corners and height must be finite");
+  if (!a.allFinite() || !b.allFinite() || !c.allFinite()) throw std::invalid_argument("triangle: corners must be finite");
+  if (!height.allFinite()) throw std::invalid_argument("height: must be finite");
   // Beyond this scale the rest lattice's determinants (cubes of lengths) overflow or underflow.
   const double extent = std::max({a.cwiseAbs().maxCoeff(), b.cwiseAbs().maxCoeff(), c.cwiseAbs().maxCoeff()});
-  if (extent > kMaxLatticeExtent || height.norm() > kMaxLatticeExtent)
-    throw std::invalid_argument("triangle: corners and height must lie within 1e100 of the origin");
-  const Vec3 normal = (b - a).cross(c - a);
-  if (!(normal.norm() > 1e-12 * (b - a).norm() * (c - a).norm()) || (b - a).norm() < kMinLatticeExtent)
+  if (extent > kMaxLatticeExtent) throw std::invalid_argument("triangle: corners must lie within 1e100 of the origin");
+  if (height.cwiseAbs().maxCoeff() > kMaxLatticeExtent) throw std::invalid_argument("height: must be at most 1e100 long");
+  // Unit directions (stableNormalized: no squares that underflow at 1e-100 or overflow at 1e100).
+  const Vec3 ab = (b - a).stableNormalized(), ac = (c - a).stableNormalized();
+  const Vec3 normal = ab.cross(ac);
+  if ((b - a).cwiseAbs().maxCoeff() < kMinLatticeExtent || (c - a).cwiseAbs().maxCoeff() < kMinLatticeExtent ||
+      !(normal.stableNorm() > 1e-12))
     throw std::invalid_argument("triangle: corners are collinear or coincide; a prism needs a triangle with area");
-  if (!(std::abs(normal.normalized().dot(height)) > 1e-12 * height.norm()) || height.norm() < kMinLatticeExtent)
+  if (height.cwiseAbs().maxCoeff() < kMinLatticeExtent ||
+      !(std::abs(normal.stableNormalized().dot(height.stableNormalized())) > 1e-12))
     throw std::invalid_argument("height: must be a vector out of the triangle's plane (got one in it, or zero)");
   for (int n : blocks)
     if (n < 1 || n > 256) throw std::invalid_argument("blocks: a prism needs 1..256 blocks per axis");
