@@ -304,7 +304,9 @@ unchanged are empty.)");
 
 Minimum-norm least squares over the control points (merged ones move together): exact when the
 constraints allow it, otherwise the least-squares compromise, whose distances are `residual`.
-Returns a DirectManipulation; the lattice is not modified (assign result.control_points).)");
+With per-point weights (one per row of `points`) a point of weight w moves w times as far, as
+deform() moves it, and the solve plans for that; a point of weight 0 cannot move. Returns a
+DirectManipulation; the lattice is not modified (assign result.control_points).)");
 
   py::class_<FFD, ControlLattice, std::shared_ptr<FFD>>(m, "FFD", (std::string(R"(Sederberg-Parry free-form deformation.
 
