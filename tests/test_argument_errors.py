@@ -234,3 +234,9 @@ def test_direct_manipulation_from_absurd_control_points_names_them():
     lattice.control_points = lattice.rest_control_points * 1e308
     with pytest.raises(ValueError, match="^targets: .* where the current control_points put the points"):
         lattice.direct_manipulation(np.full((1, 3), 0.5), np.full((1, 3), 0.6))
+
+
+def test_the_deformer_argument_keeps_its_name():
+    """Only a deformer's own overflow is renamed to its type; a deformer= argument stays named."""
+    with pytest.raises(ValueError, match="^deformer: has per-point weights"):
+        dk.LimitSurface(CUBE, CUBE_FACES).smoothness_report(deformer=dk.Twist(weights=np.ones(8)))

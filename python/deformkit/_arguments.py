@@ -185,8 +185,9 @@ def _wrap(function, title, doc_name, module, owner=None):
         except ValueError as exc:
             # The core says "deformer: ..." for the object whose parameters overflow: name its type.
             message = str(exc)
-            if owner is None or not args or not message.startswith("deformer: "):
-                raise
+            deformer = getattr(module, "Deformer", None)
+            if not (args and deformer and isinstance(args[0], deformer) and message.startswith("deformer: row ")):
+                raise  # "deformer: ..." of a deformer= argument, or another argument's message
             renamed = ValueError(f"{type(args[0]).__name__}: {message[len('deformer: '):]}")
         except TypeError as exc:
             if not _REFUSED.search(str(exc)):
