@@ -240,3 +240,8 @@ def test_the_deformer_argument_keeps_its_name():
     """Only a deformer's own overflow is renamed to its type; a deformer= argument stays named."""
     with pytest.raises(ValueError, match="^deformer: has per-point weights"):
         dk.LimitSurface(CUBE, CUBE_FACES).smoothness_report(deformer=dk.Twist(weights=np.ones(8)))
+
+
+def test_a_strength_too_small_for_direct_manipulation_is_named():
+    with pytest.raises(ValueError, match=r"^strength: 4.94066e-324 is too small"):
+        dk.BSplineLattice(4, strength=5e-324).direct_manipulation(PTS[:4] * 0.3 + 0.5, PTS[:4] * 0.3 + 0.6)

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -52,6 +53,14 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
   Eigen::MatrixXd dq(Eigen::Index(m), 3);
   for (std::size_t r = 0; r < m; ++r)
     for (int a = 0; a < 3; ++a) dq(Eigen::Index(r), a) = (targets[3 * r + a] - current[3 * r + a]) / lattice.strength();
+
+  if (!dq.allFinite())  // the misses are finite (checked above): dividing by strength overflowed
+  {
+    std::ostringstream msg;
+    msg << "strength: " << lattice.strength() << " is too small for these targets: the control-point change they "
+           "need overflows a double";
+    throw std::invalid_argument(msg.str());
+  }
 
   // Minimum-norm least squares: B^+ dQ (B^T (B B^T)^-1 dQ at full row rank), algorithms.md B.3.
   Eigen::MatrixXd b = Eigen::MatrixXd::Zero(Eigen::Index(m), handles);
