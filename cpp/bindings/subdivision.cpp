@@ -1,9 +1,9 @@
 // Python bindings of subdivision, limit-surface evaluation and the smoothness report.
 #include "common.hpp"
 
-#include "deformkit/limit_surface.hpp"
-#include "deformkit/smoothness_report.hpp"
-#include "deformkit/subdivide.hpp"
+#include "deformkit/subdivision/limit_surface.hpp"
+#include "deformkit/subdivision/smoothness_report.hpp"
+#include "deformkit/subdivision/subdivide.hpp"
 
 #include <limits>
 #include <memory>

@@ -1,7 +1,7 @@
 // Python bindings of the surface deformers: argument conversion and checking only.
 #include "common.hpp"
 
-#include "deformkit/surface_deformer.hpp"
+#include "deformkit/surface/surface_deformer.hpp"
 
 #include <memory>
 

@@ -1,6 +1,6 @@
 #include "deformkit/build_info.hpp"
 
-#include "deformkit/barr_kernels.hpp"
+#include "barr/barr_kernels.hpp"
 
 #include <Eigen/Core>
 #include <omp.h>

@@ -1,7 +1,7 @@
 #include "test_util.hpp"
 
-#include "deformkit/barr_kernels.hpp"
-#include "deformkit/scale_free.hpp"
+#include "barr/barr_kernels.hpp"
+#include "core/scale_free.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // best_rotation / best_rotations (SIMD Newton polar step) against the SVD definition of the ARAP
 // local step: R = V U^T maximising tr(R S), a proper rotation.
-#include "deformkit/best_rotation.hpp"
+#include "deformkit/numerics/best_rotation.hpp"
 
 #include <Eigen/SVD>
 #include <gtest/gtest.h>

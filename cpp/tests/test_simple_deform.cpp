@@ -2,7 +2,7 @@
 // (MOD_simpledeform as described in blender_modifiers.md 1.2-1.4), computed in float as Blender does.
 #include "test_util.hpp"
 
-#include "deformkit/extent_kernel.hpp"
+#include "barr/extent_kernel.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // SparseCholesky (CHOLMOD factor, own multi-column parallel solve) against Eigen's SimplicialLDLT.
-#include "deformkit/cholesky_factor.hpp"
-#include "deformkit/sparse_cholesky.hpp"
+#include "numerics/cholesky_factor.hpp"
+#include "deformkit/numerics/sparse_cholesky.hpp"
 
 #include <Eigen/SparseCholesky>
 #include <gtest/gtest.h>

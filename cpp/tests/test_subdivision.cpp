@@ -1,9 +1,9 @@
 // The limit surface against OpenSubdiv's own independent evaluators (Far limit stencils, Bfr
 // surfaces, uniform refinement's limit masks), and uniform subdivision's counts.
-#include "deformkit/limit_surface.hpp"
-#include "deformkit/smoothness_report.hpp"
-#include "deformkit/subdivide.hpp"
-#include "osd_refiner.hpp"
+#include "deformkit/subdivision/limit_surface.hpp"
+#include "deformkit/subdivision/smoothness_report.hpp"
+#include "deformkit/subdivision/subdivide.hpp"
+#include "subdivision/osd_refiner.hpp"
 
 #include <gtest/gtest.h>
 #include <opensubdiv/bfr/refinerSurfaceFactory.h>

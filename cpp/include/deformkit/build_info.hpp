@@ -1,4 +1,5 @@
 #pragma once
+// The library as a whole (every family): versions compiled in and the SIMD target chosen at run time.
 #include <string>
 #include <utility>
 #include <vector>

@@ -1,0 +1,47 @@
+#pragma once
+// A Barr operator placed in object space by a frame and an axis permutation.
+#include "deformkit/barr/barr.hpp"
+#include "deformkit/core/deformer.hpp"
+#include "deformkit/core/frame.hpp"
+
+namespace deformkit {
+
+class BarrDeformer : public Deformer {
+ public:
+  BarrDeformer(BarrOp op, Placement placement);
+  const BarrOp& op() const { return op_; }
+  const Placement& placement() const { return placement_; }
+  bool is_identity() const override;
+
+ protected:
+  bool deform_impl(const float* in, float* out, std::size_t n) const override;
+  bool deform_impl(const double* in, double* out, std::size_t n) const override;
+  void jacobian_impl(const double* in, double* jac, std::size_t n) const override;
+
+ private:
+  template <class T> bool deform_any(const T* in, T* out, std::size_t n) const;
+  BarrOp op_;
+  Placement placement_;
+};
+
+// Barr's deformers, any axis, any frame. `axis` is the deform axis for twist, taper and
+// stretch (it becomes canonical z), and the kept axis for bend (canonical x); the other two
+// axes follow cyclically, so the placement keeps handedness.
+class Twist : public BarrDeformer {  // theta = f(z)
+ public:
+  Twist(const Profile& theta, int axis, const Frame& frame);
+};
+class Taper : public BarrDeformer {  // r = f(z)
+ public:
+  Taper(const Profile& radius, int axis, const Frame& frame);
+};
+class Stretch : public BarrDeformer {  // Blender: s = 1 + k (z^2 - 1)
+ public:
+  Stretch(double factor, double lo, double hi, int axis, const Frame& frame);
+};
+class Bend : public BarrDeformer {  // Barr: theta = k (y^ - y0) on [y_min, y_max]
+ public:
+  Bend(double curvature, double center, double lo, double hi, int axis, const Frame& frame);
+};
+
+}  // namespace deformkit

@@ -1,0 +1,43 @@
+#pragma once
+// Blender's Simple Deform modifier (MOD_simpledeform), reproduced: the amount is spread over
+// the limited extent of the input measured in the origin frame, k = amount / (L1 - L0).
+#include "deformkit/barr/barr_deformer.hpp"
+
+namespace deformkit {
+
+enum class SimpleDeformMode : int { Twist = 0, Bend = 1, Taper = 2, Stretch = 3 };
+
+struct SimpleDeformSettings {
+  SimpleDeformMode mode = SimpleDeformMode::Twist;
+  double factor = 0.785398163397448;  // Blender's DNA default, 45 degrees
+  int deform_axis = 0;                // X
+  Frame origin;                       // origin frame in the object's local space
+  double limit_lo = 0.0, limit_hi = 1.0;
+  std::array<bool, 3> lock{false, false, false};
+};
+
+// Which object axis the limits and the bounding pass measure.
+int simple_deform_limit_axis(const SimpleDeformSettings& s);
+
+class SimpleDeform : public Deformer {
+ public:
+  explicit SimpleDeform(SimpleDeformSettings settings);
+  const SimpleDeformSettings& settings() const { return settings_; }
+  // Every mode with a zero angle or factor leaves points where they are (MOD_simpledeform).
+  bool is_identity() const override { return settings_.factor == 0.0; }
+  // The Barr operator Blender would apply to these points (bounds measured from them);
+  // nullptr when Blender leaves them unchanged (bend with |k| < 1e-6).
+  template <class T>
+  std::shared_ptr<BarrDeformer> resolve(const T* points, std::size_t n) const;
+
+ protected:
+  bool deform_impl(const float* in, float* out, std::size_t n) const override;
+  bool deform_impl(const double* in, double* out, std::size_t n) const override;
+  void jacobian_impl(const double* in, double* jac, std::size_t n) const override;
+
+ private:
+  template <class T> bool deform_any(const T* in, T* out, std::size_t n) const;
+  SimpleDeformSettings settings_;
+};
+
+}  // namespace deformkit

@@ -1,0 +1,93 @@
+#pragma once
+// The interface every spatial deformer shares: positions, Jacobians and what follows from them.
+#include "deformkit/core/types.hpp"
+
+#include <memory>
+#include <vector>
+
+namespace deformkit {
+
+// Points are n x 3 row-major arrays; Jacobians n x 3 x 3 row-major (J[i][r][c] = dF_r/dx_c).
+class Deformer {
+ public:
+  virtual ~Deformer() = default;
+
+  // out may alias in. Throws std::invalid_argument naming `points` when a row is not finite, and
+  // when a finite row maps to a non-finite position (parameters that overflow there).
+  void deform(const float* in, float* out, std::size_t n) const;
+  void deform(const double* in, double* out, std::size_t n) const;
+  // As deform, for input already known to be finite (a previous stage's output): an in-place
+  // call then skips the check that must otherwise precede overwriting the input.
+  void deform_verified(const float* in, float* out, std::size_t n) const;
+  void deform_verified(const double* in, double* out, std::size_t n) const;
+  // Throws as deform does for a finite row whose Jacobian is not finite; with float32_result, also
+  // for one whose entries do not fit a float (the caller hands float32 back).
+  void jacobian(const double* in, double* jac, std::size_t n, bool float32_result = false) const;
+  // F(x) - x: what an offset-based consumer (Blender's Geometry Nodes) adds to the points.
+  // Throws as deform does where F(x) - x overflows although F(x) does not.
+  void displacement(const float* in, float* out, std::size_t n) const;
+  void displacement(const double* in, double* out, std::size_t n) const;
+
+  // True when the map is the identity for every point (zero angle, factor or curvature, control
+  // points at rest): deform then returns its input bit for bit, however large, and J = I.
+  virtual bool is_identity() const { return false; }
+
+  // Per-point blend between the original and the deformed position (Blender's vertex group):
+  // x' = x + w (F(x) - x), so J' = (1 - w) I + w J. Each weight must lie in [0, 1], Blender's
+  // range, so that x' lies between x and F(x) and is finite wherever F(x) is.
+  void set_weights(std::vector<double> weights);
+  const std::vector<double>& weights() const { return weights_; }
+
+ protected:
+  // Return false when some input or output row is not finite (the output is then unspecified).
+  virtual bool deform_impl(const float* in, float* out, std::size_t n) const = 0;
+  virtual bool deform_impl(const double* in, double* out, std::size_t n) const = 0;
+  virtual void jacobian_impl(const double* in, double* jac, std::size_t n) const = 0;
+
+ private:
+  template <class T>
+  void deform_checked(const T* in, T* out, std::size_t n, bool input_verified) const;
+  std::vector<double> weights_;
+};
+
+using DeformerPtr = std::shared_ptr<const Deformer>;
+
+// Unit normals carried by the map: N' = det(J) J^-T N = cof(J) N, then normalised, for normals of
+// any non-zero length. A zero normal, or one whose plane the map collapses (cof(J) N = 0), gives 0.
+void transform_normals(const Deformer& d, const double* points, const double* normals,
+                       double* out, std::size_t n);
+// Local volume ratio det(J). Throws as deform does where det(J) overflows (a double, or a float
+// with float32_result).
+void volume_ratio(const Deformer& d, const double* points, double* out, std::size_t n,
+                  bool float32_result = false);
+
+// cof(J) = det(J) J^-T, defined (and continuous) also where J is singular.
+Mat3 cofactor(const Mat3& j);
+
+// Throws std::invalid_argument naming `argument` and the first non-finite row.
+template <class T>
+void require_finite_rows(const T* data, std::size_t n, const char* argument);
+
+// The one report of every output path: finite input row `row` gave a `what` ("position",
+// "Jacobian", ...) that is not finite, so the deformation overflows there.
+[[noreturn]] void throw_non_finite_result(std::size_t row, const char* what);
+// Throws throw_non_finite_result for the first of n rows (width values each) with an entry not
+// finite, or of magnitude above `limit` (FLT_MAX for results handed back as float32).
+template <class T>
+void require_finite_results(const T* values, std::size_t n, std::size_t width, const char* what,
+                            double limit = 1.7976931348623157e308);
+// As require_finite_results, for results of `points` (3 per row): a row whose coordinates exceed
+// 1e150, which squares past the double range under any non-trivial map, is blamed on `points`.
+template <class T>
+void require_finite_results_of(const T* values, std::size_t n, std::size_t width, const char* what, const T* points,
+                               double limit = 1.7976931348623157e308);
+
+// Blender's vertex-group blend x + w (f - x) for w in [0, 1]; where f - x overflows, the equal
+// (1 - w) x + w f, which lies between x and f and so is finite whenever both are.
+inline double blend_toward(double x, double f, double w) {
+  const double d = f - x;
+  if (d - d == 0.0) return x + w * d;
+  return (1.0 - w) * x + w * f;
+}
+
+}  // namespace deformkit

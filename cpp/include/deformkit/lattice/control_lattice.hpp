@@ -1,0 +1,125 @@
+#pragma once
+// What every lattice deformer shares: a grid of control points, tensor-product weights, and the
+// bind-once / deform-often path. F(x) = x + strength * sum_ijk w_ijk(x) (P_ijk - R_ijk), the
+// displacement form, which makes a lattice at rest the identity for every basis.
+#include "deformkit/core/buffer.hpp"
+#include "deformkit/core/deformer.hpp"
+#include "deformkit/lattice/lattice_basis.hpp"
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace deformkit {
+
+enum class PointStatus : std::uint8_t {
+  Inside = 0,     // placed inside the lattice
+  Outside = 1,    // outside; the outside policy decides
+  NotPlaced = 2,  // the inversion did not converge (extended FFD): left unchanged
+};
+
+// Each point's lattice coordinates, found once; deforming after control points move needs
+// nothing else. Points are sorted by lattice cell so that a cell's control points are loaded
+// once and its points fill the SIMD lanes; the weights are regenerated from the coordinates in
+// registers, which is cheaper than streaming 64 stored weights per point from memory.
+struct LatticeBinding {
+  std::array<int, 3> resolution{};
+  std::uint64_t layout = 0;          // identifies the lattice's bases and resolution
+  bool single_precision = false;     // points were float32: deform_bound returns float32
+  Buffer<double> parameters;         // 3n, normalised lattice coordinates
+  Buffer<std::uint8_t> status;       // n, PointStatus
+  std::size_t size() const { return status.size(); }
+
+  // Sorted by cell: sorted position i is point order[i]; run r is [run_begin[r], run_begin[r+1]).
+  Buffer<std::uint32_t> order;
+  std::vector<std::uint32_t> run_begin;
+  std::vector<std::int32_t> run_cell;               // index into cells
+  std::vector<std::array<std::int32_t, 3>> cells;   // distinct cells: the piece per axis
+  std::vector<std::uint8_t> cell_moves;             // 0: the cell's points are left unchanged
+  // Structure of arrays in sorted order: local t0, t1, t2 then x, y, z (one of the two is used).
+  Buffer<float> sorted_f;
+  Buffer<double> sorted_d;
+};
+
+// Rows of the sparse weight matrix W (deform = x + strength W (P - R), before any per-point
+// blend weights), over flattened control points (i * nv + j) * nw + k; duplicate columns
+// (Blender's index clamping) merged.
+struct SparseWeights {
+  std::vector<std::int64_t> indptr;
+  std::vector<std::int32_t> indices;
+  std::vector<double> values;
+};
+
+class ControlLattice : public Deformer {
+ public:
+  const LatticeAxes& axes() const { return axes_; }
+  std::array<int, 3> resolution() const { return {axes_[0].count, axes_[1].count, axes_[2].count}; }
+  std::size_t control_count() const { return rest_.size() / 3; }
+  const std::vector<double>& rest_control_points() const { return rest_; }
+  const std::vector<double>& control_points() const { return control_; }
+  // Throws std::invalid_argument naming control_points for a wrong size, non-finite entries, or
+  // merged control points given different positions.
+  void set_control_points(std::vector<double> grid);
+  double strength() const { return strength_; }
+  bool is_identity() const override { return strength_ == 0.0 || at_rest_; }
+  Outside outside() const { return outside_; }
+  // Control points merged into one handle (extended FFD: coincident at rest); identity otherwise.
+  const std::vector<int>& handle_of() const { return handle_of_; }
+  int handle_count() const { return handle_count_; }
+  std::uint64_t layout() const;
+
+  LatticeBinding bind(const double* points, std::size_t n) const;
+  LatticeBinding bind(const float* points, std::size_t n) const;
+  // Throws std::invalid_argument naming `binding` when it was made by a lattice of another layout.
+  // Per-point weights, if set, blend as in deform() and must match the bound points.
+  void deform_bound(const LatticeBinding& binding, double* out) const;
+  void deform_bound(const LatticeBinding& binding, float* out) const;
+  SparseWeights weights_matrix(const LatticeBinding& binding) const;
+
+ protected:
+  ControlLattice(const LatticeAxes& axes, std::vector<double> rest, Outside outside, double strength);
+  void merge_coincident_control_points(double tolerance);
+  // Whatever else the lattice coordinates depend on (extended FFD: the Newton settings).
+  std::uint64_t layout_salt_ = 0;
+
+  // Lattice coordinates and status of one finite point.
+  virtual PointStatus locate(const Vec3& x, Vec3& parameters) const = 0;
+  // d(parameters)/dx at a placed point.
+  virtual Mat3 parameter_jacobian(const Vec3& parameters) const = 0;
+
+  bool displaces(PointStatus s) const {
+    return s == PointStatus::Inside || (s == PointStatus::Outside && outside_ != Outside::Unchanged);
+  }
+  // sum w (P - R) at the given coordinates, and optionally its derivatives d/d(s,t,u) as columns.
+  Vec3 displacement_at(const Vec3& parameters, Mat3* derivative) const;
+  // sum w R and d/d(s,t,u): the rest map, for lattices whose rest shape is not a box.
+  Vec3 rest_map(const Vec3& parameters, Mat3* derivative) const;
+
+ private:
+  bool deform_impl(const float* in, float* out, std::size_t n) const override;
+  bool deform_impl(const double* in, double* out, std::size_t n) const override;
+  void jacobian_impl(const double* in, double* jac, std::size_t n) const override;
+  template <class T>
+  bool deform_points(const T* in, T* out, std::size_t n) const;
+  template <class T>
+  LatticeBinding bind_points(const T* in, std::size_t n) const;
+  template <class T>
+  bool deform_bound_points(const LatticeBinding& b, T* out) const;
+  template <class T>
+  void sort_by_cell(LatticeBinding& b, const T* in, const std::uint64_t* key) const;
+  std::uint64_t cell_key(const Vec3& parameters, double* local) const;
+  std::uint64_t still_key() const;
+  template <class T>
+  void cell_block(const std::array<std::int32_t, 3>& cell, T* block) const;
+  Vec3 contract(const std::vector<double>& grid, const Vec3& parameters, Mat3* derivative) const;
+
+  LatticeAxes axes_;
+  std::vector<double> rest_, control_, offset_;  // offset_ = control_ - rest_
+  bool at_rest_ = true;                           // offset_ is all zero
+  Outside outside_;
+  double strength_;
+  std::vector<int> handle_of_;
+  int handle_count_ = 0;
+};
+
+}  // namespace deformkit

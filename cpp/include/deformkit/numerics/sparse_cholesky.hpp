@@ -1,0 +1,42 @@
+#pragma once
+// Sparse Cholesky factorisation of a symmetric positive definite matrix with CHOLMOD (SuiteSparse):
+// factorised once, then solved for several right-hand sides in one pass over the factor, which is
+// what makes a re-solve of the three coordinates cheap (the solve is bound by memory traffic).
+#include "deformkit/numerics/sparse.hpp"
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <memory>
+
+namespace deformkit {
+
+struct CholeskyFactor;
+
+// Supernodal (dense blocks through BLAS) factorises faster on every mesh system measured (the
+// cotangent Laplacian, its square, the rotation-invariant system); simplicial L D L^T is kept for
+// small or very sparse systems and as the second code path the tests compare.
+enum class CholeskyKind { Simplicial, Supernodal };
+
+class SparseCholesky {
+ public:
+  SparseCholesky();
+  ~SparseCholesky();
+  SparseCholesky(const SparseCholesky&) = delete;
+  SparseCholesky& operator=(const SparseCholesky&) = delete;
+
+  // Factorises a (its lower triangle is read). Returns false if a is not positive definite;
+  // throws std::bad_alloc when CHOLMOD runs out of memory.
+  bool factorize(const SparseMatrix& a, CholeskyKind kind);
+  // X with A X = B, all columns of b at once (on every core). Safe to call from several threads.
+  Eigen::MatrixXd solve(const Eigen::MatrixXd& b) const;
+  bool empty() const;
+  std::size_t factor_nonzeros() const;
+  const CholeskyFactor& factor() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace deformkit

@@ -1,0 +1,91 @@
+#pragma once
+// Surface deformers on a triangle mesh: Laplacian editing (Sorkine et al. 2004) and
+// as-rigid-as-possible deformation (Sorkine and Alexa 2007), with the system over the free
+// vertices factorised once at construction, so that moving handles only back-substitutes.
+#include "deformkit/surface/cotangent_laplacian.hpp"
+#include "deformkit/core/types.hpp"
+
+#include "deformkit/numerics/sparse_cholesky.hpp"
+
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace deformkit {
+
+enum class SurfaceMethod { Laplacian, RotationInvariant, Arap };
+
+struct SurfaceSettings {
+  SurfaceMethod method = SurfaceMethod::Arap;
+  bool uniform_weights = false;
+  int iterations = 10;     // ARAP local/global iterations; rotation-invariant rotation passes
+  double tolerance = 0.0;  // > 0: stop when the relative energy decrease falls below it
+  // None: anchors and handles are hard constraints (met exactly). w: soft, each adding
+  // w^2 ||x_i - c_i||^2 to the least-squares energy (Sorkine et al. 2004, eq. 5), 2 w^2 ||.||^2 to
+  // ARAP's, whose sum over edges counts every edge twice. w must lie in [kMinConstraintWeight,
+  // kMaxConstraintWeight].
+  std::optional<double> constraint_weight;
+};
+
+// The Laplacian's weights are dimensionless and near 1 (cotangents, or 1), so w^2 is measured
+// against 1: beyond 1e16 the Laplacian terms are lost in the rounding of the soft ones (the
+// solve is the hard one), below 1e-8 the soft terms are lost in the Laplacian's (they hold
+// nothing, and a mesh held only by them is singular).
+constexpr double kMinConstraintWeight = 1e-4, kMaxConstraintWeight = 1e8;
+
+class SurfaceDeformer {
+ public:
+  // Throws std::invalid_argument naming anchors, handles or roi for bad indices, and iterations
+  // or tolerance for bad settings.
+  SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, std::vector<int> handles,
+                  const std::optional<std::vector<int>>& roi, SurfaceSettings settings);
+
+  // New positions (3n) with the handles at targets (3 per handle). Records energy() for ARAP.
+  // Calls on one deformer from several threads run one after the other.
+  std::vector<double> deform(const double* targets);
+
+  std::size_t vertex_count() const { return mesh_.vertex_count(); }
+  std::size_t handle_count() const { return handles_.size(); }
+  std::size_t free_count() const { return free_.size(); }
+  std::size_t factor_nonzeros() const { return solver_.factor_nonzeros(); }
+  const SurfaceSettings& settings() const { return settings_; }
+  const std::vector<std::string>& warnings() const { return warnings_; }
+  std::vector<double> energy() const {
+    const std::lock_guard<std::mutex> lock(deforming_);
+    return energy_;
+  }
+
+ private:
+  using Matrix = Eigen::Matrix<double, Eigen::Dynamic, 3>;
+  Matrix solve(const Matrix& rhs_free, const Matrix& fixed) const;
+  void factorize(const SparseMatrix& system, CholeskyKind kind);
+  Matrix soft_targets(const double* targets) const;
+  void fit_rotations(const Matrix& x, std::vector<Mat3>& rotations) const;
+  Matrix arap_rhs(const std::vector<Mat3>& rotations) const;
+  double arap_energy(const Matrix& x, const std::vector<Mat3>& rotations) const;
+  SparseMatrix implicit_transform_system() const;
+  void factorize_rotation_invariant(const std::vector<int>& component, int components, const std::vector<char>& held);
+  bool loosely_held(const std::vector<int>& component, int components, const std::vector<char>& held) const;
+
+  TriangleMesh mesh_;
+  SurfaceSettings settings_;
+  std::vector<int> handles_;
+  std::vector<int> free_, fixed_;              // vertex lists: solved for, held exactly
+  std::vector<int> free_index_, fixed_index_;  // vertex -> position in those lists, or -1
+  std::vector<int> soft_, soft_handle_;        // softly held free positions; their handle or -1 (anchor)
+  Matrix rest_;
+  SparseMatrix laplacian_;                     // with the clamped weights
+  std::vector<std::vector<std::pair<int, double>>> neighbors_;  // (j, w_ij)
+  SparseMatrix free_part_, fixed_part_;        // Laplacian: L(:, free), L(:, fixed); ARAP: rows free only
+  SparseCholesky solver_;                      // ARAP: L_ff; Laplacian and rotation-invariant: L^T L
+  SparseMatrix ri_free_, ri_fixed_;            // rotation-invariant: the 3n x 3n system's columns
+  SparseCholesky ri_solver_;
+  Matrix delta_;                               // L rest: the differential coordinates
+  std::vector<std::string> warnings_;
+  std::vector<double> energy_;
+  mutable std::mutex deforming_;  // deform() records energy_: one call at a time per deformer
+  double ridge_ = 0.0;            // rotation-invariant: the regularisation of a loosely held mesh
+};
+
+}  // namespace deformkit

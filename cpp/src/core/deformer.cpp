@@ -1,0 +1,264 @@
+#include "deformkit/core/deformer.hpp"
+
+#include "core/parallel.hpp"
+#include "core/scale_free.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+namespace deformkit {
+
+template <class T>
+void require_finite_rows(const T* data, std::size_t n, const char* argument) {
+  for (std::size_t i = 0; i < n; ++i) {
+    if (std::isfinite(data[3 * i]) && std::isfinite(data[3 * i + 1]) && std::isfinite(data[3 * i + 2]))
+      continue;
+    std::ostringstream msg;
+    msg << argument << ": row " << i << " is not finite (" << data[3 * i] << ", " << data[3 * i + 1] << ", "
+        << data[3 * i + 2] << ")";
+    throw std::invalid_argument(msg.str());
+  }
+}
+template void require_finite_rows<float>(const float*, std::size_t, const char*);
+template void require_finite_rows<double>(const double*, std::size_t, const char*);
+
+void throw_non_finite_result(std::size_t row, const char* what) {
+  throw std::invalid_argument("deformer: row " + std::to_string(row) + " maps to a non-finite " + what +
+                              ": the parameters overflow there");
+}
+
+constexpr double kDoubleMax = std::numeric_limits<double>::max();
+
+// 0 * v is NaN exactly when v is NaN or infinite; the simd reductions let this vectorise. rows
+// of `width` values; with a limit below DBL_MAX the largest magnitude is compared too.
+template <class T>
+static bool all_finite(const T* data, std::size_t rows, std::size_t width, double limit = kDoubleMax) {
+  std::atomic<bool> finite{true};
+  parallel_blocks(rows, [&](std::size_t begin, std::size_t end) {
+    T acc = 0, top = 0;
+    if (limit < kDoubleMax) {
+#pragma omp simd reduction(+ : acc) reduction(max : top)
+      for (std::size_t i = width * begin; i < width * end; ++i) {
+        acc += data[i] * T(0);
+        top = std::max(top, std::abs(data[i]));
+      }
+    } else {
+#pragma omp simd reduction(+ : acc)
+      for (std::size_t i = width * begin; i < width * end; ++i) acc += data[i] * T(0);
+    }
+    if (acc != acc || !(top <= limit)) finite = false;
+  });
+  return finite;
+}
+
+template <class T>
+static bool row_is_bad(const T* row, std::size_t width, double limit) {
+  for (std::size_t e = 0; e < width; ++e)
+    if (!(std::abs(row[e]) <= limit)) return true;  // NaN included
+  return false;
+}
+
+template <class T>
+void require_finite_results(const T* values, std::size_t n, std::size_t width, const char* what, double limit) {
+  if (all_finite(values, n, width, limit)) return;
+  for (std::size_t i = 0; i < n; ++i)
+    if (row_is_bad(values + width * i, width, limit)) throw_non_finite_result(i, what);
+}
+template void require_finite_results<float>(const float*, std::size_t, std::size_t, const char*, double);
+
+// Row i's `what` overflowed. A point beyond the square root of the result's range (1.3e154 for
+// float64, 1.8e19 for float32) overflows under any non-trivial map: it is to blame, otherwise
+// the parameters are.
+template <class T>
+[[noreturn]] static void blame_row(std::size_t i, const char* what, const T* x, double limit) {
+  if (std::max({std::abs(double(x[0])), std::abs(double(x[1])), std::abs(double(x[2]))}) > std::sqrt(limit)) {
+    std::ostringstream msg;
+    msg << "points: row " << i << " maps to a non-finite " << what << ": its coordinates (" << x[0] << ", " << x[1]
+        << ", " << x[2] << ") are too large for this deformer";
+    throw std::invalid_argument(msg.str());
+  }
+  throw_non_finite_result(i, what);
+}
+
+template <class T>
+void require_finite_results_of(const T* values, std::size_t n, std::size_t width, const char* what, const T* points,
+                               double limit) {
+  if (all_finite(values, n, width, limit)) return;
+  for (std::size_t i = 0; i < n; ++i)
+    if (row_is_bad(values + width * i, width, limit))
+      blame_row(i, what, points + 3 * i, std::min(limit, double(std::numeric_limits<T>::max())));
+}
+template void require_finite_results_of<float>(const float*, std::size_t, std::size_t, const char*, const float*,
+                                               double);
+template void require_finite_results_of<double>(const double*, std::size_t, std::size_t, const char*, const double*,
+                                                double);
+template void require_finite_results<double>(const double*, std::size_t, std::size_t, const char*, double);
+
+void Deformer::set_weights(std::vector<double> weights) {
+  if (weights.empty()) throw std::invalid_argument("weights: is empty (pass None for no weights)");
+  for (std::size_t i = 0; i < weights.size(); ++i) {
+    if (!std::isfinite(weights[i]))
+      throw std::invalid_argument("weights: entry " + std::to_string(i) + " is not finite");
+    if (!(weights[i] >= 0.0 && weights[i] <= 1.0)) {
+      std::ostringstream msg;
+      msg << "weights: entry " << i << " is " << weights[i] << "; expected a number in [0, 1] (as Blender's "
+          << "vertex-group weights)";
+      throw std::invalid_argument(msg.str());
+    }
+  }
+  weights_ = std::move(weights);
+}
+
+static void require_weight_count(const std::vector<double>& w, std::size_t n) {
+  if (!w.empty() && w.size() != n)
+    throw std::invalid_argument("weights: has " + std::to_string(w.size()) + " entries but points has " +
+                                std::to_string(n) + " rows");
+}
+
+template <class T>
+static void blend(const std::vector<double>& w, const T* in, T* out, std::size_t n) {
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i)
+      for (int a = 0; a < 3; ++a) {
+        out[3 * i + a] = static_cast<T>(blend_toward(in[3 * i + a], out[3 * i + a], w[i]));
+      }
+  });
+}
+
+// After an implementation reported a non-finite row: blame the input if it is the culprit,
+// otherwise the parameters, which made a finite point overflow.
+// In place (in == out) the input was checked before it was overwritten: only the parameters remain.
+template <class T>
+static void report_non_finite(const T* in, const T* out, std::size_t n) {
+  if (in == out) return require_finite_results(out, n, 3, "position");
+  require_finite_rows(in, n, "points");
+  require_finite_results_of(out, n, 3, "position", in);
+}
+
+template <class T>
+void Deformer::deform_checked(const T* in, T* out, std::size_t n, bool input_verified) const {
+  const std::vector<double>& w = weights_;
+  require_weight_count(w, n);
+  // In place, a non-finite row must be reported before anything is overwritten.
+  if (in == out && !input_verified && !all_finite(in, n, 3)) require_finite_rows(in, n, "points");
+  if (is_identity()) {  // exact, with no arithmetic that could round, flip -0.0 or overflow
+    if (in != out) {
+      if (!input_verified && !all_finite(in, n, 3)) require_finite_rows(in, n, "points");
+      std::copy(in, in + 3 * n, out);
+    }
+    return;
+  }
+  if (w.empty()) {
+    if (!deform_impl(in, out, n)) report_non_finite(in, out, n);
+    return;
+  }
+  // The blend needs the original positions, which an in-place call overwrites.
+  std::vector<T> original;
+  const T* source = in;
+  if (in == out) {
+    original.assign(in, in + 3 * n);
+    source = original.data();
+  }
+  if (!deform_impl(source, out, n)) report_non_finite(source, out, n);
+  blend(w, source, out, n);
+}
+
+void Deformer::deform(const float* in, float* out, std::size_t n) const { deform_checked(in, out, n, false); }
+void Deformer::deform(const double* in, double* out, std::size_t n) const { deform_checked(in, out, n, false); }
+void Deformer::deform_verified(const float* in, float* out, std::size_t n) const { deform_checked(in, out, n, true); }
+void Deformer::deform_verified(const double* in, double* out, std::size_t n) const { deform_checked(in, out, n, true); }
+
+template <class T>
+static void displace(const Deformer& d, const T* in, T* out, std::size_t n) {
+  if (in == out) throw std::invalid_argument("out: displacement cannot be written over points");
+  d.deform(in, out, n);
+  std::atomic<bool> finite{true};
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    T acc = 0;  // F(x) and x finite, F(x) - x may still overflow (x near the range's end, moved far)
+#pragma omp simd reduction(+ : acc)
+    for (std::size_t i = 3 * begin; i < 3 * end; ++i) {
+      out[i] -= in[i];
+      acc += out[i] * T(0);
+    }
+    if (acc != acc) finite = false;
+  });
+  if (!finite) require_finite_results_of(out, n, 3, "displacement", in);
+}
+
+void Deformer::displacement(const float* in, float* out, std::size_t n) const { displace(*this, in, out, n); }
+void Deformer::displacement(const double* in, double* out, std::size_t n) const { displace(*this, in, out, n); }
+
+static void blend_jacobians(const std::vector<double>& w, double* jac, std::size_t n) {
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i)
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) {
+          double& j = jac[9 * i + 3 * r + c];
+          j = w[i] * j + (r == c ? 1.0 - w[i] : 0.0);
+        }
+  });
+}
+
+void Deformer::jacobian(const double* in, double* jac, std::size_t n, bool float32_result) const {
+  require_weight_count(weights_, n);
+  require_finite_rows(in, n, "points");
+  if (is_identity()) {
+    for (std::size_t i = 0; i < 9 * n; ++i) jac[i] = (i % 9) % 4 == 0 ? 1.0 : 0.0;
+    return;
+  }
+  jacobian_impl(in, jac, n);
+  // (1 - w) I + w J with w in [0, 1] is finite where J is: one check after the blend serves both.
+  const double limit = float32_result ? double(std::numeric_limits<float>::max()) : kDoubleMax;
+  if (!weights_.empty()) blend_jacobians(weights_, jac, n);
+  if (!all_finite(jac, n, 9, limit))
+    for (std::size_t i = 0; i < n; ++i)
+      if (row_is_bad(jac + 9 * i, 9, limit)) blame_row(i, "Jacobian", in + 3 * i, limit);
+}
+
+Mat3 cofactor(const Mat3& j) {
+  // Columns of cof(J) as in the lecture: [J2 x J3, J3 x J1, J1 x J2] are the rows of det(J) J^-1.
+  Mat3 rows;
+  rows.row(0) = j.col(1).cross(j.col(2)).transpose();
+  rows.row(1) = j.col(2).cross(j.col(0)).transpose();
+  rows.row(2) = j.col(0).cross(j.col(1)).transpose();
+  return rows.transpose();
+}
+
+static Mat3 read_mat(const double* p) {
+  Mat3 m;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) m(r, c) = p[3 * r + c];
+  return m;
+}
+
+void transform_normals(const Deformer& d, const double* points, const double* normals, double* out,
+                       std::size_t n) {
+  require_finite_rows(normals, n, "normals");
+  std::vector<double> jac(9 * n);
+  d.jacobian(points, jac.data(), n);
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const Vec3 m = normal_direction(read_mat(&jac[9 * i]), Vec3(normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]));
+      for (int a = 0; a < 3; ++a) out[3 * i + a] = m[a];
+    }
+  });
+}
+
+void volume_ratio(const Deformer& d, const double* points, double* out, std::size_t n, bool float32_result) {
+  std::vector<double> jac(9 * n);
+  d.jacobian(points, jac.data(), n);
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) out[i] = scaled_determinant(read_mat(&jac[9 * i]));
+  });
+  const double limit = float32_result ? double(std::numeric_limits<float>::max()) : kDoubleMax;
+  if (!all_finite(out, n, 1, limit))
+    for (std::size_t i = 0; i < n; ++i)
+      if (row_is_bad(out + i, 1, limit)) blame_row(i, "volume ratio", points + 3 * i, limit);
+}
+
+}  // namespace deformkit

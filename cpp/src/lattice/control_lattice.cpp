@@ -1,0 +1,590 @@
+#include "deformkit/lattice/control_lattice.hpp"
+
+#include "lattice/lattice_kernel.hpp"
+#include "core/parallel.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <unordered_map>
+
+namespace deformkit {
+
+namespace {
+
+// A finite point far enough from the lattice overflows its lattice coordinates (M^-1 (x - X0)).
+// Exceptions must not leave an OpenMP region, so rows are noted there and reported after it.
+class OverflowRows {
+ public:
+  void note(std::size_t i) {
+    std::size_t cur = first_.load();
+    while (i < cur && !first_.compare_exchange_weak(cur, i)) {
+    }
+  }
+  void raise() const {
+    if (first_.load() != kNone)
+      throw std::invalid_argument("points: row " + std::to_string(first_.load()) +
+                                  " lies so far from the lattice that its lattice coordinates overflow");
+  }
+
+ private:
+  static constexpr std::size_t kNone = ~std::size_t(0);
+  std::atomic<std::size_t> first_{kNone};
+};
+
+struct AxisWeights {
+  double w[kMaxAxisWidth], dw[kMaxAxisWidth];
+  int index[kMaxAxisWidth];
+  int width;
+};
+
+std::string grid_index(int flat, const std::array<int, 3>& res) {
+  const int k = flat % res[2], j = (flat / res[2]) % res[1], i = flat / (res[1] * res[2]);
+  return "[" + std::to_string(i) + ", " + std::to_string(j) + ", " + std::to_string(k) + "]";
+}
+
+}  // namespace
+
+ControlLattice::ControlLattice(const LatticeAxes& axes, std::vector<double> rest, Outside outside, double strength)
+    : axes_(axes), rest_(std::move(rest)), outside_(outside), strength_(strength) {
+  if (!std::isfinite(strength)) throw std::invalid_argument("strength: is not finite");
+  control_ = rest_;
+  offset_.assign(rest_.size(), 0.0);
+  handle_count_ = static_cast<int>(control_count());
+  handle_of_.resize(handle_count_);
+  for (int i = 0; i < handle_count_; ++i) handle_of_[i] = i;
+}
+
+void ControlLattice::merge_coincident_control_points(double tolerance) {
+  // Hash points into cells of the tolerance's size; a partner can only be in a neighbouring cell.
+  const int n = static_cast<int>(control_count());
+  auto cell = [&](int a, int d) { return static_cast<std::int64_t>(std::floor(rest_[3 * a + d] / tolerance)); };
+  auto hash = [](std::int64_t x, std::int64_t y, std::int64_t z) {
+    return std::uint64_t(x) * 73856093ull ^ std::uint64_t(y) * 19349663ull ^ std::uint64_t(z) * 83492791ull;
+  };
+  std::unordered_multimap<std::uint64_t, int> seen;  // cell hash -> earlier representative
+  std::vector<int> representative(n);
+  for (int a = 0; a < n; ++a) {
+    representative[a] = a;
+    const std::int64_t cx = cell(a, 0), cy = cell(a, 1), cz = cell(a, 2);
+    for (std::int64_t dx = -1; dx <= 1 && representative[a] == a; ++dx)
+      for (std::int64_t dy = -1; dy <= 1 && representative[a] == a; ++dy)
+        for (std::int64_t dz = -1; dz <= 1 && representative[a] == a; ++dz) {
+          const auto range = seen.equal_range(hash(cx + dx, cy + dy, cz + dz));
+          for (auto it = range.first; it != range.second; ++it) {
+            const int r = it->second;
+            const double d = std::hypot(rest_[3 * a] - rest_[3 * r], rest_[3 * a + 1] - rest_[3 * r + 1],
+                                        rest_[3 * a + 2] - rest_[3 * r + 2]);
+            if (d <= tolerance) {
+              representative[a] = r;
+              break;
+            }
+          }
+        }
+    if (representative[a] == a) seen.emplace(hash(cx, cy, cz), a);
+  }
+  std::vector<int> handle_id(n, -1);
+  handle_count_ = 0;
+  for (int a = 0; a < n; ++a)
+    if (representative[a] == a) handle_id[a] = handle_count_++;
+  for (int a = 0; a < n; ++a) handle_of_[a] = handle_id[representative[a]];
+}
+
+void ControlLattice::set_control_points(std::vector<double> grid) {
+  const auto res = resolution();
+  if (grid.size() != rest_.size())
+    throw std::invalid_argument("control_points: expected " + std::to_string(control_count()) + " points (" +
+                                std::to_string(res[0]) + " x " + std::to_string(res[1]) + " x " +
+                                std::to_string(res[2]) + "), got " + std::to_string(grid.size() / 3));
+  for (std::size_t i = 0; i < grid.size(); ++i)
+    if (!std::isfinite(grid[i]))
+      throw std::invalid_argument("control_points: point " + grid_index(int(i / 3), res) + " is not finite");
+  // Merged points are one handle: moving them apart would tear the lattice (a cylinder's seam).
+  std::vector<int> first(handle_count_, -1);
+  for (int a = 0; a < int(control_count()); ++a) {
+    int& f = first[handle_of_[a]];
+    if (f < 0) {
+      f = a;
+      continue;
+    }
+    const double d = std::hypot(grid[3 * a] - grid[3 * f], grid[3 * a + 1] - grid[3 * f + 1],
+                                grid[3 * a + 2] - grid[3 * f + 2]);
+    const double scale = 1.0 + std::abs(grid[3 * f]) + std::abs(grid[3 * f + 1]) + std::abs(grid[3 * f + 2]);
+    if (d > 1e-9 * scale)
+      throw std::invalid_argument("control_points: points " + grid_index(f, res) + " and " + grid_index(a, res) +
+                                  " coincide at rest and are one merged handle; move them together");
+  }
+  control_ = std::move(grid);
+  at_rest_ = true;
+  for (std::size_t i = 0; i < control_.size(); ++i) {
+    offset_[i] = control_[i] - rest_[i];
+    at_rest_ = at_rest_ && offset_[i] == 0.0;
+  }
+}
+
+std::uint64_t ControlLattice::layout() const {
+  // FNV-1a over the bases and the rest grid: a binding depends on both.
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](const void* p, std::size_t bytes) {
+    const auto* c = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < bytes; ++i) h = (h ^ c[i]) * 1099511628211ull;
+  };
+  for (const auto& a : axes_) {
+    mix(&a.kind, sizeof a.kind);
+    mix(&a.count, sizeof a.count);
+  }
+  mix(&outside_, sizeof outside_);
+  mix(&layout_salt_, sizeof layout_salt_);
+  mix(rest_.data(), rest_.size() * sizeof(double));
+  return h;
+}
+
+Vec3 ControlLattice::contract(const std::vector<double>& grid, const Vec3& p, Mat3* derivative) const {
+  AxisWeights ax[3];
+  for (int a = 0; a < 3; ++a) {
+    axes_[a].evaluate(axes_[a].locate(p[a], outside_), ax[a].w, derivative ? ax[a].dw : nullptr, ax[a].index);
+    ax[a].width = axes_[a].width();
+  }
+  const int nv = axes_[1].count, nw = axes_[2].count;
+  const double* g = grid.data();
+  double acc[3] = {0, 0, 0};
+  if (!derivative) {
+    for (int i = 0; i < ax[0].width; ++i)
+      for (int j = 0; j < ax[1].width; ++j) {
+        const double wij = ax[0].w[i] * ax[1].w[j];
+        const double* row = g + 3 * std::size_t(ax[0].index[i] * nv + ax[1].index[j]) * nw;
+        double r[3] = {0, 0, 0};
+        for (int k = 0; k < ax[2].width; ++k) {
+          const double* c = row + 3 * ax[2].index[k];
+          const double wk = ax[2].w[k];
+          r[0] += wk * c[0], r[1] += wk * c[1], r[2] += wk * c[2];
+        }
+        acc[0] += wij * r[0], acc[1] += wij * r[1], acc[2] += wij * r[2];
+      }
+    return Vec3(acc[0], acc[1], acc[2]);
+  }
+  Mat3 d = Mat3::Zero();
+  for (int i = 0; i < ax[0].width; ++i)
+    for (int j = 0; j < ax[1].width; ++j) {
+      const double* row = g + 3 * std::size_t(ax[0].index[i] * nv + ax[1].index[j]) * nw;
+      for (int k = 0; k < ax[2].width; ++k) {
+        const Vec3 c(row[3 * ax[2].index[k]], row[3 * ax[2].index[k] + 1], row[3 * ax[2].index[k] + 2]);
+        const double w = ax[0].w[i] * ax[1].w[j] * ax[2].w[k];
+        acc[0] += w * c[0], acc[1] += w * c[1], acc[2] += w * c[2];
+        d.col(0) += ax[0].dw[i] * ax[1].w[j] * ax[2].w[k] * c;
+        d.col(1) += ax[0].w[i] * ax[1].dw[j] * ax[2].w[k] * c;
+        d.col(2) += ax[0].w[i] * ax[1].w[j] * ax[2].dw[k] * c;
+      }
+    }
+  *derivative = d;
+  return Vec3(acc[0], acc[1], acc[2]);
+}
+
+Vec3 ControlLattice::displacement_at(const Vec3& parameters, Mat3* derivative) const {
+  return contract(offset_, parameters, derivative);
+}
+
+Vec3 ControlLattice::rest_map(const Vec3& parameters, Mat3* derivative) const {
+  return contract(rest_, parameters, derivative);
+}
+
+void ControlLattice::jacobian_impl(const double* in, double* jac, std::size_t n) const {
+  OverflowRows overflow;
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const Vec3 x(in[3 * i], in[3 * i + 1], in[3 * i + 2]);
+      Vec3 p;
+      Mat3 j = Mat3::Identity();
+      const PointStatus status = locate(x, p);
+      if (!p.allFinite()) {
+        overflow.note(i);
+        continue;
+      }
+      if (displaces(status)) {
+        Mat3 d;
+        displacement_at(p, &d);
+        j += strength_ * d * parameter_jacobian(p);
+      }
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) jac[9 * i + 3 * r + c] = j(r, c);
+    }
+  });
+  overflow.raise();
+}
+
+namespace {
+
+// The kernel's view of an axis, and the control points a piece touches in that view.
+KernelAxis kernel_axis(const AxisBasis& a) {
+  switch (a.kind) {
+    case BasisKind::Bernstein: return {KernelBasis::Bernstein, a.count, 0.0};
+    case BasisKind::BezierBlocks: return {KernelBasis::Bernstein, 4, 0.0};
+    case BasisKind::UniformBSpline:
+    case BasisKind::BlenderBSpline: return {a.count == 1 ? KernelBasis::Constant : KernelBasis::CubicBSpline,
+                                            a.count == 1 ? 1 : 4, 0.0};
+    case BasisKind::BlenderLinear: return {a.count == 1 ? KernelBasis::Constant : KernelBasis::Linear,
+                                           a.count == 1 ? 1 : 2, 0.0};
+    case BasisKind::BlenderCardinal: return {a.count == 1 ? KernelBasis::Constant : KernelBasis::Cardinal,
+                                             a.count == 1 ? 1 : 4, 0.71};
+    case BasisKind::BlenderCatmullRom: return {a.count == 1 ? KernelBasis::Constant : KernelBasis::Cardinal,
+                                               a.count == 1 ? 1 : 4, 0.5};
+  }
+  return {};
+}
+
+void kernel_indices(const AxisBasis& a, int piece, int* index) {
+  double w[kMaxAxisWidth];
+  int all[kMaxAxisWidth];
+  AxisSpan span;
+  span.piece = piece;
+  a.evaluate(span, w, nullptr, all);
+  // Linear uses the middle two of Blender's four indices; a single-point axis only the second.
+  const int first = a.kind == BasisKind::BlenderLinear || a.count == 1 ? (is_blender(a.kind) ? 1 : 0) : 0;
+  for (int k = 0; k < kernel_axis(a).width; ++k) index[k] = all[first + k];
+}
+
+}  // namespace
+
+template <class T>
+LatticeBinding ControlLattice::bind_points(const T* in, std::size_t n) const {
+  require_finite_rows(in, n, "points");
+  if (n >= (std::size_t(1) << 32)) throw std::invalid_argument("points: more than 2^32 - 1 rows");
+  LatticeBinding b;
+  b.resolution = resolution();
+  b.layout = layout();
+  b.single_precision = std::is_same<T, float>::value;
+  b.parameters.resize(3 * n);
+  b.status.resize(n);
+  Buffer<std::uint64_t> key(n);
+  const std::uint64_t still = still_key();
+  OverflowRows overflow;
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      Vec3 p;
+      PointStatus s = locate(Vec3(in[3 * i], in[3 * i + 1], in[3 * i + 2]), p);
+      if (!p.allFinite()) {
+        overflow.note(i);
+        s = PointStatus::NotPlaced, p = Vec3::Zero();
+      }
+      b.status[i] = static_cast<std::uint8_t>(s);
+      for (int a = 0; a < 3; ++a) b.parameters[3 * i + a] = p[a];
+      key[i] = displaces(s) ? cell_key(p, nullptr) : still;
+    }
+  });
+  overflow.raise();
+  sort_by_cell(b, in, key.data());
+  return b;
+}
+
+// Cell key: pieces offset by 2 (Blender's run from -2 to count), in a box of count + 4 per axis;
+// one more key for points left where they are.
+std::uint64_t ControlLattice::still_key() const {
+  return std::uint64_t(axes_[0].count + 4) * (axes_[1].count + 4) * (axes_[2].count + 4);
+}
+
+std::uint64_t ControlLattice::cell_key(const Vec3& p, double* t) const {
+  std::uint64_t k = 0;
+  for (int a = 0; a < 3; ++a) {
+    const AxisSpan span = axes_[a].locate(p[a], outside_);
+    if (t) t[a] = span.t;
+    k = k * std::uint64_t(axes_[a].count + 4) + std::uint64_t(span.piece + 2);
+  }
+  return k;
+}
+
+LatticeBinding ControlLattice::bind(const double* points, std::size_t n) const { return bind_points(points, n); }
+LatticeBinding ControlLattice::bind(const float* points, std::size_t n) const { return bind_points(points, n); }
+
+template <class T>
+void ControlLattice::sort_by_cell(LatticeBinding& b, const T* in, const std::uint64_t* key) const {
+  const std::size_t n = b.size();
+  const std::uint64_t r0 = axes_[0].count + 4, r1 = axes_[1].count + 4, r2 = axes_[2].count + 4;
+  const std::uint64_t still = still_key();
+  auto span = [&](std::size_t i, int a) { return axes_[a].locate(b.parameters[3 * i + a], outside_); };
+  Buffer<std::uint64_t> sorted_key(n);
+  b.order.resize(n);
+  if (still + 1 <= (std::uint64_t(1) << 14)) {
+    // Counting sort (linear, stable) within chunks of points: the kernel's scattered writes then
+    // stay inside one chunk's output, which fits in the L2 cache, whatever the point order.
+    constexpr std::size_t kChunk = 32768;
+    parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+      std::vector<std::uint32_t> start(still + 2);
+      for (std::size_t c = (begin + kChunk - 1) / kChunk * kChunk; c < end; c += kChunk) {
+        const std::size_t stop = std::min(n, c + kChunk);
+        std::fill(start.begin(), start.end(), 0u);
+        for (std::size_t i = c; i < stop; ++i) ++start[key[i] + 1];
+        for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+        for (std::size_t i = c; i < stop; ++i) {
+          const std::size_t to = c + start[key[i]]++;
+          b.order[to] = static_cast<std::uint32_t>(i);
+          sorted_key[to] = key[i];
+        }
+      }
+    });
+  } else {
+    for (std::size_t i = 0; i < n; ++i) b.order[i] = static_cast<std::uint32_t>(i);
+    std::stable_sort(b.order.begin(), b.order.end(), [key](std::uint32_t x, std::uint32_t y) { return key[x] < key[y]; });
+    for (std::size_t i = 0; i < n; ++i) sorted_key[i] = key[b.order[i]];
+  }
+  // Runs of one cell, and the distinct cells they use (a cell recurs in every chunk).
+  std::vector<std::int32_t> dense(still + 1 <= (std::uint64_t(1) << 22) ? still + 1 : 0, -1);
+  std::unordered_map<std::uint64_t, std::int32_t> sparse;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint64_t k = sorted_key[i];
+    if (i > 0 && k == sorted_key[i - 1]) continue;
+    b.run_begin.push_back(static_cast<std::uint32_t>(i));
+    std::int32_t& id = dense.empty() ? sparse.try_emplace(k, -1).first->second : dense[k];
+    if (id < 0) {
+      id = static_cast<std::int32_t>(b.cells.size());
+      b.cells.push_back({int(k / (r1 * r2) % r0) - 2, int(k / r2 % r1) - 2, int(k % r2) - 2});
+      b.cell_moves.push_back(k != still);
+    }
+    b.run_cell.push_back(id);
+  }
+  b.run_begin.push_back(static_cast<std::uint32_t>(n));
+  Buffer<T>& sorted = [&]() -> Buffer<T>& {
+    if constexpr (std::is_same<T, float>::value) return b.sorted_f;
+    else return b.sorted_d;
+  }();
+  sorted.resize(6 * n);
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const std::size_t p = b.order[i];
+      const bool moves = sorted_key[i] != still;
+      for (int a = 0; a < 3; ++a) {
+        sorted[a * n + i] = moves ? static_cast<T>(span(p, a).t) : T(0);
+        sorted[(3 + a) * n + i] = in[3 * p + a];
+      }
+    }
+  });
+}
+
+template <class T>
+void ControlLattice::cell_block(const std::array<std::int32_t, 3>& cell, T* block) const {
+  const KernelAxis k[3] = {kernel_axis(axes_[0]), kernel_axis(axes_[1]), kernel_axis(axes_[2])};
+  const int nv = axes_[1].count, nw = axes_[2].count;
+  int index[3][kMaxAxisWidth];
+  for (int a = 0; a < 3; ++a) kernel_indices(axes_[a], cell[a], index[a]);
+  std::size_t e = 0;
+  for (int i = 0; i < k[0].width; ++i)
+    for (int j = 0; j < k[1].width; ++j)
+      for (int l = 0; l < k[2].width; ++l) {
+        const double* c = &offset_[3 * ((std::size_t(index[0][i]) * nv + index[1][j]) * nw + index[2][l])];
+        for (int a = 0; a < 3; ++a) block[e++] = static_cast<T>(strength_ * c[a]);
+      }
+}
+
+// At rest the bound points come back as they were bound, bit for bit.
+template <class T>
+static void copy_bound(const LatticeBinding& b, const Buffer<T>& sorted, T* out) {
+  const std::size_t n = b.size();
+  for (std::size_t i = 0; i < n; ++i)
+    for (int a = 0; a < 3; ++a) out[3 * std::size_t(b.order[i]) + a] = sorted[(3 + a) * n + i];
+}
+
+template <class T>
+bool ControlLattice::deform_bound_points(const LatticeBinding& b, T* out) const {
+  if (b.layout != layout())
+    throw std::invalid_argument("binding: was made by a lattice with another basis, resolution or rest placement; "
+                                "bind the points to this lattice");
+  const Buffer<T>& sorted = [&]() -> const Buffer<T>& {
+    if constexpr (std::is_same<T, float>::value) return b.sorted_f;
+    else return b.sorted_d;
+  }();
+  if (sorted.size() != 6 * b.size())
+    throw std::invalid_argument(std::string("binding: holds ") + (b.single_precision ? "float32" : "float64") +
+                                " points; deform them into an array of that dtype");
+  if (is_identity()) {
+    copy_bound(b, sorted, out);
+    return true;
+  }
+  const std::size_t n = b.size();
+  const KernelAxis kaxes[3] = {kernel_axis(axes_[0]), kernel_axis(axes_[1]), kernel_axis(axes_[2])};
+  const std::size_t block_size = 3 * std::size_t(kaxes[0].width) * kaxes[1].width * kaxes[2].width;
+  // Each cell's control-point offsets, gathered once per call rather than once per run.
+  const bool table = b.cells.size() * block_size <= (std::size_t(1) << 22);
+  std::vector<T> blocks(table ? b.cells.size() * block_size : 0);
+  if (table)
+    parallel_blocks(b.cells.size() * 256, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t c = (begin + 255) / 256; c < (end + 255) / 256 && c < b.cells.size(); ++c)
+        if (b.cell_moves[c]) cell_block(b.cells[c], &blocks[c * block_size]);
+    });
+  std::atomic<bool> finite{true};
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    std::vector<T> own(table ? 0 : block_size);
+    bool ok = true;
+    std::size_t r = std::upper_bound(b.run_begin.begin(), b.run_begin.end(), begin) - b.run_begin.begin() - 1;
+    for (; r + 1 < b.run_begin.size() && b.run_begin[r] < end; ++r) {
+      const std::size_t lo = std::max<std::size_t>(begin, b.run_begin[r]), hi = std::min<std::size_t>(end, b.run_begin[r + 1]);
+      const std::int32_t c = b.run_cell[r];
+      if (!b.cell_moves[c]) {
+        for (std::size_t i = lo; i < hi; ++i)
+          for (int a = 0; a < 3; ++a) out[3 * std::size_t(b.order[i]) + a] = sorted[(3 + a) * n + i];
+        continue;
+      }
+      const T* block = table ? &blocks[c * block_size] : own.data();
+      if (!table) cell_block(b.cells[c], own.data());
+      const T* t[3] = {&sorted[lo], &sorted[n + lo], &sorted[2 * n + lo]};
+      const T* x[3] = {&sorted[3 * n + lo], &sorted[4 * n + lo], &sorted[5 * n + lo]};
+      ok = lattice_cell_kernel(kaxes, block, t, x, &b.order[lo], hi - lo, out) && ok;
+    }
+    if (!ok) finite = false;
+  });
+  return finite;
+}
+
+// Unbound points: the bound path chunk by chunk, with every buffer in cache and nothing kept.
+template <class T>
+bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
+  const std::uint64_t still = still_key();
+  const std::uint64_t r1 = axes_[1].count + 4, r2 = axes_[2].count + 4, r0 = axes_[0].count + 4;
+  if (still + 1 > (std::uint64_t(1) << 14)) {  // too many cells to sort by counting per chunk
+    for (std::size_t i = 0; i < 3 * n; ++i)
+      if (!std::isfinite(in[i])) return false;
+    return deform_bound_points(bind_points(in, n), out);
+  }
+  const KernelAxis kaxes[3] = {kernel_axis(axes_[0]), kernel_axis(axes_[1]), kernel_axis(axes_[2])};
+  const std::size_t block_size = 3 * std::size_t(kaxes[0].width) * kaxes[1].width * kaxes[2].width;
+  std::atomic<bool> finite{true};
+  OverflowRows overflow;
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    constexpr std::size_t kChunk = 8192;
+    std::vector<std::uint64_t> key(kChunk);
+    std::vector<std::uint32_t> order(kChunk), start(still + 2);
+    std::vector<double> local(3 * kChunk);
+    std::vector<T> soa(6 * kChunk), block(block_size);
+    bool ok = true, results_finite = true;  // input rows, and the kernel's results
+    for (std::size_t c = begin; c < end && ok; c += kChunk) {
+      const std::size_t m = std::min(kChunk, end - c);
+      std::fill(start.begin(), start.end(), 0u);
+      for (std::size_t i = 0; i < m; ++i) {
+        const Vec3 x(in[3 * (c + i)], in[3 * (c + i) + 1], in[3 * (c + i) + 2]);
+        if (!x.allFinite()) {
+          ok = false;
+          break;
+        }
+        Vec3 p;
+        const PointStatus status = locate(x, p);
+        if (!p.allFinite()) {
+          overflow.note(c + i);
+          ok = false;
+          break;
+        }
+        key[i] = displaces(status) ? cell_key(p, &local[3 * i]) : still;
+        ++start[key[i] + 1];
+      }
+      if (!ok) break;
+      for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+      for (std::size_t i = 0; i < m; ++i) {
+        const std::size_t to = start[key[i]]++;
+        order[to] = static_cast<std::uint32_t>(c + i);
+        for (int a = 0; a < 3; ++a) {
+          soa[a * kChunk + to] = key[i] == still ? T(0) : static_cast<T>(local[3 * i + a]);
+          soa[(3 + a) * kChunk + to] = in[3 * (c + i) + a];
+        }
+      }
+      // start[k] now ends cell k's run: walk the runs in key order.
+      for (std::size_t lo = 0; lo < m;) {
+        const std::uint64_t k = key[order[lo] - c];
+        const std::size_t hi = start[k];
+        if (k == still) {
+          for (std::size_t i = lo; i < hi; ++i)
+            for (int a = 0; a < 3; ++a) out[3 * std::size_t(order[i]) + a] = soa[(3 + a) * kChunk + i];
+        } else {
+          cell_block({int(k / (r1 * r2) % r0) - 2, int(k / r2 % r1) - 2, int(k % r2) - 2}, block.data());
+          const T* t[3] = {&soa[lo], &soa[kChunk + lo], &soa[2 * kChunk + lo]};
+          const T* x[3] = {&soa[3 * kChunk + lo], &soa[4 * kChunk + lo], &soa[5 * kChunk + lo]};
+          results_finite = lattice_cell_kernel(kaxes, block.data(), t, x, &order[lo], hi - lo, out) && results_finite;
+        }
+        lo = hi;
+      }
+    }
+    if (!ok || !results_finite) finite = false;
+  });
+  overflow.raise();
+  return finite;
+}
+
+bool ControlLattice::deform_impl(const float* in, float* out, std::size_t n) const { return deform_points(in, out, n); }
+bool ControlLattice::deform_impl(const double* in, double* out, std::size_t n) const {
+  return deform_points(in, out, n);
+}
+
+// deform() blends the per-point weights in the Deformer base; the bound path must do the same.
+template <class T>
+static void blend_bound(const LatticeBinding& b, const std::vector<double>& w, const Buffer<T>& sorted, T* out) {
+  const std::size_t n = b.size();
+  if (w.empty()) return;
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const std::size_t p = b.order[i];
+      for (int a = 0; a < 3; ++a) out[3 * p + a] = static_cast<T>(blend_toward(sorted[(3 + a) * n + i], out[3 * p + a], w[p]));
+    }
+  });
+}
+
+static void require_bound_weights(const std::vector<double>& w, const LatticeBinding& b) {
+  if (!w.empty() && w.size() != b.size())
+    throw std::invalid_argument("weights: has " + std::to_string(w.size()) + " entries but the binding has " +
+                                std::to_string(b.size()) + " points");
+}
+
+// As deform(): a result that overflows is an error, not inf or NaN handed back. Weights in [0, 1]
+// keep a blend of finite positions finite, so only the kernel's own report needs checking.
+void ControlLattice::deform_bound(const LatticeBinding& b, double* out) const {
+  require_bound_weights(weights(), b);
+  if (!deform_bound_points(b, out)) require_finite_results(out, b.size(), 3, "position");
+  if (!is_identity()) blend_bound(b, weights(), b.sorted_d, out);
+}
+void ControlLattice::deform_bound(const LatticeBinding& b, float* out) const {
+  require_bound_weights(weights(), b);
+  if (!deform_bound_points(b, out)) require_finite_results(out, b.size(), 3, "position");
+  if (!is_identity()) blend_bound(b, weights(), b.sorted_f, out);
+}
+
+SparseWeights ControlLattice::weights_matrix(const LatticeBinding& b) const {
+  if (b.layout != layout())
+    throw std::invalid_argument("binding: was made by a lattice with another basis, resolution or rest placement");
+  SparseWeights m;
+  m.indptr.reserve(b.size() + 1);
+  m.indptr.push_back(0);
+  const int nv = axes_[1].count, nw = axes_[2].count;
+  std::vector<std::pair<std::int32_t, double>> row;
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    row.clear();
+    if (displaces(static_cast<PointStatus>(b.status[i]))) {
+      AxisWeights ax[3];
+      for (int a = 0; a < 3; ++a) {
+        axes_[a].evaluate(axes_[a].locate(b.parameters[3 * i + a], outside_), ax[a].w, nullptr, ax[a].index);
+        ax[a].width = axes_[a].width();
+      }
+      for (int p = 0; p < ax[0].width; ++p)
+        for (int q = 0; q < ax[1].width; ++q)
+          for (int r = 0; r < ax[2].width; ++r) {
+            const double w = ax[0].w[p] * ax[1].w[q] * ax[2].w[r];
+            if (!std::isfinite(w))  // 'extrapolate' far outside: the polynomials overflow
+              throw std::invalid_argument("binding: point " + std::to_string(i) + " lies so far outside the lattice "
+                                          "that its extrapolated weights overflow");
+            if (w != 0.0) row.emplace_back((ax[0].index[p] * nv + ax[1].index[q]) * nw + ax[2].index[r], w);
+          }
+      std::sort(row.begin(), row.end());
+    }
+    for (std::size_t k = 0; k < row.size(); ++k) {
+      if (!m.indices.empty() && m.indptr.back() < std::int64_t(m.indices.size()) && m.indices.back() == row[k].first)
+        m.values.back() += row[k].second;
+      else {
+        m.indices.push_back(row[k].first);
+        m.values.push_back(row[k].second);
+      }
+    }
+    m.indptr.push_back(static_cast<std::int64_t>(m.indices.size()));
+  }
+  return m;
+}
+
+}  // namespace deformkit

@@ -1,0 +1,175 @@
+#include "numerics/cholesky_factor.hpp"
+
+#include "core/parallel.hpp"
+
+#include <algorithm>
+#include <numeric>
+#include <queue>
+
+namespace deformkit {
+
+void CholeskyFactor::schedule(int threads) {
+  const std::int32_t n = std::int32_t(size());
+  ranges.assign(std::size_t(std::max(threads, 1)), {});
+  top.clear();
+  top_position.assign(std::size_t(n), -1);
+  // Elimination tree (a column's parent is its first off-diagonal row), subtree sizes and work.
+  std::vector<std::int32_t> parent(std::size_t(n), -1), first(static_cast<std::size_t>(n));
+  std::vector<std::int64_t> work(static_cast<std::size_t>(n));
+  std::iota(first.begin(), first.end(), 0);
+  bool postordered = true;
+  for (std::int32_t j = 0; j < n; ++j) {
+    std::int32_t p = -1;
+    for (std::int64_t e = start[j] + 1; e < start[j + 1]; ++e) p = p < 0 ? row[e] : std::min(p, row[e]);
+    parent[j] = p;
+    work[j] += start[j + 1] - start[j];
+    if (p >= 0) {
+      postordered &= p > j;
+      work[p] += work[j];
+      first[p] = std::min(first[p], first[j]);
+    }
+  }
+  std::vector<std::vector<std::int32_t>> children(static_cast<std::size_t>(n));
+  std::vector<std::int64_t> count(std::size_t(n), 1);
+  for (std::int32_t j = 0; j < n; ++j)
+    if (parent[j] >= 0) children[parent[j]].push_back(j), count[parent[j]] += count[j];
+  for (std::int32_t j = 0; j < n && postordered; ++j) postordered = count[j] == j - first[j] + 1;
+  const std::int64_t total = start[std::size_t(n)];
+  if (threads <= 1 || !postordered || total < 200000) {
+    ranges.resize(1);
+    if (n) ranges[0].emplace_back(0, n - 1);
+    return;
+  }
+  // Greedy: cut the heaviest subtree (its root joins the top) until the subtrees share out over
+  // the cores within 5%, or the top holds 15% of the work.
+  auto heavier = [&](std::int32_t a, std::int32_t b) { return work[a] < work[b]; };
+  std::priority_queue<std::int32_t, std::vector<std::int32_t>, decltype(heavier)> open(heavier);
+  for (std::int32_t j = 0; j < n; ++j)
+    if (parent[j] < 0) open.push(j);
+  std::int64_t top_work = 0;
+  std::vector<std::int32_t> chosen;
+  for (int step = 0; step < 1024 && !open.empty(); ++step) {
+    std::vector<std::int32_t> subtrees;
+    for (auto copy = open; !copy.empty(); copy.pop()) subtrees.push_back(copy.top());
+    std::vector<std::int64_t> load(ranges.size(), 0);
+    for (std::int32_t r : subtrees) *std::min_element(load.begin(), load.end()) += work[r];
+    const std::int64_t busiest = *std::max_element(load.begin(), load.end());
+    const std::int64_t share = (total - top_work) / std::int64_t(ranges.size());
+    if (busiest <= share + share / 20 || top_work * 100 > total * 15) {
+      chosen = subtrees;
+      break;
+    }
+    const std::int32_t r = open.top();
+    open.pop();
+    top.push_back(r);
+    top_work += start[r + 1] - start[r];
+    for (std::int32_t c : children[r]) open.push(c);
+  }
+  if (chosen.empty())
+    for (; !open.empty(); open.pop()) chosen.push_back(open.top());
+  std::vector<std::int64_t> load(ranges.size(), 0);
+  for (std::int32_t r : chosen) {  // heaviest first, each to the least loaded core
+    const auto t = std::size_t(std::min_element(load.begin(), load.end()) - load.begin());
+    load[t] += work[r];
+    ranges[t].emplace_back(first[r], r);
+  }
+  for (auto& list : ranges) std::sort(list.begin(), list.end());
+  std::sort(top.begin(), top.end());
+  for (std::size_t k = 0; k < top.size(); ++k) top_position[top[k]] = std::int32_t(k);
+}
+
+namespace {
+
+// The k right-hand sides sit side by side (y[i * K + c]) so that each entry of L is read once.
+template <int K>
+struct Solver {
+  const CholeskyFactor& f;
+  int k;
+  int width() const { return K > 0 ? K : k; }
+
+  // Column j of the forward substitution L y = b; rows outside [.., last] go to `shared`.
+  void forward(std::int32_t j, std::int32_t last, double* y, double* shared) const {
+    const int w = width();
+    double* yj = y + std::int64_t(j) * w;
+    if (!f.unit_diagonal)
+      for (int c = 0; c < w; ++c) yj[c] /= f.value[f.start[j]];
+    if constexpr (K > 0) {
+      double v[K];  // in registers: the stores below could alias yj as far as the compiler knows
+      for (int c = 0; c < K; ++c) v[c] = yj[c];
+      for (std::int64_t e = f.start[j] + 1; e < f.start[j + 1]; ++e) {
+        const std::int32_t i = f.row[e];
+        const double l = f.value[e];
+        double* yi = i <= last ? y + std::int64_t(i) * K : shared + std::int64_t(f.top_position[i]) * K;
+        for (int c = 0; c < K; ++c) yi[c] -= l * v[c];
+      }
+    } else {
+      for (std::int64_t e = f.start[j] + 1; e < f.start[j + 1]; ++e) {
+        const std::int32_t i = f.row[e];
+        const double l = f.value[e];
+        double* yi = i <= last ? y + std::int64_t(i) * w : shared + std::int64_t(f.top_position[i]) * w;
+        for (int c = 0; c < w; ++c) yi[c] -= l * yj[c];
+      }
+    }
+  }
+  // Column j of the backward substitution L^T x = y (after the diagonal).
+  void backward(std::int32_t j, double* x) const {
+    const int w = width();
+    double acc[K > 0 ? K : 1];
+    double* xj = x + std::int64_t(j) * w;
+    if constexpr (K > 0) {
+      for (int c = 0; c < K; ++c) acc[c] = xj[c];
+      for (std::int64_t e = f.start[j] + 1; e < f.start[j + 1]; ++e) {
+        const double* xi = x + std::int64_t(f.row[e]) * K;
+        for (int c = 0; c < K; ++c) acc[c] -= f.value[e] * xi[c];
+      }
+      for (int c = 0; c < K; ++c) xj[c] = f.unit_diagonal ? acc[c] : acc[c] / f.value[f.start[j]];
+    } else {
+      for (std::int64_t e = f.start[j] + 1; e < f.start[j + 1]; ++e) {
+        const double* xi = x + std::int64_t(f.row[e]) * w;
+        for (int c = 0; c < w; ++c) xj[c] -= f.value[e] * xi[c];
+      }
+      if (!f.unit_diagonal)
+        for (int c = 0; c < w; ++c) xj[c] /= f.value[f.start[j]];
+    }
+  }
+
+  void run(double* y) const {
+    const int w = width();
+    const int threads = forked_after_threads() ? 1 : int(f.ranges.size());  // 1 for a small factor
+    const std::int32_t n = std::int32_t(f.size());
+    std::vector<double> shared(f.ranges.size() * f.top.size() * std::size_t(w), 0.0);
+    const std::size_t stride = f.top.size() * std::size_t(w);
+#pragma omp parallel for num_threads(threads) schedule(static, 1)
+    for (int t = 0; t < int(f.ranges.size()); ++t)
+      for (const auto& [lo, hi] : f.ranges[t])
+        for (std::int32_t j = lo; j <= hi; ++j) forward(j, hi, y, shared.data() + std::size_t(t) * stride);
+    for (std::size_t t = 0; t < f.ranges.size(); ++t)
+      for (std::size_t p = 0; p < f.top.size(); ++p)
+        for (int c = 0; c < w; ++c) y[std::int64_t(f.top[p]) * w + c] += shared[t * stride + p * std::size_t(w) + std::size_t(c)];
+    for (std::int32_t j : f.top) forward(j, n, y, nullptr);
+    if (f.unit_diagonal)
+      for (std::int32_t j = 0; j < n; ++j)
+        for (int c = 0; c < w; ++c) y[std::int64_t(j) * w + c] /= f.value[f.start[j]];
+    for (auto it = f.top.rbegin(); it != f.top.rend(); ++it) backward(*it, y);
+#pragma omp parallel for num_threads(threads) schedule(static, 1)
+    for (int t = 0; t < int(f.ranges.size()); ++t)
+      for (auto range = f.ranges[t].rbegin(); range != f.ranges[t].rend(); ++range)
+        for (std::int32_t j = range->second; j >= range->first; --j) backward(j, y);
+  }
+};
+
+}  // namespace
+
+void CholeskyFactor::solve(const double* b, double* x, int k) const {
+  const std::size_t n = size();
+  std::vector<double> y(n * std::size_t(k));
+  for (std::size_t i = 0; i < n; ++i)
+    for (int c = 0; c < k; ++c) y[i * std::size_t(k) + std::size_t(c)] = b[std::size_t(perm[i]) + std::size_t(c) * n];
+  if (k == 3) Solver<3>{*this, k}.run(y.data());
+  else if (k == 1) Solver<1>{*this, k}.run(y.data());
+  else Solver<0>{*this, k}.run(y.data());
+  for (std::size_t i = 0; i < n; ++i)
+    for (int c = 0; c < k; ++c) x[std::size_t(perm[i]) + std::size_t(c) * n] = y[i * std::size_t(k) + std::size_t(c)];
+}
+
+}  // namespace deformkit
