@@ -133,8 +133,10 @@ struct Faces {
 // An (m, k) integer array, or a sequence of index sequences (polygons of mixed sizes).
 Faces parse_faces(const py::object& faces);
 
-// Bindings of the lattice family (lattice.cpp), the surface deformers (surface.cpp) and
-// subdivision (subdivision.cpp).
+// One binding file per family: core.cpp (Deformer, Stack, mesh_volume), barr.cpp, lattice.cpp,
+// surface.cpp, subdivision.cpp.
+void bind_core(py::module_& m);
+void bind_barr(py::module_& m);
 void bind_lattice(py::module_& m);
 void bind_surface(py::module_& m);
 void bind_subdivision(py::module_& m);
