@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import deformkit as dk
-from helpers import bezier_grid_eval, box_grid, cofactor_normals, csr_dense, fd_jacobian
+from support.helpers import bezier_grid_eval, box_grid, cofactor_normals, csr_dense, fd_jacobian
 
 BLOCKS = (2, 2, 1)
 COUNTS = tuple(3 * b + 1 for b in BLOCKS)

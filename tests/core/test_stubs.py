@@ -6,7 +6,7 @@ import re
 
 import deformkit._core as core
 
-STUB = pathlib.Path(__file__).resolve().parents[1] / "python/deformkit/_core.pyi"
+STUB = pathlib.Path(__file__).resolve().parents[2] / "python/deformkit/_core.pyi"
 
 
 def stub_tree():

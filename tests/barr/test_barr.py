@@ -4,7 +4,7 @@ import pytest
 import trimesh
 
 import deformkit as dk
-from helpers import random_frame
+from support.helpers import random_frame
 
 
 def fd_jacobian(d, pts, h=1e-6):

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import deformkit as dk
-from subdivision_meshes import CUBE_FACES, CUBE_POINTS, OCTAHEDRON_FACES, OCTAHEDRON_POINTS, grid, prism, sphere
+from support.subdivision_meshes import CUBE_FACES, CUBE_POINTS, OCTAHEDRON_FACES, OCTAHEDRON_POINTS, grid, prism, sphere
 
 
 def test_twisted_cube_is_g1_at_machine_precision():

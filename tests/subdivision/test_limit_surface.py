@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import deformkit as dk
-from subdivision_meshes import CUBE_FACES, CUBE_POINTS, OCTAHEDRON_FACES, OCTAHEDRON_POINTS, grid, prism
+from support.subdivision_meshes import CUBE_FACES, CUBE_POINTS, OCTAHEDRON_FACES, OCTAHEDRON_POINTS, grid, prism
 
 MESHES = {"cube": lambda: (dk.Twist(rate=0.4).deform(CUBE_POINTS), CUBE_FACES), "prism": prism,
           "grid": lambda: grid(3, bump=0.3), "octahedron": lambda: (OCTAHEDRON_POINTS, OCTAHEDRON_FACES)}

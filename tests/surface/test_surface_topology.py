@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import deformkit as dk
-from helpers import cot_weights, naive_reference
+from support.helpers import cot_weights, naive_reference
 from test_surface_deformer import rot, tube
 
 

@@ -4,7 +4,7 @@ include private ones (those live beside the sources, in cpp/src/<family>/)."""
 import pathlib
 import re
 
-REPO = pathlib.Path(__file__).resolve().parents[1]
+REPO = pathlib.Path(__file__).resolve().parents[2]
 FAMILIES = ("core", "numerics", "barr", "lattice", "surface", "subdivision")
 ALLOWED = {"core": {"core"}, "numerics": {"core", "numerics"}}
 INCLUDE = re.compile(r'#include "([^"]+)"')

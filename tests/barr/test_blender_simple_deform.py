@@ -25,8 +25,8 @@ import pytest
 import deformkit as dk
 
 HERE = Path(__file__).resolve().parent
-ORACLE_PATH = HERE / "blender_oracle.py"
-SHARED_MESHES = HERE.parent.parent / "shared" / "meshes"
+ORACLE_PATH = HERE.parent / "support" / "blender_oracle.py"
+SHARED_MESHES = HERE.parents[2] / "shared" / "meshes"
 BLENDER_BIN = "/usr/bin/blender"
 BLENDER_TIMEOUT = 300  # seconds, for the one Blender 3.4 subprocess
 ATOL_REL = 2e-5  # times the bounding-box diagonal: float32 precision with headroom

@@ -39,7 +39,7 @@ import pytest
 import deformkit as dk
 
 HERE = Path(__file__).resolve().parent
-ORACLE_PATH = HERE / "lattice_oracle.py"
+ORACLE_PATH = HERE.parent / "support" / "lattice_oracle.py"
 BLENDER_BIN = "/usr/bin/blender"
 BLENDER_TIMEOUT = 300  # seconds, for the one Blender 3.4 subprocess
 ATOL_REL = 1e-5  # times the lattice size; see the module docstring

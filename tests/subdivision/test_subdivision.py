@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import deformkit as dk
-from subdivision_meshes import (CUBE_FACES, CUBE_POINTS, OCTAHEDRON_FACES, OCTAHEDRON_POINTS, edges_of, grid, prism,
+from support.subdivision_meshes import (CUBE_FACES, CUBE_POINTS, OCTAHEDRON_FACES, OCTAHEDRON_POINTS, edges_of, grid, prism,
                                 signed_volume)
 
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import deformkit as dk
-from helpers import cot_weights, lap
+from support.helpers import cot_weights, lap
 from test_surface_deformer import bend_targets, ends, rot, tube
 
 

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import deformkit as dk
-from subdivision_meshes import CUBE_FACES, CUBE_POINTS, OCTAHEDRON_FACES, OCTAHEDRON_POINTS, grid
+from support.subdivision_meshes import CUBE_FACES, CUBE_POINTS, OCTAHEDRON_FACES, OCTAHEDRON_POINTS, grid
 
 P, F = CUBE_POINTS, CUBE_FACES
 

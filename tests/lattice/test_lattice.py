@@ -7,7 +7,7 @@ import pytest
 import trimesh
 
 import deformkit as dk
-from helpers import (bernstein, bezier_blocks_basis, blender_basis, box_coordinates, box_grid, box_point,
+from support.helpers import (bernstein, bezier_blocks_basis, blender_basis, box_coordinates, box_grid, box_point,
                      box_surface, bspline_basis, cofactor_normals, csr_dense, fd_jacobian, frame_box,
                      gauss_box, mesh_volume, random_frame, tensor_weights)
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import deformkit as dk
-from helpers import bezier_grid_eval, box_grid, box_point, csr_dense
+from support.helpers import bezier_grid_eval, box_grid, box_point, csr_dense
 
 BOX = dict(origin=(0.3, -0.2, 0.5), edges=((1.5, 0.2, -0.1), (0.3, 1.1, 0.2), (-0.2, 0.4, 0.9)))
 SIZE = np.linalg.norm(np.sum(BOX["edges"], axis=0))

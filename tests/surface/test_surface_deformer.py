@@ -7,7 +7,7 @@ import pytest
 import trimesh
 
 import deformkit as dk
-from helpers import arap_energy, arap_step, cot_weights, csr_dense, lap, local_rotations, naive_reference
+from support.helpers import arap_energy, arap_step, cot_weights, csr_dense, lap, local_rotations, naive_reference
 
 
 # --- meshes -----------------------------------------------------------------------------------
