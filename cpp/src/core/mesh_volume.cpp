@@ -1,6 +1,7 @@
 #include "deformkit/core/mesh_volume.hpp"
 
-#include "deformkit/core/deformer.hpp"
+#include "deformkit/core/types.hpp"
+#include "deformkit/core/validation.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,7 @@
 #include "deformkit/subdivision/limit_surface.hpp"
 
-#include "deformkit/core/deformer.hpp"
+#include "deformkit/core/types.hpp"
+#include "deformkit/core/validation.hpp"
 #include "core/parallel.hpp"
 #include "subdivision/osd_refiner.hpp"
 

@@ -1,6 +1,7 @@
 #include "deformkit/surface/surface_mesh.hpp"
 
-#include "deformkit/core/deformer.hpp"
+#include "deformkit/core/types.hpp"
+#include "deformkit/core/validation.hpp"
 
 #include <numeric>
 #include <stdexcept>

@@ -1,6 +1,7 @@
 #pragma once
 // The interface every spatial deformer shares: positions, Jacobians and what follows from them.
 #include "deformkit/core/types.hpp"
+#include "deformkit/core/validation.hpp"
 
 #include <memory>
 #include <vector>
@@ -63,24 +64,6 @@ void volume_ratio(const Deformer& d, const double* points, double* out, std::siz
 
 // cof(J) = det(J) J^-T, defined (and continuous) also where J is singular.
 Mat3 cofactor(const Mat3& j);
-
-// Throws std::invalid_argument naming `argument` and the first non-finite row.
-template <class T>
-void require_finite_rows(const T* data, std::size_t n, const char* argument);
-
-// The one report of every output path: finite input row `row` gave a `what` ("position",
-// "Jacobian", ...) that is not finite, so the deformation overflows there.
-[[noreturn]] void throw_non_finite_result(std::size_t row, const char* what);
-// Throws throw_non_finite_result for the first of n rows (width values each) with an entry not
-// finite, or of magnitude above `limit` (FLT_MAX for results handed back as float32).
-template <class T>
-void require_finite_results(const T* values, std::size_t n, std::size_t width, const char* what,
-                            double limit = 1.7976931348623157e308);
-// As require_finite_results, for results of `points` (3 per row): a row whose coordinates exceed
-// 1e150, which squares past the double range under any non-trivial map, is blamed on `points`.
-template <class T>
-void require_finite_results_of(const T* values, std::size_t n, std::size_t width, const char* what, const T* points,
-                               double limit = 1.7976931348623157e308);
 
 // Blender's vertex-group blend x + w (f - x) for w in [0, 1]; where f - x overflows, the equal
 // (1 - w) x + w f, which lies between x and f and so is finite whenever both are.
