@@ -65,3 +65,23 @@ def test_private_headers_stay_out_of_include():
     public = {p.stem for p in (REPO / "cpp" / "include").rglob("*.hpp")}
     assert public & {"parallel", "scale_free", "cholesky_factor", "barr_kernels", "extent_kernel", "lattice_kernel",
                      "osd_refiner"} == set()
+
+
+CITATION = re.compile(r'docs/([\w/.-]+\.md)(?:, "([^"]+)")?')
+
+
+def test_citations_resolve_inside_the_repository():
+    """Code cites docs/ pages (and their sections) that exist here, never research notes outside it."""
+    sources = [p for p in (REPO / "cpp").rglob("*") if p.suffix in (".hpp", ".cpp")]
+    sources += [p for p in (REPO / "tests").rglob("*.py")] + [REPO / "CMakeLists.txt"]
+    outside, missing = [], []
+    for path in sources:
+        text = path.read_text()
+        if path != pathlib.Path(__file__).resolve():
+            outside += [f"{path.relative_to(REPO)}: {m}" for m in re.findall(r"\w+\.md [AB]\.\d+|blender_modifiers\.md|"
+                                                                              r"algorithms\.md", text)]
+        for page, section in CITATION.findall(text):
+            doc = REPO / "docs" / page
+            if not doc.exists() or (section and f"## {section}" not in doc.read_text()):
+                missing.append(f"{path.relative_to(REPO)}: docs/{page} {section}")
+    assert outside == [] and missing == []

@@ -6,7 +6,7 @@ Two independent oracles, both Blender itself (see lattice_oracle.py):
 * Debian's Blender 3.4 binary (/usr/bin/blender), run once as a subprocess for all its cases.
 
 A third, permanent cross-check is ``reference_lattice`` below: a small numpy transcription of the
-per-vertex formula (blender_modifiers.md, section 2.3), built only from what each case *asked*
+per-vertex formula (docs/blender/lattice.md), built only from what each case *asked*
 Blender to do. Blender must agree with it too, so a harness mistake (a lattice resized before it
 had an object, a wrong point order, a matrix Blender did not take) fails on its own instead of
 being copied into the deformkit comparison.
@@ -99,7 +99,7 @@ def box_size(frame):
 
 
 # ---------------------------------------------------------------------------------------------
-# Independent reference: the per-vertex formula of blender_modifiers.md section 2.3, in float64
+# Independent reference: the per-vertex formula of docs/blender/lattice.md, in float64
 
 
 def basis(t, kind):

@@ -1,5 +1,5 @@
 """Parallelepiped lattices (FFD, BezierFFD, BSplineLattice, BlenderLattice) against independent
-numpy evaluations of the formulas in algorithms.md B.1, finite differences and invariants."""
+numpy evaluations of the formulas in docs/math/lattice.md, finite differences and invariants."""
 from typing import Callable, NamedTuple
 
 import numpy as np

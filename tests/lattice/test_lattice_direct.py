@@ -1,4 +1,4 @@
-"""Direct manipulation (Hsu, Hughes, Kaufman 1992; algorithms.md B.3): the minimum-norm least-squares
+"""Direct manipulation (Hsu, Hughes, Kaufman 1992; docs/math/lattice.md): the minimum-norm least-squares
 change of the control points, against numpy's SVD and lstsq on the binding's weight matrix."""
 import numpy as np
 import pytest

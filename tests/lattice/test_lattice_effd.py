@@ -1,5 +1,5 @@
 """Coquillart's extended FFD: Newton inversion of a non-parallelepiped grid of tricubic Bezier blocks,
-checked by forward-evaluating the grid in numpy (algorithms.md B.2)."""
+checked by forward-evaluating the grid in numpy (docs/math/lattice.md, "Extended FFD")."""
 import numpy as np
 import pytest
 

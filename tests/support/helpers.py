@@ -13,7 +13,7 @@ def random_frame(rng):
     return m
 
 
-# --- Independent numpy references for the lattice deformers (the formulas of algorithms.md B.1-B.3) ---
+# --- Independent numpy references for the lattice deformers (the formulas of docs/math/lattice.md) ---
 import math  # noqa: E402
 
 
@@ -180,7 +180,7 @@ def gauss_box(breaks, order=6):
     return grid, weights
 
 
-# --- Dense numpy references for the surface deformers (algorithms.md B.6, B.7) ---
+# --- Dense numpy references for the surface deformers (docs/math/surface.md) ---
 def cot_weights(points, tris):
     """W[a, b] = (cot alpha + cot beta) / 2 from the angles opposite edge ab."""
     p = np.asarray(points, float)

@@ -1,5 +1,5 @@
 """SurfaceDeformer (naive Laplacian editing and ARAP) and cotangent_laplacian against dense numpy
-references of algorithms.md B.6/B.7 (the cotangent formula, the two least-squares readings of naive
+references of docs/math/surface.md (the cotangent formula, the two least-squares readings of naive
 editing, one ARAP local/global step), invariants (rigid motions, rest targets, monotone energy,
 linear precision) and the contract's constraints, ROI, components, polygons and errors."""
 import numpy as np
@@ -441,7 +441,7 @@ def test_zero_area_faces_give_finite_output(method, weights):
 
 # --- rotation-invariant Laplacian editing (Sorkine et al. 2004, sec. 4) -------------------------
 def implicit_transform_system(pts, tris):
-    """Independent numpy form of algorithms.md B.6: rows T_i(V') delta_i - L(V')_i, 3n x 3n."""
+    """Independent numpy form of docs/math/surface.md, "Rotation-invariant coordinates": rows T_i(V') delta_i - L(V')_i, 3n x 3n."""
     n = len(pts)
     L = lap(cot_weights(pts, tris))
     delta = L @ pts

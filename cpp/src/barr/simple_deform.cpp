@@ -31,7 +31,7 @@ SimpleDeform::SimpleDeform(SimpleDeformSettings settings) : settings_(std::move(
 }
 
 // Blender's canonical axes: the remap (x,y,z) -> (y,z,x) / (z,x,y) brings the deform axis to z;
-// bend keeps its own table (blender_modifiers.md 1.4), improper for deform axis X.
+// bend keeps its own table (docs/blender/simple_deform.md, "Axis tables"), improper for deform axis X.
 static Mat3 blender_permutation(const SimpleDeformSettings& s) {
   if (s.mode != SimpleDeformMode::Bend) return axis_to_z(s.deform_axis);
   if (s.deform_axis != 0) return axis_to_x(s.deform_axis);

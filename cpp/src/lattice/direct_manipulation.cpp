@@ -62,7 +62,8 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
     throw std::invalid_argument(msg.str());
   }
 
-  // Minimum-norm least squares: B^+ dQ (B^T (B B^T)^-1 dQ at full row rank), algorithms.md B.3.
+  // Minimum-norm least squares: B^+ dQ (B^T (B B^T)^-1 dQ at full row rank)
+  // (docs/math/lattice.md, "Direct manipulation").
   Eigen::MatrixXd b = Eigen::MatrixXd::Zero(Eigen::Index(m), handles);
   for (std::size_t r = 0; r < m; ++r)
     for (std::int64_t e = w.indptr[r]; e < w.indptr[r + 1]; ++e)

@@ -138,7 +138,7 @@ ExtendedFFD::Placement ExtendedFFD::invert_block(int block, const Vec3& x, Vec3&
     double err = f.norm();
     for (int it = 0; it < newton_.max_iterations && err > goal; ++it) {
       const Vec3 step = newton_step(j, f);
-      // Damped: halve the step until the residual decreases (algorithms.md B.2, robustness).
+      // Damped: halve the step until the residual decreases (docs/math/lattice.md, "Extended FFD").
       double lambda = 1.0;
       bool improved = false;
       for (int h = 0; h < 30 && !improved; ++h, lambda *= 0.5) {

@@ -8,7 +8,7 @@
 namespace deformkit {
 
 void bernstein_basis(int degree, double t, double* value, double* derivative) {
-  // B_i^d = C(d,i) t^i (1-t)^(d-i); dB_i^d/dt = d (B_{i-1}^{d-1} - B_i^{d-1}) (algorithms.md B.1).
+  // B_i^d = C(d,i) t^i (1-t)^(d-i); dB_i^d/dt = d (B_{i-1}^{d-1} - B_i^{d-1}) (docs/math/lattice.md).
   double lower[kMaxAxisWidth + 1];
   auto fill = [t](int d, double* out) {
     double tp[kMaxAxisWidth + 1], up[kMaxAxisWidth + 1];
@@ -56,7 +56,7 @@ void blender_key_weights(BasisKind kind, double t, double w[4], double dw[4]) {
       return;
     }
     default: {
-      // Uniform cubic B-spline (algorithms.md B.1, N0..N3).
+      // Uniform cubic B-spline (docs/math/lattice.md, "Uniform cubic B-spline").
       const double u = 1.0 - t;
       w[0] = u * u * u / 6.0;
       w[1] = (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0;

@@ -11,7 +11,7 @@ namespace deformkit {
 using Refiner = OpenSubdiv::Far::TopologyRefiner;
 
 // Unrefined; with_uvs adds the UV channel. Boundary faces keep their surface because the
-// boundary rule is never OpenSubdiv's default VTX_BOUNDARY_NONE (algorithms.md A.8).
+// boundary rule is never OpenSubdiv's default VTX_BOUNDARY_NONE (docs/math/subdivision.md, "Boundary interpolation").
 std::unique_ptr<Refiner> make_refiner(const ControlMesh& mesh, bool with_uvs);
 
 struct Point3 {

@@ -31,7 +31,7 @@ Vec unit(const Vec& a) {
   const double n = norm(a);
   return n > 0 ? Vec{a[0] / n, a[1] / n, a[2] / n} : Vec{0, 0, 0};
 }
-// Robust near 0 and pi, where acos of a rounded dot product is not (algorithms.md A.7).
+// Robust near 0 and pi, where acos of a rounded dot product is not (docs/math/subdivision.md, "Angles between normals").
 double angle(const Vec& a, const Vec& b) { return std::atan2(norm(cross(a, b)), dot(a, b)); }
 
 double bounding_diagonal(const double* p, std::size_t n) {

@@ -218,7 +218,7 @@ std::vector<double> Subdivider::subdivide(const double* points) const {
     return limit_->evaluate(limit_->patch_points(points), limit_ptex_.data(), limit_uv_.data(), limit_ptex_.size(), 0)
         .position;
   const Refiner& refiner = *osd_->refiner;
-  // Every level's points in one buffer, coarse first (algorithms.md A.3).
+  // Every level's points in one buffer, coarse first (docs/math/subdivision.md, "Refinement buffer").
   std::vector<Point3> buffer(refiner.GetNumVerticesTotal());
   for (std::size_t i = 0; i < control_.vertex_count; ++i) buffer[i] = {points[3 * i], points[3 * i + 1], points[3 * i + 2]};
   const Far::PrimvarRefinerReal<double> primvar(refiner);

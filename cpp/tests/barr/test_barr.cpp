@@ -65,7 +65,7 @@ TEST(Barr, CofactorCarriesCrossProducts) {
 }
 
 TEST(Barr, BendNormalMatrixIsTheCorrectCofactor) {
-  // algorithms.md B.10: cof(J) = [[1-kz, 0, 0], [0, C, -(1-kz) S], [0, S, (1-kz) C]] inside the region.
+  // docs/math/barr.md, "Bend": cof(J) = [[1-kz, 0, 0], [0, C, -(1-kz) S], [0, S, (1-kz) C]] inside the region.
   const double k = 0.8;
   const Bend bend(k, 0.2, -1.0, 1.0, 0, Frame{});
   for (const Vec3 p : {Vec3(0.3, 0.5, 0.4), Vec3(-0.2, -0.7, -0.9), Vec3(0.0, 0.9, 0.1)}) {

@@ -1,5 +1,5 @@
 // SimpleDeform against an independent, literal transcription of Blender's per-vertex algorithm
-// (MOD_simpledeform as described in blender_modifiers.md 1.2-1.4), computed in float as Blender does.
+// (MOD_simpledeform as described in docs/blender/simple_deform.md), computed in float as Blender does.
 #include "test_util.hpp"
 
 #include "barr/extent_kernel.hpp"

@@ -34,7 +34,7 @@ LatticeBox skewed_box() {
 }  // namespace
 
 // Every basis is a partition of unity with linear precision on its rest grid: the reason a rest
-// lattice is the identity (algorithms.md B.1).
+// lattice is the identity (docs/math/lattice.md).
 TEST(LatticeBasis, PartitionOfUnityAndDerivatives) {
   for (BasisKind kind : kAllKinds) {
     const AxisBasis a = AxisBasis::make(kind, count_for(kind), "resolution");
@@ -139,7 +139,7 @@ TEST(Lattice, JacobianMatchesFiniteDifferences) {
   }
 }
 
-// Extended FFD: invert then evaluate the rest lattice gives the point back (algorithms.md B.2).
+// Extended FFD: invert then evaluate the rest lattice gives the point back (docs/math/lattice.md, "Extended FFD").
 TEST(ExtendedFFD, NewtonRoundTripOnACylinder) {
   const auto grid = ExtendedFFD::cylinder_grid(1.0, 2.0, {1, 4, 2}, Vec3(0.5, 0, 0), 0);
   const ExtendedFFD effd({4, 13, 7}, grid, 1.0, NewtonSettings{});

@@ -19,7 +19,7 @@ struct BarrOp {
   double hi = std::numeric_limits<double>::infinity();
   double center = 0.0;  // bend centre y0
   // Blender's lock axes, in canonical coordinates: a locked coordinate is zeroed before the
-  // formula and added back afterwards (MOD_simpledeform, blender_modifiers.md 1.3).
+  // formula and added back afterwards (MOD_simpledeform; docs/blender/simple_deform.md, "Lock axes").
   std::array<bool, 3> locked{false, false, false};
 
   // Curvatures below this are the identity: the bend's limit k -> 0 (error O(k * extent^2)).

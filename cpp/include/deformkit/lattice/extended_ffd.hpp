@@ -36,7 +36,7 @@ class ExtendedFFD : public ControlLattice {
 
  private:
   enum class Placement { Inside, Outside, Failed };
-  // Newton from (0.5, 0.5, 0.5), then from the 8 octant centres (algorithms.md B.2).
+  // Newton from (0.5, 0.5, 0.5), then from the 8 octant centres (docs/math/lattice.md, "Extended FFD").
   Placement invert_block(int block, const Vec3& x, Vec3& local) const;
   Vec3 block_point(int block, const Vec3& local, Mat3* derivative) const;
   void require_one_to_one() const;

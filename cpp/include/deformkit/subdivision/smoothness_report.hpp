@@ -1,5 +1,5 @@
 #pragma once
-// How smooth a limit surface is across the control mesh's edges (algorithms.md A.7).
+// How smooth a limit surface is across the control mesh's edges (docs/math/subdivision.md, "Angles between normals").
 #include "deformkit/core/deformer.hpp"
 #include "deformkit/subdivision/limit_surface.hpp"
 
