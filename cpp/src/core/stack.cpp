@@ -21,13 +21,6 @@ std::invalid_argument member_error(std::size_t index, const std::invalid_argumen
   return std::invalid_argument(name + ": " + msg);
 }
 
-template <class T>
-bool rows_finite(const T* p, std::size_t n) {
-  for (std::size_t i = 0; i < 3 * n; ++i)
-    if (!std::isfinite(p[i])) return false;
-  return true;
-}
-
 }  // namespace
 
 Stack::Stack(std::vector<DeformerPtr> deformers) {
@@ -67,7 +60,7 @@ bool Stack::deform_any(const T* in, T* out, std::size_t n) const {
   } catch (const std::invalid_argument& e) {
     // Bad points are the caller's; anything else (an in-place call has checked its input before
     // writing) is the member's.
-    if (!rows_finite(in, n) || std::string(e.what()).rfind("points: ", 0) == 0) throw;
+    if (!all_finite(in, n, 3) || std::string(e.what()).rfind("points: ", 0) == 0) throw;
     throw member_error(0, e);
   }
   for (std::size_t i = 1; i < deformers_.size(); ++i) {
@@ -100,7 +93,7 @@ void Stack::jacobian_impl(const double* in, double* jac, std::size_t n) const {
       });
       if (s + 1 < deformers_.size()) deformers_[s]->deform_verified(points.data(), points.data(), n);
     } catch (const std::invalid_argument& e) {
-      if (s == 0 && (!rows_finite(in, n) || std::string(e.what()).rfind("points: ", 0) == 0)) throw;
+      if (s == 0 && (!all_finite(in, n, 3) || std::string(e.what()).rfind("points: ", 0) == 0)) throw;
       throw member_error(s, e);
     }
   }
