@@ -14,16 +14,24 @@ bl_info = {
 
 if "bpy" in locals():  # F8 / script reload
     import importlib
-    for _m in (native, properties, outputs, meshdata, lattices, surface, subdivision, evaluation,  # noqa: F821
+    for _m in (native, cache, properties, outputs, meshdata, entries.common, entries.barr,  # noqa: F821
+               entries.lattice, entries.laplacian, entries.subdivide, entries, evaluation,  # noqa: F821
                api, operators, ui, handlers):  # noqa: F821
         importlib.reload(_m)
 else:
-    from . import (api, evaluation, handlers, lattices, meshdata, native, operators, outputs, properties,
-                   subdivision, surface, ui)
+    from . import (api, cache, entries, evaluation, handlers, meshdata, native, operators, outputs, properties,
+                   ui)
+
+import sys  # noqa: E402
 
 import bpy  # noqa: E402
 
-classes = properties.classes + operators.classes + ui.classes
+# The kinds' modules under the names they had before the entries/ folder (scripts, the batch).
+lattices, surface, subdivision = entries.lattice, entries.laplacian, entries.subdivide
+for _name, _module in (("lattices", lattices), ("surface", surface), ("subdivision", subdivision)):
+    sys.modules[f"{__name__}.{_name}"] = _module
+
+classes = properties.classes + operators.classes + entries.classes + ui.classes
 
 
 def register():

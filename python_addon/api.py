@@ -22,17 +22,17 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from . import evaluation, lattices, meshdata, native, subdivision, surface
-from .properties import ENTRY_TYPES, LATTICE_BASES
+from . import cache, evaluation, meshdata, native
+from . import entries as kinds  # api.entries(obj) lists an object's entries
+from .entries import common
+from .entries import laplacian as surface
+from .entries import lattice as lattices
+from .entries import subdivide as subdivision
+from .properties import LATTICE_BASES
 
-TYPES = tuple(t[0] for t in ENTRY_TYPES)
+TYPES = kinds.TYPES
 BASES = tuple(b[0] for b in LATTICE_BASES)
-PARAMS = ("name", "show_viewport", "show_render", "angle", "factor", "deform_axis", "origin", "limits",
-          "lock_x", "lock_y", "lock_z", "vertex_group", "invert_vertex_group",
-          "lattice", "lattice_basis", "strength", "outside",
-          "method", "weights", "iterations", "anchors_group", "handles_group", "handle_target", "handle_object",
-          "levels", "render_levels", "scheme", "boundary_smooth", "use_creases", "uv_smooth", "use_limit_surface",
-          "sharpen_two_edge_vertices")
+PARAMS = kinds.PARAMS  # every entry parameter; kinds.params(type): those one type takes
 
 
 def _require_mesh(obj):
@@ -49,6 +49,7 @@ def add_entry(obj, type="TWIST", **params):
     kind = str(type).upper()
     if kind not in TYPES:
         raise ValueError(f"type: expected one of {', '.join(TYPES)}, got {type!r}")
+    kinds.check_params(kind, params)  # before the entry is added: a refused call changes nothing
     stack = obj.deformkit
     name = _unique_name(stack, kind.title())  # before add(): the new entry has a default name
     entry = stack.entries.add()
@@ -72,10 +73,10 @@ def _unique_name(stack, base):
 
 def set_params(entry, **params):
     """Set entry parameters by name (as on Blender's Simple Deform and Lattice modifiers where they
-    overlap)."""
+    overlap). Only those the entry's type uses (kinds.params) are accepted: any other would be
+    stored and ignored."""
+    kinds.check_params(entry.type, params)
     for key, value in params.items():
-        if key not in PARAMS:
-            raise ValueError(f"{key}: not a deformkit entry parameter (expected one of {', '.join(PARAMS)})")
         setattr(entry, key, value)
     return entry
 
@@ -127,17 +128,22 @@ def evaluated_positions(obj, depsgraph=None):
     return evaluation.evaluated_positions(obj, depsgraph)
 
 
-# Laplacian entries ----------------------------------------------------------------------------
-
-def laplacian_entry(obj, index):
-    """Entry `index` of obj's stack, which must be a Laplacian entry."""
+def entry_of_type(obj, index, entry_type):
+    """Entry `index` of obj's stack, which must be of `entry_type`."""
     stack = obj.deformkit
     if not 0 <= index < len(stack.entries):
         raise IndexError(f"index: {index} is out of range for {len(stack.entries)} entries")
     entry = stack.entries[index]
-    if entry.type != "LAPLACIAN":
-        raise ValueError(f"entry '{entry.name}' is a {entry.type.title()} entry, not a Laplacian entry")
+    if entry.type != entry_type:
+        raise ValueError(f"entry '{entry.name}' is a {entry.type.title()} entry, not a {entry_type.title()} entry")
     return entry
+
+
+# Laplacian entries ----------------------------------------------------------------------------
+
+def laplacian_entry(obj, index):
+    """Entry `index` of obj's stack, which must be a Laplacian entry."""
+    return entry_of_type(obj, index, "LAPLACIAN")
 
 
 def add_laplacian(obj, bind=True, **params):
@@ -175,13 +181,7 @@ Manipulated = namedtuple("Manipulated", "max_residual residual rank")
 
 def lattice_entry(obj, index):
     """Entry `index` of obj's stack, which must be a Lattice entry."""
-    stack = obj.deformkit
-    if not 0 <= index < len(stack.entries):
-        raise IndexError(f"index: {index} is out of range for {len(stack.entries)} entries")
-    entry = stack.entries[index]
-    if entry.type != "LATTICE":
-        raise ValueError(f"entry '{entry.name}' is a {entry.type.title()} entry, not a Lattice entry")
-    return entry
+    return entry_of_type(obj, index, "LATTICE")
 
 
 def add_lattice(obj, resolution=(4, 4, 4), basis="BLENDER", selected_only=False, margin=1e-4):
@@ -229,9 +229,9 @@ def bind_lattice(obj, index):
     entry = lattice_entry(obj, index)
     _require_mesh(obj)
     key = evaluation.cache_key(obj)
-    lattices.forget(key)
+    cache.forget(key, "lattice")
     points = evaluation.entry_input(obj, index)
-    lattice = evaluation.entry_setup(obj, entry)[2]
+    lattice = evaluation.entry_setup(obj, entry)[1].data
     counts = lattices.bind((key, index, "viewport"), lattice, points)[3]
     evaluation.evaluate(obj, force=True)
     return Bound(*counts)
@@ -265,11 +265,11 @@ def _entry_output(obj, index, vertex_indices):
     if vertex_indices.min() < 0 or vertex_indices.max() >= len(obj.data.vertices):
         raise IndexError(f"vertex_indices: out of range for {len(obj.data.vertices)} vertices")
     points = evaluation.entry_input(obj, index)[vertex_indices].astype(np.float64)
-    weights = evaluation.entry_weights(obj, entry)
+    weights = common.influence_weights(obj, entry)
     influence = np.full(len(points), float(entry.strength))
     if weights is not None:
-        influence *= (1.0 - weights if entry.invert_vertex_group else weights)[vertex_indices]
-    plain = lattices.setup(obj, entry, strength=1.0)
+        influence *= weights[vertex_indices]
+    plain = lattices.lattice_setup(obj, entry, strength=1.0)
     return points, points + influence[:, None] * (plain.deformer.deform(points) - points), influence, plain
 
 
@@ -317,7 +317,7 @@ def direct_manipulation(obj, index, vertex_indices, targets):
     result = plain.deformer.direct_manipulation(points, points + (targets - points) / influence[:, None])
     lattices.write_control_points(plain, result.control_points)
     _evaluate_users(plain.lattice)
-    written = lattices.setup(obj, lattice_entry(obj, index), strength=1.0).deformer.deform(points)
+    written = lattices.lattice_setup(obj, lattice_entry(obj, index), strength=1.0).deformer.deform(points)
     residual = np.linalg.norm(points + influence[:, None] * (written - points) - targets, axis=1)
     return Manipulated(float(residual.max()), residual, int(result.rank))
 
@@ -339,13 +339,13 @@ def check_smoothness(obj, select=True, worst=10, min_angle=1e-6, samples_per_edg
         obj.update_from_editmode()
         mesh = obj.data.copy()
     try:
-        entries = obj.deformkit.entries
-        index = next((i for i, e in enumerate(entries) if e.type == "SUBDIVIDE"), len(entries))
+        stack = obj.deformkit.entries
+        index = kinds.last_index(stack)
         cage = evaluation.entry_input(obj, index)
         topo = meshdata.topology(mesh)
         if topo.faces == 0:
             raise ValueError("the mesh has no faces: there is no surface to check")
-        kwargs = subdivision.topology_kwargs(mesh, entries[index] if index < len(entries) else None)
+        kwargs = subdivision.topology_kwargs(mesh, stack[index] if index < len(stack) else None)
         # Flips are judged against the base mesh's own surface: where the entries turned it over.
         report = native.dk.smoothness_report(cage, meshdata.polygons(topo), samples_per_edge=samples_per_edge,
                                              worst=worst, reference=meshdata.base_positions(mesh), **kwargs)

@@ -6,15 +6,15 @@ modifier named "deformkit" stores into the positions, so the result takes part i
 modifier stack, saves with the file and survives with the add-on disabled; removing every entry
 removes the modifier and the attributes, which gives back the original mesh bit for bit. A
 Subdivide entry, last in the stack, subdivides that result into helper objects whose geometry the
-modifier then outputs instead (subdivision.py).
+modifier then outputs instead (entries/subdivide.py). Each entry runs through its kind (entries/).
 """
 import time
-import zlib
 
 import bpy
 import numpy as np
 
-from . import lattices, meshdata, native, subdivision, surface
+from . import cache, entries, native
+from .entries import common, subdivide
 from .meshdata import base_positions, cache_key, vertex_group_weights  # noqa: F401
 from .outputs import (ATTR_RENDER, ATTR_VIEWPORT, ATTR_VOLUME, MODIFIER_NAME, NODE_GROUP_NAME,  # noqa: F401
                       EntryError, ensure_modifier, outputs_present, remove_outputs, write_vector_attribute,
@@ -22,8 +22,8 @@ from .outputs import (ATTR_RENDER, ATTR_VIEWPORT, ATTR_VOLUME, MODIFIER_NAME, NO
 
 
 _evaluating = set()  # session_uids being evaluated: writes below re-enter through handlers
-_last_inputs = {}    # cache key -> (fingerprint of the settings, base positions) last written
-_own_writes = {}     # cache key -> time of the add-on's last write, whose depsgraph echo is expected
+# In the cache: "inputs", (cache key,) -> (fingerprint of the settings, base positions) last written;
+# "echo", (cache key,) -> time of the add-on's last write, whose depsgraph echo is expected.
 ECHO_WINDOW = 1.0    # seconds within which a depsgraph update of the mesh counts as that echo
 
 
@@ -56,64 +56,27 @@ def object_problem(obj):
 
 def origin_matrix(obj, entry):
     """The origin object's frame in `obj`'s local space, as Simple Deform uses it."""
-    if entry.origin is None:
-        if entry.origin_name:
-            raise EntryError(f"origin object '{entry.origin_name}' no longer exists")
-        return None
-    if entry.origin == obj:  # Blender ignores an object that is its own origin
-        return None
-    if not entry.origin.users_scene:  # deleted in the UI: unlinked, but still referenced here
-        raise EntryError(f"origin object '{entry.origin.name}' was deleted (it is in no scene)")
-    return np.array(obj.matrix_world.inverted() @ entry.origin.matrix_world)
+    return entries.barr.origin_matrix(obj, entry)
 
 
 def entry_weights(obj, entry, reuse_weights=False):
-    """The entry's vertex-group weights, or None. They are read by a per-vertex loop; with
-    reuse_weights, those read last time are used (parameter edits and frame changes do not change
-    them; edits of the mesh re-read them)."""
-    if not entry.vertex_group:
-        return None
-    return meshdata.group_weights(obj, entry.vertex_group, reuse_weights)
+    """The entry's vertex-group weights as it applies them (inverted with Invert), or None."""
+    return common.influence_weights(obj, entry, reuse_weights)
 
 
 def entry_setup(obj, entry, reuse_weights=False):
-    """(deformer, fingerprint of its settings, lattices.Setup, surface.Setup, subdivision.Setup or
-    None) for one entry. Laplacian and Subdivide entries have no pointwise deformer (None): they
-    need the whole mesh."""
-    if entry.type == "SUBDIVIDE":
-        sub = subdivision.setup(obj, entry)
-        return None, sub.fingerprint, sub
-    if entry.type == "LAPLACIAN":
-        laplacian = surface.setup(obj, entry, reuse_weights)
-        return None, laplacian.fingerprint, laplacian
-    weights = entry_weights(obj, entry, reuse_weights)
-    if entry.type == "LATTICE":
-        if weights is not None and entry.invert_vertex_group:
-            weights = 1.0 - weights  # the Lattice modifier's inversion; ungrouped vertices get 1
-        lattice = lattices.setup(obj, entry, weights)
-        return lattice.deformer, (entry.type, entry.show_viewport, entry.show_render, lattice.fingerprint), lattice
-    lo, hi = entry.limits
-    deformer = native.dk.SimpleDeform(
-        mode=entry.type, angle=entry.amount, deform_axis=entry.deform_axis,
-        origin=origin_matrix(obj, entry),
-        limits=(min(lo, hi), hi),  # Blender clamps the lower limit to the upper one
-        lock_x=entry.lock_x, lock_y=entry.lock_y, lock_z=entry.lock_z, weights=weights,
-        invert_weights=bool(weights is not None and entry.invert_vertex_group))
-    return deformer, _fingerprint(obj, entry, deformer), None
+    """(kind, common.Prepared) for one entry: its kind's setup, with the fingerprint that tells
+    whether its result may have changed."""
+    kind = entries.kind(entry)
+    prepared = kind.setup(obj, entry, reuse_weights)
+    fingerprint = (entry.type, entry.show_viewport, entry.show_render, prepared.fingerprint)
+    return kind, prepared._replace(fingerprint=fingerprint)
 
 
 def entry_deformer(obj, entry, reuse_weights=False):
     """The deformkit deformer for this entry: Simple Deform's map, or the entry's lattice (None
-    for a Laplacian entry)."""
-    return entry_setup(obj, entry, reuse_weights)[0]
-
-
-def _fingerprint(obj, entry, deformer):
-    origin = None if entry.origin is None else tuple(map(tuple, obj.matrix_world.inverted() @ entry.origin.matrix_world))
-    weights = deformer.weights
-    return (entry.type, entry.show_viewport, entry.show_render, entry.amount, entry.deform_axis,
-            tuple(entry.limits), entry.lock_x, entry.lock_y, entry.lock_z, entry.invert_vertex_group, origin,
-            None if weights is None else zlib.crc32(weights.tobytes()))
+    for kinds without a pointwise map: Laplacian, Subdivide)."""
+    return entry_setup(obj, entry, reuse_weights)[1].deformer
 
 
 def _set_if_changed(owner, prop, value):
@@ -140,36 +103,34 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
     _evaluating.add(uid)
     try:
         if len(stack.entries) == 0:
-            subdivision.discard(obj)
-            subdivision.forget(uid)
+            subdivide.discard(obj)
             remove_outputs(obj)
-            _last_inputs.pop(uid, None)
-            surface.forget(uid)
+            cache.forget(uid)
             return True
-        cached = _last_inputs.get(uid)
+        cached = cache.get("inputs", (uid,))
         if reuse_base and cached is not None and len(cached[1]) == len(obj.data.vertices):
             base = cached[1]
         else:
             base = base_positions(obj.data)
         built, key, failed, sub = [], [len(base), stack.show_volume_ratio], False, None
-        surface.keep_only(uid, {e.bind_id for e in stack.entries if e.type == "LAPLACIAN"})
+        entries.laplacian.keep_only(uid, {e.bind_id for e in stack.entries if e.type in entries.laplacian.TYPES})
         for index, entry in enumerate(stack.entries):
             try:
                 if sub is not None:
-                    raise EntryError(f"comes after the Subdivide entry '{sub.entry.name}', which must be the last "
-                                     "entry (it changes the topology): move this entry above it")
-                deformer, fingerprint, special = entry_setup(
-                    obj, entry, reuse_base if reuse_weights is None else reuse_weights)
+                    raise EntryError(f"comes after the {entries.LABELS[sub.entry.type]} entry '{sub.entry.name}', "
+                                     "which must be the last entry (it changes the topology): move this entry "
+                                     "above it")
+                kind, prepared = entry_setup(obj, entry, reuse_base if reuse_weights is None else reuse_weights)
             except ValueError as exc:
                 _set_if_changed(entry, "error", str(exc))
                 failed = True
                 continue
-            if entry.type == "SUBDIVIDE":
-                sub = special  # its error is cleared once it has subdivided
+            if kind.LAST:
+                sub = prepared.data  # its error is cleared once it has subdivided
             else:
                 _set_if_changed(entry, "error", "")
-                built.append((index, entry, deformer, special))
-            key.append(fingerprint)
+                built.append((index, entry, kind, prepared))
+            key.append(prepared.fingerprint)
         if failed:
             return False
         key = tuple(key)
@@ -192,7 +153,7 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         subdivided = None
         if sub is not None:  # before anything is written: a refused subdivision leaves the result as it was
             try:
-                subdivided = subdivision.results(uid, sub, positions, render_positions)
+                subdivided = subdivide.results(uid, sub, positions, render_positions)
             except EntryError as exc:
                 _set_if_changed(sub.entry, "error", str(exc))
                 return False
@@ -213,43 +174,43 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         elif ATTR_VOLUME in mesh.attributes:
             mesh.attributes.remove(mesh.attributes[ATTR_VOLUME])
         if sub is None:  # no Subdivide entry (any more): its refined topologies go
-            subdivision.forget(uid)
-        helpers = subdivided and subdivision.write(obj, sub, subdivided)  # None: nothing subdivided
-        subdivision.discard(obj, keep=helpers or ())
+            subdivide.forget(uid)
+        helpers = subdivided and subdivide.write(obj, sub, subdivided)  # None: nothing subdivided
+        subdivide.discard(obj, keep=helpers or ())
         ensure_modifier(obj, split, helpers)
         mesh.update()
-        _last_inputs[uid] = (key, base)
+        cache.put("inputs", (uid,), (key, base))
         if expect_echo:
-            _own_writes[uid] = time.monotonic()
+            cache.put("echo", (uid,), time.monotonic())
         return True
     finally:
         _evaluating.discard(uid)
 
 
 def _deformed(uid, kind, built, base, pieces=None):
-    """Run the entries in order: runs of Barr entries as one dk.Stack, each lattice entry through
-    its binding (kept per object, entry and viewport/render, see lattices.deform), each Laplacian
-    entry through its solver. `pieces`, if a list, receives (deformers, their input) for each
-    stretch of entries between Laplacian entries: the factors of the volume ratio."""
+    """Run the entries in order: runs of stackable (Barr) entries as one dk.Stack, each other
+    entry through its kind (a lattice through its binding, kept per object, entry and
+    viewport/render; a Laplacian entry through its solver). `pieces`, if a list, receives
+    (deformers, their input) for each stretch of entries between those without a Jacobian: the
+    factors of the volume ratio."""
     points, pending, piece, piece_input = base, [], [], base
-    for index, _entry, deformer, special in built:
-        if special is None:
-            pending.append(deformer)
-            piece.append(deformer)
+    for index, _entry, entry_kind, prepared in built:
+        if entry_kind.STACKABLE:
+            pending.append(prepared.deformer)
+            piece.append(prepared.deformer)
             continue
         if pending:
             points, pending = native.dk.Stack(pending).deform(points), []
-        if isinstance(special, surface.Setup):
-            if pieces is not None and piece:
-                pieces.append((piece, piece_input))
-            try:
-                points = surface.deform(special, points)
-            except ValueError as exc:
-                raise EntryFailed(index, str(exc)) from exc
+        if prepared.deformer is None and pieces is not None and piece:  # no Jacobian: the piece ends here
+            pieces.append((piece, piece_input))
+        try:
+            points = entry_kind.deform((uid, index, kind), prepared, points)
+        except EntryError as exc:
+            raise EntryFailed(index, str(exc)) from exc
+        if prepared.deformer is None:
             piece, piece_input = [], points
         else:
-            points = lattices.deform((uid, index, kind), special, points)
-            piece.append(deformer)
+            piece.append(prepared.deformer)
     if pending:
         points = native.dk.Stack(pending).deform(points)
     if pieces is not None and piece:
@@ -262,14 +223,13 @@ def entry_input(obj, index, kind="viewport"):
     viewport (or render), in the object's space. Raises EntryError for a problem on the way."""
     built = []
     for i, entry in enumerate(obj.deformkit.entries[:index]):
-        if entry.type == "SUBDIVIDE":
-            raise EntryError(f"{entry.name}: a Subdivide entry must be the last entry")
+        if entries.kind(entry).LAST:
+            raise EntryError(f"{entry.name}: a {entries.LABELS[entry.type]} entry must be the last entry")
         if (entry.show_viewport if kind == "viewport" else entry.show_render):
             try:
-                deformer, _, special = entry_setup(obj, entry, reuse_weights=True)
+                built.append((i, entry, *entry_setup(obj, entry, reuse_weights=True)))
             except ValueError as exc:
                 raise EntryError(f"{entry.name}: {exc}") from exc
-            built.append((i, entry, deformer, special))
     try:
         return _deformed(cache_key(obj), kind, built, base_positions(obj.data))
     except EntryFailed as exc:
@@ -286,7 +246,7 @@ def is_echo_of_own_write(obj):
     before any depsgraph update. Such scripts should call api.evaluate(obj); api.evaluated_positions,
     frame changes, undo, redo and file load compare every position anyway."""
     uid = cache_key(obj)
-    written, cached = _own_writes.pop(uid, None), _last_inputs.get(uid)
+    written, cached = cache.pop("echo", (uid,)), cache.get("inputs", (uid,))
     if written is None or cached is None or time.monotonic() - written > ECHO_WINDOW:
         return False
     return len(obj.data.vertices) == len(cached[1])
@@ -295,7 +255,7 @@ def is_echo_of_own_write(obj):
 def forget_echoes():
     """A frame change evaluates without passing through depsgraph_update_post, so an echo still
     expected then would be mistaken for the next real edit of the mesh."""
-    _own_writes.clear()
+    cache.forget(space="echo")
 
 
 def request_update(obj):
@@ -305,19 +265,10 @@ def request_update(obj):
 
 
 def forget(obj=None):
-    """Drop cached fingerprints, weights, lattice bindings and Laplacian solvers (after undo or
-    file load, when they may be stale; the solvers are built again from the saved rest)."""
-    key = None if obj is None else cache_key(obj)
-    if obj is None:
-        _last_inputs.clear()
-        _own_writes.clear()
-    else:
-        _last_inputs.pop(key, None)
-        _own_writes.pop(key, None)
-    meshdata.forget(key)
-    lattices.forget(key)
-    surface.forget(key)
-    subdivision.forget(key)
+    """Drop cached fingerprints, weights, lattice bindings, Laplacian solvers and refined
+    topologies (after undo or file load, when they may be stale; the solvers are built again from
+    the saved rest)."""
+    cache.forget(None if obj is None else cache_key(obj))
 
 
 def apply_entry(obj, index):
@@ -327,13 +278,8 @@ def apply_entry(obj, index):
         raise EntryError("apply: leave edit mode first (edit mode holds its own copy of the mesh)")
     entry = stack.entries[index]
     base = base_positions(obj.data)
-    deformer, _, special = entry_setup(obj, entry)
-    if entry.type == "SUBDIVIDE":
-        subdivision.bake(obj, entry)  # the base mesh's own topology changes, as with Blender's Apply
-    else:
-        # A Laplacian entry takes its handles from the base mesh (INCOMING).
-        deformed = surface.deform(special, base) if entry.type == "LAPLACIAN" else deformer.deform(base)
-        obj.data.vertices.foreach_set("co", deformed.ravel())
+    kind, prepared = entry_setup(obj, entry)
+    kind.apply(obj, entry, prepared, base)
     stack.entries.remove(index)
     stack.active_index = min(stack.active_index, max(0, len(stack.entries) - 1))
     evaluate(obj, force=True)

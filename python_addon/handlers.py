@@ -6,7 +6,8 @@ are unchanged, which is also what stops the handlers from re-entering on their o
 import bpy
 from bpy.app.handlers import persistent
 
-from . import evaluation, lattices
+from . import entries, evaluation
+from .entries import lattice
 
 WATCHED = (bpy.types.Object, bpy.types.Mesh, bpy.types.Lattice, bpy.types.Collection)
 
@@ -22,29 +23,20 @@ def on_frame_change(scene, depsgraph=None):
         evaluation.evaluate(obj, reuse_weights=True)
 
 
-def _pointer(entry):
-    """(object the entry follows or None, the name it remembers) for Lattice entries and Laplacian
-    entries whose handles follow an object."""
-    if entry.type == "LATTICE":
-        return entry.lattice, entry.lattice_name
-    if entry.type == "LAPLACIAN" and entry.handle_target == "OBJECT":
-        return entry.handle_object, entry.handle_object_name
-    return None, ""
-
-
 def _followed(obj):
-    return {p for p in (_pointer(e)[0] for e in obj.deformkit.entries) if p is not None}
+    """The objects obj's entries follow (lattices, handle objects), as their kinds say."""
+    return {target for e in obj.deformkit.entries for target, _ in entries.followed(e) if target is not None}
 
 
 def _pointer_gone(obj):
     """An entry whose lattice or handle object was deleted or unlinked, and which does not say so
     yet (or one that says so, in case the object came back)."""
     for e in obj.deformkit.entries:
-        target, name = _pointer(e)
-        if name or target is not None:
-            missing = target is None or not target.users_scene
-            if missing != bool(e.error):
-                return True
+        for target, name in entries.followed(e):
+            if name or target is not None:
+                missing = target is None or not target.users_scene
+                if missing != bool(e.error):
+                    return True
     return False
 
 
@@ -89,7 +81,7 @@ def on_reload(*_args):
 
 @persistent
 def on_load(*args):
-    lattices.forget_rest_grids()
+    lattice.forget_rest_grids()
     on_reload(*args)
 
 

@@ -5,9 +5,8 @@ from collections import namedtuple
 
 import numpy as np
 
+from . import cache
 from .outputs import EntryError
-
-_weights = {}  # (cache key, vertex group) -> weights read from the mesh
 
 
 def cache_key(obj):
@@ -43,12 +42,11 @@ def group_weights(obj, name, reuse=False):
     """The weights of vertex group `name`. With reuse, those read last time are used (parameter
     edits and frame changes do not change them; edits of the mesh re-read them)."""
     key = (cache_key(obj), name)
-    cached = _weights.get(key)
+    cached = cache.get("weights", key)
     if reuse and cached is not None and len(cached) == len(obj.data.vertices) \
             and obj.vertex_groups.get(name) is not None:
         return cached
-    weights = _weights[key] = vertex_group_weights(obj, name)
-    return weights
+    return cache.put("weights", key, vertex_group_weights(obj, name))
 
 
 # corners: the vertex of each polygon corner, polygon by polygon; starts, totals: each polygon's
@@ -126,8 +124,3 @@ def select_edges(obj, edges):
     mesh.vertices.foreach_set("select", vertices)
     mesh.edges.foreach_set("select", chosen)
     mesh.polygons.foreach_set("select", np.zeros(len(mesh.polygons), bool))
-
-
-def forget(object_key=None):
-    for key in [k for k in _weights if object_key is None or k[0] == object_key]:
-        del _weights[key]

@@ -1,5 +1,8 @@
 """Data: the per-object deformkit stack and its entries, stored as RNA so that they save with the
-file, undo, and can be keyframed and driven (data path `deformkit.entries[i].<param>`)."""
+file, undo, and can be keyframed and driven (data path `deformkit.entries[i].<param>`).
+
+One PropertyGroup holds the properties of every entry kind: their names, types and defaults are
+the saved data paths, so they stay as they are; each kind (entries/) declares which it uses."""
 import math
 
 import bpy
@@ -96,17 +99,16 @@ def _is_lattice(self, obj):
 
 
 def _type_changed(self, context):
-    from . import surface
-    if self.type != "LAPLACIAN" and surface.is_bound(self):
-        surface.clear(self)  # a bind belongs to a Laplacian entry: no hidden rest left on other types
+    from . import entries
+    entries.type_changed(self)  # the kinds it is not drop what they kept on it (a Laplacian bind)
     _changed(self, context)
 
 
 def _handle_object_changed(self, context):
-    from . import surface
+    from .entries import laplacian
     previous, self.handle_object_name = self.handle_object_name, self.handle_object.name if self.handle_object else ""
-    if surface.is_bound(self) and self.handle_object is not None and self.handle_object.name != previous:
-        surface.record_handle_matrix(self)  # another object: its place now is its place at bind
+    if laplacian.is_bound(self) and self.handle_object is not None and self.handle_object.name != previous:
+        laplacian.record_handle_matrix(self)  # another object: its place now is its place at bind
     _changed(self, context)
 
 
@@ -166,7 +168,7 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
                                    update=_handle_object_changed,
                                    description="Object whose motion since bind moves the handles")
     handle_object_name: StringProperty(options={"HIDDEN"})
-    # The bind (see surface.py); the rest itself is the entry's ID property "deformkit_rest".
+    # The bind (see entries/laplacian.py); the rest itself is the entry's ID property "deformkit_rest".
     bind_id: IntProperty(options={"HIDDEN"})  # 0: not bound
     bind_vertices: IntProperty(options={"HIDDEN"})
     bind_faces: IntProperty(options={"HIDDEN"})
@@ -195,7 +197,7 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
                                             description="A vertex with exactly two edges takes the smaller of their "
                                                         "creases, so creased borders keep their corners (what "
                                                         "Blender's Subdivision Surface does)")
-    # The helper objects holding the subdivided meshes (see subdivision.py); render: None when the same.
+    # The helper objects holding the subdivided meshes (see entries/subdivide.py); render: None when the same.
     subdivision_viewport: PointerProperty(type=bpy.types.Object, options={"HIDDEN"})
     subdivision_render: PointerProperty(type=bpy.types.Object, options={"HIDDEN"})
     error: StringProperty(options={"HIDDEN", "SKIP_SAVE"})
@@ -203,7 +205,8 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
     @property
     def amount(self):
         """The one value Simple Deform uses: the angle for twist and bend, the factor otherwise."""
-        return self.angle if self.type in {"TWIST", "BEND"} else self.factor
+        from .entries import barr
+        return barr.amount(self)
 
 
 class DEFORMKIT_PG_smoothness(bpy.types.PropertyGroup):

@@ -3,11 +3,11 @@ import math
 
 import bpy
 
-from . import evaluation, lattices, native, surface
+from . import entries, native
+from .entries.common import draw_vertex_group  # noqa: F401  (where it was before the entries/ folder)
 from .properties import ENTRY_TYPES
 
-# The others: MOD_SIMPLEDEFORM.
-ICONS = {"LATTICE": "MOD_LATTICE", "LAPLACIAN": "MOD_MESHDEFORM", "SUBDIVIDE": "MOD_SUBSURF"}
+ICONS = {t[0]: entries.kind(t[0]).ICON for t in ENTRY_TYPES}
 
 
 class DEFORMKIT_MT_add(bpy.types.Menu):
@@ -16,10 +16,11 @@ class DEFORMKIT_MT_add(bpy.types.Menu):
 
     def draw(self, context):
         for kind, label, _description, _icon, _n in ENTRY_TYPES:
-            icon = ICONS.get(kind, "MOD_SIMPLEDEFORM")
-            self.layout.operator("deformkit.entry_add", text=label, icon=icon).type = kind
+            self.layout.operator("deformkit.entry_add", text=label, icon=ICONS[kind]).type = kind
         self.layout.separator()
-        self.layout.operator("object.deformkit_add_lattice", icon="OUTLINER_OB_LATTICE")
+        for kind in entries.KINDS:
+            for operator, icon in kind.MENU:
+                self.layout.operator(operator, icon=icon)
 
 
 class DEFORMKIT_MT_entry_specials(bpy.types.Menu):
@@ -74,22 +75,20 @@ class DEFORMKIT_PT_stack(bpy.types.Panel):
         mod = obj.modifiers.get("deformkit")
         if len(stack.entries) and mod is not None and not mod.show_viewport:
             layout.label(text="The 'deformkit' modifier, which shows the result, is hidden", icon="INFO")
-        if stack.show_volume_ratio and any(e.type == "LAPLACIAN" and e.show_viewport for e in stack.entries):
-            layout.label(text="Volume colors leave out Laplacian entries (no Jacobian)", icon="INFO")
-        if stack.show_volume_ratio and any(e.type == "SUBDIVIDE" for e in stack.entries):
-            layout.label(text="Volume colors are not carried through a Subdivide entry", icon="INFO")
+        for note in entries.volume_notes(stack.entries) if stack.show_volume_ratio else ():
+            layout.label(text=note, icon="INFO")
         for entry in stack.entries:
             draw_entry(layout.box(), obj, entry)
         draw_smoothness(layout.box(), stack)
 
 
 def draw_entry(box, obj, entry):
-    """Laid out like Blender's Simple Deform panel: header, mode, amount, origin, axis, restrictions."""
+    """Laid out like Blender's modifier panels: the header, then the kind's settings."""
     row = box.row()
     row.context_pointer_set("deformkit_entry", entry)
     row.prop(entry, "show_expanded", text="", emboss=False,
              icon="DOWNARROW_HLT" if entry.show_expanded else "RIGHTARROW")
-    row.label(text="", icon=ICONS.get(entry.type, "MOD_SIMPLEDEFORM"))
+    row.label(text="", icon=ICONS[entry.type])
     row.prop(entry, "name", text="")
     toggles = row.row(align=True)
     toggles.prop(entry, "show_viewport", text="", icon="RESTRICT_VIEW_OFF" if entry.show_viewport else "RESTRICT_VIEW_ON")
@@ -106,109 +105,12 @@ def draw_entry(box, obj, entry):
     box.row().prop(entry, "type", expand=True)
     col = box.column()
     col.use_property_split = True
-    if entry.type == "LATTICE":
-        draw_lattice(col, obj, entry)
-        return
-    if entry.type == "LAPLACIAN":
-        draw_laplacian(col, obj, entry)
-        return
-    if entry.type == "SUBDIVIDE":
-        draw_subdivide(col, entry)
-        return
-    col.prop(entry, "angle" if entry.type in {"TWIST", "BEND"} else "factor")
-    col.prop(entry, "origin")
-    col.row().prop(entry, "deform_axis", expand=True)
-    col.separator()
-    col.label(text="Restrictions")
-    col.prop(entry, "limits", slider=True)
-    if entry.type != "BEND":
-        row = col.row(heading="Lock", align=True)
-        for axis in "xyz":
-            if axis.upper() != entry.deform_axis:
-                row.prop(entry, f"lock_{axis}", text=axis.upper(), toggle=True)
-    draw_vertex_group(col, obj, entry)
-
-
-def draw_vertex_group(col, obj, entry):
-    row = col.row(align=True)
-    row.prop_search(entry, "vertex_group", obj, "vertex_groups", text="Vertex Group")
-    sub = row.row(align=True)
-    sub.active = bool(entry.vertex_group)
-    sub.prop(entry, "invert_vertex_group", text="", icon="ARROW_LEFTRIGHT")
-
-
-def draw_lattice(col, obj, entry):
-    """Laid out like Blender's Lattice modifier panel, then the binding and the lattice tools."""
-    index = list(obj.deformkit.entries).index(entry)
-    col.prop(entry, "lattice", text="Object")
-    col.prop(entry, "lattice_basis")
-    col.prop(entry, "outside")
-    col.prop(entry, "strength", slider=True)
-    draw_vertex_group(col, obj, entry)
-    col.separator()
-    bound = lattices.binding_counts(evaluation.cache_key(obj), index)
-    if bound is None:
-        col.label(text="Not bound yet", icon="UNLINKED")
-    else:
-        unplaced = f", {bound[2]} not placed" if bound[2] else ""
-        col.label(text=f"Bound: {bound[0]} vertices inside, {bound[1]} outside{unplaced}", icon="LINKED")
-    row = col.row(align=True)
-    row.operator("object.deformkit_lattice_bind", text="Rebind" if bound else "Bind",
-                 icon="FILE_REFRESH").index = index
-    row.operator("object.deformkit_lattice_reset", text="Reset", icon="LOOP_BACK").index = index
-    row = col.row(align=True)
-    for targets, label, icon in (("CURSOR", "Selection to Cursor", "PIVOT_CURSOR"),
-                                 ("EMPTIES", "Selection to Empties", "EMPTY_AXIS")):
-        op = row.operator("object.deformkit_lattice_direct", text=label, icon=icon)
-        op.index, op.targets = index, targets
-
-
-def draw_laplacian(col, obj, entry):
-    """Laid out like Blender's Laplacian Deform panel: settings, then the bind state and button."""
-    index = list(obj.deformkit.entries).index(entry)
-    col.prop(entry, "method")
-    col.prop(entry, "weights")
-    sub = col.row()
-    sub.active = entry.method != "LAPLACIAN"  # naive editing solves once
-    sub.prop(entry, "iterations")
-    col.prop_search(entry, "anchors_group", obj, "vertex_groups", text="Anchors")
-    col.prop_search(entry, "handles_group", obj, "vertex_groups", text="Handles")
-    col.row().prop(entry, "handle_target", expand=True)
-    if entry.handle_target == "OBJECT":
-        col.prop(entry, "handle_object")
-    col.separator()
-    text, warnings = surface.status(obj, entry)
-    col.label(text=text, icon="LINKED" if surface.is_bound(entry) else "UNLINKED")
-    for warning in warnings:
-        col.label(text=warning, icon="INFO")
-    if surface.is_bound(entry):
-        col.operator("object.deformkit_laplacian_unbind", text="Unbind", icon="UNLINKED").index = index
-    else:
-        col.operator("object.deformkit_laplacian_bind", text="Bind", icon="LINKED").index = index
-
-
-def draw_subdivide(col, entry):
-    """Laid out like Blender's Subdivision Surface panel, then the size of what it made."""
-    col.prop(entry, "levels", text="Levels Viewport")
-    col.prop(entry, "render_levels", text="Render")
-    col.prop(entry, "scheme")
-    col.separator()
-    col.label(text="Advanced")
-    col.prop(entry, "use_limit_surface")
-    col.prop(entry, "use_creases")
-    col.prop(entry, "sharpen_two_edge_vertices")
-    col.prop(entry, "boundary_smooth")
-    col.prop(entry, "uv_smooth")
-    render = entry.subdivision_render
-    for label, helper in (("Viewport" if render else "Viewport and render", entry.subdivision_viewport),
-                          ("Render", render)):
-        if helper is not None:
-            col.label(text=f"{label}: {len(helper.data.vertices)} vertices, {len(helper.data.polygons)} faces")
+    entries.kind(entry).draw(col, obj, entry)
 
 
 def draw_smoothness(box, stack):
     """Check Smoothness and the figures of its last run (of the cage, before any Subdivide entry)."""
-    box.operator("object.deformkit_check_smoothness", icon="MOD_SMOOTH")
+    box.operator("deformkit.check_smoothness", icon="MOD_SMOOTH")
     figures = stack.smoothness
     if not figures.checked:
         return

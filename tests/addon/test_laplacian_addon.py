@@ -193,7 +193,7 @@ def test_incoming_handles_follow_edits_of_the_base_mesh(scene):
 
 def test_keyframed_empty_gives_per_frame_results(scene):
     import bpy
-    from deformkit_addon import surface
+    from deformkit_addon import cache, surface
     obj, entry, empty = bound_tube(bpy)
     at_bind = np.array(empty.matrix_world)
     base = positions(obj.data).copy()
@@ -202,7 +202,7 @@ def test_keyframed_empty_gives_per_frame_results(scene):
         empty.location.x, empty.rotation_euler.y = x, turn
         empty.keyframe_insert("location", frame=frame)
         empty.keyframe_insert("rotation_euler", frame=frame)
-    (solver,) = [cached.deformer for cached in surface._solvers.values()]
+    (solver,) = [cached.deformer for cached in cache.items("laplacian").values()]
     results = {}
     for frame in (11, 6, 1, 8, 6):  # playback and scrubbing, then frame 6 again
         scene.frame_set(frame)
@@ -214,17 +214,17 @@ def test_keyframed_empty_gives_per_frame_results(scene):
         results[frame] = ours
     assert not close(results[6], results[8])
     assert close(results[1], base, size(base))  # the empty back at its bind place
-    assert [s.deformer for s in surface._solvers.values()] == [solver]  # one factorisation for all frames
+    assert [s.deformer for s in cache.items("laplacian").values()] == [solver]  # one factorisation for all frames
 
 
 def test_solver_is_kept_until_what_it_depends_on_changes(scene):
     import bpy
-    from deformkit_addon import api, surface
+    from deformkit_addon import api, cache, surface
     obj, entry, empty = bound_tube(bpy)
     api.add_entry(obj, "TWIST", angle=0.3, deform_axis="Z")  # after the Laplacian entry
 
     def solver():
-        (cached,) = surface._solvers.values()
+        (cached,) = cache.items("laplacian").values()
         return cached
 
     first = solver().deformer
@@ -253,14 +253,14 @@ def test_solver_is_kept_until_what_it_depends_on_changes(scene):
 
 def test_unbind_passes_the_input_through_and_forgets_the_rest(scene):
     import bpy
-    from deformkit_addon import api, surface
+    from deformkit_addon import api, cache, surface
     obj, entry, empty = bound_tube(bpy)
     base = positions(obj.data).copy()
     turn_and_shift(empty)
     assert not close(evaluated(obj), base)
     with bpy.context.temp_override(object=obj, active_object=obj):
-        assert bpy.ops.object.deformkit_laplacian_unbind() == {"FINISHED"}
-    assert entry.get(surface.REST) is None and not surface.is_bound(entry) and surface._solvers == {}
+        assert bpy.ops.deformkit.laplacian_unbind() == {"FINISHED"}
+    assert entry.get(surface.REST) is None and not surface.is_bound(entry) and cache.items("laplacian") == {}
     np.testing.assert_array_equal(evaluated(obj), base)  # bit for bit
     assert entry.error == "" and surface.status(obj, entry) == ("Not bound", [])
     twist = api.add_entry(obj, "TWIST", angle=1.0, deform_axis="Z")  # an unbound entry does not block others
@@ -270,21 +270,21 @@ def test_unbind_passes_the_input_through_and_forgets_the_rest(scene):
     assert close(evaluated(obj), expected)
     entry = obj.deformkit.entries[1]
     with bpy.context.temp_override(object=obj, active_object=obj):
-        assert bpy.ops.object.deformkit_laplacian_bind() == {"FINISHED"}
+        assert bpy.ops.deformkit.laplacian_bind() == {"FINISHED"}
     assert close(surface.saved_rest(entry), expected)  # bound to the twisted mesh coming in
     entry.type = "TWIST"  # another type: the bind goes
-    assert entry.get(surface.REST) is None and not surface.is_bound(entry) and surface._solvers == {}
+    assert entry.get(surface.REST) is None and not surface.is_bound(entry) and cache.items("laplacian") == {}
     entry.type = "LAPLACIAN"
     api.bind_laplacian(obj, 1)
     api.remove_entry(obj, 0)
-    assert len(surface._solvers) == 1
+    assert len(cache.items("laplacian")) == 1
     api.remove_entry(obj, 0)  # the last entry: its solver goes too
-    assert not any(a.name.startswith("deformkit") for a in obj.data.attributes) and surface._solvers == {}
+    assert not any(a.name.startswith("deformkit") for a in obj.data.attributes) and cache.items("laplacian") == {}
 
 
 def test_undo_and_redo_of_a_bind(scene):
     import bpy
-    from deformkit_addon import api, surface
+    from deformkit_addon import api, cache, surface
     obj = make_tube(bpy)
     empty = add_empty(bpy)
     api.add_laplacian(obj, bind=False, anchors_group="Bottom", handles_group="Top", handle_target="OBJECT",
@@ -292,7 +292,7 @@ def test_undo_and_redo_of_a_bind(scene):
     base = positions(obj.data).copy()
     bpy.ops.ed.undo_push(message="add")
     with bpy.context.temp_override(object=obj, active_object=obj):  # undo=True: a step as the UI pushes
-        assert bpy.ops.object.deformkit_laplacian_bind("EXEC_DEFAULT", True) == {"FINISHED"}
+        assert bpy.ops.deformkit.laplacian_bind("EXEC_DEFAULT", True) == {"FINISHED"}
     turn_and_shift(empty)
     bpy.ops.ed.undo_push(message="move")
     after_move = evaluated(obj).copy()
@@ -306,7 +306,7 @@ def test_undo_and_redo_of_a_bind(scene):
     bpy.ops.ed.redo()
     bpy.ops.ed.redo()
     obj = bpy.data.objects["Tube"]
-    assert surface.is_bound(obj.deformkit.entries[0]) and len(surface._solvers) == 1  # built from the saved rest
+    assert surface.is_bound(obj.deformkit.entries[0]) and len(cache.items("laplacian")) == 1  # built from the saved rest
     assert close(evaluated(obj), after_move, size(base))
     api.evaluate(obj)
     assert close(evaluated(obj), after_move, size(base))
@@ -314,19 +314,19 @@ def test_undo_and_redo_of_a_bind(scene):
 
 def test_save_and_reload_rebuild_the_solver(scene, tmp_path):
     import bpy
-    from deformkit_addon import surface
+    from deformkit_addon import cache, surface
     obj, entry, empty = bound_tube(bpy)
     at_bind = np.array(empty.matrix_world)
     turn_and_shift(empty)
     shown = evaluated(obj).copy()
     path = str(tmp_path / "laplacian.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)
-    surface.forget()
+    cache.forget(space="laplacian")
     bpy.ops.wm.open_mainfile(filepath=path)
     obj, empty = bpy.data.objects["Tube"], bpy.data.objects["Empty"]
     entry = obj.deformkit.entries[0]
     assert entry.handle_object == empty and surface.is_bound(entry)
-    assert len(surface._solvers) == 1  # rebuilt on load, from the rest saved in the file
+    assert len(cache.items("laplacian")) == 1  # rebuilt on load, from the rest saved in the file
     assert close(evaluated(obj), shown)
     np.testing.assert_allclose(np.array(entry.handle_matrix).reshape(4, 4),
                                np.linalg.inv(at_bind) @ np.array(obj.matrix_world), rtol=0, atol=1e-6)
@@ -556,11 +556,11 @@ def test_bind_refuses_bad_settings_and_stays_unbound(scene, problem, message):
     assert not surface.is_bound(entry) and entry.get(surface.REST) is None and entry.error == ""
     with bpy.context.temp_override(object=obj, active_object=obj):
         if problem == "edit_mode":
-            assert not bpy.ops.object.deformkit_laplacian_bind.poll()
+            assert not bpy.ops.deformkit.laplacian_bind.poll()
             bpy.ops.object.mode_set(mode="OBJECT")
         else:  # an operator's error report raises in scripts
             with pytest.raises(RuntimeError, match="Error: "):
-                bpy.ops.object.deformkit_laplacian_bind()
+                bpy.ops.deformkit.laplacian_bind()
 
 
 def test_scripting_api_rejects_bad_calls(scene):
@@ -573,7 +573,7 @@ def test_scripting_api_rejects_bad_calls(scene):
     with pytest.raises(IndexError):
         api.unbind_laplacian(obj, 3)
     with bpy.context.temp_override(object=obj, active_object=obj):
-        assert not bpy.ops.object.deformkit_laplacian_bind.poll()  # no Laplacian entry
+        assert not bpy.ops.deformkit.laplacian_bind.poll()  # no Laplacian entry
 
 
 # ---------------------------------------------------------------------------------------------
@@ -623,12 +623,12 @@ def test_panel_shows_the_laplacian_entry(scene):
     log = draw()
     drawn = {name for kind, name in log if kind != "label"}
     assert {"method", "weights", "iterations", "anchors_group", "handles_group", "handle_target", "handle_object",
-            "object.deformkit_laplacian_bind"} <= drawn
+            "deformkit.laplacian_bind"} <= drawn
     assert ("label", "Not bound") in log
     api.bind_laplacian(obj, 0)
     obj.deformkit.show_volume_ratio = True
     log = draw()
-    assert ("operator", "object.deformkit_laplacian_unbind") in log
+    assert ("operator", "deformkit.laplacian_unbind") in log
     assert ("label", "Bound: 322 vertices, 32 anchors, 33 handles") in log
     assert ("label", "component 1 (1 vertices) has no anchor or handle; it is left where it is") in log
     assert ("label", "Volume colors leave out Laplacian entries (no Jacobian)") in log

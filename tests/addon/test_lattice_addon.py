@@ -169,19 +169,19 @@ def test_edit_mode_of_a_lattice_spaced_one_apart(scene):
 
 def test_binding_is_kept_until_its_inputs_change(scene):
     import bpy
-    from deformkit_addon import api, evaluation, lattices
+    from deformkit_addon import api, cache, evaluation, lattices
     obj = make_object(bpy)
     lat = make_lattice(bpy)
     api.add_entry(obj, "LATTICE", lattice=lat)
     key = (evaluation.cache_key(obj), 0, "viewport")
-    first = lattices._bindings[key][2]
+    first = cache.get("lattice", key)[2]
     perturb_lattice(lat, seed=2)
     update()
     obj.deformkit.entries[0].strength = 0.5
-    assert lattices._bindings[key][2] is first  # new points and strength: the same binding
+    assert cache.get("lattice", key)[2] is first  # new points and strength: the same binding
     lat.location.x += 0.1
     update()
-    assert lattices._bindings[key][2] is not first  # the frame changed: bound again
+    assert cache.get("lattice", key)[2] is not first  # the frame changed: bound again
     bound = api.bind_lattice(obj, 0)
     assert bound.inside == len(obj.data.vertices) and bound.outside == 0 == bound.not_placed
     assert lattices.binding_counts(evaluation.cache_key(obj), 0) == tuple(bound)
@@ -247,7 +247,7 @@ def test_add_lattice_fits_the_bounding_box(scene):
     update()
     before = evaluated(obj).copy()
     with bpy.context.temp_override(object=obj, active_object=obj):
-        assert bpy.ops.object.deformkit_add_lattice(resolution=(3, 4, 5), basis="BERNSTEIN") == {"FINISHED"}
+        assert bpy.ops.deformkit.add_lattice(resolution=(3, 4, 5), basis="BERNSTEIN") == {"FINISHED"}
     entry = obj.deformkit.entries[0]
     lat = entry.lattice
     assert (entry.type, entry.lattice_basis, entry.error) == ("LATTICE", "BERNSTEIN", "")
@@ -264,7 +264,7 @@ def test_add_lattice_fits_the_bounding_box(scene):
     bpy.context.view_layer.objects.active = obj
     bpy.ops.object.mode_set(mode="EDIT")
     with bpy.context.temp_override(object=obj, active_object=obj):
-        assert bpy.ops.object.deformkit_add_lattice(resolution=(4, 4, 4), basis="BEZIER") == {"FINISHED"}
+        assert bpy.ops.deformkit.add_lattice(resolution=(4, 4, 4), basis="BEZIER") == {"FINISHED"}
     bpy.ops.object.mode_set(mode="OBJECT")
     lo, hi = lattice_box(obj, obj.deformkit.entries[1].lattice)
     assert np.abs(lo - co[upper].min(axis=0)).max() < 2e-4 * size
@@ -289,7 +289,7 @@ def test_direct_manipulation_reaches_the_targets(scene, basis):
     before = to_world(obj, evaluated(obj)[chosen])
     scene.cursor.location = before.mean(axis=0) + np.array([0.15, -0.1, 0.2])
     with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]):
-        assert bpy.ops.object.deformkit_lattice_direct(targets="CURSOR") == {"FINISHED"}
+        assert bpy.ops.deformkit.lattice_direct(targets="CURSOR") == {"FINISHED"}
     after = to_world(obj, evaluated(obj)[chosen])
     expected = before + (np.array(scene.cursor.location) - before.mean(axis=0))
     assert np.abs(after - expected).max() < 1e-5, np.abs(after - expected).max()
@@ -302,7 +302,7 @@ def test_direct_manipulation_reaches_the_targets(scene, basis):
         empties.append(empty)
     update()
     with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj, *empties]):
-        assert bpy.ops.object.deformkit_lattice_direct(targets="EMPTIES") == {"FINISHED"}
+        assert bpy.ops.deformkit.lattice_direct(targets="EMPTIES") == {"FINISHED"}
     reached = to_world(obj, evaluated(obj)[[chosen[0], chosen[2]]])
     targets = np.array([e.location for e in empties])
     assert np.abs(reached - targets).max() < 1e-5, np.abs(reached - targets).max()
@@ -325,7 +325,7 @@ def test_direct_manipulation_api_and_errors(scene):
     with pytest.raises(ValueError, match="no vertices are selected"):
         api.direct_manipulation(obj, 1, [], np.zeros((0, 3)))
     select_vertices(obj, [])
-    direct = bpy.ops.object.deformkit_lattice_direct  # an operator's error report raises in scripts
+    direct = bpy.ops.deformkit.lattice_direct  # an operator's error report raises in scripts
     with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]):
         with pytest.raises(RuntimeError, match="no vertices of 'Obj' are selected"):
             direct(targets="CURSOR")
@@ -347,20 +347,20 @@ def test_operators_bind_and_reset(scene):
     obj = make_object(bpy)
     before = evaluated(obj).copy()
     with bpy.context.temp_override(object=obj, active_object=obj):
-        assert not bpy.ops.object.deformkit_lattice_bind.poll()  # no Lattice entry yet
+        assert not bpy.ops.deformkit.lattice_bind.poll()  # no Lattice entry yet
     lat = make_lattice(bpy)
     api.add_entry(obj, "LATTICE", lattice=lat)
     perturb_lattice(lat)
     update()
     assert not close(evaluated(obj), before)
     with bpy.context.temp_override(object=obj, active_object=obj):
-        assert bpy.ops.object.deformkit_lattice_bind() == {"FINISHED"}
-        assert bpy.ops.object.deformkit_lattice_reset() == {"FINISHED"}
+        assert bpy.ops.deformkit.lattice_bind() == {"FINISHED"}
+        assert bpy.ops.deformkit.lattice_reset() == {"FINISHED"}
     np.testing.assert_array_equal(evaluated(obj), before)
     perturb_lattice(lat)
     update()
     with bpy.context.temp_override(object=lat, active_object=lat):  # from the lattice itself
-        assert bpy.ops.object.deformkit_lattice_reset() == {"FINISHED"}
+        assert bpy.ops.deformkit.lattice_reset() == {"FINISHED"}
     np.testing.assert_array_equal(evaluated(obj), before)
     np.testing.assert_array_equal(lattice_points(lat), lattice_points(lat, "co"))
 
@@ -395,7 +395,7 @@ def test_undo_redo_save_and_reload(scene, tmp_path):
     bpy.ops.ed.undo_push(message="edit lattice")
     edited = evaluated(obj).copy()
     with bpy.context.temp_override(object=lat, active_object=lat):  # undo=True: push a step as the UI does
-        assert bpy.ops.object.deformkit_lattice_reset("EXEC_DEFAULT", True) == {"FINISHED"}
+        assert bpy.ops.deformkit.lattice_reset("EXEC_DEFAULT", True) == {"FINISHED"}
     np.testing.assert_array_equal(evaluated(obj), base)
     bpy.ops.ed.undo()
     obj = bpy.data.objects["Obj"]  # undo rebuilds the data: look the objects up again
@@ -529,8 +529,8 @@ def test_panel_shows_the_lattice_entry(scene):
     ui.DEFORMKIT_PT_stack.draw(types.SimpleNamespace(layout=CheckingLayout(log)), context)
     ui.DEFORMKIT_MT_add.draw(types.SimpleNamespace(layout=CheckingLayout(log)), context)
     drawn = {name for kind, name in log if kind != "label"}
-    assert {"lattice", "lattice_basis", "outside", "strength", "vertex_group", "object.deformkit_lattice_bind",
-            "object.deformkit_lattice_reset", "object.deformkit_lattice_direct",
-            "object.deformkit_add_lattice"} <= drawn
+    assert {"lattice", "lattice_basis", "outside", "strength", "vertex_group", "deformkit.lattice_bind",
+            "deformkit.lattice_reset", "deformkit.lattice_direct",
+            "deformkit.add_lattice"} <= drawn
     n = len(obj.data.vertices)
     assert ("label", f"Bound: {n} vertices inside, 0 outside") in log

@@ -405,7 +405,8 @@ def test_bad_settings_show_on_the_entry_and_leave_the_mesh(scene, problem):
     entry = api.add_entry(obj, "SUBDIVIDE", levels=1)
     before, made = evaluated(obj).copy(), helpers(bpy)
     if problem in ("after", "two_subdivides"):
-        late = api.add_entry(obj, "TWIST" if problem == "after" else "SUBDIVIDE", angle=1.0)
+        # A Subdivide entry has no angle: api.set_params refuses parameters of other kinds.
+        late = api.add_entry(obj, "TWIST", angle=1.0) if problem == "after" else api.add_entry(obj, "SUBDIVIDE")
         assert "must be the last entry" in late.error and "Subdivide" in late.error, late.error
     elif problem == "loop_on_quads":
         entry.scheme = "LOOP"
@@ -441,7 +442,7 @@ def test_check_smoothness_of_a_smooth_twisted_cube(scene):
     api.add_entry(obj, "SUBDIVIDE", levels=2)
     obj.data.vertices.foreach_set("select", np.ones(len(obj.data.vertices), bool))
     with bpy.context.temp_override(object=obj, active_object=obj):
-        assert bpy.ops.object.deformkit_check_smoothness() == {"FINISHED"}
+        assert bpy.ops.deformkit.check_smoothness() == {"FINISHED"}
     figures = obj.deformkit.smoothness
     assert figures.checked and figures.max_angle < 1e-9 and figures.selected == 0
     assert figures.degenerate == 0 and figures.flipped == 0
@@ -474,7 +475,7 @@ def test_check_smoothness_finds_and_selects_a_crease(scene, mode):
     bpy.context.view_layer.objects.active = obj
     bpy.ops.object.mode_set(mode=mode)
     with bpy.context.temp_override(object=obj, active_object=obj):
-        assert bpy.ops.object.deformkit_check_smoothness() == {"FINISHED"}
+        assert bpy.ops.deformkit.check_smoothness() == {"FINISHED"}
     assert obj.deformkit.smoothness.selected == 1
     assert math.degrees(obj.deformkit.smoothness.max_angle) > 15
     if mode == "EDIT":
@@ -514,7 +515,7 @@ def test_panel_shows_the_subdivide_entry_and_smoothness(scene):
     ui.DEFORMKIT_MT_add.draw(types.SimpleNamespace(layout=CheckingLayout(log)), context)
     drawn = {name for kind, name in log if kind != "label"}
     assert {"levels", "render_levels", "scheme", "use_limit_surface", "boundary_smooth", "use_creases",
-            "sharpen_two_edge_vertices", "uv_smooth", "object.deformkit_check_smoothness",
+            "sharpen_two_edge_vertices", "uv_smooth", "deformkit.check_smoothness",
             "deformkit.entry_add"} <= drawn
     faces = len(dk().subdivide(positions(obj.data), polygons(obj.data), 2).faces)
     assert any(kind == "label" and text.startswith("Render:") and text.endswith(f"{faces} faces")
@@ -543,14 +544,14 @@ def test_a_copy_of_the_object_gets_its_own_helpers(scene):
 
 def test_removing_the_entry_releases_its_refined_topologies(scene):
     import bpy
-    from deformkit_addon import api, meshdata, subdivision
+    from deformkit_addon import api, cache, meshdata
     obj = make_object(bpy)
     api.add_entry(obj, "TWIST", angle=0.5, deform_axis="Z")
     api.add_entry(obj, "SUBDIVIDE", levels=2, render_levels=3)
     key = meshdata.cache_key(obj)
-    assert {k[0] for k in subdivision._subdividers} == {key}
+    assert {k[0] for k in cache.items("subdivide")} == {key}
     api.remove_entry(obj, 1)
-    assert not any(k[0] == key for k in subdivision._subdividers)
+    assert not any(k[0] == key for k in cache.items("subdivide"))
 
 
 def mesh_object(bpy, name, points, faces, location=(0.2, -0.1, 0.3)):

@@ -12,15 +12,26 @@ mesh object as Blender's Hook modifier does (OBJECT).
 Building the solver factorises its system (the expensive part). It is kept in memory per object
 and bind, and built again from the saved rest when it is missing (file load, undo) or when what it
 depends on changes: method, weights, iterations (ARAP, rotation-invariant), anchors, handles.
+
+Here too: the entry's settings and panel, and its Bind and Unbind operators.
 """
 import random
 import zlib
 from collections import namedtuple
 
+import bpy
 import numpy as np
 
-from . import meshdata, native
-from .outputs import EntryError
+from .. import api, cache, meshdata, native
+from ..outputs import EntryError
+from .common import KindOperator, Prepared, core_missing, followed_object, mesh_object, write_base
+
+TYPES = ("LAPLACIAN",)
+ICON = "MOD_MESHDEFORM"
+STACKABLE = False  # needs the whole mesh
+LAST = False
+MENU = ()  # (operator, icon) below the Add menu's entry types
+FIELDS = ("method", "weights", "iterations", "anchors_group", "handles_group", "handle_target", "handle_object")
 
 REST = "deformkit_rest"  # the entry's ID property: the rest, x y z per vertex, float32
 
@@ -30,8 +41,11 @@ REST = "deformkit_rest"  # the entry's ID property: the rest, x y z per vertex, 
 Setup = namedtuple("Setup", "solver handles targets fingerprint")
 # settings: what the factorisation depends on besides the groups; rest: kept for OBJECT targets.
 Solver = namedtuple("Solver", "settings anchors handles rest deformer")
+# Solvers are kept in the cache's "laplacian" space: (object cache key, bind id) -> Solver.
 
-_solvers = {}  # (object cache key, bind id) -> Solver
+
+def fields(entry_type):
+    return FIELDS
 
 
 def is_bound(entry):
@@ -83,15 +97,8 @@ def members(obj, entry, reuse=False):
 
 def handle_object(entry):
     """The entry's handle object, or EntryError saying why it cannot be used."""
-    obj = entry.handle_object
-    if obj is None:
-        if entry.handle_object_name:
-            raise EntryError(f"handle object '{entry.handle_object_name}' no longer exists")
-        raise EntryError("no handle object set: pick one (an empty, say), or let the handles follow the "
-                         "Incoming mesh")
-    if not obj.users_scene:  # deleted in the UI: unlinked, but still referenced here
-        raise EntryError(f"handle object '{obj.name}' was deleted (it is in no scene)")
-    return obj
+    return followed_object(entry, "handle_object", "handle", "no handle object set: pick one (an empty, say), or "
+                           "let the handles follow the Incoming mesh")
 
 
 def _matrix_of(obj):
@@ -158,17 +165,24 @@ def build(entry, rest, topo, anchors, handles):
 
 def _solver(obj, entry, topo, anchors, handles):
     key, settings = (meshdata.cache_key(obj), entry.bind_id), _settings(entry, topo)
-    cached = _solvers.get(key)
+    cached = cache.get("laplacian", key)
     if cached is None or cached.settings != settings or not np.array_equal(cached.anchors, anchors) \
             or not np.array_equal(cached.handles, handles):
         rest = saved_rest(entry)
-        cached = _solvers[key] = Solver(settings, anchors, handles, rest, build(entry, rest, topo, anchors, handles))
+        cached = cache.put("laplacian", key, Solver(settings, anchors, handles, rest,
+                                                    build(entry, rest, topo, anchors, handles)))
     return cached
 
 
 def setup(obj, entry, reuse_weights=False):
-    """What the entry needs to deform its input; EntryError for any problem with its settings."""
-    fingerprint = ("LAPLACIAN", entry.show_viewport, entry.show_render, entry.bind_id)
+    """What the entry needs to deform its input (no pointwise deformer: it needs the whole mesh);
+    EntryError for any problem with its settings."""
+    laplacian = surface_setup(obj, entry, reuse_weights)
+    return Prepared(None, laplacian.fingerprint, laplacian)
+
+
+def surface_setup(obj, entry, reuse_weights=False):
+    fingerprint = (entry.bind_id,)
     if not is_bound(entry):
         return Setup(None, None, None, fingerprint)
     topo = meshdata.topology(obj.data)
@@ -186,7 +200,21 @@ def setup(obj, entry, reuse_weights=False):
     return Setup(solver.deformer, handles, targets, fingerprint)
 
 
-def deform(entry_setup, points):
+def deform(key, prepared, points):
+    """The entry's result for the incoming points; a failure is the entry's (EntryError)."""
+    try:
+        return surface_deform(prepared.data, points)
+    except EntryError:
+        raise
+    except ValueError as exc:
+        raise EntryError(str(exc)) from exc
+
+
+def apply(obj, entry, prepared, base):
+    write_base(obj, surface_deform(prepared.data, base))  # the handles come from the base mesh (INCOMING)
+
+
+def surface_deform(entry_setup, points):
     """The entry's result for the incoming points (float32, like every other entry's)."""
     if entry_setup.solver is None:
         return points
@@ -206,7 +234,7 @@ def bind(obj, entry, incoming):
     rest = np.array(incoming, np.float32).reshape(-1, 3)
     deformer = build(entry, rest, topo, anchors, handles)
     key = meshdata.cache_key(obj)
-    _solvers.pop((key, entry.bind_id), None)
+    cache.pop("laplacian", (key, entry.bind_id))
     used = {e.bind_id for e in obj.deformkit.entries}
     bind_id = 0
     while bind_id == 0 or bind_id in used:
@@ -215,12 +243,12 @@ def bind(obj, entry, incoming):
     entry.bind_vertices, entry.bind_faces, entry.bind_topology = topo.vertices, topo.faces, _signed(topo.crc)
     entry.handle_matrix = matrix.ravel().tolist()
     entry.bind_id = bind_id
-    _solvers[(key, bind_id)] = Solver(_settings(entry, topo), anchors, handles, rest, deformer)
+    cache.put("laplacian", (key, bind_id), Solver(_settings(entry, topo), anchors, handles, rest, deformer))
     return topo.vertices
 
 
 def unbind(obj, entry):
-    _solvers.pop((meshdata.cache_key(obj), entry.bind_id), None)
+    cache.pop("laplacian", (meshdata.cache_key(obj), entry.bind_id))
     clear(entry)
 
 
@@ -234,7 +262,7 @@ def status(obj, entry):
     """(status line, the solver's warnings) for the panel."""
     if not is_bound(entry):
         return "Not bound", []
-    cached = _solvers.get((meshdata.cache_key(obj), entry.bind_id))
+    cached = cache.get("laplacian", (meshdata.cache_key(obj), entry.bind_id))
     if cached is None:
         return f"Bound: {entry.bind_vertices} vertices", []
     return (f"Bound: {entry.bind_vertices} vertices, {len(cached.anchors)} anchors, {len(cached.handles)} handles",
@@ -243,10 +271,93 @@ def status(obj, entry):
 
 def keep_only(object_key, bind_ids):
     """Drop the solvers of binds that the object no longer has (removed, unbound, retyped)."""
-    for key in [k for k in _solvers if k[0] == object_key and k[1] not in bind_ids]:
-        del _solvers[key]
+    cache.forget(object_key, "laplacian", keep=lambda key: key[1] in bind_ids)
 
 
-def forget(object_key=None):
-    for key in [k for k in _solvers if object_key is None or k[0] == object_key]:
-        del _solvers[key]
+def followed(entry):
+    """(object, remembered name) of the objects the entry follows: the handle object, if the
+    handles follow it."""
+    return [(entry.handle_object, entry.handle_object_name)] if entry.handle_target == "OBJECT" else []
+
+
+def volume_note(entries):
+    if any(e.show_viewport for e in entries):
+        return "Volume colors leave out Laplacian entries (no Jacobian)"
+    return ""
+
+
+def retyped(entry):
+    """The entry became another kind: a bind belongs to a Laplacian entry, so no hidden rest is
+    left on other kinds."""
+    if is_bound(entry):
+        clear(entry)
+
+
+def draw(col, obj, entry):
+    """Laid out like Blender's Laplacian Deform panel: settings, then the bind state and button."""
+    index = list(obj.deformkit.entries).index(entry)
+    col.prop(entry, "method")
+    col.prop(entry, "weights")
+    sub = col.row()
+    sub.active = entry.method != "LAPLACIAN"  # naive editing solves once
+    sub.prop(entry, "iterations")
+    col.prop_search(entry, "anchors_group", obj, "vertex_groups", text="Anchors")
+    col.prop_search(entry, "handles_group", obj, "vertex_groups", text="Handles")
+    col.row().prop(entry, "handle_target", expand=True)
+    if entry.handle_target == "OBJECT":
+        col.prop(entry, "handle_object")
+    col.separator()
+    text, warnings = status(obj, entry)
+    col.label(text=text, icon="LINKED" if is_bound(entry) else "UNLINKED")
+    for warning in warnings:
+        col.label(text=warning, icon="INFO")
+    if is_bound(entry):
+        col.operator("deformkit.laplacian_unbind", text="Unbind", icon="UNLINKED").index = index
+    else:
+        col.operator("deformkit.laplacian_bind", text="Bind", icon="LINKED").index = index
+
+
+# Operators ------------------------------------------------------------------------------------
+
+class _LaplacianOperator(KindOperator):
+    """Acts on a Laplacian entry of the active mesh: the given one, else the active entry if it is
+    one, else the first."""
+    TYPES = TYPES
+
+    @classmethod
+    def poll(cls, context):
+        if core_missing(cls):
+            return False
+        obj = mesh_object(context)
+        if obj is None or not cls.has_entry(obj):
+            cls.poll_message_set("Needs a mesh with a Laplacian entry")
+            return False
+        if obj.mode == "EDIT":
+            cls.poll_message_set("Leave edit mode first")
+            return False
+        return True
+
+
+class DEFORMKIT_OT_laplacian_bind(_LaplacianOperator, bpy.types.Operator):
+    """Record the mesh as it comes into the entry as the rest shape, and prepare the solver"""
+    bl_idname = "deformkit.laplacian_bind"
+    bl_label = "Bind"
+
+    def run(self, context):
+        obj, index = self.target(context)
+        count = api.bind_laplacian(obj, index)
+        self.report({"INFO"}, f"Bound '{obj.deformkit.entries[index].name}': {count} vertices")
+        return {"FINISHED"}
+
+
+class DEFORMKIT_OT_laplacian_unbind(_LaplacianOperator, bpy.types.Operator):
+    """Forget the rest shape: the entry passes the mesh through until bound again"""
+    bl_idname = "deformkit.laplacian_unbind"
+    bl_label = "Unbind"
+
+    def run(self, context):
+        api.unbind_laplacian(*self.target(context))
+        return {"FINISHED"}
+
+
+classes = (DEFORMKIT_OT_laplacian_bind, DEFORMKIT_OT_laplacian_unbind)

@@ -11,6 +11,11 @@ data: they are written on every evaluation, and deleted when the entry goes or s
 
 Carried over from the base mesh: the active UV map (face-varying, with UV Smooth), material
 indices and smooth shading (through each face's control face); other attributes are not.
+
+Here too: the entry's settings and panel. Refined topologies are kept in the cache's "subdivide"
+space ((object cache key, "viewport"/"render") -> (refine key, dk.Subdivider, Result without
+points)), and what each helper mesh holds in "subdivide_written" ((object cache key, helper mesh
+name) -> the key of the topology and face data written into it).
 """
 import zlib
 from collections import namedtuple
@@ -18,8 +23,17 @@ from collections import namedtuple
 import bpy
 import numpy as np
 
-from . import meshdata, native, outputs
-from .outputs import EntryError
+from .. import cache, meshdata, native, outputs
+from ..outputs import EntryError
+from .common import Prepared
+
+TYPES = ("SUBDIVIDE",)
+ICON = "MOD_SUBSURF"
+STACKABLE = False
+LAST = True  # changes the topology: the last entry of a stack
+MENU = ()  # (operator, icon) below the Add menu's entry types
+FIELDS = ("levels", "render_levels", "scheme", "boundary_smooth", "use_creases", "uv_smooth", "use_limit_surface",
+          "sharpen_two_edge_vertices")
 
 SCHEMES = {"AUTO": "auto", "CATMULL_CLARK": "catmull_clark", "LOOP": "loop"}
 BOUNDARIES = {"PRESERVE_CORNERS": "edge_and_corner", "ALL": "edge_only"}
@@ -33,8 +47,9 @@ Setup = namedtuple("Setup", "entry topo kwargs uvs uv_name uv_smooth material sm
 # per-corner UVs or None.
 Result = namedtuple("Result", "points corners starts totals face_origin uvs")
 
-_subdividers = {}  # (object cache key, kind) -> (refine key, dk.Subdivider, Result without points)
-_written = {}      # helper mesh name -> the key of the topology and face data it holds
+
+def fields(entry_type):
+    return FIELDS
 
 
 def crease_to_sharpness(crease):
@@ -99,7 +114,13 @@ def _crc(*arrays):
     return crc
 
 
-def setup(obj, entry):
+def setup(obj, entry, reuse_weights=False):
+    """The entry as evaluation runs it: no pointwise deformer; what it subdivides with."""
+    sub = subdivision_setup(obj, entry)
+    return Prepared(None, sub.fingerprint, sub)
+
+
+def subdivision_setup(obj, entry):
     """What the entry needs besides the cage: the base mesh's topology, creases, UVs, materials."""
     mesh = obj.data
     topo = meshdata.topology(mesh)
@@ -121,7 +142,7 @@ def setup(obj, entry):
     corners = kwargs["corners"] or (None, None)
     refine = (topo.vertices, topo.crc, entry.scheme, entry.boundary_smooth, entry.uv_smooth, _crc(*creases, *corners),
               None if uvs is None else _crc(uvs), entry.sharpen_two_edge_vertices, entry.use_limit_surface)
-    fingerprint = ("SUBDIVIDE", entry.show_viewport, entry.show_render, entry.levels, entry.render_levels,
+    fingerprint = (entry.levels, entry.render_levels,
                    refine, layer.name if layer else "", _crc(material, smooth), tuple(m and m.name for m in materials))
     return Setup(entry, topo, kwargs, uvs, layer.name if layer else "", entry.uv_smooth.lower(), material, smooth,
                  materials, refine, fingerprint)
@@ -143,7 +164,7 @@ def subdivide(key, sub, level, cage):
         order = meshdata.corner_order(topo)
         return Result(cage, topo.corners if order is None else topo.corners[order],
                       np.cumsum(topo.totals) - topo.totals, topo.totals, np.arange(topo.faces), sub.uvs)
-    cached = _subdividers.get(key) if key else None
+    cached = cache.get("subdivide", key) if key else None
     try:
         if cached is not None and cached[0] == (sub.refine, level):
             return cached[2]._replace(points=cached[1].subdivide(cage))
@@ -159,7 +180,7 @@ def subdivide(key, sub, level, cage):
     result = Result(m.points, m.faces.ravel(), np.arange(count, dtype=np.int32) * k, np.full(count, k, np.int32),
                     m.face_origin, m.uvs)
     if key:
-        _subdividers[key] = ((sub.refine, level), subdivider, result._replace(points=None))
+        cache.put("subdivide", key, ((sub.refine, level), subdivider, result._replace(points=None)))
     return result
 
 
@@ -277,11 +298,12 @@ def write(obj, sub, found):
         helper = helpers[kind] = _helper(obj, sub.entry, kind)
         mesh, result = helper.data, found[kind]
         key = (sub.fingerprint, level(sub.entry, kind), len(result.points), len(result.starts))
-        if _written.get(mesh.name_full) == key and len(mesh.vertices) == len(result.points):
+        written = (meshdata.cache_key(obj), mesh.name_full)
+        if cache.get("subdivide_written", written) == key and len(mesh.vertices) == len(result.points):
             _set_positions(mesh, result.points)  # a new cage: the topology and face data are as written
         else:
             fill(mesh, result, sub)
-            _written[mesh.name_full] = key
+            cache.put("subdivide_written", written, key)
         mesh.update()
     if helpers["render"] is helpers["viewport"]:
         sub.entry.subdivision_render = None
@@ -301,7 +323,7 @@ def discard(obj, keep=()):
     for helper in found - set(keep):
         if is_ours(obj, helper):
             mesh = helper.data
-            _written.pop(mesh.name_full, None)
+            cache.pop("subdivide_written", (meshdata.cache_key(obj), mesh.name_full))
             bpy.data.objects.remove(helper)
             if mesh.users == 0:
                 bpy.data.meshes.remove(mesh)
@@ -336,15 +358,55 @@ def bake(obj, entry):
         raise EntryError("apply: the subdivided mesh would lose " + "; ".join(lost) + " (a Subdivide entry carries "
                          "positions, the active UV map, materials and smooth shading only): remove them first, "
                          "or keep the entry")
-    sub = setup(obj, entry)
+    sub = subdivision_setup(obj, entry)
     result = subdivide(None, sub, entry.levels, meshdata.base_positions(obj.data))
     fill(obj.data, result, sub, materials=False)
     obj.data.update()
     return True
 
 
-def forget(object_key=None):
-    for key in [k for k in _subdividers if object_key is None or k[0] == object_key]:
-        del _subdividers[key]
-    if object_key is None:
-        _written.clear()
+def deform(key, prepared, points):
+    raise NotImplementedError("a Subdivide entry is run by evaluation.evaluate as the stack's last step")
+
+
+def apply(obj, entry, prepared, base):
+    bake(obj, entry)  # the base mesh's own topology changes, as with Blender's Apply
+
+
+def forget(object_key):
+    """The refined topologies go (the stack has no Subdivide entry any more)."""
+    cache.forget(object_key, "subdivide")
+
+
+def followed(entry):
+    return []
+
+
+def volume_note(entries):
+    return "Volume colors are not carried through a Subdivide entry" if entries else ""
+
+
+def retyped(entry):
+    """The entry became another kind: its helpers go with the next evaluation (discard)."""
+
+
+def draw(col, obj, entry):
+    """Laid out like Blender's Subdivision Surface panel, then the size of what it made."""
+    col.prop(entry, "levels", text="Levels Viewport")
+    col.prop(entry, "render_levels", text="Render")
+    col.prop(entry, "scheme")
+    col.separator()
+    col.label(text="Advanced")
+    col.prop(entry, "use_limit_surface")
+    col.prop(entry, "use_creases")
+    col.prop(entry, "sharpen_two_edge_vertices")
+    col.prop(entry, "boundary_smooth")
+    col.prop(entry, "uv_smooth")
+    render = entry.subdivision_render
+    for label, helper in (("Viewport" if render else "Viewport and render", entry.subdivision_viewport),
+                          ("Render", render)):
+        if helper is not None:
+            col.label(text=f"{label}: {len(helper.data.vertices)} vertices, {len(helper.data.polygons)} faces")
+
+
+classes = ()

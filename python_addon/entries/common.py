@@ -1,0 +1,98 @@
+"""What several entry kinds share: the value a setup returns, the objects entries follow, the
+vertex-group influence, the operator base for acting on one entry of a kind, and panel rows."""
+from collections import namedtuple
+
+from bpy.props import IntProperty
+
+from .. import meshdata, native
+from ..outputs import EntryError
+
+# deformer: a dk.Deformer with a Jacobian (in dk.Stack and the volume ratio), or None for kinds
+# without a pointwise map; fingerprint: everything besides the incoming points that the result
+# depends on; data: the kind's own (lattice.Setup, laplacian.Setup, subdivide.Setup) or None.
+Prepared = namedtuple("Prepared", "deformer fingerprint data")
+
+
+def followed_object(entry, prop, role, unset=""):
+    """The object entry.<prop> points at, or EntryError when it was deleted (the entry remembers
+    its name in <prop>_name, so a deletion is told apart from "none set"). Unset: EntryError(unset),
+    or None when `unset` is empty."""
+    obj = getattr(entry, prop)
+    if obj is None:
+        name = getattr(entry, prop + "_name")
+        if name:
+            raise EntryError(f"{role} object '{name}' no longer exists")
+        if unset:
+            raise EntryError(unset)
+        return None
+    if not obj.users_scene:  # deleted in the UI: unlinked, but still referenced here
+        raise EntryError(f"{role} object '{obj.name}' was deleted (it is in no scene)")
+    return obj
+
+
+def influence_weights(obj, entry, reuse_weights=False):
+    """The entry's vertex-group weights as it applies them, inverted with Invert (as Simple Deform
+    and the Lattice modifier: ungrouped vertices then get 1), or None without a group. They are read
+    by a per-vertex loop; with reuse_weights, those read last time are used (parameter edits and
+    frame changes do not change them; edits of the mesh re-read them)."""
+    if not entry.vertex_group:
+        return None
+    weights = meshdata.group_weights(obj, entry.vertex_group, reuse_weights)
+    return 1.0 - weights if entry.invert_vertex_group else weights
+
+
+def write_base(obj, points):
+    """Apply: the deformed points become the base mesh."""
+    obj.data.vertices.foreach_set("co", points.ravel())
+
+
+def mesh_object(context):
+    obj = context.object
+    return obj if obj is not None and obj.type == "MESH" else None
+
+
+def core_missing(operator):
+    """True, with the reason as the operator's poll message, when the compiled core is missing."""
+    if not native.available():
+        operator.poll_message_set(native.IMPORT_ERROR)
+        return True
+    return False
+
+
+class KindOperator:
+    """Acts on one entry of the kind whose TYPES the operator names: the given index, else the
+    active entry if it is of the kind, else the kind's first entry. `run(context)` does the work;
+    a ValueError or IndexError from it is reported and cancels."""
+    bl_options = {"REGISTER", "UNDO"}
+    index: IntProperty(name="Index", default=-1, options={"SKIP_SAVE"})
+    TYPES = ()
+
+    @classmethod
+    def has_entry(cls, obj):
+        return any(e.type in cls.TYPES for e in obj.deformkit.entries)
+
+    def target(self, context):
+        """(mesh object, entry index) on the active mesh."""
+        obj = context.object
+        entries = obj.deformkit.entries
+        if self.index >= 0:
+            return obj, self.index
+        active = obj.deformkit.active_index
+        if 0 <= active < len(entries) and entries[active].type in self.TYPES:
+            return obj, active
+        return obj, [e.type in self.TYPES for e in entries].index(True)
+
+    def execute(self, context):
+        try:
+            return self.run(context)
+        except (ValueError, IndexError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+
+
+def draw_vertex_group(col, obj, entry):
+    row = col.row(align=True)
+    row.prop_search(entry, "vertex_group", obj, "vertex_groups", text="Vertex Group")
+    sub = row.row(align=True)
+    sub.active = bool(entry.vertex_group)
+    sub.prop(entry, "invert_vertex_group", text="", icon="ARROW_LEFTRIGHT")

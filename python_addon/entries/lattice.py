@@ -1,0 +1,397 @@
+"""Lattice entries: a Blender Lattice object as the control grid of one of deformkit's lattices.
+
+A Lattice object keeps its rest grid (`co`: fu + i du per axis, in lattice-local space) and its
+edited points (`co_deform`). Blender's Lattice modifier moves each vertex by a blend of the offsets
+co_deform - co, turned into the object's space. The entry does the same: its frame maps deformkit's
+rest cube [-1/2, 1/2]^3 onto the box of the rest grid, and its control points are deformkit's rest
+control points plus those offsets, so a lattice at rest is the identity bit for bit, in every basis.
+"""
+import functools
+import zlib
+from collections import namedtuple
+
+import bpy
+import numpy as np
+from bpy.props import EnumProperty, IntVectorProperty
+
+from .. import api, cache, native
+from ..outputs import EntryError
+from ..properties import LATTICE_BASES
+from .common import (KindOperator, Prepared, core_missing, draw_vertex_group, followed_object, influence_weights,
+                     mesh_object, write_base)
+
+TYPES = ("LATTICE",)
+ICON = "MOD_LATTICE"
+STACKABLE = False  # deformed through its binding, not in a dk.Stack
+LAST = False
+MENU = (("deformkit.add_lattice", "OUTLINER_OB_LATTICE"),)  # below the Add menu's entry types
+FIELDS = ("lattice", "lattice_basis", "strength", "outside", "vertex_group", "invert_vertex_group")
+
+CLASSES = {"BLENDER": "BlenderLattice", "BERNSTEIN": "FFD", "BEZIER": "BezierFFD", "BSPLINE": "BSplineLattice"}
+
+
+# deformer: the dk lattice; layout: what a binding depends on; local: lattice-local -> object space
+# (4x4); co: the rest grid as Blender stores it (u fastest).
+Setup = namedtuple("Setup", "deformer fingerprint layout lattice local co")
+
+# Bindings are kept in the cache's "lattice" space: (object cache key, entry index, "viewport"/"render")
+# -> (layout, bound points, binding, counts).
+# Not in the object-keyed cache: it belongs to Lattice data (session_uid or name), not to a mesh object.
+_rest = {}  # Lattice data -> (resolution, rest grid `co`) read outside edit mode
+
+
+def fields(entry_type):
+    return FIELDS
+
+
+def lattice_object(entry):
+    """The entry's Lattice object, or EntryError saying why it cannot be used."""
+    if entry.lattice is not None and entry.lattice.type != "LATTICE":
+        raise EntryError(f"'{entry.lattice.name}' is not a lattice object")
+    lat = followed_object(entry, "lattice", "lattice", "no lattice object set: pick one, or use Add Fitted Lattice")
+    data = lat.data
+    if data.vertex_group:
+        raise EntryError(f"lattice '{lat.name}' weights its points by the vertex group '{data.vertex_group}', "
+                         "which deformkit does not support: clear the lattice's Vertex Group")
+    if data.shape_keys is not None:
+        raise EntryError(f"lattice '{lat.name}' has shape keys, which deformkit does not evaluate")
+    if len(lat.modifiers):
+        names = ", ".join(m.name for m in lat.modifiers)
+        raise EntryError(f"lattice '{lat.name}' has modifiers ({names}), which deformkit does not evaluate: "
+                         "apply or remove them")
+    return lat
+
+
+def read_points(data, prop):
+    flat = np.empty(len(data.points) * 3, np.float32)
+    data.points.foreach_get(prop, flat)
+    return flat.reshape(-1, 3)
+
+
+def rest_points(data, resolution):
+    """The rest grid `co`. In lattice edit mode Blender's `co` is wrong (it locates the edit copy's
+    points in the original's array), so the grid read last outside edit mode is used there, or,
+    for a lattice that has not been seen outside edit mode, the grid that the UI makes."""
+    key = getattr(data, "session_uid", None) or data.name_full
+    if not data.is_editmode:
+        co = read_points(data, "co")
+        _rest[key] = (resolution, co)
+        return co
+    cached = _rest.get(key)
+    if cached is not None and cached[0] == resolution:
+        return cached[1]
+    axes = [np.linspace(-0.5, 0.5, n) if n > 1 else np.zeros(1) for n in resolution]
+    w, v, u = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+    return np.stack([u, v, w], axis=-1).reshape(-1, 3).astype(np.float32)
+
+
+def to_grid(flat, resolution):
+    """Blender's point order (u fastest, then v, then w) -> deformkit's grid [i, j, k]."""
+    nu, nv, nw = resolution
+    return flat.reshape(nw, nv, nu, 3).transpose(2, 1, 0, 3)
+
+
+def from_grid(grid):
+    return np.ascontiguousarray(grid.transpose(2, 1, 0, 3)).reshape(-1, 3)
+
+
+@functools.lru_cache(maxsize=16)
+def _grid_indices(resolution):
+    """(i, j, k) of each point in Blender's order (u fastest)."""
+    nu, nv, nw = resolution
+    w, v, u = np.meshgrid(np.arange(nw), np.arange(nv), np.arange(nu), indexing="ij")
+    return np.stack([u, v, w], axis=-1).reshape(-1, 3)
+
+
+def rest_box(co, resolution, name):
+    """(center, size) of the rest grid's box in lattice-local space. Lattices made in the UI span
+    [-1/2, 1/2]; ones resized before they had an object, or back from one point, are spaced 1 apart."""
+    counts = np.array(resolution)
+    lo, hi = co[0].astype(np.float64), co[-1].astype(np.float64)
+    expected = lo + (hi - lo) * _grid_indices(tuple(resolution)) / np.maximum(counts - 1, 1)
+    uneven = np.abs(co - expected).max(axis=0) > 1e-5 * np.maximum(1.0, hi - lo)
+    uneven |= (counts > 1) & ~(hi > lo)
+    if uneven.any():
+        raise EntryError(f"lattice '{name}': its rest grid is not evenly spaced along {'uvw'[np.argmax(uneven)]}, "
+                         "which deformkit does not support")
+    return (lo + hi) / 2, np.where(counts > 1, hi - lo, 1.0)
+
+
+def check_basis(basis, outside, resolution, name="the lattice"):
+    nu, nv, nw = resolution
+    has = f"{name} has {nu} x {nv} x {nw} points"
+    if basis == "BLENDER" and outside == "EXTRAPOLATE":
+        raise EntryError("Outside 'Extrapolate' is not available with the Blender basis (Blender's modifier "
+                         "clamps): choose Clamp or Unchanged, or another basis")
+    if basis == "BERNSTEIN" and not all(2 <= n <= 16 for n in resolution):
+        raise EntryError(f"the Bernstein basis needs 2 to 16 points per axis (degree 1 to 15); {has}")
+    if basis == "BEZIER" and not all(n >= 4 and (n - 1) % 3 == 0 for n in resolution):
+        raise EntryError(f"the Bezier Blocks basis needs 3k + 1 points per axis (4, 7, 10, ...); {has}")
+    if basis == "BSPLINE" and min(resolution) < 4:
+        raise EntryError(f"the B-Spline basis needs at least 4 points per axis; {has}")
+
+
+def setup(obj, entry, reuse_weights=False):
+    """The entry as evaluation runs it: its lattice, with its strength and vertex-group influence."""
+    lattice = lattice_setup(obj, entry, influence_weights(obj, entry, reuse_weights))
+    return Prepared(lattice.deformer, lattice.fingerprint, lattice)
+
+
+def lattice_setup(obj, entry, weights=None, strength=None):
+    """The entry's deformkit lattice for `obj`. strength=None takes the entry's."""
+    lat = lattice_object(entry)
+    data = lat.data
+    resolution = (data.points_u, data.points_v, data.points_w)
+    basis, outside = entry.lattice_basis, entry.outside
+    check_basis(basis, outside, resolution, f"lattice '{lat.name}'")
+    cls = getattr(native.dk, CLASSES[basis], None)
+    if cls is None:
+        raise EntryError(f"this build of deformkit has no lattices: {native.BUILD_HINT}")
+    co, deformed = rest_points(data, resolution), read_points(data, "co_deform")
+    center, size = rest_box(co, resolution, lat.name)
+    local = np.array(obj.matrix_world.inverted() @ lat.matrix_world)
+    box = np.diag([*size, 1.0])
+    box[:3, 3] = center
+    frame = local @ box
+    kwargs = dict(frame=frame, outside=outside.lower(), weights=weights,
+                  strength=entry.strength if strength is None else strength)
+    interpolation = None
+    if basis == "BLENDER":
+        interpolation = (data.interpolation_type_u, data.interpolation_type_v, data.interpolation_type_w)
+        deformer = cls(resolution, interpolation, **kwargs)
+    elif basis == "BERNSTEIN":
+        deformer = cls(tuple(n - 1 for n in resolution), **kwargs)
+    elif basis == "BEZIER":
+        deformer = cls(tuple((n - 1) // 3 for n in resolution), **kwargs)
+    else:
+        deformer = cls(resolution, **kwargs)
+    offsets = to_grid(deformed - co, resolution).astype(np.float64)  # float32 difference, as Blender's
+    if offsets.any():  # else the rest lattice: the identity exactly
+        deformer.control_points = deformer.rest_control_points + offsets @ local[:3, :3].T
+    layout = (basis, resolution, interpolation, outside, frame.tobytes())
+    fingerprint = (layout, deformer.strength, zlib.crc32(offsets.tobytes()),
+                   None if weights is None else zlib.crc32(np.ascontiguousarray(weights).tobytes()))
+    return Setup(deformer, fingerprint, layout, lat, local, co)
+
+
+def deform(key, prepared, points):
+    """The entry's result on `points`, through a binding kept for as long as the points and the
+    lattice's layout (basis, resolution, interpolation, placement) stay the same."""
+    lattice = prepared.data
+    cached = cache.get("lattice", key)
+    if cached is None or cached[0] != lattice.layout:
+        cached = bind(key, lattice, points)
+    elif cached[1] is not points:
+        if not np.array_equal(cached[1], points):
+            cached = bind(key, lattice, points)
+        else:  # the same positions read again: keep this array, which the next evaluation may reuse
+            cached = cache.put("lattice", key, (cached[0], points) + cached[2:])
+    return lattice.deformer.deform_bound(cached[2])
+
+
+def bind(key, lattice_setup, points):
+    binding = lattice_setup.deformer.bind(points)
+    status = np.asarray(binding.status)
+    counts = tuple(int(np.count_nonzero(status == s)) for s in (0, 1, 2))
+    # The points are kept, not copied: evaluation never writes into base positions or results.
+    return cache.put("lattice", key, (lattice_setup.layout, points, binding, counts))
+
+
+def binding_counts(object_key, index):
+    """(inside, outside, not placed) vertex counts of the entry's binding, or None if not bound."""
+    for kind in ("viewport", "render"):
+        cached = cache.get("lattice", (object_key, index, kind))
+        if cached is not None:
+            return cached[3]
+    return None
+
+
+def apply(obj, entry, prepared, base):
+    write_base(obj, prepared.deformer.deform(base))
+
+
+def followed(entry):
+    """(object, remembered name) of the objects the entry follows: its lattice."""
+    return [(entry.lattice, entry.lattice_name)]
+
+
+def volume_note(entries):
+    return ""
+
+
+def retyped(entry):
+    """The entry became another kind: its bindings go with the next evaluation's fingerprint."""
+
+
+def forget_rest_grids():
+    """On file load: another file's lattice may have the same name (Blender 3.4 has no session_uid)."""
+    _rest.clear()
+
+
+def write_control_points(lattice_setup, grid):
+    """Store control points given in the object's space (nu, nv, nw, 3) as the lattice's co_deform."""
+    offsets = (np.asarray(grid, np.float64) - lattice_setup.deformer.rest_control_points) \
+        @ np.linalg.inv(lattice_setup.local[:3, :3]).T
+    co_deform = lattice_setup.co.astype(np.float64) + from_grid(offsets)
+    data = lattice_setup.lattice.data
+    data.points.foreach_set("co_deform", co_deform.astype(np.float32).ravel())
+    data.update_tag()
+
+
+def reset(lattice_obj):
+    data = lattice_obj.data
+    rest = rest_points(data, (data.points_u, data.points_v, data.points_w))
+    data.points.foreach_set("co_deform", rest.ravel())
+    data.update_tag()
+
+
+def users(lattice_obj, objects):
+    """(object, entry index) of every Lattice entry that uses lattice_obj."""
+    return [(obj, i) for obj in objects if obj.type == "MESH"
+            for i, e in enumerate(obj.deformkit.entries) if e.type in TYPES and e.lattice == lattice_obj]
+
+
+def draw(col, obj, entry):
+    """Laid out like Blender's Lattice modifier panel, then the binding and the lattice tools."""
+    from ..meshdata import cache_key
+    index = list(obj.deformkit.entries).index(entry)
+    col.prop(entry, "lattice", text="Object")
+    col.prop(entry, "lattice_basis")
+    col.prop(entry, "outside")
+    col.prop(entry, "strength", slider=True)
+    draw_vertex_group(col, obj, entry)
+    col.separator()
+    bound = binding_counts(cache_key(obj), index)
+    if bound is None:
+        col.label(text="Not bound yet", icon="UNLINKED")
+    else:
+        unplaced = f", {bound[2]} not placed" if bound[2] else ""
+        col.label(text=f"Bound: {bound[0]} vertices inside, {bound[1]} outside{unplaced}", icon="LINKED")
+    row = col.row(align=True)
+    row.operator("deformkit.lattice_bind", text="Rebind" if bound else "Bind", icon="FILE_REFRESH").index = index
+    row.operator("deformkit.lattice_reset", text="Reset", icon="LOOP_BACK").index = index
+    row = col.row(align=True)
+    for targets, label, icon in (("CURSOR", "Selection to Cursor", "PIVOT_CURSOR"),
+                                 ("EMPTIES", "Selection to Empties", "EMPTY_AXIS")):
+        op = row.operator("deformkit.lattice_direct", text=label, icon=icon)
+        op.index, op.targets = index, targets
+
+
+# Operators ------------------------------------------------------------------------------------
+
+class DEFORMKIT_OT_add_lattice(bpy.types.Operator):
+    """Add a Lattice object fitted to the mesh (to the selected vertices in edit mode) and a Lattice entry using it"""
+    bl_idname = "deformkit.add_lattice"
+    bl_label = "Add Fitted Lattice"
+    bl_options = {"REGISTER", "UNDO"}
+    resolution: IntVectorProperty(name="Resolution", size=3, default=(4, 4, 4), min=1, max=64,
+                                  description="Points along u, v and w")
+    basis: EnumProperty(name="Basis", items=LATTICE_BASES, default="BLENDER")
+
+    @classmethod
+    def poll(cls, context):
+        if core_missing(cls):
+            return False
+        return mesh_object(context) is not None
+
+    def execute(self, context):
+        obj = context.object
+        try:
+            entry = api.add_lattice(obj, tuple(self.resolution), self.basis, selected_only=obj.mode == "EDIT")
+        except ValueError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Added '{entry.lattice.name}': edit its points in its edit mode")
+        return {"FINISHED"}
+
+
+class _LatticeOperator(KindOperator):
+    """Acts on a Lattice entry: the given one, or the active mesh's active (else first) Lattice
+    entry, or, with a Lattice object active, the entry that uses it (on a selected mesh first)."""
+    TYPES = TYPES
+
+    @classmethod
+    def poll(cls, context):
+        if core_missing(cls):
+            return False
+        obj = context.object
+        if obj is not None and (obj.type == "LATTICE" or (obj.type == "MESH" and cls.has_entry(obj))):
+            return True
+        cls.poll_message_set("Needs a mesh with a Lattice entry, or a Lattice object")
+        return False
+
+    def target(self, context):
+        obj = context.object
+        if obj.type == "LATTICE":
+            found = api.lattice_users(obj)
+            if not found:
+                raise ValueError(f"lattice '{obj.name}' is not used by any deformkit entry")
+            selected = set(context.selected_objects)
+            return ([u for u in found if u[0] in selected] or found)[0]
+        return super().target(context)
+
+
+class DEFORMKIT_OT_lattice_bind(_LatticeOperator, bpy.types.Operator):
+    """Bind the mesh to the lattice again (also done by itself when either changes)"""
+    bl_idname = "deformkit.lattice_bind"
+    bl_label = "Bind to Lattice"
+
+    def run(self, context):
+        obj, index = self.target(context)
+        if obj.mode == "EDIT":
+            raise ValueError("bind: leave the mesh's edit mode first")
+        bound = api.bind_lattice(obj, index)
+        self.report({"INFO"}, f"Bound '{obj.name}': {bound.inside} vertices inside the lattice, "
+                              f"{bound.outside} outside")
+        return {"FINISHED"}
+
+
+class DEFORMKIT_OT_lattice_reset(_LatticeOperator, bpy.types.Operator):
+    """Move every point of the lattice back to its rest position"""
+    bl_idname = "deformkit.lattice_reset"
+    bl_label = "Reset Lattice"
+
+    def run(self, context):
+        if context.object.type == "LATTICE":
+            lattice = context.object
+        else:
+            obj, index = self.target(context)
+            lattice = api.lattice_entry(obj, index).lattice
+            if lattice is None:
+                raise ValueError("the entry has no lattice object")
+        api.reset_lattice(lattice)
+        return {"FINISHED"}
+
+
+class DEFORMKIT_OT_lattice_direct(_LatticeOperator, bpy.types.Operator):
+    """Move the lattice's points so that the mesh's selected vertices reach the targets"""
+    bl_idname = "deformkit.lattice_direct"
+    bl_label = "Move Lattice to Targets"
+    targets: EnumProperty(name="Targets", items=[
+        ("CURSOR", "3D Cursor", "Move the selected vertices' centroid to the 3D cursor"),
+        ("EMPTIES", "Selected Empties", "Pull, for each selected empty, the nearest selected vertex to it"),
+    ])
+
+    def run(self, context):
+        obj, index = self.target(context)
+        if obj.mode == "EDIT":
+            obj.update_from_editmode()  # the selection lives in edit mode's own copy
+        selected = np.zeros(len(obj.data.vertices), bool)
+        obj.data.vertices.foreach_get("select", selected)
+        if not selected.any():
+            raise ValueError(f"no vertices of '{obj.name}' are selected: select them in its edit mode")
+        empties = [o for o in context.selected_objects if o.type == "EMPTY"]
+        vertices, targets = api.manipulation_targets(obj, index, np.flatnonzero(selected), self.targets,
+                                                     cursor=context.scene.cursor.location, empties=empties)
+        result = api.direct_manipulation(obj, index, vertices, targets)
+        if result.max_residual > 1e-5 * max(1.0, *obj.dimensions):
+            self.report({"WARNING"}, f"Targets not all reached: up to {result.max_residual:.3g} away (more "
+                                     "constraints than the lattice's points allow, or vertices outside it)")
+        else:
+            self.report({"INFO"}, f"Moved {len(vertices)} vertices to their targets "
+                                  f"(within {result.max_residual:.2g})")
+        return {"FINISHED"}
+
+
+classes = (DEFORMKIT_OT_add_lattice, DEFORMKIT_OT_lattice_bind, DEFORMKIT_OT_lattice_reset,
+           DEFORMKIT_OT_lattice_direct)
