@@ -5,6 +5,9 @@ edited points (`co_deform`). Blender's Lattice modifier moves each vertex by a b
 co_deform - co, turned into the object's space. The entry does the same: its frame maps deformkit's
 rest cube [-1/2, 1/2]^3 onto the box of the rest grid, and its control points are deformkit's rest
 control points plus those offsets, so a lattice at rest is the identity bit for bit, in every basis.
+
+Here too: the entry's settings and panel, and its operators (Add Fitted Lattice, Bind, Reset, Move
+Lattice to Targets), which call the api's functions.
 """
 import functools
 import zlib
@@ -35,8 +38,8 @@ CLASSES = {"BLENDER": "BlenderLattice", "BERNSTEIN": "FFD", "BEZIER": "BezierFFD
 Setup = namedtuple("Setup", "deformer fingerprint layout lattice local co")
 
 # Bindings are kept in the cache's "lattice" space: (object cache key, entry index, "viewport"/"render")
-# -> (layout, bound points, binding, counts).
-# Not in the object-keyed cache: it belongs to Lattice data (session_uid or name), not to a mesh object.
+# -> (layout, bound points, binding, counts). The rest grids are not: they belong to Lattice data
+# (session_uid or name), not to a mesh object, and are dropped on file load only.
 _rest = {}  # Lattice data -> (resolution, rest grid `co`) read outside edit mode
 
 
