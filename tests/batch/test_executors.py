@@ -3,6 +3,7 @@ concurrent.futures pool gives every job exactly one row, the row run_job itself 
 that raises or whose process dies still gets a row; Ctrl-C drops the jobs not started and
 reports the running ones."""
 import concurrent.futures
+import json
 import os
 import pathlib
 import signal
@@ -13,7 +14,6 @@ import time
 import pytest
 
 from deformkit.batch import InProcessExecutor, LocalProcessExecutor, run_all, run_job
-from deformkit.batch.job import BatchJob
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 
@@ -53,7 +53,9 @@ def test_local_processes_run_blender_from_their_own_process(make_job):
     """The pool process, not the launcher, starts Blender: the job file names it as the parent."""
     with LocalProcessExecutor(1) as executor:
         rows = collect(executor, [make_job("ok")])
+        mapped = list(executor.map(run_job, [make_job("ok"), make_job("fail", index=1)]))  # concurrent.futures' map
     assert rows[0]["job_seen"]["parent_pid"] == rows[0]["parent"] != os.getpid()
+    assert [r["status"] for r in mapped] == ["ok", "failed"] and mapped[0]["parent"] == rows[0]["parent"]
 
 
 def explode(job):
@@ -118,7 +120,6 @@ def test_ctrl_c_on_the_command_line(make_job, tmp_path):
     os.killpg(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode != 0 and "KeyboardInterrupt" in err
-    import json
     report = json.loads((tmp_path / "batch" / "report.json").read_text())
     assert not report["complete"] and report["pending"] == 1 and report["failed"] == 1
     assert report["files"][0]["error"].startswith("BlenderDied: Blender was killed by SIGINT during stage 'evaluate'")

@@ -6,7 +6,6 @@ import os
 import pathlib
 import pickle
 
-import pytest
 
 from deformkit.batch import shared
 from deformkit.batch.job import BatchJob
