@@ -1,6 +1,7 @@
 """Batch work inside Blender: apply a recipe (or re-evaluate saved stacks) to the open file, save the
 result under a temporary name and rename it, and describe what happened. Plain functions, so the
-CLI worker and the tests call the same code; `cli.py` runs this in one Blender per input file.
+worker and the tests call the same code; the launcher (`python -m deformkit.batch`, no bpy) runs
+`worker_main` in one Blender per input file, on that file's job (deformkit.batch.job.BatchJob).
 
 Whatever goes wrong is caught here and written to the result file as a structured record (the
 exception's type and message, the stage, the object and the recipe entry it was on), so that the
@@ -12,8 +13,10 @@ import time
 
 import bpy
 import numpy as np
+from deformkit.batch import job as batch_job
+from deformkit.batch import shared as batch_io
 
-from . import api, batch_checks, batch_io, evaluation, recipe_schema, subdivision
+from . import api, batch_checks, evaluation, recipe_schema, subdivision
 
 
 class BatchError(Exception):
@@ -239,17 +242,18 @@ def process(input_path, output_path, recipe=None, preview_path=None, smoothness=
 
 
 def worker_main(job_path):
-    """Entry point inside Blender: the job file (JSON, written by the launcher) names the input,
-    the output, the result file, the recipe, the preview path, smoothness and the run's token. The
-    result file is rewritten at every stage, so that if Blender dies the launcher knows where."""
+    """Entry point inside Blender: the job file (a BatchJob as JSON, written by the launcher)
+    names the input, the output, the recipe, whether to leave the positions for a preview,
+    smoothness and the run's token; the result file (job.result_path) is rewritten at every
+    stage, so that if Blender dies the launcher knows where."""
     with open(job_path, encoding="utf-8") as fh:
-        job = json.load(fh)
+        job = batch_job.BatchJob.from_json(fh.read())
 
     def write(result, where=None):
         progress = {**result, "blender": bpy.app.version_string}
         if where is not None:
             progress.update(status="running", stage={k: where[k] for k in ("stage", "object", "entry")})
-        batch_io.write_json_atomically(job["result"], progress, job["token"])
+        batch_io.write_json_atomically(job.result_path, progress, job.token)
 
     def progress(result, where):
         try:
@@ -258,11 +262,11 @@ def worker_main(job_path):
             pass  # only a hint for a crash; the final result says what happened
 
     try:
-        result = process(job["input"], job["output"], job.get("recipe"), job.get("preview"),
-                         job.get("smoothness", False), job["token"], on_stage=progress)
+        result = process(job.input, job.output, job.recipe, job.preview_path, job.smoothness, job.token,
+                         on_stage=progress)
     except Exception as exc:  # a bug of ours: still a result, with its traceback's last frames
         record = batch_io.exception_record(exc, "worker")
-        result = {"file": job["input"], "output": job["output"], "status": "failed", "objects": [],
+        result = {"file": job.input, "output": job.output, "status": "failed", "objects": [],
                   "warnings": [], "error": batch_io.describe_failure(record), "exception": record}
     try:
         write(result)

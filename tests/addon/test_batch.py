@@ -19,7 +19,7 @@ RECIPE = {"objects": ["*"], "deformers": [{"type": "TWIST", "angle": 1.2, "defor
 
 
 def run_batch(*args):
-    proc = subprocess.run([sys.executable, str(REPO / "python_addon/cli.py"), "--blender", BLENDER, *map(str, args)],
+    proc = subprocess.run([sys.executable, "-m", "deformkit.batch", "--addon", str(REPO / "python_addon"), "--blender", BLENDER, *map(str, args)],
                           capture_output=True, text=True, timeout=600)
     return proc
 
@@ -177,7 +177,7 @@ def test_bad_command_lines(tmp_path):
     bad.write_text('{"deformers": []}')
     proc = run_batch("x.blend", "--recipe", bad, "--out", tmp_path)
     assert proc.returncode == 2 and "deformers: expected a non-empty list of tables" in proc.stderr
-    proc = subprocess.run([sys.executable, str(REPO / "python_addon/cli.py"), "x.blend", "--evaluate-saved",
+    proc = subprocess.run([sys.executable, "-m", "deformkit.batch", "--addon", str(REPO / "python_addon"), "x.blend", "--evaluate-saved",
                            "--out", str(tmp_path), "--blender", "/nonexistent/blender"], capture_output=True, text=True)
     assert proc.returncode == 2 and "not found" in proc.stderr
 

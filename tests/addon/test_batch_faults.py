@@ -19,7 +19,7 @@ from addon_helpers import IN_BLENDER_BINARY, REPO
 
 pytestmark = pytest.mark.skipif(IN_BLENDER_BINARY, reason="the batch tests start Blender themselves")
 BLENDER = "/usr/bin/blender"
-CLI = [sys.executable, str(REPO / "python_addon/cli.py"), "--blender", BLENDER]
+CLI = [sys.executable, "-m", "deformkit.batch", "--addon", str(REPO / "python_addon"), "--blender", BLENDER]
 TWIST = {"objects": ["*"], "deformers": [{"type": "TWIST", "angle": 1.2, "deform_axis": "Z"}]}
 
 
@@ -303,11 +303,7 @@ def test_foreign_python_first_on_path(column, recipe, tmp_path):
     """A Python without numpy first on PATH and in PYTHONHOME hijacks Debian's Blender (it takes
     its sys.prefix from there: no numpy, or not even the standard library); Blender started with the launcher's environment is not hijacked,
     and a whole run with that PATH succeeds."""
-    sys.path.insert(0, str(REPO / "python_addon"))
-    try:
-        import batch_launch
-    finally:
-        sys.path.remove(str(REPO / "python_addon"))
+    from deformkit.batch import run as batch_launch
     foreign = tmp_path / "foreign"
     subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(foreign)], check=True)
     hijacked = {**os.environ, "PATH": f"{foreign / 'bin'}{os.pathsep}{os.environ['PATH']}",

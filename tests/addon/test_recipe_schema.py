@@ -106,7 +106,7 @@ def test_booleans_must_be_booleans(scene):
 def run_cli(tmp_path, recipe_text, suffix=".json"):
     path = tmp_path / f"recipe{suffix}"
     path.write_text(recipe_text)
-    return subprocess.run([sys.executable, str(REPO / "python_addon/cli.py"), str(tmp_path / "none.blend"),
+    return subprocess.run([sys.executable, "-m", "deformkit.batch", "--addon", str(REPO / "python_addon"), str(tmp_path / "none.blend"),
                            "--recipe", str(path), "--out", str(tmp_path / "out"), "--blender", sys.executable],
                           capture_output=True, text=True, timeout=60)
 

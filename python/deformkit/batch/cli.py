@@ -1,7 +1,8 @@
 """deformkit-batch: run deformkit stacks over many .blend files without a window.
 
     deformkit-batch INPUT... --out DIR [--recipe FILE | --evaluate-saved] [--jobs N]
-                    [--blender PATH] [--report PATH] [--preview] [--smoothness] [--timeout SECONDS]
+                    [--blender PATH] [--addon PATH] [--report PATH] [--preview] [--smoothness]
+                    [--timeout SECONDS]
 
 Each input runs in its own `blender -b --factory-startup` process with the add-on enabled. Outputs
 go to DIR/<name>.blend (written under a temporary name unique to the run, then renamed; an input
@@ -17,24 +18,32 @@ cage. Recipes are JSON or TOML, checked against the add-on's own property ranges
     {"objects": ["Suzanne"], "deformers": [{"type": "TWIST", "angle": 1.57, "deform_axis": "Z"},
                                            {"type": "SUBDIVIDE", "levels": 2}]}
 
-This module needs no bpy: it only starts Blender. Run it with the project's Python
-(`scripts/deformkit-batch`), which also has matplotlib for the pictures.
+This package needs no bpy: it only starts Blender, on one job file per input (BatchJob, run by
+run_job on an executor: local processes, --jobs at a time). Run it with the project's Python
+(`scripts/deformkit-batch`, or `python -m deformkit.batch`), which also has matplotlib for the
+pictures. The add-on Blender runs is --addon (default: $DEFORMKIT_ADDON, else an importable
+deformkit_addon, else the python_addon/ folder of the checkout this package is in); the recipe is
+checked against that add-on's own property definitions (its recipe_schema.py).
 """
 import argparse
-import concurrent.futures
 import datetime
 import glob
+import importlib.util
 import json
 import math
 import os
 import shutil
 import sys
 import tempfile
-import threading
 
-import batch_io
-import batch_launch
-import recipe_schema
+from . import shared, staging
+from .executors import LocalProcessExecutor, run_all
+from .job import BatchJob
+from .report import Report, console_line
+from .run import blender_environment, same_file
+
+# A source checkout: python/deformkit/batch/cli.py, beside python_addon/.
+CHECKOUT_ADDON = os.path.join(os.path.dirname(os.path.abspath(__file__)), *[os.pardir] * 3, "python_addon")
 
 
 class Parser(argparse.ArgumentParser):
@@ -71,14 +80,6 @@ def expand_inputs(patterns):
     return list(dict.fromkeys(os.path.abspath(p) for p in paths))
 
 
-def same_file(a, b):
-    """True when a and b are the same file, through symbolic links and hard links too."""
-    try:
-        return os.path.samefile(a, b)
-    except OSError:  # one does not exist (yet): compare the resolved paths
-        return os.path.realpath(a) == os.path.realpath(b)
-
-
 def without_duplicates(pairs):
     keys = [k for k, _ in pairs]
     twice = sorted({k for k in keys if keys.count(k) > 1})
@@ -101,7 +102,36 @@ def parse_recipe(path, data):
         raise ValueError(f"not valid {'TOML' if path.endswith('.toml') else 'JSON'}: {exc}")
 
 
-def load_recipe(ap, path):
+def addon_folder(ap, given):
+    """The add-on's folder (python_addon/, holding __init__.py and recipe_schema.py), or a
+    one-line error naming --addon."""
+    if given is None:
+        spec = importlib.util.find_spec("deformkit_addon")
+        if spec is not None and spec.submodule_search_locations:
+            given = list(spec.submodule_search_locations)[0]
+        elif os.path.isfile(os.path.join(CHECKOUT_ADDON, "recipe_schema.py")):
+            given = CHECKOUT_ADDON
+        else:
+            ap.error("--addon: the deformkit add-on was not found (pass its folder, python_addon/ in the "
+                     "repository, or set DEFORMKIT_ADDON)")
+    folder = os.path.realpath(given)
+    for name in ("__init__.py", "recipe_schema.py"):
+        if not os.path.isfile(os.path.join(folder, name)):
+            ap.error(f"--addon: {given} is not the deformkit add-on (no {name})")
+    return folder
+
+
+def load_recipe_schema(addon):
+    """The add-on's recipe_schema, from its file: it reads the add-on's property definitions, and
+    needs no bpy (the add-on package itself would)."""
+    spec = importlib.util.spec_from_file_location("deformkit_addon_recipe_schema",
+                                                  os.path.join(addon, "recipe_schema.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def load_recipe(ap, path, recipe_schema):
     """The checked recipe, or a one-line error naming --recipe and every bad key path."""
     if not os.path.exists(path):
         ap.error(f"--recipe: {path} not found")
@@ -153,66 +183,12 @@ def check_report_path(ap, report, inputs, outputs, recipe_path):
                 ap.error(f"--report: {report} is the {kind} {path}; the report would overwrite it")
 
 
-def render_preview(npz_path, png_path, title):
-    import numpy as np
-    from deformkit.preview import Z_UP, render_before_after
-    data = np.load(npz_path)
-    render_before_after(png_path, data["before"], data["after"], data["faces"], title, to_plot=Z_UP)
-
-
-class Report:
-    """The report file, rewritten atomically after every file: files not done yet are "pending"."""
-
-    def __init__(self, path, token, header, inputs, outputs):
-        self.path, self.token, self.header, self.lock, self.problem = path, token, header, threading.Lock(), ""
-        self.rows = [{"file": s, "output": d, "status": "pending", "error": "", "objects": [], "warnings": []}
-                     for s, d in zip(inputs, outputs)]
-        self.write()  # before any file: a report that cannot be written is a bad --report
-
-    def write(self, complete=False):
-        done = [r for r in self.rows if r["status"] != "pending"]
-        failed = sum(r["status"] != "ok" for r in done)
-        batch_io.write_json_atomically(self.path, {
-            **self.header, "complete": complete, "ok": len(done) - failed, "failed": failed,
-            "pending": len(self.rows) - len(done), "files": self.rows}, self.token)
-
-    def record(self, i, row, complete=False):
-        with self.lock:
-            if row is not None:
-                self.rows[i] = row
-            try:
-                self.write(complete)
-                self.problem = ""
-            except OSError as exc:  # e.g. the disk filled up: keep going, say so at the end
-                self.problem = f"cannot write the report {self.path}: {exc.strerror or exc}"
-
-
-def run_file(i, ctx):
-    src, dst = ctx["inputs"][i], ctx["outputs"][i]
-    args, work = ctx["args"], ctx["work"]
-    preview = os.path.join(work, f"{i}.npz") if args.preview else None
-    if any(same_file(dst, other) for other in ctx["inputs"]):
-        return batch_launch.failed_row(src, dst, "InputError", f"refusing to write {dst}: it is one of the inputs")
-    job = {"input": src, "output": dst, "result": os.path.join(work, f"{i}.json"), "recipe": ctx["recipe"],
-           "preview": preview, "smoothness": args.smoothness, "token": ctx["token"]}
-    result = batch_launch.run_one(ctx["blender"], ctx["env"], ctx["paths"], job, args.timeout)
-    if result["status"] == "ok" and preview and os.path.exists(preview):
-        png = os.path.splitext(dst)[0] + ".png"
-        try:
-            names = "; ".join(f"{o['name']} ({' then '.join(e.lower() for e in o['entries'])})"
-                              for o in result["objects"])
-            render_preview(preview, png, f"{os.path.basename(src)}: {names}")
-            result["preview"] = png
-        except Exception as exc:  # a picture is a bonus; report, don't fail the file
-            result["preview_error"] = f"{type(exc).__name__}: {exc}"
-    return result
-
-
-def console_line(n, total, result):
-    status = "ok" if result["status"] == "ok" else "FAILED: " + result["error"]
-    warned = f", {len(result['warnings'])} warnings" if result.get("warnings") else ""
-    return (f"[{n}/{total}] {os.path.basename(result['file'])}: {status} "
-            f"({len(result['objects'])} objects, {result.get('seconds', 0.0):.2f} s{warned})")
+def build_jobs(inputs, outputs, work, blender, paths, token, recipe, args):
+    """One BatchJob per input, in the report's order."""
+    return [BatchJob(index=i, input=src, output=dst, work=work, blender=blender, token=token,
+                     sys_paths=tuple(paths), recipe=recipe, preview=args.preview, smoothness=args.smoothness,
+                     timeout=args.timeout, never_write=tuple(inputs))
+            for i, (src, dst) in enumerate(zip(inputs, outputs))]
 
 
 def arguments(argv):
@@ -224,6 +200,8 @@ def arguments(argv):
     how.add_argument("--evaluate-saved", action="store_true", help="re-evaluate the stacks saved in the files")
     ap.add_argument("--jobs", type=job_count, default=1, help="files processed in parallel (default 1)")
     ap.add_argument("--blender", default=os.environ.get("DEFORMKIT_BLENDER", "blender"))
+    ap.add_argument("--addon", default=os.environ.get("DEFORMKIT_ADDON"),
+                    help="the deformkit add-on's folder (python_addon/ in the repository)")
     ap.add_argument("--report", help="report path (default OUT/report.json); its folder must exist")
     ap.add_argument("--preview", action="store_true", help="write a before/after PNG per file")
     ap.add_argument("--smoothness", action="store_true",
@@ -237,7 +215,8 @@ def main(argv=None):
     blender = shutil.which(args.blender) or (args.blender if os.path.isfile(args.blender) else None)
     if blender is None:
         ap.error(f"--blender: '{args.blender}' not found (install Blender or pass its path)")
-    recipe = load_recipe(ap, args.recipe) if args.recipe else None
+    addon = addon_folder(ap, args.addon)
+    recipe = load_recipe(ap, args.recipe, load_recipe_schema(addon)) if args.recipe else None
     inputs = expand_inputs(args.inputs)
     out_dir = os.path.abspath(args.out)
     check_out_folder(ap, out_dir)
@@ -245,39 +224,33 @@ def main(argv=None):
     report_path = os.path.abspath(args.report or os.path.join(out_dir, "report.json"))
     check_report_path(ap, report_path, inputs, outputs, args.recipe)
 
-    token = batch_io.new_run_token()
-    env, dropped = batch_launch.blender_environment(blender)
+    token = shared.new_run_token()
+    _, dropped = blender_environment(blender)
     header = {"started": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
               "blender": blender, "recipe": recipe, "evaluate_saved": args.evaluate_saved,
               "smoothness": args.smoothness, "path_left_out_for_blender": dropped}
-    with batch_launch.runs_locked():
-        batch_launch.clean_stale_staging()
-        for staging, other in batch_launch.live_runs().items():
+    with staging.runs_locked():
+        staging.clean_stale_staging()
+        for folder, other in staging.live_runs().items():
             if other == os.path.realpath(report_path):
-                ap.error(f"--report: {report_path} is the report of a run in progress ({staging}); "
+                ap.error(f"--report: {report_path} is the report of a run in progress ({folder}); "
                          "give this run its own --report")
-        work, paths = batch_launch.make_staging(token, report_path)
+        work, paths = staging.make_staging(token, report_path, addon)
     try:
         try:
             report = Report(report_path, token, header, inputs, outputs)
         except OSError as exc:
             ap.error(f"--report: cannot write {report_path}: {exc.strerror or exc}")
-        ctx = {"inputs": inputs, "outputs": outputs, "args": args, "work": work, "recipe": recipe,
-               "blender": blender, "env": env, "paths": paths, "token": token}
         done = [0]
 
-        def job(i):
-            try:
-                result = run_file(i, ctx)
-            except Exception as exc:  # the launcher's own trouble with this file still gets a row
-                result = batch_launch.failed_row(inputs[i], outputs[i], type(exc).__name__, str(exc), "launch")
-            with report.lock:
-                done[0] += 1
-                print(console_line(done[0], len(inputs), result), flush=True)
-            report.record(i, result)
+        def on_row(job, row):
+            done[0] += 1
+            print(console_line(done[0], len(inputs), row), flush=True)
+            report.record(job.index, row)
 
-        with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
-            list(pool.map(job, range(len(inputs))))
+        jobs = build_jobs(inputs, outputs, work, blender, paths, token, recipe, args)
+        with LocalProcessExecutor(args.jobs) as executor:
+            run_all(executor, jobs, on_row, window=args.jobs)
         report.header["finished"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
         report.record(0, None, complete=True)
     finally:

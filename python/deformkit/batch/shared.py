@@ -1,5 +1,7 @@
 """What the batch launcher and its Blender workers share, without bpy: atomic JSON files, the
-structured record of an exception, and the names that tie temporaries to the run that made them."""
+structured record of an exception, and the names that tie temporaries to the run that made them.
+Standard library only: Blender's worker loads this file by its path before anything else, so that
+even a failure to import the add-on or the compiled core leaves a result file."""
 import ctypes
 import json
 import math
@@ -80,6 +82,8 @@ def prepare_worker(parent_pid):
     running); exit at once if the parent is already gone."""
     if hasattr(signal, "SIGXFSZ"):
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    if parent_pid is None:  # started by hand, not by a launcher: nothing to die with
+        return
     try:
         ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
     except (OSError, AttributeError):

@@ -1,0 +1,195 @@
+"""One file, start to end, on the machine that runs it: the environment Blender runs in, the
+Blender process on the job file and what it left behind (its result file, or why there is none),
+and the picture. No bpy; `run_job` is the whole of it, for any executor."""
+import dataclasses
+import json
+import os
+import re
+import signal
+import subprocess
+import time
+
+from . import shared
+
+BLEND_MAGIC = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")  # plain, gzip, zstd
+PYTHON_NAME = re.compile(r"python3(\.\d+)?$")
+# Runs in Blender, beside this file: reads the job file named after `--`.
+IN_BLENDER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "in_blender.py")
+
+
+def hijacking_python(folder):
+    """True when `folder` holds a python3.N that Blender's Python would take its sys.prefix from
+    (Blender looks for python3.N on PATH, and CPython derives the prefix from where that
+    executable lives: a pyvenv.cfg beside it or above, or a lib/python3.N/os.py above)."""
+    try:
+        names = [n for n in os.listdir(folder) if PYTHON_NAME.match(n)]
+    except OSError:
+        return False
+    for name in names:
+        for exe in {os.path.join(folder, name), os.path.realpath(os.path.join(folder, name))}:
+            home = os.path.dirname(exe)
+            if any(os.path.exists(os.path.join(d, "pyvenv.cfg")) for d in (home, os.path.dirname(home))):
+                return True
+            up = home
+            while up != os.path.dirname(up):
+                up = os.path.dirname(up)
+                if any(os.path.exists(os.path.join(up, "lib", n, "os.py")) for n in names if "." in n):
+                    return True
+    return False
+
+
+def blender_environment(blender, environ=None):
+    """(environment, PATH folders left out) for Blender: no PYTHON* variables (Blender honours
+    PYTHONHOME), and a PATH on which the only Python Blender can adopt is the one beside it."""
+    environ = os.environ if environ is None else environ
+    env = {k: v for k, v in environ.items() if not k.startswith("PYTHON")}
+    own = os.path.dirname(os.path.realpath(blender))
+    kept, dropped = [], []
+    for folder in environ.get("PATH", "").split(os.pathsep):
+        if folder and os.path.realpath(folder) != own and hijacking_python(folder):
+            dropped.append(folder)
+        elif folder:
+            kept.append(folder)
+    env["PATH"] = os.pathsep.join(kept)
+    return env, dropped
+
+
+def same_file(a, b):
+    """True when a and b are the same file, through symbolic links and hard links too."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one does not exist (yet): compare the resolved paths
+        return os.path.realpath(a) == os.path.realpath(b)
+
+
+def input_problem(path):
+    if not os.path.exists(path):
+        return "file not found"
+    if not os.path.isfile(path):
+        return "not a file"
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+    except OSError as exc:
+        return f"cannot read it: {exc.strerror}"
+    if not head.startswith(BLEND_MAGIC):
+        return "not a .blend file (no BLENDER header)"
+    return ""
+
+
+def failed_row(src, dst, kind, message, stage="start", seconds=0.0, **extra):
+    error = {"type": kind, "message": message, "stage": stage, "object": None, "entry": None}
+    return {"file": src, "output": dst, "status": "failed", "error": shared.describe_failure(error),
+            "exception": error, "objects": [], "warnings": [], "seconds": seconds, **extra}
+
+
+def _read_result(path, stdout):
+    """The worker's final result: from its result file, else from the line it prints when it
+    cannot write that file (the file may then still hold a progress record, which is returned
+    only when there is nothing better: it says at which stage the worker was)."""
+    try:
+        with open(path, encoding="utf-8") as fh:
+            found = json.load(fh)
+    except (OSError, ValueError):
+        found = None
+    if found is not None and found.get("status") in ("ok", "failed"):
+        return found
+    for line in reversed(stdout.splitlines()):
+        if line.startswith(shared.RESULT_LINE):
+            try:
+                return json.loads(line[len(shared.RESULT_LINE):])
+            except ValueError:
+                break
+    return found
+
+
+def _death(returncode):
+    if returncode < 0:
+        try:
+            return f"Blender was killed by {signal.Signals(-returncode).name}"
+        except ValueError:
+            return f"Blender was killed by signal {-returncode}"
+    return f"Blender exited with status {returncode} without a result"
+
+
+def _unfinished(src, dst, progress, message, kind, seconds, output):
+    where = (progress or {}).get("stage") or {"stage": "start"}
+    row = failed_row(src, dst, kind, f"{message} during stage '{where.get('stage')}'", where.get("stage"),
+                     seconds, blender_output=output[-20:])
+    row["exception"].update(object=where.get("object"), entry=where.get("entry"))
+    row["error"] = shared.describe_failure(row["exception"])
+    row["warnings"] = (progress or {}).get("warnings", [])
+    return row
+
+
+def blender_command(blender, job_path):
+    # -noaudio: a batch needs no sound, and the audio client maps 64 MB of shared memory at start-up
+    return [blender, "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1", "--python", IN_BLENDER,
+            "--", job_path]
+
+
+def run_blender(job, environ=None):
+    """Run the job's file in its own Blender; the worker's result row, or a row saying why there
+    is none (timed out, killed, exited without a result, and at which stage)."""
+    src, dst = job.input, job.output
+    problem = input_problem(src)
+    if problem:
+        return failed_row(src, dst, "InputError", problem)
+    job = dataclasses.replace(job, parent_pid=os.getpid())  # Blender dies with this process
+    shared.write_json_atomically(job.job_path, job.to_dict(), job.token)
+    env, _ = blender_environment(job.blender, environ)
+    t0 = time.perf_counter()
+    try:
+        proc = subprocess.run(blender_command(job.blender, job.job_path), capture_output=True, text=True,
+                              errors="replace", timeout=job.timeout, env=env)
+        outcome = None
+    except subprocess.TimeoutExpired as exc:
+        proc, outcome = exc, f"timed out after {job.timeout:g} s"
+    finally:
+        for leftover in shared.run_temporaries(dst, job.token):  # only this run's
+            if os.path.exists(leftover):
+                os.unlink(leftover)
+    seconds = round(time.perf_counter() - t0, 3)
+    stdout = proc.stdout if isinstance(proc.stdout, str) else (proc.stdout or b"").decode("utf-8", "replace")
+    stderr = proc.stderr if isinstance(proc.stderr, str) else (proc.stderr or b"").decode("utf-8", "replace")
+    output = (stderr + stdout).strip().splitlines()
+    result = _read_result(job.result_path, stdout)
+    if outcome is None and result is not None and result.get("status") in ("ok", "failed"):
+        result["process_seconds"] = seconds  # Blender start-up included
+        return result
+    if outcome is not None:
+        return _unfinished(src, dst, result, outcome, "TimeoutExpired", seconds, output)
+    return _unfinished(src, dst, result, _death(proc.returncode), "BlenderDied", seconds, output)
+
+
+def render_preview(npz_path, png_path, title):
+    import numpy as np
+    from deformkit.preview import Z_UP, render_before_after
+    data = np.load(npz_path)
+    render_before_after(png_path, data["before"], data["after"], data["faces"], title, to_plot=Z_UP)
+
+
+def run_job(job, environ=None):
+    """The report row of one job (a BatchJob): refuse an output that is one of the run's inputs,
+    run Blender on the job file with the job's timeout, collect the result, and with a preview
+    draw the before/after PNG beside the output. Never raises for the file's own trouble: that is
+    the row's "error". `environ` (default: this process's) is what Blender's environment is made
+    from, on the machine that runs the job."""
+    src, dst = job.input, job.output
+    try:
+        if any(same_file(dst, other) for other in job.never_write):
+            return failed_row(src, dst, "InputError", f"refusing to write {dst}: it is one of the inputs")
+        result = run_blender(job, environ)
+        preview = job.preview_path
+        if result["status"] == "ok" and preview and os.path.exists(preview):
+            png = os.path.splitext(dst)[0] + ".png"
+            try:
+                names = "; ".join(f"{o['name']} ({' then '.join(e.lower() for e in o['entries'])})"
+                                  for o in result["objects"])
+                render_preview(preview, png, f"{os.path.basename(src)}: {names}")
+                result["preview"] = png
+            except Exception as exc:  # a picture is a bonus; report, don't fail the file
+                result["preview_error"] = f"{type(exc).__name__}: {exc}"
+        return result
+    except Exception as exc:  # the launcher's own trouble with this file still gets a row
+        return failed_row(src, dst, type(exc).__name__, str(exc), "launch")

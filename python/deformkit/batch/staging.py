@@ -1,0 +1,84 @@
+"""A run's staging folder in the system temp folder, and how runs see each other: the lock their
+start-ups share, which runs are alive, and the clean-up of those whose launcher was killed."""
+import contextlib
+import os
+import re
+import shutil
+import tempfile
+
+from . import shared
+
+STAGING = re.compile(re.escape(shared.STAGING_PREFIX) + r"(\d+)-[0-9a-f]+$")
+
+
+def pid_alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True  # someone else's process
+    return True
+
+
+@contextlib.contextmanager
+def runs_locked(folder=None):
+    """Serialise the runs' start-up (clean stale staging, check reports, make staging) on one
+    lock file in the system temp folder, so that two runs starting together see each other."""
+    path = os.path.join(folder or tempfile.gettempdir(), shared.STAGING_PREFIX + "startup.lock")
+    try:
+        import fcntl
+    except ImportError:  # no flock: the checks still run, only not atomically
+        yield
+        return
+    with open(path, "a") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def live_runs(folder=None):
+    """{staging folder: report path} of the runs in progress."""
+    folder = folder or tempfile.gettempdir()
+    runs = {}
+    for name in os.listdir(folder):
+        match = STAGING.match(name)
+        if match and pid_alive(int(match.group(1))):
+            try:
+                with open(os.path.join(folder, name, "report-path"), encoding="utf-8") as fh:
+                    runs[os.path.join(folder, name)] = fh.read()
+            except OSError:
+                pass
+    return runs
+
+
+def clean_stale_staging(folder=None):
+    """Remove the staging folders of runs whose launcher is gone (killed, so it could not clean
+    up); those of live runs are left alone. Returns the folders removed."""
+    folder = folder or tempfile.gettempdir()
+    removed = []
+    for name in os.listdir(folder):
+        match = STAGING.match(name)
+        if match and not pid_alive(int(match.group(1))):
+            shutil.rmtree(os.path.join(folder, name), ignore_errors=True)
+            removed.append(name)
+    return removed
+
+
+def make_staging(token, report_path, addon_dir):
+    """This run's folder in the system temp folder: the add-on (from `addon_dir`) under its package
+    name and the deformkit module (symbolic links), the report's path (for runs starting later),
+    and the workers' job and result files. Returns (folder, the paths for Blender's sys.path)."""
+    work = os.path.join(tempfile.gettempdir(), shared.STAGING_PREFIX + token)
+    addons, lib = os.path.join(work, "addons"), os.path.join(work, "lib")
+    os.makedirs(addons)
+    os.makedirs(lib)
+    with open(os.path.join(work, "report-path"), "w", encoding="utf-8") as fh:
+        fh.write(os.path.realpath(report_path))
+    os.symlink(addon_dir, os.path.join(addons, "deformkit_addon"))
+    # This package's own folder: the launcher and the workers run the same deformkit.
+    package = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    os.symlink(package, os.path.join(lib, "deformkit"))
+    return work, [addons, lib]

@@ -1,0 +1,66 @@
+"""Stands in for `blender` in the batch tests: called exactly as run_job calls Blender, it reads the
+job file after `--` and does what the input file asks for after its BLENDER header, as a Blender
+worker would (or as one that hangs, crashes, or exits without a word)."""
+import json
+import os
+import signal
+import sys
+import time
+
+import numpy as np
+
+from deformkit.batch import shared
+
+
+def main(argv):
+    at = argv.index("--")
+    assert len(argv) == at + 2, f"expected only `-- JOB.json` after the options, got {argv[at:]}"
+    assert argv[at - 2] == "--python" and argv[at - 1].endswith("in_blender.py"), argv
+    with open(argv[at + 1], encoding="utf-8") as fh:
+        job = json.load(fh)
+    result_path = os.path.join(job["work"], f"{job['index']}.json")
+    with open(job["input"], "rb") as fh:
+        mode = fh.read()[len(b"BLENDER"):].decode().strip()
+    row = {"file": job["input"], "output": job["output"], "status": "running", "error": "", "objects": [],
+           "warnings": ["a warning seen while reading"], "job_seen": job, "pid": os.getpid(),
+           "parent": os.getppid()}
+
+    def progress(stage):
+        shared.write_json_atomically(result_path, {**row, "stage": {"stage": stage, "object": "Fake", "entry": None}},
+                                     job["token"])
+
+    progress("open")
+    if mode == "exit":
+        return 1
+    if mode in ("sleep", "wait-for-ctrl-c"):
+        progress("evaluate")
+        open(os.path.join(job["work"], f"{job['index']}.started"), "w").close()
+        time.sleep(120)
+        return 1
+    if mode == "segv":
+        progress("save")
+        with open(shared.output_temporary(job["output"], job["token"]), "wb") as fh:
+            fh.write(b"BLENDER half a file")
+        os.kill(os.getpid(), signal.SIGSEGV)
+    if mode == "fail":
+        shared.write_json_atomically(result_path, {**row, "status": "failed", "error": "object 'X' not found in the file"},
+                                     job["token"])
+        return 1
+    tmp = shared.output_temporary(job["output"], job["token"])
+    with open(tmp, "wb") as fh:
+        fh.write(b"BLENDER output of " + os.path.basename(job["input"]).encode())
+    os.replace(tmp, job["output"])
+    if job["preview"]:
+        tri = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+        np.savez(os.path.join(job["work"], f"{job['index']}.npz"), before=tri, after=tri + [0, 0, 0.5],
+                 faces=np.array([[0, 1, 2]]))
+    done = {**row, "status": "ok", "objects": [{"name": "Fake", "entries": ["TWIST"], "vertices": 3}]}
+    if mode == "stdout":
+        print(shared.RESULT_LINE + json.dumps(done), flush=True)
+        return 0
+    shared.write_json_atomically(result_path, done, job["token"])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
