@@ -4,6 +4,8 @@ VENV := .venv
 PY := $(VENV)/bin/python
 CMAKE := $(VENV)/bin/cmake
 JOBS := 2
+# pyproject.toml's [project] version, the one place it is written.
+VERSION = $(shell sed -n 's/^version = "\(.*\)"$$/\1/p' pyproject.toml)
 SOURCES := $(shell find cpp python -type f -not -name '*.pyc' 2>/dev/null) CMakeLists.txt pyproject.toml
 
 .PHONY: demo test setup build test-cpp test-cpp-asan test-python bench wheel addon-zips clean
@@ -72,7 +74,7 @@ wheel: setup
 
 # dist/deformkit-<v>-extension.zip (Blender 4.2+) and dist/deformkit_addon-<v>-legacy.zip (3.x).
 addon-zips: wheel
-	$(PY) scripts/package_addon.py dist/deformkit-0.1.0-cp311-cp311-linux_x86_64.whl dist
+	$(PY) scripts/package_addon.py dist/deformkit-$(VERSION)-cp311-cp311-linux_x86_64.whl dist
 
 clean:
 	rm -rf build dist demo_out $(VENV)/.deformkit-installed blend_fixtures/*.blend $(FIXTURES)

@@ -4,6 +4,8 @@ subdivision as non-destructive entries beside the modifier stack, plus headless 
 bl_info = {
     "name": "deformkit",
     "author": "deformkit developers",
+    # A literal, not read from pyproject.toml: Blender's legacy loader parses bl_info from this file's
+    # syntax tree without running it. tests/core/test_version.py and package_addon.py check it.
     "version": (0, 1, 0),
     "blender": (3, 4, 0),
     "location": "Properties > Modifiers > deformkit",

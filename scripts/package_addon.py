@@ -6,8 +6,11 @@
   the wheel in wheels/), installed with Preferences > Get Extensions > Install from Disk;
 - deformkit_addon-<version>-legacy.zip: a legacy add-on for Blender 3.x (Install... in
   Preferences > Add-ons), with the compiled module unpacked in deformkit_addon/lib/.
-Archives are written under a temporary name and renamed.
+Archives are written under a temporary name and renamed. The version is pyproject.toml's (the one
+place it is written): the wheel must carry it, bl_info must equal it, and the extension's manifest
+gets it, with the wheel's name, here.
 """
+import ast
 import os
 import sys
 import tomllib
@@ -26,6 +29,35 @@ def addon_files():
                 yield path, os.path.relpath(path, ADDON)
 
 
+def project_version():
+    with open(os.path.join(ROOT, "pyproject.toml"), "rb") as fh:
+        return tomllib.load(fh)["project"]["version"]
+
+
+def bl_info_version():
+    """bl_info["version"] read as Blender's legacy loader reads it: from the syntax tree, unexecuted."""
+    with open(os.path.join(ADDON, "__init__.py")) as fh:
+        tree = ast.parse(fh.read())
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "bl_info" for t in node.targets):
+            return ".".join(str(part) for part in ast.literal_eval(node.value)["version"])
+    return None
+
+
+def packaged_manifest(source, version, wheel_name):
+    """The source manifest with the release's version and wheel, as top-level keys (placed before
+    the first table, where TOML keeps them top-level)."""
+    if {"version", "wheels"} & tomllib.loads(source).keys():
+        raise ValueError("blender_manifest.toml: version and wheels are written by package_addon.py, "
+                         "not in the source")
+    lines = source.splitlines()
+    first_table = next((i for i, line in enumerate(lines) if line.lstrip().startswith("[")), len(lines))
+    while first_table > 0 and not lines[first_table - 1].strip():
+        first_table -= 1
+    added = [f'version = "{version}"', f'wheels = ["./wheels/{wheel_name}"]']
+    return "\n".join(lines[:first_table] + added + lines[first_table:]) + "\n"
+
+
 def write_zip(path, entries):
     tmp = path + ".tmp"
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
@@ -35,16 +67,20 @@ def write_zip(path, entries):
 
 
 def main(wheel, out_dir):
-    with open(os.path.join(ADDON, "blender_manifest.toml"), "rb") as fh:
-        manifest = tomllib.load(fh)
-    listed = [os.path.basename(w) for w in manifest.get("wheels", [])]
-    if os.path.basename(wheel) not in listed:
-        sys.exit(f"package_addon: {os.path.basename(wheel)} is not listed in blender_manifest.toml wheels {listed}")
-    version = manifest["version"]
+    version, wheel_name = project_version(), os.path.basename(wheel)
+    wheel_version = wheel_name.split("-")[1] if wheel_name.count("-") >= 4 else None
+    if wheel_version != version:
+        sys.exit(f"package_addon: {wheel_name} is not a deformkit {version} wheel (pyproject.toml's version)")
+    if bl_info_version() != version:
+        sys.exit(f"package_addon: python_addon/__init__.py bl_info version {bl_info_version()} is not "
+                 f"pyproject.toml's {version}")
+    with open(os.path.join(ADDON, "blender_manifest.toml")) as fh:
+        manifest = packaged_manifest(fh.read(), version, wheel_name)
     os.makedirs(out_dir, exist_ok=True)
     files = [(rel, open(path, "rb").read()) for path, rel in addon_files()]
     extension = os.path.join(out_dir, f"deformkit-{version}-extension.zip")
-    write_zip(extension, files + [(f"wheels/{os.path.basename(wheel)}", open(wheel, "rb").read())])
+    write_zip(extension, [(rel, manifest.encode() if rel == "blender_manifest.toml" else data) for rel, data in files]
+              + [(f"wheels/{wheel_name}", open(wheel, "rb").read())])
     with zipfile.ZipFile(wheel) as whl:
         module = [(f"deformkit_addon/lib/{n}", whl.read(n)) for n in whl.namelist() if n.startswith("deformkit/")]
     legacy = os.path.join(out_dir, f"deformkit_addon-{version}-legacy.zip")

@@ -15,6 +15,7 @@ limit surface is smooth.
 """
 
 from . import _arguments, _core
+from ._version import __version__  # generated into the wheel from pyproject.toml's version
 
 _arguments.install(_core)  # refused calls name their argument
 
@@ -55,4 +56,3 @@ __all__ = [
     "LimitSurface", "SmoothnessReport", "SubdividedMesh", "Subdivider", "SUBDIVISION_MAX_FACES", "SUBDIVISION_MAX_LEVEL",
     "smoothness_report", "subdivide",
 ]
-__version__ = "0.1.0"

@@ -1,6 +1,7 @@
 """deformkit.SimpleDeform against Blender's own Simple Deform modifier, to float32 precision.
 
-Two independent oracles, both Blender itself (see blender_oracle.py):
+Two independent oracles, both Blender itself (see support/blender_oracle.py, started by
+support/blender_runner.py):
 
 * Blender 5.0 as the PyPI ``bpy`` module, imported lazily inside this process;
 * Debian's Blender 3.4 binary (/usr/bin/blender), run once as a subprocess for all its cases.
@@ -12,23 +13,17 @@ scale taper/stretch by ~1e6-1e7). Each case is checked with float32 and float64 
 
 from __future__ import annotations
 
-import importlib.util
-import json
-import os
 import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import deformkit as dk
+from support.blender_runner import bpy_oracle as load_bpy_oracle, empty_scene, run_blender_binary, write_raw
 
 HERE = Path(__file__).resolve().parent
-ORACLE_PATH = HERE.parent / "support" / "blender_oracle.py"
 SHARED_MESHES = HERE.parents[2] / "shared" / "meshes"
-BLENDER_BIN = "/usr/bin/blender"
-BLENDER_TIMEOUT = 300  # seconds, for the one Blender 3.4 subprocess
 ATOL_REL = 2e-5  # times the bounding-box diagonal: float32 precision with headroom
 
 
@@ -272,24 +267,10 @@ def check_case(c, blender, info, label):
 # Oracle 1: Blender 5.0, the PyPI bpy module, in this process
 
 
-def _load_oracle_module():
-    spec = importlib.util.spec_from_file_location("blender_oracle", ORACLE_PATH)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 @pytest.fixture(scope="module")
 def bpy_oracle():
-    try:
-        import bpy  # noqa: PLC0415  (lazy: ~1 s, only for these tests)
-    except ImportError as e:  # a pinned dependency (requirements-dev.txt): fail, do not skip
-        pytest.fail(f"cannot import the bpy module (bpy==5.0.1 in requirements-dev.txt): {e}")
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    assert tuple(bpy.app.version[:2]) == (5, 0), f"expected bpy 5.0.x, got {bpy.app.version_string}"
-    oracle = _load_oracle_module()
-    yield oracle
-    bpy.ops.wm.read_factory_settings(use_empty=True)
+    yield load_bpy_oracle()
+    empty_scene()
 
 
 def _bpy_evaluate(oracle, c):
@@ -312,18 +293,10 @@ def test_matches_blender_5_0_bpy_module(bpy_oracle, c):
 # Oracle 2: Debian's Blender 3.4 binary, one subprocess for all cases
 
 
-def _write_raw(path, arr, dtype):
-    np.ascontiguousarray(arr, dtype=np.dtype(dtype).newbyteorder("<")).tofile(path)
-
-
 @pytest.fixture(scope="module")
 def blender34_results(tmp_path_factory):
-    if not os.path.exists(BLENDER_BIN):
-        pytest.fail(f"{BLENDER_BIN} is missing: Debian's blender 3.4.1 is a required test dependency "
-                    "(scripts/setup.sh installs it)")
     work = tmp_path_factory.mktemp("blender34")
-    spec = {"meshes": {}, "cases": []}
-    wanted = []
+    spec = {"modifier": "SIMPLE_DEFORM", "meshes": {}, "cases": []}
     for c in CASES + [INVERT_NO_GROUP]:
         try:
             points, faces, _settings, w = case_inputs(c)
@@ -331,38 +304,16 @@ def blender34_results(tmp_path_factory):
             continue  # e.g. suzanne absent: that test skips with the reason itself
         name = c["mesh"]
         if name not in spec["meshes"]:
-            _write_raw(work / f"{name}.coords.f32", points, np.float32)
+            write_raw(work / f"{name}.coords.f32", points, np.float32)
             stream = np.concatenate([[len(f), *f] for f in faces]) if faces else np.zeros(0)
-            _write_raw(work / f"{name}.faces.i32", stream, np.int32)
+            write_raw(work / f"{name}.faces.i32", stream, np.int32)
             spec["meshes"][name] = {"coords": f"{name}.coords.f32", "faces": f"{name}.faces.i32"}
         entry = {"id": c["id"], "mesh": name, "settings": c["settings"]}
         if w is not None:
-            _write_raw(work / f"{c['id']}.weights.f32", w, np.float32)
+            write_raw(work / f"{c['id']}.weights.f32", w, np.float32)
             entry["weights"] = f"{c['id']}.weights.f32"
         spec["cases"].append(entry)
-        wanted.append(c["id"])
-    (work / "cases.json").write_text(json.dumps(spec))
-    out_dir = work / "out"
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME", "PYTHONSTARTUP")}
-    cmd = [BLENDER_BIN, "-b", "--factory-startup", "--python-exit-code", "1", "-P", str(ORACLE_PATH), "--",
-           str(work / "cases.json"), str(out_dir)]
-    try:
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=BLENDER_TIMEOUT, env=env,
-                              stdin=subprocess.DEVNULL)
-    except subprocess.TimeoutExpired as e:
-        pytest.fail(f"Blender 3.4 oracle timed out after {BLENDER_TIMEOUT} s: {e.stdout!r} {e.stderr!r}")
-    log = f"exit code {proc.returncode}\nstdout:\n{proc.stdout[-4000:]}\nstderr:\n{proc.stderr[-4000:]}"
-    assert proc.returncode == 0, f"Blender 3.4 oracle failed: {log}"
-    res_path = out_dir / "results.json"
-    assert res_path.exists(), f"Blender 3.4 oracle wrote no results: {log}"
-    res = json.loads(res_path.read_text())
-    assert tuple(res["blender_version"][:2]) == (3, 4), f"{BLENDER_BIN} is Blender {res['blender_version']}, not 3.4"
-    out = {"version": ".".join(map(str, res["blender_version"])), "cases": {}}
-    for cid in wanted:
-        info = res["cases"][cid]
-        pos = np.fromfile(out_dir / info["positions"], dtype="<f4").reshape(info["n"], 3)
-        out["cases"][cid] = (pos, info)
-    yield out
+    yield run_blender_binary(work, spec)
     shutil.rmtree(work, ignore_errors=True)
 
 

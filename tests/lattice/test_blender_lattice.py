@@ -1,6 +1,7 @@
 """deformkit.BlenderLattice against Blender's own Lattice modifier, to float32 precision.
 
-Two independent oracles, both Blender itself (see lattice_oracle.py):
+Two independent oracles, both Blender itself (see support/blender_oracle.py, started by
+support/blender_runner.py):
 
 * Blender 5.0 as the PyPI ``bpy`` module, imported lazily inside this process;
 * Debian's Blender 3.4 binary (/usr/bin/blender), run once as a subprocess for all its cases.
@@ -25,23 +26,15 @@ that much, so agreement is not trivial).
 
 from __future__ import annotations
 
-import importlib.util
-import json
-import os
 import shutil
-import subprocess
 import zlib
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import deformkit as dk
+from support.blender_runner import bpy_oracle, empty_scene, run_blender_binary, write_raw
 
-HERE = Path(__file__).resolve().parent
-ORACLE_PATH = HERE.parent / "support" / "lattice_oracle.py"
-BLENDER_BIN = "/usr/bin/blender"
-BLENDER_TIMEOUT = 300  # seconds, for the one Blender 3.4 subprocess
 ATOL_REL = 1e-5  # times the lattice size; see the module docstring
 MIN_MOVED_REL = 1e-2  # a perturbed case must move points on average by this much of the lattice size
 MAX_EXTENT_REL = 3.5  # |x| <= this many lattice sizes: keeps Blender's accumulation error inside ATOL_REL
@@ -350,23 +343,11 @@ def check_deformkit(c, blender, info, label, bound=False):
 # Oracle 1: Blender 5.0, the PyPI bpy module, in this process
 
 
-def _load_oracle_module():
-    spec = importlib.util.spec_from_file_location("lattice_oracle", ORACLE_PATH)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 @pytest.fixture(scope="module")
 def bpy_results():
     """Every case evaluated once by Blender 5.0 (the reference and deformkit tests share it)."""
-    try:
-        import bpy  # noqa: PLC0415  (lazy: ~1 s, only for these tests)
-    except ImportError as e:  # a pinned dependency (requirements-dev.txt): fail, do not skip
-        pytest.fail(f"cannot import the bpy module (bpy==5.0.1 in requirements-dev.txt): {e}")
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    assert tuple(bpy.app.version[:2]) == (5, 0), f"expected bpy 5.0.x, got {bpy.app.version_string}"
-    oracle = _load_oracle_module()
+    oracle = bpy_oracle()
+    import bpy  # noqa: PLC0415  (imported by bpy_oracle)
     out = {"version": bpy.app.version_string, "cases": {}}
     for c in CASES:
         points, co, w, settings = case_inputs(c)
@@ -379,57 +360,29 @@ def bpy_results():
         out["cases"][c["id"]] = (oracle.evaluate_lattice(points, settings, info=info), info)
         assert not (bpy.data.objects or bpy.data.meshes or bpy.data.lattices), "oracle left data behind"
     yield out
-    bpy.ops.wm.read_factory_settings(use_empty=True)
+    empty_scene()
 
 
 # ---------------------------------------------------------------------------------------------
 # Oracle 2: Debian's Blender 3.4 binary, one subprocess for all cases
 
 
-def _write_f32(path, arr):
-    np.ascontiguousarray(arr, dtype="<f4").tofile(path)
-
-
 @pytest.fixture(scope="module")
 def blender34_results(tmp_path_factory):
-    if not os.path.exists(BLENDER_BIN):
-        pytest.fail(f"{BLENDER_BIN} is missing: Debian's blender 3.4.1 is a required test dependency "
-                    "(scripts/setup.sh installs it)")
     work = tmp_path_factory.mktemp("blender34_lattice")
-    spec = {"cases": []}
+    spec = {"modifier": "LATTICE", "cases": []}
     for c in CASES:
         points, co, w, settings = case_inputs(c)
         entry = {"id": c["id"], "settings": settings, "points": f"{c['id']}.points.f32"}
-        _write_f32(work / entry["points"], points)
+        write_raw(work / entry["points"], points, np.float32)
         if co is not None:
             entry["co_deform"] = f"{c['id']}.co_deform.f32"
-            _write_f32(work / entry["co_deform"], to_blender_order(co))
+            write_raw(work / entry["co_deform"], to_blender_order(co), np.float32)
         if w is not None:
             entry["weights"] = f"{c['id']}.weights.f32"
-            _write_f32(work / entry["weights"], w)
+            write_raw(work / entry["weights"], w, np.float32)
         spec["cases"].append(entry)
-    (work / "cases.json").write_text(json.dumps(spec))
-    out_dir = work / "out"
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME", "PYTHONSTARTUP")}
-    cmd = [BLENDER_BIN, "-b", "--factory-startup", "--python-exit-code", "1", "-P", str(ORACLE_PATH), "--",
-           str(work / "cases.json"), str(out_dir)]
-    try:
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=BLENDER_TIMEOUT, env=env,
-                              stdin=subprocess.DEVNULL)
-    except subprocess.TimeoutExpired as e:
-        pytest.fail(f"Blender 3.4 oracle timed out after {BLENDER_TIMEOUT} s: {e.stdout!r} {e.stderr!r}")
-    log = f"exit code {proc.returncode}\nstdout:\n{proc.stdout[-4000:]}\nstderr:\n{proc.stderr[-4000:]}"
-    assert proc.returncode == 0, f"Blender 3.4 oracle failed: {log}"
-    res_path = out_dir / "results.json"
-    assert res_path.exists(), f"Blender 3.4 oracle wrote no results: {log}"
-    res = json.loads(res_path.read_text())
-    assert tuple(res["blender_version"][:2]) == (3, 4), f"{BLENDER_BIN} is Blender {res['blender_version']}, not 3.4"
-    out = {"version": ".".join(map(str, res["blender_version"])), "cases": {}}
-    for c in CASES:
-        info = res["cases"][c["id"]]
-        pos = np.fromfile(out_dir / info["positions"], dtype="<f4").reshape(info["n"], 3)
-        out["cases"][c["id"]] = (pos, info)
-    yield out
+    yield run_blender_binary(work, spec)
     shutil.rmtree(work, ignore_errors=True)
 
 

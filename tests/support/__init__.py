@@ -1,2 +1,3 @@
 """Shared references of the tests: numpy transcriptions of the formulas, finite differences,
-reference meshes and the Blender oracle scripts."""
+reference meshes, the Blender oracle (blender_oracle.py, run inside Blender) and the runner that
+starts it (blender_runner.py)."""

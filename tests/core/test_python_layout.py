@@ -1,0 +1,34 @@
+"""The Python side of the layout (docs/contributing.md, "What may use what"): the add-on uses only
+the Python module of the project, and the Python module never uses the add-on."""
+import ast
+import pathlib
+import sys
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+BLENDER = {"bpy", "bmesh", "mathutils", "gpu", "gpu_extras", "bl_math", "bl_ui", "addon_utils", "idprop"}
+
+
+def imported_modules(path):
+    """Top-level names of the absolute imports of a file."""
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            names |= {alias.name.split(".")[0] for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0:
+            names.add(node.module.split(".")[0])
+    return names
+
+
+def test_the_addon_uses_only_the_python_module():
+    addon = REPO / "python_addon"
+    own = {p.stem for p in addon.glob("*.py")} | {p.name for p in addon.iterdir() if p.is_dir()}
+    allowed = set(sys.stdlib_module_names) | BLENDER | own | {"deformkit", "numpy"}
+    wrong = [f"{p.relative_to(REPO)} imports {name}" for p in addon.rglob("*.py")
+             for name in sorted(imported_modules(p) - allowed)]
+    assert wrong == []
+
+
+def test_the_python_module_never_uses_the_addon():
+    wrong = [f"{p.relative_to(REPO)} imports {name}" for p in (REPO / "python" / "deformkit").rglob("*.py")
+             for name in sorted(imported_modules(p) & {"deformkit_addon", "python_addon"})]
+    assert wrong == []
