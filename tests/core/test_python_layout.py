@@ -28,7 +28,17 @@ def test_the_addon_uses_only_the_python_module():
     assert wrong == []
 
 
+# Blender's start script for a batch job: run by Blender (`--python in_blender.py`), never imported by
+# the package; it enables the add-on there, as any script run inside Blender may.
+BLENDER_START = pathlib.Path("python/deformkit/batch/in_blender.py")
+
+
 def test_the_python_module_never_uses_the_addon():
-    wrong = [f"{p.relative_to(REPO)} imports {name}" for p in (REPO / "python" / "deformkit").rglob("*.py")
+    files = [p for p in (REPO / "python" / "deformkit").rglob("*.py") if p.relative_to(REPO) != BLENDER_START]
+    wrong = [f"{p.relative_to(REPO)} imports {name}" for p in files
              for name in sorted(imported_modules(p) & {"deformkit_addon", "python_addon"})]
     assert wrong == []
+    assert (REPO / BLENDER_START).exists()
+    # ... and nothing in the package imports the start script, which is what keeps it outside.
+    assert not [p for p in files for node in ast.walk(ast.parse(p.read_text()))
+                if isinstance(node, (ast.Import, ast.ImportFrom)) and "in_blender" in ast.dump(node)]
