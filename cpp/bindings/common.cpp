@@ -393,4 +393,10 @@ Faces parse_faces(const py::object& faces) {
   return {corners, offsets};
 }
 
+PolygonMesh parse_polygon_mesh(const py::object& points, const py::object& faces) {
+  const auto p = as_double(points_array(points, "points"));
+  const Faces f = parse_faces(faces);
+  return PolygonMesh(p.data(), std::size_t(p.shape(0)), f.corners, f.offsets);
+}
+
 }  // namespace deformkit_py

@@ -123,9 +123,9 @@ SoftConstraints interleaved(const SoftConstraints& soft, int width) {
 
 }  // namespace
 
-SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, std::vector<int> handles,
+SurfaceDeformer::SurfaceDeformer(PolygonMesh mesh, std::vector<int> anchors, std::vector<int> handles,
                                  const std::optional<std::vector<int>>& roi, SurfaceSettings settings)
-    : mesh_(std::move(mesh)), settings_(settings) {
+    : mesh_(std::move(mesh).triangulate()), settings_(settings) {
   const std::size_t n = mesh_.vertex_count();
   check_settings(settings);
   anchors = checked_indices(std::move(anchors), n, "anchors");
@@ -143,7 +143,7 @@ SurfaceDeformer::SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, st
       soft.weights.push_back(soft_weight_squared(settings));
       soft_handle_.push_back(holds.constraint[v]);
     }
-  rest_ = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(mesh_.points.data(), Eigen::Index(n), 3);
+  rest_ = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(mesh_.points().data(), Eigen::Index(n), 3);
   laplacian_ = with_positive_weights(settings.uniform_weights ? uniform_laplacian(mesh_) : cotangent_laplacian(mesh_));
   neighbors_.assign(n, {});
   for (int k = 0; k < laplacian_.outerSize(); ++k)

@@ -36,9 +36,9 @@ constexpr double kMinConstraintWeight = 1e-4, kMaxConstraintWeight = 1e8;
 
 class SurfaceDeformer {
  public:
-  // Throws std::invalid_argument naming anchors, handles or roi for bad indices, and iterations
-  // or tolerance for bad settings.
-  SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, std::vector<int> handles,
+  // Polygons are fanned into triangles. Throws std::invalid_argument naming anchors, handles or
+  // roi for bad indices, and iterations or tolerance for bad settings.
+  SurfaceDeformer(PolygonMesh mesh, std::vector<int> anchors, std::vector<int> handles,
                   const std::optional<std::vector<int>>& roi, SurfaceSettings settings);
 
   // New positions (3n) with the handles at targets (3 per handle). Records energy() for ARAP.
@@ -78,7 +78,7 @@ class SurfaceDeformer {
   SparseMatrix implicit_transform_system() const;
   bool loosely_held(const std::vector<int>& component, int components, const std::vector<char>& held) const;
 
-  TriangleMesh mesh_;
+  PolygonMesh mesh_;  // triangulated
   SurfaceSettings settings_;
   std::vector<int> handles_;
   UnknownSplit split_;               // vertices solved for (free) and held exactly (fixed)
