@@ -374,6 +374,7 @@ Faces parse_faces(const py::object& faces) {
     if (f.ndim() != 2 || f.shape(0) == 0 || f.shape(1) < 3)
       throw py::value_error("faces: expected shape (m, k) with m >= 1 and k >= 3, got " + shape_of(f));
     corners.assign(f.data(), f.data() + f.size());
+    offsets.reserve(std::size_t(f.shape(0)) + 1);
     for (py::ssize_t i = 1; i <= f.shape(0); ++i) offsets.push_back(i * f.shape(1));
     return {corners, offsets};
   }

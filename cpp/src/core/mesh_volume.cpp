@@ -1,7 +1,6 @@
 #include "deformkit/core/mesh_volume.hpp"
 
 #include "deformkit/core/types.hpp"
-#include "deformkit/core/validation.hpp"
 
 #include <algorithm>
 #include <cmath>

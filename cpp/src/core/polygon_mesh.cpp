@@ -13,18 +13,23 @@ PolygonMesh::PolygonMesh(const double* points, std::size_t n, const std::vector<
                          const std::vector<std::int64_t>& offsets) {
   require_finite_rows(points, n, "points");
   if (offsets.size() < 2) throw std::invalid_argument("faces: no faces");
+  // One pass: each corner checked as it is copied.
+  corners_.resize(std::size_t(offsets.back() - offsets.front()));
+  offsets_.resize(offsets.size());
+  offsets_[0] = 0;
+  int* out = corners_.data();
   for (std::size_t f = 0; f + 1 < offsets.size(); ++f) {
     const std::int64_t begin = offsets[f], end = offsets[f + 1];
     if (end - begin < 3) throw std::invalid_argument("faces: face " + std::to_string(f) + " has fewer than 3 corners");
-    for (std::int64_t c = begin; c < end; ++c)
+    for (std::int64_t c = begin; c < end; ++c) {
       if (corners[c] < 0 || std::size_t(corners[c]) >= n)
         throw std::invalid_argument("faces: face " + std::to_string(f) + " has corner index " +
                                     std::to_string(corners[c]) + ", outside 0.." + std::to_string(std::int64_t(n) - 1));
+      *out++ = int(corners[c]);
+    }
+    offsets_[f + 1] = end - offsets.front();
   }
   points_.assign(points, points + 3 * n);
-  corners_.assign(corners.begin() + offsets.front(), corners.begin() + offsets.back());
-  offsets_.resize(offsets.size());
-  for (std::size_t f = 0; f < offsets.size(); ++f) offsets_[f] = offsets[f] - offsets.front();
 }
 
 bool PolygonMesh::all_triangles() const {

@@ -2,8 +2,8 @@
 // Minimising a quadratic energy with some unknowns given (fixed) and some pulled towards targets
 // (soft), as libigl's min_quad_with_fixed: the free/fixed split is made and the free block
 // factorised once; each solve then only forms a right-hand side and back-substitutes, for all its
-// columns (the three coordinates) in one pass over the factor. docs/math/numerics.md, "Constrained
-// quadratic" derives the reduced system.
+// columns (the three coordinates) in one pass over the factor. The reduced system:
+// docs/math/numerics.md, "Constrained quadratic".
 #include "deformkit/numerics/sparse.hpp"
 #include "deformkit/numerics/sparse_cholesky.hpp"
 
