@@ -374,6 +374,7 @@ Faces parse_faces(const py::object& faces) {
     if (f.ndim() != 2 || f.shape(0) == 0 || f.shape(1) < 3)
       throw py::value_error("faces: expected shape (m, k) with m >= 1 and k >= 3, got " + shape_of(f));
     corners.assign(f.data(), f.data() + f.size());
+    offsets.reserve(std::size_t(f.shape(0)) + 1);
     for (py::ssize_t i = 1; i <= f.shape(0); ++i) offsets.push_back(i * f.shape(1));
     return {corners, offsets};
   }
@@ -391,6 +392,12 @@ Faces parse_faces(const py::object& faces) {
   }
   if (offsets.size() < 2) throw py::value_error("faces: no faces");
   return {corners, offsets};
+}
+
+PolygonMesh parse_polygon_mesh(const py::object& points, const py::object& faces) {
+  const auto p = as_double(points_array(points, "points"));
+  const Faces f = parse_faces(faces);
+  return PolygonMesh(p.data(), std::size_t(p.shape(0)), f.corners, f.offsets);
 }
 
 }  // namespace deformkit_py

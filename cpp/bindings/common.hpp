@@ -132,6 +132,9 @@ struct Faces {
 };
 // An (m, k) integer array, or a sequence of index sequences (polygons of mixed sizes).
 Faces parse_faces(const py::object& faces);
+// `points` (n, 3) and `faces` (as parse_faces) as one checked PolygonMesh: the one way every
+// binding that takes a mesh reads it.
+PolygonMesh parse_polygon_mesh(const py::object& points, const py::object& faces);
 
 // One binding file per family: core.cpp (Deformer, Stack, mesh_volume), barr.cpp, lattice.cpp,
 // surface.cpp, subdivision.cpp.

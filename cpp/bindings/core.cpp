@@ -24,17 +24,9 @@ const char* kNormalsDoc = R"(Carry unit normals through the map: N' = det(J) J^-
 const char* kVolumeDoc = R"(Local volume ratio det(J) at each point.)";
 
 double py_mesh_volume(const py::object& points, const py::object& faces) {
-  const auto p = as_double(points_array(points, "points"));
-  if (!py::isinstance<py::array>(faces) && !py::isinstance<py::sequence>(faces))
-    throw py::type_error("faces: expected an (m, k) integer array");
-  const py::array fa = py::array::ensure(faces);
-  if (!fa || (fa.dtype().kind() != 'i' && fa.dtype().kind() != 'u'))
-    throw py::type_error("faces: expected integer corner indices");
-  const auto f = c_array<std::int64_t>(fa, "faces");
-  if (f.ndim() != 2 || f.shape(0) == 0 || f.shape(1) < 3)
-    throw py::value_error("faces: expected shape (m, k) with m >= 1 and k >= 3, got " + shape_of(f));
+  const PolygonMesh mesh = parse_polygon_mesh(points, faces);
   py::gil_scoped_release release;
-  return mesh_volume(p.data(), std::size_t(p.shape(0)), f.data(), std::size_t(f.shape(0)), std::size_t(f.shape(1)));
+  return mesh_volume(mesh);
 }
 
 }  // namespace
@@ -83,7 +75,7 @@ volume ratio. Stacks nest.)")
   m.def("mesh_volume", &py_mesh_volume, "points"_a, "faces"_a,
         R"(Signed volume enclosed by a closed mesh: (1/6) sum a . (b x c) over its triangles (polygons fanned).
 
-faces: (m, k) corner indices, outward-facing winding gives a positive volume. The deformed volume
+faces: (m, k) corner indices or a list of polygons; outward-facing winding gives a positive volume. The deformed volume
 of a closed mesh is mesh_volume(deformer.deform(points), faces).)");
 }
 

@@ -7,6 +7,7 @@
 
 #include <limits>
 #include <memory>
+#include <optional>
 
 namespace deformkit_py {
 
@@ -49,10 +50,11 @@ std::pair<py::object, py::object> pair_of(const py::object& obj, const char* nam
   return {s[0], s[1]};
 }
 
-SubdivisionScheme parse_scheme(const std::string& s, const Faces& faces) {
+// The named scheme; 'auto' is decided by the mesh (Loop when every face is a triangle).
+std::optional<SubdivisionScheme> parse_scheme(const std::string& s) {
   if (s == "catmull_clark") return SubdivisionScheme::CatmullClark;
   if (s == "loop") return SubdivisionScheme::Loop;
-  if (s == "auto") return all_triangles(faces.offsets) ? SubdivisionScheme::Loop : SubdivisionScheme::CatmullClark;
+  if (s == "auto") return std::nullopt;
   throw py::value_error("scheme: expected 'auto', 'catmull_clark' or 'loop', got '" + s + "'");
 }
 
@@ -77,30 +79,26 @@ UvSmooth parse_uv_smooth(const std::string& s) {
                         s + "'");
 }
 
-struct Cage {
-  ControlMesh mesh;
-  py::array_t<double, py::array::c_style> points;
-};
-
-Cage parse_cage(const py::object& points, const py::object& faces, const std::string& scheme,
-                const std::string& boundary, const py::object& creases, const py::object& corners,
-                bool sharpen_two_edge_vertices) {
-  Cage cage;
-  // A copy: the surface keeps this cage, which the caller may change afterwards.
-  cage.points = py::array_t<double, py::array::c_style>(as_double(points_array(points, "points")).request());
-  const Faces f = parse_faces(faces);
-  cage.mesh = make_control_mesh(std::size_t(cage.points.shape(0)), f.corners, f.offsets, parse_scheme(scheme, f),
-                                parse_boundary(boundary));
-  cage.mesh.sharpen_two_edge_vertices = sharpen_two_edge_vertices;
+// The control mesh keeps a copy of the cage's points (the caller may change them afterwards): the
+// default cage of every call that takes points=.
+ControlMesh parse_cage(const py::object& points, const py::object& faces, const std::string& scheme,
+                       const std::string& boundary, const py::object& creases, const py::object& corners,
+                       bool sharpen_two_edge_vertices) {
+  PolygonMesh polygons = parse_polygon_mesh(points, faces);
+  const std::optional<SubdivisionScheme> named = parse_scheme(scheme);
+  const SubdivisionScheme resolved =
+      named ? *named : polygons.all_triangles() ? SubdivisionScheme::Loop : SubdivisionScheme::CatmullClark;
+  ControlMesh mesh = make_control_mesh(std::move(polygons), resolved, parse_boundary(boundary));
+  mesh.sharpen_two_edge_vertices = sharpen_two_edge_vertices;
   if (!creases.is_none()) {
     const auto [edges, sharpness] = pair_of(creases, "creases", "edges (k, 2)");
-    set_creases(cage.mesh, int_rows(edges, "creases", 2), real_vector(sharpness, "creases"));
+    set_creases(mesh, int_rows(edges, "creases", 2), real_vector(sharpness, "creases"));
   }
   if (!corners.is_none()) {
     const auto [vertices, sharpness] = pair_of(corners, "corners", "vertices (c,)");
-    set_corners(cage.mesh, int_rows(vertices, "corners", 1), real_vector(sharpness, "corners"));
+    set_corners(mesh, int_rows(vertices, "corners", 1), real_vector(sharpness, "corners"));
   }
-  return cage;
+  return mesh;
 }
 
 // A cage for an existing topology: `points` (n, 3) of the same vertex count.
@@ -112,6 +110,15 @@ py::array_t<double, py::array::c_style> same_cage(const py::object& points, std:
   return p;
 }
 
+// The cage a call works on: `points` when given (checked against the control mesh), else the
+// control mesh's own. `given` keeps a converted array alive.
+const double* cage_or_default(const py::object& points, const ControlMesh& mesh,
+                              py::array_t<double, py::array::c_style>& given) {
+  if (points.is_none()) return mesh.polygons.points().data();
+  given = same_cage(points, mesh.vertex_count(), "points");
+  return given.data();
+}
+
 struct PySubdividedMesh {
   py::array points, faces, face_origin;
   py::object uvs;
@@ -121,8 +128,7 @@ struct PySubdividedMesh {
 
 struct PyLimitSurface {
   std::shared_ptr<LimitSurface> surface;
-  py::array_t<double, py::array::c_style> points;  // the cage given at construction
-  std::shared_ptr<PatchPoints> patch_points;
+  std::shared_ptr<PatchPoints> patch_points;  // of the cage given at construction
 };
 
 // A 1-D numpy copy (the report keeps its own).
@@ -176,11 +182,11 @@ max_faces faces (default SUBDIVISION_MAX_FACES = 2**24) is refused before any wo
 limit_surface=True (Blender's "Use Limit Surface") gives the limit surface at every refined vertex
 (LimitSurface at its exact ptex parameters) instead of the refined points.)";
 
-Cage cage_with_uvs(const py::object& points, const py::object& faces, const std::string& scheme,
-                   const std::string& boundary, const py::object& creases, const py::object& corners,
-                   bool sharpen_two_edge_vertices, const py::object& uvs, const std::string& uv_smooth,
-                   std::int64_t max_faces) {
-  Cage cage = parse_cage(points, faces, scheme, boundary, creases, corners, sharpen_two_edge_vertices);
+ControlMesh cage_with_uvs(const py::object& points, const py::object& faces, const std::string& scheme,
+                          const std::string& boundary, const py::object& creases, const py::object& corners,
+                          bool sharpen_two_edge_vertices, const py::object& uvs, const std::string& uv_smooth,
+                          std::int64_t max_faces) {
+  ControlMesh cage = parse_cage(points, faces, scheme, boundary, creases, corners, sharpen_two_edge_vertices);
   if (max_faces < 1) throw py::value_error("max_faces: must be >= 1, got " + std::to_string(max_faces));
   const UvSmooth smooth = parse_uv_smooth(uv_smooth);
   if (uvs.is_none()) return cage;
@@ -189,7 +195,7 @@ Cage cage_with_uvs(const py::object& points, const py::object& faces, const std:
     throw py::value_error("uvs: expected shape (corners, 2)" + (a ? ", got " + shape_of(a) : std::string()));
   require_real(uvs, "uvs");
   const auto d = as_double(a, "uvs");
-  set_uvs(cage.mesh, d.data(), std::size_t(d.shape(0)), smooth);
+  set_uvs(cage, d.data(), std::size_t(d.shape(0)), smooth);
   return cage;
 }
 
@@ -207,7 +213,6 @@ PySubdividedMesh to_python(SubdividedMesh&& out) {
 
 struct PySubdivider {
   std::shared_ptr<Subdivider> subdivider;
-  py::array_t<double, py::array::c_style> points;
 };
 
 PySubdivider make_subdivider(const py::object& points, const py::object& faces, std::int64_t level_arg, const std::string& scheme,
@@ -216,13 +221,12 @@ PySubdivider make_subdivider(const py::object& points, const py::object& faces, 
                              const std::string& uv_smooth, std::int64_t max_faces, const py::object& limit_surface_arg) {
   const int level = int_arg(level_arg, "level", 1, kMaxSubdivisionLevel);
   const bool limit_surface = bool_arg(limit_surface_arg, "limit_surface");
-  Cage cage = cage_with_uvs(points, faces, scheme, boundary, creases, corners,
-                            bool_arg(sharpen_two_edge_vertices, "sharpen_two_edge_vertices"), uvs, uv_smooth, max_faces);
+  ControlMesh cage = cage_with_uvs(points, faces, scheme, boundary, creases, corners,
+                                   bool_arg(sharpen_two_edge_vertices, "sharpen_two_edge_vertices"), uvs, uv_smooth,
+                                   max_faces);
   PySubdivider s;
-  s.points = cage.points;
-  require_finite_rows(cage.points.data(), cage.mesh.vertex_count, "points");  // the default cage
   py::gil_scoped_release release;
-  s.subdivider = std::make_shared<Subdivider>(cage.mesh, level, max_faces, limit_surface);
+  s.subdivider = std::make_shared<Subdivider>(std::move(cage), level, max_faces, limit_surface);
   return s;
 }
 
@@ -264,22 +268,22 @@ void bind_subdivision(py::module_& m) {
            "sharpen_two_edge_vertices"_a = true, "uvs"_a = py::none(), "uv_smooth"_a = "preserve_boundaries",
            "max_faces"_a = kDefaultMaxFaces, "limit_surface"_a = false)
       .def("subdivide", [](const PySubdivider& s, const py::object& points) {
-        py::array_t<double, py::array::c_style> cage = s.points;
-        if (!points.is_none()) cage = same_cage(points, s.subdivider->control().vertex_count, "points");
+        py::array_t<double, py::array::c_style> given;
+        const double* cage = cage_or_default(points, s.subdivider->control(), given);
         std::vector<double> out;
         {
           py::gil_scoped_release release;
-          out = s.subdivider->subdivide(cage.data());
+          out = s.subdivider->subdivide(cage);
         }
         return owned(std::move(out), {py::ssize_t(s.subdivider->vertex_count()), 3});
       }, "points"_a = py::none(), "The refined points (N, 3) of this cage (the one given at construction by default).")
       .def("mesh", [](const PySubdivider& s, const py::object& points) {
-        py::array_t<double, py::array::c_style> cage = s.points;
-        if (!points.is_none()) cage = same_cage(points, s.subdivider->control().vertex_count, "points");
+        py::array_t<double, py::array::c_style> given;
+        const double* cage = cage_or_default(points, s.subdivider->control(), given);
         SubdividedMesh out;
         {
           py::gil_scoped_release release;
-          out = s.subdivider->mesh(cage.data());
+          out = s.subdivider->mesh(cage);
         }
         return to_python(std::move(out));
       }, "points"_a = py::none(), "The SubdividedMesh of this cage.")
@@ -312,13 +316,13 @@ void bind_subdivision(py::module_& m) {
                         const std::string& uv_smooth, std::int64_t max_faces, const py::object& limit_surface_arg) {
     const int level = int_arg(level_arg, "level", 1, kMaxSubdivisionLevel);
     const bool limit_surface = bool_arg(limit_surface_arg, "limit_surface");
-    Cage cage = cage_with_uvs(points, faces, scheme, boundary, creases, corners,
-                              bool_arg(sharpen_two_edge_vertices, "sharpen_two_edge_vertices"), uvs, uv_smooth,
-                              max_faces);
+    const ControlMesh cage = cage_with_uvs(points, faces, scheme, boundary, creases, corners,
+                                           bool_arg(sharpen_two_edge_vertices, "sharpen_two_edge_vertices"), uvs,
+                                           uv_smooth, max_faces);
     SubdividedMesh out;
     {
       py::gil_scoped_release release;
-      out = subdivide(cage.mesh, cage.points.data(), level, max_faces, limit_surface);
+      out = subdivide(cage, cage.polygons.points().data(), level, max_faces, limit_surface);
     }
     return to_python(std::move(out));
   }, "points"_a, "faces"_a, "level"_a, py::kw_only(), "scheme"_a = "auto", "boundary"_a = "edge_and_corner",
@@ -343,14 +347,14 @@ ptex_offset[f+1] - 1.)").c_str())
       .def(py::init([](const py::object& points, const py::object& faces, const std::string& scheme,
                        const std::string& boundary, const py::object& creases, const py::object& corners,
                        const py::object& sharpen_two_edge_vertices) {
-             Cage cage = parse_cage(points, faces, scheme, boundary, creases, corners,
-                                    bool_arg(sharpen_two_edge_vertices, "sharpen_two_edge_vertices"));
+             ControlMesh cage = parse_cage(points, faces, scheme, boundary, creases, corners,
+                                           bool_arg(sharpen_two_edge_vertices, "sharpen_two_edge_vertices"));
              PyLimitSurface s;
-             s.points = cage.points;
              {
                py::gil_scoped_release release;
-               s.surface = std::make_shared<LimitSurface>(std::move(cage.mesh));
-               s.patch_points = std::make_shared<PatchPoints>(s.surface->patch_points(s.points.data()));
+               s.surface = std::make_shared<LimitSurface>(std::move(cage));
+               s.patch_points =
+                   std::make_shared<PatchPoints>(s.surface->patch_points(s.surface->mesh().polygons.points().data()));
              }
              return s;
            }),
@@ -362,7 +366,7 @@ ptex_offset[f+1] - 1.)").c_str())
         const auto n = py::ssize_t(o.size());
         return owned(std::move(o), {n});
       })
-      .def_property_readonly("vertex_count", [](const PyLimitSurface& s) { return s.surface->mesh().vertex_count; })
+      .def_property_readonly("vertex_count", [](const PyLimitSurface& s) { return s.surface->mesh().vertex_count(); })
       .def_property_readonly("scheme", [](const PyLimitSurface& s) { return scheme_name(s.surface->mesh().scheme); })
       .def("evaluate", [](const PyLimitSurface& s, const py::object& ptex, const py::object& uv,
                           const py::object& points, std::int64_t derivatives_arg) {
@@ -383,7 +387,7 @@ ptex_offset[f+1] - 1.)").c_str())
         }
         std::shared_ptr<PatchPoints> cvs = s.patch_points;
         py::array_t<double, py::array::c_style> cage;
-        if (!points.is_none()) cage = same_cage(points, s.surface->mesh().vertex_count, "points");
+        if (!points.is_none()) cage = same_cage(points, s.surface->mesh().vertex_count(), "points");
         LimitSamples out;
         {
           py::gil_scoped_release release;
@@ -398,26 +402,26 @@ with derivatives >= 1 "du", "dv" and the unit "normal" (du x dv normalised; zero
 vanishes), with derivatives = 2 also "duu", "duv", "dvv". points= evaluates another cage of the
 same topology (a deformed one) without rebuilding the patches.)")
       .def("limit_points", [](const PyLimitSurface& s, const py::object& points) {
-        py::array_t<double, py::array::c_style> cage = s.points;
-        if (!points.is_none()) cage = same_cage(points, s.surface->mesh().vertex_count, "points");
+        py::array_t<double, py::array::c_style> given;
+        const double* cage = cage_or_default(points, s.surface->mesh(), given);
         std::vector<double> out;
         {
           py::gil_scoped_release release;
-          out = s.surface->limit_points(cage.data());
+          out = s.surface->limit_points(cage);
         }
-        return owned(std::move(out), {py::ssize_t(s.surface->mesh().vertex_count), 3});
+        return owned(std::move(out), {py::ssize_t(s.surface->mesh().vertex_count()), 3});
       }, "points"_a = py::none(), "The limit position of every control vertex, (n, 3).")
       .def("smoothness_report", [](const PyLimitSurface& s, const py::object& points, std::int64_t samples_per_edge,
                                    const py::object& reference, std::int64_t worst, const py::object& deformer,
                                    std::int64_t crease_grid) {
-        py::array_t<double, py::array::c_style> cage = s.points, ref;
-        if (!points.is_none()) cage = same_cage(points, s.surface->mesh().vertex_count, "points");
-        if (!reference.is_none()) ref = same_cage(reference, s.surface->mesh().vertex_count, "reference");
+        py::array_t<double, py::array::c_style> given, ref;
+        const double* cage = cage_or_default(points, s.surface->mesh(), given);
+        if (!reference.is_none()) ref = same_cage(reference, s.surface->mesh().vertex_count(), "reference");
         const std::shared_ptr<Deformer> map = parse_deformer(deformer);
         SmoothnessReport r;
         {
           py::gil_scoped_release release;
-          r = smoothness_report(*s.surface, cage.data(),
+          r = smoothness_report(*s.surface, cage,
                                 options(samples_per_edge, reference.is_none() ? nullptr : ref.data(), worst, map.get(),
                                         crease_grid));
         }
@@ -488,16 +492,16 @@ the bounding-box diagonal; worst_edges indices into edges by decreasing angle.)"
                                 const py::object& sharpen_two_edge_vertices, std::int64_t samples_per_edge,
                                 const py::object& reference, std::int64_t worst, const py::object& deformer,
                                 std::int64_t crease_grid) {
-    Cage cage = parse_cage(points, faces, scheme, boundary, creases, corners,
-                           bool_arg(sharpen_two_edge_vertices, "sharpen_two_edge_vertices"));
+    ControlMesh cage = parse_cage(points, faces, scheme, boundary, creases, corners,
+                                  bool_arg(sharpen_two_edge_vertices, "sharpen_two_edge_vertices"));
     const std::shared_ptr<Deformer> map = parse_deformer(deformer);
     py::array_t<double, py::array::c_style> ref;
-    if (!reference.is_none()) ref = same_cage(reference, cage.mesh.vertex_count, "reference");
+    if (!reference.is_none()) ref = same_cage(reference, cage.vertex_count(), "reference");
     SmoothnessReport r;
     {
       py::gil_scoped_release release;
-      const LimitSurface surface(std::move(cage.mesh));
-      r = smoothness_report(surface, cage.points.data(),
+      const LimitSurface surface(std::move(cage));
+      r = smoothness_report(surface, surface.mesh().polygons.points().data(),
                             options(samples_per_edge, reference.is_none() ? nullptr : ref.data(), worst, map.get(),
                                     crease_grid));
     }

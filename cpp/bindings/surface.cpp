@@ -11,10 +11,11 @@ using namespace pybind11::literals;
 
 namespace {
 
-TriangleMesh parse_mesh(const py::object& points, const py::object& faces) {
-  const auto p = as_double(points_array(points, "points"));
-  const auto [corners, offsets] = parse_faces(faces);
-  return triangulate(p.data(), std::size_t(p.shape(0)), corners, offsets);
+// The mesh fanned into triangles, its polygons simple (no vertex twice in one face).
+PolygonMesh parse_mesh(const py::object& points, const py::object& faces) {
+  PolygonMesh mesh = parse_polygon_mesh(points, faces);
+  require_distinct_corners(mesh);
+  return std::move(mesh).triangulate();
 }
 
 std::vector<int> parse_indices(const py::object& obj, const char* name, std::size_t n) {
@@ -38,7 +39,7 @@ std::vector<int> parse_indices(const py::object& obj, const char* name, std::siz
 
 void bind_surface(py::module_& m) {
   m.def("cotangent_laplacian", [](const py::object& points, const py::object& faces) {
-    const TriangleMesh mesh = parse_mesh(points, faces);
+    const PolygonMesh mesh = parse_mesh(points, faces);
     SparseMatrix l = cotangent_laplacian(mesh);  // symmetric: its column storage is its row storage
     l.makeCompressed();
     py::array_t<std::int64_t> indptr(l.outerSize() + 1);
@@ -85,7 +86,7 @@ so that they are met only approximately, more closely as w grows.)")
              s.iterations = int_arg(iterations, "iterations", 1, 10000);
              s.tolerance = tolerance;
              s.constraint_weight = constraint_weight;  // its range is checked (and named) by the core
-             TriangleMesh mesh = parse_mesh(points, faces);
+             PolygonMesh mesh = parse_mesh(points, faces);
              std::optional<std::vector<int>> region;
              const std::size_t n = mesh.vertex_count();
              if (!roi.is_none()) region = parse_indices(roi, "roi", n);

@@ -1,7 +1,6 @@
 #include "deformkit/core/mesh_volume.hpp"
 
 #include "deformkit/core/types.hpp"
-#include "deformkit/core/validation.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -24,28 +23,24 @@ static Vec3 axis_scales(const double* points, std::size_t n, int exponent[3]) {
   return scale;
 }
 
-double mesh_volume(const double* points, std::size_t n, const std::int64_t* faces, std::size_t m, std::size_t k) {
-  if (k < 3) throw std::invalid_argument("faces: need at least 3 corners per face");
-  require_finite_rows(points, n, "points");
-  for (std::size_t i = 0; i < m * k; ++i)
-    if (faces[i] < 0 || std::size_t(faces[i]) >= n)
-      throw std::invalid_argument("faces: face " + std::to_string(i / k) + " has corner index " +
-                                  std::to_string(faces[i]) + ", outside 0.." + std::to_string(n - 1));
+double mesh_volume(const PolygonMesh& mesh) {
+  const double* points = mesh.points().data();
+  const std::size_t n = mesh.vertex_count();
   // a . (b x c) = det[a b c] scales by sx sy sz when the axes are scaled by (sx, sy, sz): with each
   // axis brought near 1 by a power of two (exact), no product overflows or underflows on the way
   // to a volume that a double can hold, however large or flat the mesh is.
   int exponent[3];
   const Vec3 scale = axis_scales(points, n, exponent);
-  auto p = [&](std::int64_t i) -> Vec3 {
+  auto p = [&](int i) -> Vec3 {
     return Vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]).cwiseProduct(scale);
   };
-  // Relative to the first point, so that a mesh far from the origin keeps its precision.
-  const Vec3 o = p(faces[0]);
+  // Relative to the first corner's point, so that a mesh far from the origin keeps its precision.
+  const Vec3 o = p(mesh.corners()[0]);
   double six_v = 0.0;
-  for (std::size_t f = 0; f < m; ++f) {
-    const std::int64_t* c = faces + f * k;
+  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+    const int* c = mesh.face(f);
     const Vec3 a = p(c[0]) - o;
-    for (std::size_t j = 1; j + 1 < k; ++j) six_v += a.dot((p(c[j]) - o).cross(p(c[j + 1]) - o));
+    for (int j = 1; j + 1 < mesh.face_size(f); ++j) six_v += a.dot((p(c[j]) - o).cross(p(c[j + 1]) - o));
   }
   const double volume = std::ldexp(six_v / 6.0, exponent[0] + exponent[1] + exponent[2]);
   if (!std::isfinite(volume)) {

@@ -20,15 +20,14 @@ struct HalfEdge {
 
 std::vector<HalfEdge> half_edges(const ControlMesh& mesh) {
   std::vector<HalfEdge> h;
-  h.reserve(mesh.face_vertices.size());
-  int offset = 0;
+  h.reserve(mesh.corners().size());
   for (std::size_t f = 0; f < mesh.face_count(); ++f) {
-    const int k = mesh.face_sizes[f];
+    const int k = mesh.face_size(f);
+    const int* c = mesh.polygons.face(f);
     for (int i = 0; i < k; ++i) {
-      const int p = mesh.face_vertices[offset + i], q = mesh.face_vertices[offset + (i + 1) % k];
+      const int p = c[i], q = c[(i + 1) % k];
       h.push_back({std::min(p, q), std::max(p, q), int(f), i, p < q});
     }
-    offset += k;
   }
   std::sort(h.begin(), h.end());
   return h;
@@ -47,47 +46,24 @@ void check_sharpness(const std::vector<double>& s, const char* name) {
 
 std::string scheme_name(SubdivisionScheme s) { return s == SubdivisionScheme::Loop ? "loop" : "catmull_clark"; }
 
-bool all_triangles(const std::vector<std::int64_t>& offsets) {
-  for (std::size_t f = 0; f + 1 < offsets.size(); ++f)
-    if (offsets[f + 1] - offsets[f] != 3) return false;
-  return true;
-}
-
-ControlMesh make_control_mesh(std::size_t vertex_count, const std::vector<std::int64_t>& corners,
-                              const std::vector<std::int64_t>& offsets, SubdivisionScheme scheme,
-                              BoundaryRule boundary) {
-  if (offsets.size() < 2) throw std::invalid_argument("faces: no faces");
-  if (vertex_count > std::size_t(1) << 30) throw std::invalid_argument("points: more than 2^30 vertices");
-  ControlMesh mesh;
-  mesh.vertex_count = vertex_count;
-  mesh.scheme = scheme;
-  mesh.boundary = boundary;
-  std::vector<char> used(vertex_count, 0);
-  for (std::size_t f = 0; f + 1 < offsets.size(); ++f) {
-    const std::int64_t begin = offsets[f], end = offsets[f + 1];
-    const std::string face = "faces: face " + std::to_string(f);
-    if (end - begin < 3) throw std::invalid_argument(face + " has fewer than 3 corners");
-    if (scheme == SubdivisionScheme::Loop && end - begin != 3)
-      throw std::invalid_argument("faces: the Loop scheme needs triangles; face " + std::to_string(f) + " has " +
-                                  std::to_string(end - begin) + " corners");
-    for (std::int64_t c = begin; c < end; ++c) {
-      if (corners[c] < 0 || std::size_t(corners[c]) >= vertex_count)
-        throw std::invalid_argument(face + " has corner index " + std::to_string(corners[c]) + ", outside 0.." +
-                                    std::to_string(std::int64_t(vertex_count) - 1));
-      mesh.face_vertices.push_back(int(corners[c]));
-    }
-    // Sorted, so that a face of many corners costs k log k, not k^2.
-    std::vector<int> sorted(mesh.face_vertices.end() - (end - begin), mesh.face_vertices.end());
-    std::sort(sorted.begin(), sorted.end());
-    const auto repeat = std::adjacent_find(sorted.begin(), sorted.end());
-    if (repeat != sorted.end()) throw std::invalid_argument(face + " repeats vertex " + std::to_string(*repeat));
-    for (int v : sorted) used[v] = 1;
-    mesh.face_sizes.push_back(int(end - begin));
-  }
+ControlMesh make_control_mesh(PolygonMesh polygons, SubdivisionScheme scheme, BoundaryRule boundary) {
+  if (polygons.vertex_count() > std::size_t(1) << 30) throw std::invalid_argument("points: more than 2^30 vertices");
+  if (scheme == SubdivisionScheme::Loop)
+    for (std::size_t f = 0; f < polygons.face_count(); ++f)
+      if (polygons.face_size(f) != 3)
+        throw std::invalid_argument("faces: the Loop scheme needs triangles; face " + std::to_string(f) + " has " +
+                                    std::to_string(polygons.face_size(f)) + " corners");
+  require_distinct_corners(polygons);
+  std::vector<char> used(polygons.vertex_count(), 0);
+  for (int v : polygons.corners()) used[v] = 1;
   const auto isolated = std::find(used.begin(), used.end(), 0);
   if (isolated != used.end())
     throw std::invalid_argument("points: vertex " + std::to_string(isolated - used.begin()) +
                                 " is in no face (isolated vertices have no limit surface; remove them)");
+  ControlMesh mesh;
+  mesh.polygons = std::move(polygons);
+  mesh.scheme = scheme;
+  mesh.boundary = boundary;
   const std::vector<HalfEdge> h = half_edges(mesh);
   for (std::size_t i = 0; i < h.size();) {
     std::size_t j = i + 1;
@@ -116,7 +92,7 @@ void set_creases(ControlMesh& mesh, const std::vector<std::int64_t>& edges, cons
     const std::int64_t p = edges[2 * k], q = edges[2 * k + 1];
     const HalfEdge key{int(std::min(p, q)), int(std::max(p, q)), -1, -1, true};
     const auto it = std::lower_bound(h.begin(), h.end(), key);
-    if (p < 0 || q < 0 || std::size_t(std::max(p, q)) >= mesh.vertex_count || it == h.end() || it->a != key.a ||
+    if (p < 0 || q < 0 || std::size_t(std::max(p, q)) >= mesh.vertex_count() || it == h.end() || it->a != key.a ||
         it->b != key.b)
       throw std::invalid_argument("creases: pair " + std::to_string(k) + " " + pair_text(int(p), int(q)) +
                                   " is not an edge of the mesh");
@@ -132,17 +108,17 @@ void set_corners(ControlMesh& mesh, const std::vector<std::int64_t>& vertices, c
   check_sharpness(sharpness, "corners");
   mesh.corner_vertices.clear();
   for (std::size_t k = 0; k < vertices.size(); ++k) {
-    if (vertices[k] < 0 || std::size_t(vertices[k]) >= mesh.vertex_count)
+    if (vertices[k] < 0 || std::size_t(vertices[k]) >= mesh.vertex_count())
       throw std::invalid_argument("corners: vertex index " + std::to_string(vertices[k]) + " is outside 0.." +
-                                  std::to_string(std::int64_t(mesh.vertex_count) - 1));
+                                  std::to_string(std::int64_t(mesh.vertex_count()) - 1));
     mesh.corner_vertices.push_back(int(vertices[k]));
   }
   mesh.corner_sharpness = sharpness;
 }
 
 void set_uvs(ControlMesh& mesh, const double* corner_uvs, std::size_t corner_count, UvSmooth smooth) {
-  if (corner_count != mesh.face_vertices.size())
-    throw std::invalid_argument("uvs: expected one (u, v) per face corner (" + std::to_string(mesh.face_vertices.size()) +
+  if (corner_count != mesh.corners().size())
+    throw std::invalid_argument("uvs: expected one (u, v) per face corner (" + std::to_string(mesh.corners().size()) +
                                 " rows), got " + std::to_string(corner_count));
   // Corners of one vertex with equal UVs are one face-varying value; a seam keeps two.
   std::map<std::tuple<int, double, double>, int> welded;
@@ -152,7 +128,7 @@ void set_uvs(ControlMesh& mesh, const double* corner_uvs, std::size_t corner_cou
     const double u = corner_uvs[2 * c], v = corner_uvs[2 * c + 1];
     if (!std::isfinite(u) || !std::isfinite(v))
       throw std::invalid_argument("uvs: row " + std::to_string(c) + " is not finite");
-    const auto [it, fresh] = welded.try_emplace({mesh.face_vertices[c], u, v}, int(mesh.uvs.size() / 2));
+    const auto [it, fresh] = welded.try_emplace({mesh.corners()[c], u, v}, int(mesh.uvs.size() / 2));
     if (fresh) mesh.uvs.insert(mesh.uvs.end(), {u, v});
     mesh.uv_indices[c] = it->second;
   }
@@ -176,7 +152,7 @@ std::size_t edge_index(const std::vector<int>& edges, int a, int b) {
 }  // namespace
 
 std::vector<double> vertex_sharpness(const ControlMesh& mesh) {
-  std::vector<double> sharpness(mesh.vertex_count, 0.0);
+  std::vector<double> sharpness(mesh.vertex_count(), 0.0);
   for (std::size_t k = 0; k < mesh.corner_vertices.size(); ++k) sharpness[mesh.corner_vertices[k]] = mesh.corner_sharpness[k];
   if (!mesh.sharpen_two_edge_vertices) return sharpness;
   const EdgeTopology topo = edge_topology(mesh);
@@ -186,8 +162,8 @@ std::vector<double> vertex_sharpness(const ControlMesh& mesh) {
     edge_sharpness[edge_index(topo.edges, mesh.crease_edges[2 * k], mesh.crease_edges[2 * k + 1])] =
         mesh.crease_sharpness[k];
   // Per vertex: how many edges, and the smallest sharpness among them.
-  std::vector<int> degree(mesh.vertex_count, 0);
-  std::vector<double> softest(mesh.vertex_count, std::numeric_limits<double>::infinity());
+  std::vector<int> degree(mesh.vertex_count(), 0);
+  std::vector<double> softest(mesh.vertex_count(), std::numeric_limits<double>::infinity());
   for (std::size_t e = 0; e < edge_count; ++e)
     for (int end = 0; end < 2; ++end) {
       const int v = topo.edges[2 * e + end];
@@ -195,7 +171,7 @@ std::vector<double> vertex_sharpness(const ControlMesh& mesh) {
       softest[v] = std::min(softest[v], edge_sharpness[e]);
     }
   // Blender's intern/opensubdiv topology_refiner_factory.cc, assignComponentTags (as of 3.x to 5.x).
-  for (std::size_t v = 0; v < mesh.vertex_count; ++v)
+  for (std::size_t v = 0; v < mesh.vertex_count(); ++v)
     if (degree[v] == 2) sharpness[v] = std::min(sharpness[v] + softest[v], kInfiniteSharpness);
   return sharpness;
 }

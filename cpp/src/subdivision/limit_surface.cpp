@@ -99,7 +99,7 @@ LimitSurface::LimitSurface(ControlMesh mesh) : mesh_(std::move(mesh)), osd_(std:
   face_offset_.resize(mesh_.face_count() + 1);
   for (std::size_t f = 0; f < mesh_.face_count(); ++f) {
     ptex_offset_[f] = ptex.GetFaceId(int(f));
-    face_offset_[f + 1] = face_offset_[f] + mesh_.face_sizes[f];
+    face_offset_[f + 1] = face_offset_[f] + mesh_.face_size(f);
   }
   ptex_offset_.back() = ptex.GetNumFaces();
 }
@@ -107,14 +107,14 @@ LimitSurface::LimitSurface(ControlMesh mesh) : mesh_(std::move(mesh)), osd_(std:
 LimitSurface::~LimitSurface() = default;
 
 PatchPoints LimitSurface::patch_points(const double* points) const {
-  require_finite_rows(points, mesh_.vertex_count, "points");
+  require_finite_rows(points, mesh_.vertex_count(), "points");
   const Refiner& refiner = *osd_->refiner;
   const int refined = refiner.GetNumVerticesTotal(), local = osd_->patches->GetNumLocalPoints();
   PatchPoints out;
-  out.exponent = scale_exponent(points, 3 * mesh_.vertex_count);
+  out.exponent = scale_exponent(points, 3 * mesh_.vertex_count());
   const double down = std::ldexp(1.0, -out.exponent);
   std::vector<Point3> buffer(std::size_t(refined) + local);
-  for (std::size_t i = 0; i < mesh_.vertex_count; ++i)
+  for (std::size_t i = 0; i < mesh_.vertex_count(); ++i)
     buffer[i] = {points[3 * i] * down, points[3 * i + 1] * down, points[3 * i + 2] * down};
   const Far::PrimvarRefinerReal<double> primvar(refiner);
   Point3* src = buffer.data();
@@ -221,7 +221,7 @@ LimitSamples LimitSurface::evaluate(const PatchPoints& patch_points, const int* 
 }
 
 PtexPoint LimitSurface::corner_point(int face, int corner) const {
-  const int size = mesh_.face_sizes[face], first = ptex_offset_[face];
+  const int size = mesh_.face_size(face), first = ptex_offset_[face];
   if (mesh_.scheme == SubdivisionScheme::Loop) {
     static const double tri[3][2] = {{0, 0}, {1, 0}, {0, 1}};
     return {first, tri[corner][0], tri[corner][1]};
@@ -232,7 +232,7 @@ PtexPoint LimitSurface::corner_point(int face, int corner) const {
 }
 
 PtexPoint LimitSurface::edge_point(int face, int edge, double t) const {
-  const int size = mesh_.face_sizes[face], first = ptex_offset_[face];
+  const int size = mesh_.face_size(face), first = ptex_offset_[face];
   if (mesh_.scheme == SubdivisionScheme::Loop) {
     switch (edge) {
       case 0: return {first, t, 0.0};
@@ -256,21 +256,21 @@ PtexPoint LimitSurface::edge_point(int face, int edge, double t) const {
 PtexPoint LimitSurface::interior_point(int face, int sub) const {
   const int first = ptex_offset_[face];
   if (mesh_.scheme == SubdivisionScheme::Loop) return {first, 1.0 / 3.0, 1.0 / 3.0};
-  return {first + (mesh_.face_sizes[face] == 4 ? 0 : sub), 0.5, 0.5};
+  return {first + (mesh_.face_size(face) == 4 ? 0 : sub), 0.5, 0.5};
 }
 
 std::vector<double> LimitSurface::limit_points(const double* points) const {
-  std::vector<int> ptex(mesh_.vertex_count);
-  std::vector<double> uv(2 * mesh_.vertex_count);
+  std::vector<int> ptex(mesh_.vertex_count());
+  std::vector<double> uv(2 * mesh_.vertex_count());
   for (std::size_t f = 0; f < mesh_.face_count(); ++f)
-    for (int k = 0; k < mesh_.face_sizes[f]; ++k) {
-      const int v = mesh_.face_vertices[face_offset_[f] + k];
+    for (int k = 0; k < mesh_.face_size(f); ++k) {
+      const int v = mesh_.corners()[face_offset_[f] + k];
       const PtexPoint p = corner_point(int(f), k);
       ptex[v] = p.ptex;
       uv[2 * v] = p.u;
       uv[2 * v + 1] = p.v;
     }
-  return evaluate(patch_points(points), ptex.data(), uv.data(), mesh_.vertex_count, 0).position;
+  return evaluate(patch_points(points), ptex.data(), uv.data(), mesh_.vertex_count(), 0).position;
 }
 
 }  // namespace deformkit

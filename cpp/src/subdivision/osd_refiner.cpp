@@ -26,10 +26,12 @@ Sdc::Options::FVarLinearInterpolation fvar_rule(UvSmooth s) {
 
 std::unique_ptr<Refiner> make_refiner(const ControlMesh& mesh, bool with_uvs) {
   Far::TopologyDescriptor desc;
-  desc.numVertices = int(mesh.vertex_count);
+  desc.numVertices = int(mesh.vertex_count());
   desc.numFaces = int(mesh.face_count());
-  desc.numVertsPerFace = mesh.face_sizes.data();
-  desc.vertIndicesPerFace = mesh.face_vertices.data();
+  std::vector<int> face_sizes(mesh.face_count());
+  for (std::size_t f = 0; f < face_sizes.size(); ++f) face_sizes[f] = mesh.face_size(f);
+  desc.numVertsPerFace = face_sizes.data();
+  desc.vertIndicesPerFace = mesh.corners().data();
   std::vector<float> crease_weights(mesh.crease_sharpness.begin(), mesh.crease_sharpness.end());
   std::vector<int> corner_vertices;
   std::vector<float> corner_weights;

@@ -56,10 +56,10 @@ std::vector<double> face_normals(const ControlMesh& mesh, const double* p) {
   std::vector<double> out(3 * mesh.face_count());
   std::size_t offset = 0;
   for (std::size_t f = 0; f < mesh.face_count(); ++f) {
-    const int k = mesh.face_sizes[f];
+    const int k = mesh.face_size(f);
     for (int i = 0; i < k; ++i) {
-      const double* a = p + 3 * mesh.face_vertices[offset + i];
-      const double* b = p + 3 * mesh.face_vertices[offset + (i + 1) % k];
+      const double* a = p + 3 * mesh.corners()[offset + i];
+      const double* b = p + 3 * mesh.corners()[offset + (i + 1) % k];
       out[3 * f] += (a[1] - b[1]) * (a[2] + b[2]);
       out[3 * f + 1] += (a[2] - b[2]) * (a[0] + b[0]);
       out[3 * f + 2] += (a[0] - b[0]) * (a[1] + b[1]);
@@ -147,17 +147,17 @@ std::vector<double> normal_kinks(const LimitSurface& surface, const PatchPoints&
 // bends turn normals by any angle without folding anything; a fold reverses them locally.
 std::vector<Mat3> face_rotations(const ControlMesh& mesh, const double* reference, const double* points) {
   std::vector<int> start(mesh.face_count() + 1, 0);
-  for (std::size_t f = 0; f < mesh.face_count(); ++f) start[f + 1] = start[f] + mesh.face_sizes[f];
-  std::vector<std::vector<int>> faces_of(mesh.vertex_count);
+  for (std::size_t f = 0; f < mesh.face_count(); ++f) start[f + 1] = start[f] + mesh.face_size(f);
+  std::vector<std::vector<int>> faces_of(mesh.vertex_count());
   for (std::size_t f = 0; f < mesh.face_count(); ++f)
-    for (int c = start[f]; c < start[f + 1]; ++c) faces_of[mesh.face_vertices[c]].push_back(int(f));
+    for (int c = start[f]; c < start[f + 1]; ++c) faces_of[mesh.corners()[c]].push_back(int(f));
   std::vector<Mat3> out(mesh.face_count());
   std::vector<int> ring;
   for (std::size_t f = 0; f < mesh.face_count(); ++f) {
     ring.clear();
     for (int c = start[f]; c < start[f + 1]; ++c)
-      for (int g : faces_of[mesh.face_vertices[c]])
-        ring.insert(ring.end(), mesh.face_vertices.begin() + start[g], mesh.face_vertices.begin() + start[g + 1]);
+      for (int g : faces_of[mesh.corners()[c]])
+        ring.insert(ring.end(), mesh.corners().begin() + start[g], mesh.corners().begin() + start[g + 1]);
     std::sort(ring.begin(), ring.end());
     ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
     Vec3 pc = Vec3::Zero(), qc = Vec3::Zero();
@@ -194,16 +194,16 @@ SmoothnessReport smoothness_report(const LimitSurface& surface, const double* po
   if (o.deformer && !o.deformer->weights().empty())
     throw std::invalid_argument("deformer: has per-point weights, which do not apply to limit-surface samples");
   const ControlMesh& mesh = surface.mesh();
-  require_finite_rows(points, mesh.vertex_count, "points");
-  if (o.reference) require_finite_rows(o.reference, mesh.vertex_count, "reference");
+  require_finite_rows(points, mesh.vertex_count(), "points");
+  if (o.reference) require_finite_rows(o.reference, mesh.vertex_count(), "reference");
   // Every figure but a deformer's is scale-invariant: work on the points scaled by a power of two
   // (exact) to unit size, so that no product overflows at 1e200 or underflows at 1e-200.
-  const std::vector<double> scaled = o.deformer ? std::vector<double>() : unit_scaled(points, mesh.vertex_count);
+  const std::vector<double> scaled = o.deformer ? std::vector<double>() : unit_scaled(points, mesh.vertex_count());
   const std::vector<double> scaled_reference =
-      o.reference && !o.deformer ? unit_scaled(o.reference, mesh.vertex_count) : std::vector<double>();
+      o.reference && !o.deformer ? unit_scaled(o.reference, mesh.vertex_count()) : std::vector<double>();
   if (!o.deformer) points = scaled.data();
   const double* reference = o.reference && !o.deformer ? scaled_reference.data() : o.reference;
-  const double diagonal = bounding_diagonal(points, mesh.vertex_count);
+  const double diagonal = bounding_diagonal(points, mesh.vertex_count());
   if (!(diagonal > 0)) throw std::invalid_argument("points: all points coincide; the surface has no extent");
   if (!std::isfinite(diagonal))
     throw std::invalid_argument("points: the bounding box is wider than the double range (coordinates near 1e308)");
@@ -300,8 +300,8 @@ SmoothnessReport smoothness_report(const LimitSurface& surface, const double* po
   for (std::size_t f0 = 0; f0 < mesh.face_count(); f0 += std::size_t(1) << 20) {
     clear();
     for (std::size_t f = f0; f < std::min(mesh.face_count(), f0 + (std::size_t(1) << 20)); ++f) {
-      const bool split = mesh.scheme == SubdivisionScheme::CatmullClark && mesh.face_sizes[f] != 4;
-      for (int sub = 0; sub < (split ? mesh.face_sizes[f] : 1); ++sub) add(surface.interior_point(int(f), sub), int(f));
+      const bool split = mesh.scheme == SubdivisionScheme::CatmullClark && mesh.face_size(f) != 4;
+      for (int sub = 0; sub < (split ? mesh.face_size(f) : 1); ++sub) add(surface.interior_point(int(f), sub), int(f));
     }
     run_batch();
   }

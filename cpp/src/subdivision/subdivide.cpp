@@ -48,7 +48,7 @@ std::vector<ChartFace> control_charts(const ControlMesh& mesh, const std::vector
   std::vector<ChartFace> out(mesh.face_count());
   for (std::size_t f = 0; f < mesh.face_count(); ++f) {
     if (mesh.scheme == SubdivisionScheme::Loop) out[f] = {ptex_offset[f], {tri[0], tri[1], tri[2]}};
-    else if (mesh.face_sizes[f] == 4) out[f] = {ptex_offset[f], {quad[0], quad[1], quad[2], quad[3]}};
+    else if (mesh.face_size(f) == 4) out[f] = {ptex_offset[f], {quad[0], quad[1], quad[2], quad[3]}};
   }
   return out;
 }
@@ -142,7 +142,7 @@ std::vector<PtexPoint> Subdivider::vertex_parameters() const {
 
 std::int64_t subdivided_face_count(const ControlMesh& mesh, int level) {
   std::int64_t faces = mesh.scheme == SubdivisionScheme::Loop ? std::int64_t(mesh.face_count())
-                                                              : std::int64_t(mesh.face_vertices.size());
+                                                              : std::int64_t(mesh.corners().size());
   for (int l = mesh.scheme == SubdivisionScheme::Loop ? 0 : 1; l < level; ++l) {
     if (faces > (std::int64_t(1) << 56)) return faces;  // far past any cap; avoid overflow
     faces *= 4;
@@ -213,14 +213,14 @@ Subdivider::~Subdivider() = default;
 std::size_t Subdivider::vertex_count() const { return std::size_t(osd_->refiner->GetLevel(level_).GetNumVertices()); }
 
 std::vector<double> Subdivider::subdivide(const double* points) const {
-  require_finite_rows(points, control_.vertex_count, "points");
+  require_finite_rows(points, control_.vertex_count(), "points");
   if (limit_)
     return limit_->evaluate(limit_->patch_points(points), limit_ptex_.data(), limit_uv_.data(), limit_ptex_.size(), 0)
         .position;
   const Refiner& refiner = *osd_->refiner;
   // Every level's points in one buffer, coarse first (docs/math/subdivision.md, "Refinement buffer").
   std::vector<Point3> buffer(refiner.GetNumVerticesTotal());
-  for (std::size_t i = 0; i < control_.vertex_count; ++i) buffer[i] = {points[3 * i], points[3 * i + 1], points[3 * i + 2]};
+  for (std::size_t i = 0; i < control_.vertex_count(); ++i) buffer[i] = {points[3 * i], points[3 * i + 1], points[3 * i + 2]};
   const Far::PrimvarRefinerReal<double> primvar(refiner);
   Point3* src = buffer.data();
   for (int l = 1; l <= level_; ++l) {
@@ -254,7 +254,7 @@ SubdividedMesh Subdivider::mesh(const double* points) const {
 
 SubdividedMesh subdivide(const ControlMesh& mesh, const double* points, int level, std::int64_t max_faces,
                          bool limit_surface) {
-  require_finite_rows(points, mesh.vertex_count, "points");
+  require_finite_rows(points, mesh.vertex_count(), "points");
   return Subdivider(mesh, level, max_faces, limit_surface).mesh(points);
 }
 

@@ -36,13 +36,17 @@ void rescale_if_extreme(Vec3& u, Vec3& w) {
 
 }  // namespace
 
-SparseMatrix cotangent_laplacian(const TriangleMesh& mesh) {
+SparseMatrix cotangent_laplacian(const PolygonMesh& polygons) {
+  const PolygonMesh fanned = polygons.all_triangles() ? PolygonMesh() : polygons.triangulate();
+  const PolygonMesh& mesh = polygons.all_triangles() ? polygons : fanned;
+  const std::size_t triangles = mesh.face_count();
   std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(12 * mesh.triangle_count());
+  entries.reserve(12 * triangles);
   // Halved (exactly), so that an edge between coordinates near +-DBL_MAX cannot overflow.
-  auto p = [&](int v) -> Vec3 { return 0.5 * Vec3(mesh.points[3 * v], mesh.points[3 * v + 1], mesh.points[3 * v + 2]); };
-  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
-    const int* v = &mesh.triangles[3 * t];
+  const double* points = mesh.points().data();
+  auto p = [&](int v) -> Vec3 { return 0.5 * Vec3(points[3 * v], points[3 * v + 1], points[3 * v + 2]); };
+  for (std::size_t t = 0; t < triangles; ++t) {
+    const int* v = mesh.face(t);
     for (int k = 0; k < 3; ++k) {
       // The angle at corner k is opposite the edge (k+1, k+2).
       const int a = v[k], b = v[(k + 1) % 3], c = v[(k + 2) % 3];
@@ -57,13 +61,15 @@ SparseMatrix cotangent_laplacian(const TriangleMesh& mesh) {
   return assemble(mesh.vertex_count(), entries);
 }
 
-SparseMatrix uniform_laplacian(const TriangleMesh& mesh) {
+SparseMatrix uniform_laplacian(const PolygonMesh& polygons) {
+  const PolygonMesh fanned = polygons.all_triangles() ? PolygonMesh() : polygons.triangulate();
+  const PolygonMesh& mesh = polygons.all_triangles() ? polygons : fanned;
   // Each interior edge appears in two triangles: collect unique edges first.
   std::vector<std::pair<int, int>> edges;
-  edges.reserve(3 * mesh.triangle_count());
-  for (std::size_t t = 0; t < mesh.triangle_count(); ++t)
+  edges.reserve(3 * mesh.face_count());
+  for (std::size_t t = 0; t < mesh.face_count(); ++t)
     for (int k = 0; k < 3; ++k) {
-      int a = mesh.triangles[3 * t + k], b = mesh.triangles[3 * t + (k + 1) % 3];
+      int a = mesh.face(t)[k], b = mesh.face(t)[(k + 1) % 3];
       if (a > b) std::swap(a, b);
       edges.emplace_back(a, b);
     }

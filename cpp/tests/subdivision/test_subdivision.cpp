@@ -77,7 +77,8 @@ Cage octahedron() {
 }
 
 ControlMesh control(const Cage& c, SubdivisionScheme s) {
-  return make_control_mesh(c.points.size() / 3, c.corners, c.offsets, s, BoundaryRule::EdgeAndCorner);
+  return make_control_mesh(PolygonMesh(c.points.data(), c.points.size() / 3, c.corners, c.offsets), s,
+                           BoundaryRule::EdgeAndCorner);
 }
 
 struct Samples {
@@ -157,7 +158,7 @@ void expect_matches_limit_stencils(const Cage& c, SubdivisionScheme scheme) {
   for (std::size_t i = 0; i < n; ++i) {
     const int f = int(std::upper_bound(surface.ptex_offset().begin(), surface.ptex_offset().end(), s.ptex[i]) -
                       surface.ptex_offset().begin()) - 1;
-    if (scheme == SubdivisionScheme::CatmullClark && surface.mesh().face_sizes[f] != 4) first[i] = 0.5;
+    if (scheme == SubdivisionScheme::CatmullClark && surface.mesh().face_size(f) != 4) first[i] = 0.5;
   }
   auto scaled = [&](std::vector<Point3> v, int order) {
     for (std::size_t i = 0; i < n; ++i) {
@@ -239,8 +240,8 @@ TEST(LimitSurface, MatchesBfrSurfaces) {
 // quad's own corner parameters.
 void expect_passes_through_refined_limit_points(const Cage& c, int level,
                                                 BoundaryRule boundary = BoundaryRule::EdgeAndCorner) {
-  ControlMesh mesh = make_control_mesh(c.points.size() / 3, c.corners, c.offsets, SubdivisionScheme::CatmullClark,
-                                       boundary);
+  ControlMesh mesh = make_control_mesh(PolygonMesh(c.points.data(), c.points.size() / 3, c.corners, c.offsets),
+                                       SubdivisionScheme::CatmullClark, boundary);
   std::vector<double> corner_uv;
   for (std::size_t f = 0; f < mesh.face_count(); ++f) corner_uv.insert(corner_uv.end(), {0, 0, 1, 0, 1, 1, 0, 1});
   set_uvs(mesh, corner_uv.data(), corner_uv.size() / 2, UvSmooth::None);

@@ -1,13 +1,12 @@
 #pragma once
 // Signed volume enclosed by a closed polygon mesh.
-#include <cstddef>
-#include <cstdint>
+#include "deformkit/core/polygon_mesh.hpp"
 
 namespace deformkit {
 
 // Divergence theorem: V = 1/6 sum over triangles a . (b x c), polygons fanned from their first
-// corner. faces: m x k row-major corner indices (k >= 3). Positive for outward-facing winding.
-// Throws std::invalid_argument naming `faces` for an index out of range.
-double mesh_volume(const double* points, std::size_t n, const std::int64_t* faces, std::size_t m, std::size_t k);
+// corner (PolygonMesh::triangulate). Positive for outward-facing winding. Throws
+// std::invalid_argument naming `points` when the volume overflows a double.
+double mesh_volume(const PolygonMesh& mesh);
 
 }  // namespace deformkit

@@ -1,5 +1,7 @@
 #pragma once
 // A polygon control mesh for subdivision: faces, sharpness tags and per-corner UVs, checked.
+#include "deformkit/core/polygon_mesh.hpp"
+
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -18,9 +20,7 @@ enum class UvSmooth { None, PreserveCorners, PreserveCornersAndJunctions, Preser
 constexpr double kInfiniteSharpness = 10.0;
 
 struct ControlMesh {
-  std::size_t vertex_count = 0;
-  std::vector<int> face_sizes;
-  std::vector<int> face_vertices;  // corners, face after face
+  PolygonMesh polygons;            // the faces, and the points of the cage it was made with
   std::vector<int> crease_edges;   // vertex pairs
   std::vector<double> crease_sharpness;
   std::vector<int> corner_vertices;
@@ -34,23 +34,21 @@ struct ControlMesh {
   // crease sharpnesses (vertex sharpness + min, capped at 10), so creased borders keep corners.
   bool sharpen_two_edge_vertices = true;
 
-  std::size_t face_count() const { return face_sizes.size(); }
+  std::size_t vertex_count() const { return polygons.vertex_count(); }
+  std::size_t face_count() const { return polygons.face_count(); }
+  int face_size(std::size_t f) const { return polygons.face_size(f); }
+  const std::vector<int>& corners() const { return polygons.corners(); }
 };
 
-// Builds and checks a control mesh. Throws std::invalid_argument naming the argument (`faces`,
-// `creases`, `corners`, `uvs`) for: fewer than 3 corners, an index out of range, a repeated vertex
+// A control mesh on a (checked) polygon mesh. Throws std::invalid_argument naming the argument
+// (`faces`, `creases`, `corners`, `uvs`) for, on top of PolygonMesh's checks: a repeated vertex
 // in a face, a vertex in no face, an edge of more than two faces or used twice in one direction
 // (non-manifold or inconsistently wound), non-triangles under Loop, negative or NaN sharpness, a
 // crease on a non-edge, non-finite UVs. Corners with equal vertex and UV share one UV value.
-ControlMesh make_control_mesh(std::size_t vertex_count, const std::vector<std::int64_t>& corners,
-                              const std::vector<std::int64_t>& offsets, SubdivisionScheme scheme,
-                              BoundaryRule boundary);
+ControlMesh make_control_mesh(PolygonMesh polygons, SubdivisionScheme scheme, BoundaryRule boundary);
 void set_creases(ControlMesh& mesh, const std::vector<std::int64_t>& edges, const std::vector<double>& sharpness);
 void set_corners(ControlMesh& mesh, const std::vector<std::int64_t>& vertices, const std::vector<double>& sharpness);
 void set_uvs(ControlMesh& mesh, const double* corner_uvs, std::size_t corner_count, UvSmooth smooth);
-
-// True if every face is a triangle: the automatic scheme picks Loop then.
-bool all_triangles(const std::vector<std::int64_t>& offsets);
 
 // Every edge as (a, b) with a < b, sorted, and the faces on each side: (face, local edge) pairs,
 // edge_faces[e] listing one or two of them. Local edge i runs from corner i to corner i + 1.

@@ -1,7 +1,7 @@
 #pragma once
-// Discrete Laplacians of a triangle mesh.
+// Discrete Laplacians of a mesh, its polygons fanned into triangles (PolygonMesh::triangulate).
 #include "deformkit/numerics/sparse.hpp"
-#include "deformkit/surface/surface_mesh.hpp"
+#include "deformkit/core/polygon_mesh.hpp"
 
 #include <Eigen/Sparse>
 
@@ -11,8 +11,8 @@ namespace deformkit {
 // 2004 sec. 2). Each cotangent is clamped to [-kMaxCotangent, kMaxCotangent], so a degenerate
 // (zero-area) triangle gives large but finite weights instead of inf or NaN.
 constexpr double kMaxCotangent = 1e4;
-SparseMatrix cotangent_laplacian(const TriangleMesh& mesh);
+SparseMatrix cotangent_laplacian(const PolygonMesh& mesh);
 // w_ij = 1 for every edge.
-SparseMatrix uniform_laplacian(const TriangleMesh& mesh);
+SparseMatrix uniform_laplacian(const PolygonMesh& mesh);
 
 }  // namespace deformkit

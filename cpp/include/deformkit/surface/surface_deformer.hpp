@@ -5,7 +5,7 @@
 #include "deformkit/surface/cotangent_laplacian.hpp"
 #include "deformkit/core/types.hpp"
 
-#include "deformkit/numerics/sparse_cholesky.hpp"
+#include "deformkit/numerics/constrained_quadratic.hpp"
 
 #include <mutex>
 #include <optional>
@@ -36,9 +36,9 @@ constexpr double kMinConstraintWeight = 1e-4, kMaxConstraintWeight = 1e8;
 
 class SurfaceDeformer {
  public:
-  // Throws std::invalid_argument naming anchors, handles or roi for bad indices, and iterations
-  // or tolerance for bad settings.
-  SurfaceDeformer(TriangleMesh mesh, std::vector<int> anchors, std::vector<int> handles,
+  // Polygons are fanned into triangles. Throws std::invalid_argument naming anchors, handles or
+  // roi for bad indices, and iterations or tolerance for bad settings.
+  SurfaceDeformer(PolygonMesh mesh, std::vector<int> anchors, std::vector<int> handles,
                   const std::optional<std::vector<int>>& roi, SurfaceSettings settings);
 
   // New positions (3n) with the handles at targets (3 per handle). Records energy() for ARAP.
@@ -47,8 +47,8 @@ class SurfaceDeformer {
 
   std::size_t vertex_count() const { return mesh_.vertex_count(); }
   std::size_t handle_count() const { return handles_.size(); }
-  std::size_t free_count() const { return free_.size(); }
-  std::size_t factor_nonzeros() const { return solver_.factor_nonzeros(); }
+  std::size_t free_count() const { return split_.free().size(); }
+  std::size_t factor_nonzeros() const { return laplacian_system_.factor_nonzeros(); }
   const SurfaceSettings& settings() const { return settings_; }
   const std::vector<std::string>& warnings() const { return warnings_; }
   std::vector<double> energy() const {
@@ -58,34 +58,41 @@ class SurfaceDeformer {
 
  private:
   using Matrix = Eigen::Matrix<double, Eigen::Dynamic, 3>;
-  Matrix solve(const Matrix& rhs_free, const Matrix& fixed) const;
-  void factorize(const SparseMatrix& system, CholeskyKind kind);
+  // Hard constraints and the soft ones' pull at these targets: the fixed vertices' positions (in
+  // split_.fixed() order) and the soft vertices' targets (a handle's target, an anchor's rest).
+  Matrix fixed_positions(const double* targets) const;
   Matrix soft_targets(const double* targets) const;
+  Matrix with_fixed(const Matrix& fixed) const;  // rest, the fixed vertices at `fixed`
+  struct Displacement {
+    Matrix moved, pulled;  // fixed positions and soft targets minus their rest
+    bool at_rest;          // both exactly zero
+  };
+  Displacement displacement(const Matrix& fixed, const Matrix& pulls) const;
+  void add_to_free(Matrix& x, const Eigen::MatrixXd& free_displacement) const;
+  Matrix deform_laplacian(const Matrix& fixed, const Matrix& pulls) const;
+  Matrix deform_rotation_invariant(const Matrix& fixed, const Matrix& pulls) const;
+  Matrix deform_arap(const Matrix& fixed, const Matrix& pulls);
   void fit_rotations(const Matrix& x, std::vector<Mat3>& rotations) const;
   Matrix arap_rhs(const std::vector<Mat3>& rotations) const;
   double arap_energy(const Matrix& x, const std::vector<Mat3>& rotations) const;
   SparseMatrix implicit_transform_system() const;
-  void factorize_rotation_invariant(const std::vector<int>& component, int components, const std::vector<char>& held);
   bool loosely_held(const std::vector<int>& component, int components, const std::vector<char>& held) const;
 
-  TriangleMesh mesh_;
+  PolygonMesh mesh_;  // triangulated
   SurfaceSettings settings_;
   std::vector<int> handles_;
-  std::vector<int> free_, fixed_;              // vertex lists: solved for, held exactly
-  std::vector<int> free_index_, fixed_index_;  // vertex -> position in those lists, or -1
-  std::vector<int> soft_, soft_handle_;        // softly held free positions; their handle or -1 (anchor)
+  UnknownSplit split_;               // vertices solved for (free) and held exactly (fixed)
+  std::vector<int> soft_handle_;     // per softly held vertex: its handle, or -1 (an anchor)
   Matrix rest_;
-  SparseMatrix laplacian_;                     // with the clamped weights
+  SparseMatrix laplacian_;           // with the clamped weights
   std::vector<std::vector<std::pair<int, double>>> neighbors_;  // (j, w_ij)
-  SparseMatrix free_part_, fixed_part_;        // Laplacian: L(:, free), L(:, fixed); ARAP: rows free only
-  SparseCholesky solver_;                      // ARAP: L_ff; Laplacian and rotation-invariant: L^T L
-  SparseMatrix ri_free_, ri_fixed_;            // rotation-invariant: the 3n x 3n system's columns
-  SparseCholesky ri_solver_;
-  Matrix delta_;                               // L rest: the differential coordinates
+  Matrix delta_;                     // L rest: the differential coordinates
+  // ARAP: the quadratic form of L (its global step); Laplacian and rotation-invariant: the least
+  // squares |L x - delta|^2. Rotation-invariant also: the 3n x 3n implicit-transform system.
+  ConstrainedQuadratic laplacian_system_, implicit_system_;
   std::vector<std::string> warnings_;
   std::vector<double> energy_;
   mutable std::mutex deforming_;  // deform() records energy_: one call at a time per deformer
-  double ridge_ = 0.0;            // rotation-invariant: the regularisation of a loosely held mesh
 };
 
 }  // namespace deformkit

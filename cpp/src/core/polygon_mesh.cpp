@@ -1,0 +1,98 @@
+#include "deformkit/core/polygon_mesh.hpp"
+
+#include "deformkit/core/validation.hpp"
+
+#include <numeric>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace deformkit {
+
+PolygonMesh::PolygonMesh(const double* points, std::size_t n, const std::vector<std::int64_t>& corners,
+                         const std::vector<std::int64_t>& offsets) {
+  require_finite_rows(points, n, "points");
+  if (offsets.size() < 2) throw std::invalid_argument("faces: no faces");
+  // One pass: each corner checked as it is copied.
+  corners_.resize(std::size_t(offsets.back() - offsets.front()));
+  offsets_.resize(offsets.size());
+  offsets_[0] = 0;
+  int* out = corners_.data();
+  for (std::size_t f = 0; f + 1 < offsets.size(); ++f) {
+    const std::int64_t begin = offsets[f], end = offsets[f + 1];
+    if (end - begin < 3) throw std::invalid_argument("faces: face " + std::to_string(f) + " has fewer than 3 corners");
+    for (std::int64_t c = begin; c < end; ++c) {
+      if (corners[c] < 0 || std::size_t(corners[c]) >= n)
+        throw std::invalid_argument("faces: face " + std::to_string(f) + " has corner index " +
+                                    std::to_string(corners[c]) + ", outside 0.." + std::to_string(std::int64_t(n) - 1));
+      *out++ = int(corners[c]);
+    }
+    offsets_[f + 1] = end - offsets.front();
+  }
+  points_.assign(points, points + 3 * n);
+}
+
+bool PolygonMesh::all_triangles() const {
+  for (std::size_t f = 0; f < face_count(); ++f)
+    if (face_size(f) != 3) return false;
+  return true;
+}
+
+PolygonMesh PolygonMesh::triangulate() const& { return PolygonMesh(*this).triangulate(); }
+
+PolygonMesh PolygonMesh::triangulate() && {
+  if (all_triangles()) return std::move(*this);
+  PolygonMesh out;
+  out.points_ = std::move(points_);
+  out.corners_.reserve(3 * (corners_.size() - 2 * face_count()));
+  for (std::size_t f = 0; f < face_count(); ++f) {
+    const int* c = face(f);
+    for (int k = 1; k + 1 < face_size(f); ++k) out.corners_.insert(out.corners_.end(), {c[0], c[k], c[k + 1]});
+  }
+  out.offsets_.resize(out.corners_.size() / 3 + 1);
+  for (std::size_t t = 0; t < out.offsets_.size(); ++t) out.offsets_[t] = std::int64_t(3 * t);
+  *this = PolygonMesh();
+  return out;
+}
+
+// One pass over the corners with the face that last visited each vertex: linear in the corners
+// however large a face is.
+void require_distinct_corners(const PolygonMesh& mesh) {
+  std::vector<std::int64_t> last_face(mesh.vertex_count(), -1);
+  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+    const int* c = mesh.face(f);
+    for (int k = 0; k < mesh.face_size(f); ++k) {
+      if (last_face[c[k]] == std::int64_t(f))
+        throw std::invalid_argument("faces: face " + std::to_string(f) + " repeats vertex " + std::to_string(c[k]));
+      last_face[c[k]] = std::int64_t(f);
+    }
+  }
+}
+
+std::vector<int> connected_components(const PolygonMesh& mesh, int* count) {
+  const std::size_t n = mesh.vertex_count();
+  std::vector<int> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int v) {
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    return v;
+  };
+  for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+    const int* c = mesh.face(f);
+    for (int k = 1; k < mesh.face_size(f); ++k) {
+      const int a = find(c[0]), b = find(c[k]);
+      if (a != b) parent[b] = a;
+    }
+  }
+  std::vector<int> id(n, -1), component(n);
+  int next = 0;
+  for (std::size_t v = 0; v < n; ++v) {
+    const int r = find(int(v));
+    if (id[r] < 0) id[r] = next++;
+    component[v] = id[r];
+  }
+  if (count) *count = next;
+  return component;
+}
+
+}  // namespace deformkit

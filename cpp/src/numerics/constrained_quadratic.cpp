@@ -1,0 +1,184 @@
+#include "deformkit/numerics/constrained_quadratic.hpp"
+
+#include <stdexcept>
+#include <string>
+#include <tuple>
+#include <utility>
+
+namespace deformkit {
+
+UnknownSplit::UnknownSplit(const std::vector<char>& fixed) {
+  const std::size_t n = fixed.size();
+  free_index_.assign(n, -1);
+  fixed_index_.assign(n, -1);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (fixed[i]) {
+      fixed_index_[i] = int(fixed_.size());
+      fixed_.push_back(int(i));
+    } else {
+      free_index_[i] = int(free_.size());
+      free_.push_back(int(i));
+    }
+  }
+}
+
+UnknownSplit UnknownSplit::interleaved(int width) const {
+  std::vector<char> fixed(size() * std::size_t(width));
+  for (std::size_t i = 0; i < fixed.size(); ++i) fixed[i] = fixed_index_[i / std::size_t(width)] >= 0;
+  return UnknownSplit(fixed);
+}
+
+namespace {
+
+// The columns of `m` split into its free and fixed unknowns; with free_rows_only, its rows too
+// (the quadratic form keeps only the free unknowns' equations).
+std::pair<SparseMatrix, SparseMatrix> split_columns(const SparseMatrix& m, const UnknownSplit& split,
+                                                    bool free_rows_only) {
+  std::vector<Eigen::Triplet<double>> f, k;
+  for (int col = 0; col < m.outerSize(); ++col)
+    for (SparseMatrix::InnerIterator it(m, col); it; ++it) {
+      const int row = free_rows_only ? split.free_index(int(it.row())) : int(it.row());
+      if (row < 0) continue;
+      if (split.free_index(col) >= 0) f.emplace_back(row, split.free_index(col), it.value());
+      else k.emplace_back(row, split.fixed_index(col), it.value());
+    }
+  const Eigen::Index rows = free_rows_only ? Eigen::Index(split.free().size()) : m.rows();
+  std::pair<SparseMatrix, SparseMatrix> out{SparseMatrix(rows, Eigen::Index(split.free().size())),
+                                            SparseMatrix(rows, Eigen::Index(split.fixed().size()))};
+  out.first.setFromTriplets(f.begin(), f.end());
+  out.second.setFromTriplets(k.begin(), k.end());
+  return out;
+}
+
+std::vector<int> soft_positions(const SoftConstraints& soft, const UnknownSplit& split) {
+  if (soft.weights.size() != soft.unknowns.size())
+    throw std::invalid_argument("ConstrainedQuadratic: one weight per soft unknown expected");
+  std::vector<int> positions;
+  for (int u : soft.unknowns) {
+    if (u < 0 || std::size_t(u) >= split.size() || split.is_fixed(u))
+      throw std::invalid_argument("ConstrainedQuadratic: soft unknown " + std::to_string(u) + " is not a free unknown");
+    positions.push_back(split.free_index(u));
+  }
+  return positions;
+}
+
+}  // namespace
+
+ConstrainedQuadratic::ConstrainedQuadratic() = default;
+ConstrainedQuadratic::~ConstrainedQuadratic() = default;
+ConstrainedQuadratic::ConstrainedQuadratic(ConstrainedQuadratic&&) noexcept = default;
+ConstrainedQuadratic& ConstrainedQuadratic::operator=(ConstrainedQuadratic&&) noexcept = default;
+
+ConstrainedQuadratic ConstrainedQuadratic::quadratic(const SparseMatrix& a, UnknownSplit split, SoftConstraints soft,
+                                                     CholeskyKind kind) {
+  if (a.rows() != a.cols() || std::size_t(a.rows()) != split.size())
+    throw std::invalid_argument("ConstrainedQuadratic::quadratic: A must be n x n for n unknowns");
+  ConstrainedQuadratic q;
+  q.form_ = Form::Quadratic;
+  q.split_ = std::move(split);
+  q.soft_ = std::move(soft);
+  q.soft_free_ = soft_positions(q.soft_, q.split_);
+  std::tie(q.free_part_, q.fixed_part_) = split_columns(a, q.split_, true);
+  q.factorize(q.free_part_, 0.0, kind);
+  return q;
+}
+
+ConstrainedQuadratic ConstrainedQuadratic::least_squares(const SparseMatrix& m, UnknownSplit split,
+                                                         SoftConstraints soft, double relative_ridge,
+                                                         CholeskyKind kind) {
+  if (std::size_t(m.cols()) != split.size())
+    throw std::invalid_argument("ConstrainedQuadratic::least_squares: M must have n columns for n unknowns");
+  ConstrainedQuadratic q;
+  q.form_ = Form::LeastSquares;
+  q.split_ = std::move(split);
+  q.soft_ = std::move(soft);
+  q.soft_free_ = soft_positions(q.soft_, q.split_);
+  std::tie(q.free_part_, q.fixed_part_) = split_columns(m, q.split_, false);
+  if (!q.split_.free().empty())
+    q.factorize(SparseMatrix(SparseMatrix(q.free_part_.transpose()) * q.free_part_), relative_ridge, kind);
+  return q;
+}
+
+// The ridge is measured before the soft weights go on the diagonal, so that it does not depend on them.
+void ConstrainedQuadratic::factorize(SparseMatrix system, double relative_ridge, CholeskyKind kind) {
+  if (split_.free().empty()) return;
+  if (relative_ridge > 0) {
+    ridge_ = relative_ridge * system.diagonal().sum() / double(system.rows());
+    for (Eigen::Index k = 0; k < system.rows(); ++k) system.coeffRef(k, k) += ridge_;
+  }
+  for (std::size_t s = 0; s < soft_free_.size(); ++s) system.coeffRef(soft_free_[s], soft_free_[s]) += soft_.weights[s];
+  solver_ = std::make_unique<SparseCholesky>();
+  factorised_ = solver_->factorize(system, kind);
+}
+
+bool ConstrainedQuadratic::factorised() const { return factorised_; }
+
+std::size_t ConstrainedQuadratic::factor_nonzeros() const { return solver_ ? solver_->factor_nonzeros() : 0; }
+
+ConstrainedQuadratic::Matrix ConstrainedQuadratic::back_substitute(const Matrix& rhs) const {
+  if (split_.free().empty()) return Matrix(0, rhs.cols());
+  if (!factorised_) throw std::logic_error("ConstrainedQuadratic: solve after a failed factorisation");
+  return solver_->solve(rhs);
+}
+
+ConstrainedQuadratic::Matrix ConstrainedQuadratic::constraint_term(const Matrix& fixed_values,
+                                                                   const Matrix& soft_targets) const {
+  if (form_ != Form::Quadratic) throw std::logic_error("ConstrainedQuadratic::constraint_term: quadratic form only");
+  Matrix term = fixed_part_ * fixed_values;
+  for (std::size_t s = 0; s < soft_free_.size(); ++s)
+    term.row(soft_free_[s]) -= soft_.weights[s] * soft_targets.row(Eigen::Index(s));
+  return term;
+}
+
+ConstrainedQuadratic::Matrix ConstrainedQuadratic::solve_free_with(const Matrix& b, const Matrix& term) const {
+  return back_substitute(b.size() ? Matrix(b - term) : Matrix(-term));
+}
+
+ConstrainedQuadratic::Matrix ConstrainedQuadratic::solve_free(const Matrix& b, const Matrix& fixed_values,
+                                                              const Matrix& soft_targets, const Matrix& guess) const {
+  Matrix rhs;
+  if (form_ == Form::Quadratic) {
+    const Matrix term = constraint_term(fixed_values, soft_targets);
+    rhs = b.size() ? Matrix(b - term) : Matrix(-term);
+  } else {
+    rhs = b.size() ? Matrix(free_part_.transpose() * Matrix(b - fixed_part_ * fixed_values))
+                   : Matrix(-(free_part_.transpose() * (fixed_part_ * fixed_values)));
+    for (std::size_t s = 0; s < soft_free_.size(); ++s)
+      rhs.row(soft_free_[s]) += soft_.weights[s] * soft_targets.row(Eigen::Index(s));
+  }
+  if (ridge_ > 0 && guess.size()) rhs += ridge_ * guess;
+  return back_substitute(rhs);
+}
+
+ConstrainedQuadratic::Matrix ConstrainedQuadratic::assemble(const Matrix& free_values, const Matrix& fixed_values) const {
+  Matrix x(Eigen::Index(split_.size()), fixed_values.size() ? fixed_values.cols() : free_values.cols());
+  for (std::size_t i = 0; i < split_.fixed().size(); ++i) x.row(split_.fixed()[i]) = fixed_values.row(Eigen::Index(i));
+  for (std::size_t i = 0; i < split_.free().size(); ++i) x.row(split_.free()[i]) = free_values.row(Eigen::Index(i));
+  return x;
+}
+
+Eigen::MatrixXd min_quadratic_with_fixed(const SparseMatrix& a, const Eigen::MatrixXd& b, const std::vector<int>& fixed,
+                                         const Eigen::MatrixXd& fixed_values) {
+  if (b.rows() != a.rows() || fixed_values.rows() != Eigen::Index(fixed.size()) ||
+      (!fixed.empty() && fixed_values.cols() != b.cols()))
+    throw std::invalid_argument("min_quadratic_with_fixed: expected b with A's rows and one row of fixed_values per fixed index");
+  std::vector<char> is_fixed(std::size_t(a.rows()), 0);
+  for (int i : fixed) {
+    if (i < 0 || i >= a.rows() || is_fixed[std::size_t(i)])
+      throw std::invalid_argument("min_quadratic_with_fixed: fixed index " + std::to_string(i) +
+                                  " is out of range or repeated");
+    is_fixed[std::size_t(i)] = 1;
+  }
+  UnknownSplit split(is_fixed);
+  // The caller's order of fixed rows, in the split's (ascending) order.
+  Eigen::MatrixXd y(Eigen::Index(split.fixed().size()), fixed_values.cols());
+  for (std::size_t k = 0; k < fixed.size(); ++k) y.row(split.fixed_index(fixed[k])) = fixed_values.row(Eigen::Index(k));
+  Eigen::MatrixXd bf(Eigen::Index(split.free().size()), b.cols());
+  for (std::size_t i = 0; i < split.free().size(); ++i) bf.row(Eigen::Index(i)) = b.row(split.free()[i]);
+  const ConstrainedQuadratic q = ConstrainedQuadratic::quadratic(a, split, {});
+  if (!q.factorised())
+    throw std::invalid_argument("min_quadratic_with_fixed: A is not positive definite on the free unknowns");
+  return q.assemble(q.solve_free(bf, y, Eigen::MatrixXd(0, b.cols())), y);
+}
+
+}  // namespace deformkit

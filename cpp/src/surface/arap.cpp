@@ -1,0 +1,86 @@
+// As-rigid-as-possible surface deformation (Sorkine and Alexa 2007): local rotations, and the
+// global step on the factorised constrained quadratic of L.
+#include "deformkit/surface/surface_deformer.hpp"
+
+#include "deformkit/numerics/best_rotation.hpp"
+#include "core/parallel.hpp"
+
+#include <algorithm>
+#include <mutex>
+
+namespace deformkit {
+
+// Local step: R_i maximising tr(R_i S_i), S_i = sum_j w_ij e_ij e'_ij^T.
+void SurfaceDeformer::fit_rotations(const Matrix& x, std::vector<Mat3>& rotations) const {
+  parallel_blocks(rest_.rows(), [&](std::size_t begin, std::size_t end) {
+    constexpr std::size_t kChunk = 512;  // S and R of a chunk, component-major for the SIMD polar step
+    std::vector<double> s(9 * kChunk), r(9 * kChunk);
+    for (std::size_t first = begin; first < end; first += kChunk) {
+      const std::size_t count = std::min(kChunk, end - first);
+      for (std::size_t i = first; i < first + count; ++i) {
+        Mat3 si = Mat3::Zero();
+        const Vec3 xi = x.row(i).transpose(), pi = rest_.row(i).transpose();
+        for (const auto& [j, w] : neighbors_[i])
+          si.noalias() += (w * (pi - rest_.row(j).transpose())) * (xi - x.row(j).transpose()).transpose();
+        for (int k = 0; k < 9; ++k) s[std::size_t(k) * count + (i - first)] = si(k / 3, k % 3);
+      }
+      best_rotations(s.data(), r.data(), count);
+      for (std::size_t i = 0; i < count; ++i)
+        for (int k = 0; k < 9; ++k) rotations[first + i](k / 3, k % 3) = r[std::size_t(k) * count + i];
+    }
+  });
+}
+
+// b_i = sum_j w_ij / 2 (R_i + R_j)(p_i - p_j), on the free rows (Sorkine and Alexa 2007, eq. 8).
+SurfaceDeformer::Matrix SurfaceDeformer::arap_rhs(const std::vector<Mat3>& rotations) const {
+  const std::vector<int>& free = split_.free();
+  Matrix b(Eigen::Index(free.size()), 3);
+  parallel_blocks(free.size(), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t f = begin; f < end; ++f) {
+      const int i = free[f];
+      Vec3 acc = Vec3::Zero();
+      for (const auto& [j, w] : neighbors_[i])
+        acc += 0.5 * w * (rotations[i] + rotations[j]) * (rest_.row(i) - rest_.row(j)).transpose();
+      b.row(Eigen::Index(f)) = acc.transpose();
+    }
+  });
+  return b;
+}
+
+double SurfaceDeformer::arap_energy(const Matrix& x, const std::vector<Mat3>& rotations) const {
+  double total = 0;
+  std::mutex add;
+  parallel_blocks(rest_.rows(), [&](std::size_t begin, std::size_t end) {
+    double e = 0;
+    for (std::size_t i = begin; i < end; ++i)
+      for (const auto& [j, w] : neighbors_[i])
+        e += w * ((x.row(i) - x.row(j)).transpose() - rotations[i] * (rest_.row(i) - rest_.row(j)).transpose())
+                     .squaredNorm();
+    const std::lock_guard<std::mutex> lock(add);
+    total += e;
+  });
+  return total;
+}
+
+SurfaceDeformer::Matrix SurfaceDeformer::deform_arap(const Matrix& fixed, const Matrix& pulls) {
+  if (split_.free().empty()) return with_fixed(fixed);
+  const std::vector<int>& soft = laplacian_system_.soft().unknowns;
+  const std::vector<double>& w2 = laplacian_system_.soft().weights;
+  std::vector<Mat3> rotations(rest_.rows(), Mat3::Identity());
+  const Eigen::MatrixXd held = laplacian_system_.constraint_term(fixed, pulls);
+  auto global_step = [&] { return Matrix(laplacian_system_.assemble(laplacian_system_.solve_free_with(arap_rhs(rotations), held), fixed)); };
+  Matrix x = global_step();  // the first, from R = I
+  for (int it = 0; it < settings_.iterations; ++it) {
+    fit_rotations(x, rotations);
+    x = global_step();
+    double e = arap_energy(x, rotations);
+    for (std::size_t k = 0; k < soft.size(); ++k) e += 2 * w2[k] * (x.row(soft[k]) - pulls.row(Eigen::Index(k))).squaredNorm();
+    energy_.push_back(e);
+    const std::size_t k = energy_.size();
+    if (settings_.tolerance > 0 && k > 1 && energy_[k - 2] - energy_[k - 1] <= settings_.tolerance * energy_[k - 2])
+      break;
+  }
+  return x;
+}
+
+}  // namespace deformkit
