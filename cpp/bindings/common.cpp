@@ -376,7 +376,7 @@ Faces parse_faces(const py::object& faces) {
     corners.assign(f.data(), f.data() + f.size());
     offsets.reserve(std::size_t(f.shape(0)) + 1);
     for (py::ssize_t i = 1; i <= f.shape(0); ++i) offsets.push_back(i * f.shape(1));
-    return {corners, offsets};
+    return {std::move(corners), std::move(offsets)};
   }
   if (sequence_length(faces) < 0)
     throw py::type_error("faces: expected an (m, k) integer array or a list of index lists");
@@ -391,13 +391,31 @@ Faces parse_faces(const py::object& faces) {
     offsets.push_back(std::int64_t(corners.size()));
   }
   if (offsets.size() < 2) throw py::value_error("faces: no faces");
-  return {corners, offsets};
+  return {std::move(corners), std::move(offsets)};
+}
+
+// An (m, k) array of int32 or int64 is read in place (as the checks of parse_faces pass it); other
+// integer arrays and lists go through parse_faces.
+template <class Index>
+static bool read_uniform_faces(const py::object& faces, const double* p, std::size_t n, PolygonMesh& mesh) {
+  if (!py::isinstance<py::array>(faces)) return false;
+  const py::array a = py::reinterpret_borrow<py::array>(faces);
+  if (a.dtype().kind() != 'i' || a.dtype().itemsize() != sizeof(Index) || a.ndim() != 2 || a.shape(0) == 0 ||
+      a.shape(1) < 3 || a.shape(1) > std::numeric_limits<int>::max())
+    return false;
+  const auto f = c_array<Index>(a, "faces");
+  mesh = PolygonMesh(p, n, f.data(), std::size_t(f.shape(0)), int(f.shape(1)));
+  return true;
 }
 
 PolygonMesh parse_polygon_mesh(const py::object& points, const py::object& faces) {
   const auto p = as_double(points_array(points, "points"));
+  const std::size_t n = std::size_t(p.shape(0));
+  PolygonMesh mesh;
+  if (read_uniform_faces<std::int32_t>(faces, p.data(), n, mesh) || read_uniform_faces<std::int64_t>(faces, p.data(), n, mesh))
+    return mesh;
   const Faces f = parse_faces(faces);
-  return PolygonMesh(p.data(), std::size_t(p.shape(0)), f.corners, f.offsets);
+  return PolygonMesh(p.data(), n, f.corners, f.offsets);
 }
 
 }  // namespace deformkit_py

@@ -32,7 +32,25 @@ PolygonMesh::PolygonMesh(const double* points, std::size_t n, const std::vector<
   points_.assign(points, points + 3 * n);
 }
 
+template <class Index>
+PolygonMesh::PolygonMesh(const double* points, std::size_t n, const Index* faces, std::size_t m, int k) : uniform_(k) {
+  require_finite_rows(points, n, "points");
+  if (m == 0) throw std::invalid_argument("faces: no faces");
+  if (k < 3) throw std::invalid_argument("faces: face 0 has fewer than 3 corners");
+  corners_.resize(m * std::size_t(k));
+  for (std::size_t c = 0; c < corners_.size(); ++c) {
+    if (faces[c] < 0 || std::uint64_t(faces[c]) >= n)
+      throw std::invalid_argument("faces: face " + std::to_string(c / std::size_t(k)) + " has corner index " +
+                                  std::to_string(std::int64_t(faces[c])) + ", outside 0.." + std::to_string(std::int64_t(n) - 1));
+    corners_[c] = int(faces[c]);
+  }
+  points_.assign(points, points + 3 * n);
+}
+template PolygonMesh::PolygonMesh(const double*, std::size_t, const std::int32_t*, std::size_t, int);
+template PolygonMesh::PolygonMesh(const double*, std::size_t, const std::int64_t*, std::size_t, int);
+
 bool PolygonMesh::all_triangles() const {
+  if (uniform_) return uniform_ == 3;
   for (std::size_t f = 0; f < face_count(); ++f)
     if (face_size(f) != 3) return false;
   return true;
@@ -49,8 +67,7 @@ PolygonMesh PolygonMesh::triangulate() && {
     const int* c = face(f);
     for (int k = 1; k + 1 < face_size(f); ++k) out.corners_.insert(out.corners_.end(), {c[0], c[k], c[k + 1]});
   }
-  out.offsets_.resize(out.corners_.size() / 3 + 1);
-  for (std::size_t t = 0; t < out.offsets_.size(); ++t) out.offsets_[t] = std::int64_t(3 * t);
+  out.uniform_ = 3;
   *this = PolygonMesh();
   return out;
 }

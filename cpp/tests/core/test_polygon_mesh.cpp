@@ -77,3 +77,28 @@ TEST(PolygonMesh, ConnectedComponentsThroughFaces) {
   for (int v = 0; v < 17; ++v) EXPECT_EQ(c[v], v < 8 ? 0 : v < 16 ? 1 : 2) << v;
   EXPECT_NEAR(mesh_volume(mesh), 2.0, 1e-13);
 }
+
+// An (m, k) face array read in place is the same mesh as its corner list with offsets, with the
+// same checks and messages.
+TEST(PolygonMesh, UniformFacesAreTheSameMeshAsOffsets) {
+  const std::vector<std::int32_t> quads32(kCubeQuads.begin(), kCubeQuads.end());
+  const PolygonMesh listed(kCube.data(), 8, kCubeQuads, kQuadOffsets);
+  const PolygonMesh uniform32(kCube.data(), 8, quads32.data(), 6, 4);
+  const PolygonMesh uniform64(kCube.data(), 8, kCubeQuads.data(), 6, 4);
+  for (const PolygonMesh* m : {&uniform32, &uniform64}) {
+    ASSERT_EQ(m->face_count(), listed.face_count());
+    EXPECT_EQ(m->corners(), listed.corners());
+    EXPECT_EQ(m->points(), listed.points());
+    for (std::size_t f = 0; f < listed.face_count(); ++f) EXPECT_EQ(m->face_size(f), listed.face_size(f));
+    EXPECT_EQ(mesh_volume(*m), mesh_volume(listed));
+    EXPECT_EQ(m->triangulate().corners(), listed.triangulate().corners());
+  }
+  const std::vector<std::int64_t> bad = {0, 1, 2, 0, 1, 8};
+  try {
+    PolygonMesh(kCube.data(), 8, bad.data(), 2, 3);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "faces: face 1 has corner index 8, outside 0..7");
+  }
+  EXPECT_THROW(PolygonMesh(kCube.data(), 8, bad.data(), 0, 3), std::invalid_argument);
+}

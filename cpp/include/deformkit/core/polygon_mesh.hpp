@@ -16,16 +16,23 @@ class PolygonMesh {
   // outside 0..n-1. A vertex repeated within a face is left to require_distinct_corners.
   PolygonMesh(const double* points, std::size_t n, const std::vector<std::int64_t>& corners,
               const std::vector<std::int64_t>& offsets);
+  // m faces of k corners each, face f at faces[f k .. f k + k) (an (m, k) array, read in place
+  // and checked as above): no offsets are stored for a mesh whose faces all have one size.
+  template <class Index>
+  PolygonMesh(const double* points, std::size_t n, const Index* faces, std::size_t m, int k);
 
   std::size_t vertex_count() const { return points_.size() / 3; }
-  std::size_t face_count() const { return offsets_.empty() ? 0 : offsets_.size() - 1; }
+  std::size_t face_count() const {
+    return uniform_ ? corners_.size() / std::size_t(uniform_) : offsets_.empty() ? 0 : offsets_.size() - 1;
+  }
   std::size_t corner_count() const { return corners_.size(); }
   const std::vector<double>& points() const { return points_; }
-  // The vertex of every corner, face after face; face f's corners start at offsets()[f].
+  // The vertex of every corner, face after face.
   const std::vector<int>& corners() const { return corners_; }
-  const std::vector<std::int64_t>& offsets() const { return offsets_; }
-  int face_size(std::size_t f) const { return int(offsets_[f + 1] - offsets_[f]); }
-  const int* face(std::size_t f) const { return corners_.data() + offsets_[f]; }
+  int face_size(std::size_t f) const { return uniform_ ? uniform_ : int(offsets_[f + 1] - offsets_[f]); }
+  const int* face(std::size_t f) const {
+    return corners_.data() + (uniform_ ? f * std::size_t(uniform_) : std::size_t(offsets_[f]));
+  }
   bool all_triangles() const;
 
   // Every face fanned from its first corner into triangles (c0, ci, ci+1), in face order: the
@@ -36,7 +43,8 @@ class PolygonMesh {
  private:
   std::vector<double> points_;
   std::vector<int> corners_;
-  std::vector<std::int64_t> offsets_;
+  std::vector<std::int64_t> offsets_;  // face f starts at offsets_[f]; empty when uniform_ > 0
+  int uniform_ = 0;                    // every face has this many corners
 };
 
 // Throws std::invalid_argument "faces: face f repeats vertex v" for the first face (and in it the
