@@ -24,9 +24,10 @@ PolygonMesh grid(int n, double bump, double shift = 0.0) {
 PolygonMesh disjoint_union(const PolygonMesh& a, const PolygonMesh& b) {
   std::vector<double> points = a.points();
   points.insert(points.end(), b.points().begin(), b.points().end());
-  std::vector<std::int64_t> corners(a.corners().begin(), a.corners().end()), offsets(a.offsets());
+  std::vector<std::int64_t> corners(a.corners().begin(), a.corners().end()), offsets{0};
   for (int c : b.corners()) corners.push_back(c + std::int64_t(a.vertex_count()));
-  for (std::size_t f = 1; f < b.offsets().size(); ++f) offsets.push_back(b.offsets()[f] + std::int64_t(a.corner_count()));
+  for (const PolygonMesh* m : {&a, &b})
+    for (std::size_t f = 0; f < m->face_count(); ++f) offsets.push_back(offsets.back() + m->face_size(f));
   return PolygonMesh(points.data(), points.size() / 3, corners, offsets);
 }
 
