@@ -1,6 +1,5 @@
 #include "deformkit/core/point_binding.hpp"
 
-#include "deformkit/core/buffer.hpp"
 
 #include "core/parallel.hpp"
 #include "core/weight_blend.hpp"
@@ -58,17 +57,18 @@ void BoundDeformer::deform_bound_checked(const PointBinding& b, T* out) const {
   if (b.single_precision != std::is_same<T, float>::value)
     throw std::invalid_argument(std::string("binding: holds ") + (b.single_precision ? "float32" : "float64") +
                                 " points; deform them into an array of that dtype");
+  StoredPoints<T> original;
   if (is_identity()) {  // exact, as deform() at the identity
-    bound_points(b, out);
+    bound_points(b, original);
+    copy_stored(original, out, b.size());
     return;
   }
   // The bound points were finite when bound, so a non-finite result is the parameters' overflow.
   // Weights in [0, 1] keep a blend of finite positions finite: the kernel's report suffices.
   if (!deform_bound_impl(b, out)) require_finite_results(out, b.size(), 3, "position");
   if (weights().empty()) return;
-  Buffer<T> original(3 * b.size());
-  bound_points(b, original.data());
-  blend_toward_originals(weights(), original.data(), out, b.size());
+  bound_points(b, original);
+  blend_toward_stored(weights(), original, out, b.size());
 }
 
 void BoundDeformer::deform_bound(const PointBinding& b, float* out) const { deform_bound_checked(b, out); }

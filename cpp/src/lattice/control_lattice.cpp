@@ -412,13 +412,12 @@ void ControlLattice::cell_block(const std::array<std::int32_t, 3>& cell, T* bloc
       }
 }
 
-// The bound points in point order, as they were bound (the SoA copy's x, y, z rows).
+// The bound points as they were bound: the x, y, z rows of the cell-sorted structure of arrays.
 template <class T>
-static void copy_bound(const LatticeBinding& b, T* out) {
+static StoredPoints<T> stored_points(const LatticeBinding& b) {
   const Buffer<T>& sorted = sorted_points<T>(b);
   const std::size_t n = b.size();
-  for (std::size_t i = 0; i < n; ++i)
-    for (int a = 0; a < 3; ++a) out[3 * std::size_t(b.order[i]) + a] = sorted[(3 + a) * n + i];
+  return StoredPoints<T>{{sorted.data() + 3 * n, sorted.data() + 4 * n, sorted.data() + 5 * n}, 1, b.order.data()};
 }
 
 void ControlLattice::check_binding(const PointBinding& binding) const {
@@ -429,11 +428,11 @@ void ControlLattice::check_binding(const PointBinding& binding) const {
                                 "bind the points to this lattice");
 }
 
-void ControlLattice::bound_points(const PointBinding& b, float* out) const {
-  copy_bound(static_cast<const LatticeBinding&>(b), out);
+void ControlLattice::bound_points(const PointBinding& b, StoredPoints<float>& points) const {
+  points = stored_points<float>(static_cast<const LatticeBinding&>(b));
 }
-void ControlLattice::bound_points(const PointBinding& b, double* out) const {
-  copy_bound(static_cast<const LatticeBinding&>(b), out);
+void ControlLattice::bound_points(const PointBinding& b, StoredPoints<double>& points) const {
+  points = stored_points<double>(static_cast<const LatticeBinding&>(b));
 }
 bool ControlLattice::deform_bound_impl(const PointBinding& b, float* out) const {
   return deform_sorted(static_cast<const LatticeBinding&>(b), out);

@@ -112,13 +112,14 @@ class TableDeformer : public BoundDeformer {
   bool deform_bound_impl(const PointBinding& b, double* out) const override {
     return apply(static_cast<const TableBinding&>(b), out);
   }
-  void bound_points(const PointBinding& b, float* out) const override {
-    const auto& t = static_cast<const TableBinding&>(b);
-    std::copy(t.points_f.begin(), t.points_f.end(), out);
+  // Kept in point order, as an (n, 3) array.
+  void bound_points(const PointBinding& b, StoredPoints<float>& points) const override {
+    const float* p = static_cast<const TableBinding&>(b).points_f.data();
+    points = StoredPoints<float>{{p, p + 1, p + 2}, 3, nullptr};
   }
-  void bound_points(const PointBinding& b, double* out) const override {
-    const auto& t = static_cast<const TableBinding&>(b);
-    std::copy(t.points_d.begin(), t.points_d.end(), out);
+  void bound_points(const PointBinding& b, StoredPoints<double>& points) const override {
+    const double* p = static_cast<const TableBinding&>(b).points_d.data();
+    points = StoredPoints<double>{{p, p + 1, p + 2}, 3, nullptr};
   }
   // Unbound: the same map point by point, without a table.
   template <class T>

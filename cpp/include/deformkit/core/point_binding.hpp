@@ -29,6 +29,17 @@ class PointBinding {
   std::uint64_t layout = 0;       // identifies the deformer state the binding depends on
 };
 
+// Where a binding keeps its original points, in whatever order suits its kernel: point order[i]
+// (point i where order is null) is (coord[0][i * stride], coord[1][i * stride], coord[2][i * stride]).
+// An (n, 3) array in point order is {{p, p + 1, p + 2}, 3, nullptr}; the lattices' cell-sorted
+// structure of arrays is {{x, y, z}, 1, order}.
+template <class T>
+struct StoredPoints {
+  const T* coord[3] = {nullptr, nullptr, nullptr};
+  std::size_t stride = 3;
+  const std::uint32_t* order = nullptr;
+};
+
 // A sparse weight table in CSR form: row i (a bound point) holds the weights
 // values[indptr[i] .. indptr[i + 1]) of the columns (control values) indices[...].
 struct WeightTable {
@@ -69,9 +80,10 @@ class BoundDeformer : public Deformer {
   // identity.
   virtual bool deform_bound_impl(const PointBinding& binding, float* out) const = 0;
   virtual bool deform_bound_impl(const PointBinding& binding, double* out) const = 0;
-  // The bound original positions in point order: the identity's result and the blend's origin.
-  virtual void bound_points(const PointBinding& binding, float* out) const = 0;
-  virtual void bound_points(const PointBinding& binding, double* out) const = 0;
+  // Where the bound original positions are kept: the identity's result and the blend's origin,
+  // read in place (no copy in point order is made).
+  virtual void bound_points(const PointBinding& binding, StoredPoints<float>& points) const = 0;
+  virtual void bound_points(const PointBinding& binding, StoredPoints<double>& points) const = 0;
 
  private:
   template <class T>

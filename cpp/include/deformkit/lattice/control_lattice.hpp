@@ -99,8 +99,8 @@ class ControlLattice : public BoundDeformer {
   void check_binding(const PointBinding& binding) const override;
   bool deform_bound_impl(const PointBinding& binding, float* out) const override;
   bool deform_bound_impl(const PointBinding& binding, double* out) const override;
-  void bound_points(const PointBinding& binding, float* out) const override;
-  void bound_points(const PointBinding& binding, double* out) const override;
+  void bound_points(const PointBinding& binding, StoredPoints<float>& points) const override;
+  void bound_points(const PointBinding& binding, StoredPoints<double>& points) const override;
   template <class T>
   bool deform_sorted(const LatticeBinding& b, T* out) const;
   template <class T>
