@@ -1,6 +1,5 @@
 #include "deformkit/core/point_binding.hpp"
 
-
 #include "core/parallel.hpp"
 #include "core/weight_blend.hpp"
 

@@ -64,6 +64,7 @@ class ControlLattice : public BoundDeformer {
   LatticeBinding bind(const float* points, std::size_t n) const;
   // deform_bound (BoundDeformer) throws std::invalid_argument naming `binding` when it was made by
   // a lattice of another layout; per-point weights blend as in deform().
+
   // Rows of the weight matrix W (deform = x + strength W (P - R), before any per-point blend
   // weights), over flattened control points (i * nv + j) * nw + k; duplicate columns (Blender's
   // index clamping) merged.
