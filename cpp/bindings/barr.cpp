@@ -10,28 +10,30 @@ using namespace pybind11::literals;
 
 namespace {
 
+const EnumNames<SimpleDeformMode> kModeNames("mode", {{"TWIST", SimpleDeformMode::Twist},
+                                                     {"BEND", SimpleDeformMode::Bend},
+                                                     {"TAPER", SimpleDeformMode::Taper},
+                                                     {"STRETCH", SimpleDeformMode::Stretch}});
 
-SimpleDeformMode parse_mode(const std::string& mode) {
-  if (mode == "TWIST") return SimpleDeformMode::Twist;
-  if (mode == "BEND") return SimpleDeformMode::Bend;
-  if (mode == "TAPER") return SimpleDeformMode::Taper;
-  if (mode == "STRETCH") return SimpleDeformMode::Stretch;
-  throw py::value_error("mode: expected 'TWIST', 'BEND', 'TAPER' or 'STRETCH', got '" + mode + "'");
-}
-
-const char* mode_name(SimpleDeformMode m) {
-  switch (m) {
-    case SimpleDeformMode::Twist: return "TWIST";
-    case SimpleDeformMode::Bend: return "BEND";
-    case SimpleDeformMode::Taper: return "TAPER";
-    case SimpleDeformMode::Stretch: return "STRETCH";
-  }
-  return "?";
+std::shared_ptr<BarrDeformer> py_bind_simple(const SimpleDeform& d, const py::object& points) {
+  const py::array pts = points_array(points, "points");
+  const auto n = static_cast<std::size_t>(pts.shape(0));
+  std::shared_ptr<BarrDeformer> map;
+  without_gil("the bounding pass", [&] {
+    if (is_float32(pts)) map = d.bind(static_cast<const float*>(pts.data()), n);
+    else map = d.bind(static_cast<const double*>(pts.data()), n);
+  });
+  return map;
 }
 
 }  // namespace
 
 void bind_barr(py::module_& m) {
+  py::class_<BarrDeformer, Deformer, std::shared_ptr<BarrDeformer>>(m, "BarrDeformer", R"(A Barr operator placed in object space: the fixed map SimpleDeform.bind(points) returns.
+
+The extent it spreads the amount over was measured once, on the bound points, so deforming any
+part of them gives what deforming all of them does; it carries the SimpleDeform's weights.)");
+
   py::class_<Twist, Deformer, std::shared_ptr<Twist>>(m, "Twist", R"(Barr's twist about an axis.
 
 x' = x cos(t) - y sin(t), y' = x sin(t) + y cos(t), z' = z with t = f(z) (Barr 1984, twisting).
@@ -116,7 +118,7 @@ is that of the map with these bounds held fixed.)")
              const bool invert_weights = bool_arg(invert_weights_arg, "invert_weights");
              if (angle && factor) throw py::value_error("angle: give angle or factor (they are one value), not both");
              SimpleDeformSettings s;
-             s.mode = parse_mode(mode);
+             s.mode = kModeNames.parse(mode);
              s.factor = finite_param(angle ? *angle : factor.value_or(0.785398163397448), angle ? "angle" : "factor");
              s.deform_axis = parse_axis(deform_axis, "deform_axis");
              s.origin = parse_frame(origin, "origin");
@@ -138,7 +140,12 @@ is that of the map with these bounds held fixed.)")
            "mode"_a = "TWIST", "angle"_a = py::none(), "factor"_a = py::none(), "deform_axis"_a = "X",
            "origin"_a = py::none(), "limits"_a = py::make_tuple(0.0, 1.0), "lock_x"_a = false, "lock_y"_a = false,
            "lock_z"_a = false, "weights"_a = py::none(), "invert_weights"_a = false)
-      .def_property_readonly("mode", [](const SimpleDeform& d) { return mode_name(d.settings().mode); })
+      .def("bind", &py_bind_simple, "points"_a, R"(The fixed spatial map deform(points) applies (a BarrDeformer).
+
+The extent is measured on `points` once; the map then measures nothing, so splitting points
+into chunks never changes a result: deforming A and B with it equals deform(A | B) bit for bit.
+It carries these weights, which must count `points`.)")
+      .def_property_readonly("mode", [](const SimpleDeform& d) { return kModeNames.name(d.settings().mode); })
       .def_property_readonly("angle", [](const SimpleDeform& d) { return d.settings().factor; })
       .def_property_readonly("factor", [](const SimpleDeform& d) { return d.settings().factor; })
       .def_property_readonly("deform_axis", [](const SimpleDeform& d) { return std::string(1, "XYZ"[d.settings().deform_axis]); })

@@ -189,16 +189,25 @@ void require_real(const py::object& obj, const char* name) {
     throw py::type_error(std::string(name) + ": expected real numbers, got " + std::string(py::str(a.dtype())));
 }
 
-Frame parse_frame(const py::object& obj, const char* name) {
-  if (obj.is_none()) return Frame{};
+Eigen::MatrixXd parse_matrix(const py::object& obj, const char* name, py::ssize_t rows, py::ssize_t cols,
+                             const std::string& expected, bool report_shape) {
   require_real(obj, name);
   const auto a = c_array<double>(obj, name);
-  if (a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)
-    throw py::value_error(std::string(name) + ": expected a 4x4 matrix, got shape " + shape_of(a));
-  Mat4 m;
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) m(r, c) = a.at(r, c);
-  return Frame::from_matrix(m, name);
+  if (a.ndim() != 2 || a.shape(0) != rows || a.shape(1) != cols)
+    throw py::value_error(std::string(name) + ": " + expected + (report_shape ? ", got shape " + shape_of(a) : ""));
+  Eigen::MatrixXd m(rows, cols);
+  for (py::ssize_t r = 0; r < rows; ++r)
+    for (py::ssize_t c = 0; c < cols; ++c) m(r, c) = a.at(r, c);
+  return m;
+}
+
+Mat4 parse_mat4(const py::object& obj, const char* name, bool report_shape) {
+  return parse_matrix(obj, name, 4, 4, "expected a 4x4 matrix", report_shape);
+}
+
+Frame parse_frame(const py::object& obj, const char* name) {
+  if (obj.is_none()) return Frame{};
+  return Frame::from_matrix(parse_mat4(obj, name, true), name);
 }
 
 std::pair<double, double> parse_range(const py::object& obj, const char* name) {
@@ -233,10 +242,8 @@ std::vector<double> parse_vector(const py::object& obj, const char* name) {
 // A linear law offset + rate * clamp(z, limits), or a natural cubic spline through samples.
 Profile parse_law(double offset, const std::optional<double>& rate, const py::object& limits,
                   const py::object& profile, const std::string& extend) {
-  Extend ext;
-  if (extend == "constant") ext = Extend::Constant;
-  else if (extend == "linear") ext = Extend::Linear;
-  else throw py::value_error("extend: expected 'constant' or 'linear', got '" + extend + "'");
+  static const EnumNames<Extend> extends("extend", {{"constant", Extend::Constant}, {"linear", Extend::Linear}});
+  const Extend ext = extends.parse(extend);
   if (profile.is_none()) {
     const auto [lo, hi] = parse_range(limits, "limits");
     return Profile::linear(offset, finite_param(rate.value_or(0.785398163397448), "rate"), lo, hi);
@@ -359,7 +366,15 @@ py::array py_volume_ratio(const Deformer& d, const py::object& points) {
 
 py::object weights_of(const Deformer& d) {
   if (d.weights().empty()) return py::none();
-  return py::array_t<double>(d.weights().size(), d.weights().data());
+  return copied_array(d.weights().data(), {py::ssize_t(d.weights().size())});
+}
+
+py::tuple csr_tuple(std::vector<std::int64_t>&& indptr, std::vector<std::int32_t>&& indices,
+                    std::vector<double>&& values) {
+  const auto rows = py::ssize_t(indptr.size()), columns = py::ssize_t(indices.size()),
+             weights = py::ssize_t(values.size());
+  return py::make_tuple(owned_array(std::move(indptr), {rows}), owned_array(std::move(indices), {columns}),
+                        owned_array(std::move(values), {weights}));
 }
 
 

@@ -6,6 +6,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <initializer_list>
 #include <new>
 #include <optional>
 #include <type_traits>
@@ -125,6 +126,77 @@ py::array py_normals(const Deformer& d, const py::object& points, const py::obje
 py::array py_volume_ratio(const Deformer& d, const py::object& points);
 
 py::object weights_of(const Deformer& d);
+
+// One table of the names of an enum's values, for parsing an argument and naming a value back.
+// An unknown name is a ValueError "<argument>: expected 'a', 'b' or 'c', got '<given>'", the names
+// listed in table order.
+template <class E>
+class EnumNames {
+ public:
+  EnumNames(const char* argument, std::initializer_list<std::pair<const char*, E>> names)
+      : argument_(argument), names_(names) {}
+  E parse(const std::string& name) const { return parse(name, name); }
+  // Looks up `name` (the caller's normalised spelling); the error shows `given`, as typed.
+  E parse(const std::string& name, const std::string& given) const {
+    for (const auto& [n, value] : names_)
+      if (name == n) return value;
+    throw py::value_error(std::string(argument_) + ": expected " + expected() + ", got '" + given + "'");
+  }
+  // The first name of `value`, or "?" for a value the table does not list.
+  const char* name(E value) const {
+    for (const auto& [n, v] : names_)
+      if (v == value) return n;
+    return "?";
+  }
+  // 'a', 'b' or 'c'
+  std::string expected() const {
+    std::string s;
+    for (std::size_t i = 0; i < names_.size(); ++i)
+      s += std::string(i == 0 ? "" : i + 1 == names_.size() ? " or " : ", ") + "'" + names_[i].first + "'";
+    return s;
+  }
+
+ private:
+  const char* argument_;
+  std::vector<std::pair<const char*, E>> names_;
+};
+
+// A real (rows x cols) matrix argument. A wrong shape is a ValueError "<name>: <expected>", followed
+// by ", got shape (...)" when report_shape is set.
+Eigen::MatrixXd parse_matrix(const py::object& obj, const char* name, py::ssize_t rows, py::ssize_t cols,
+                             const std::string& expected, bool report_shape);
+// A 4x4 matrix ("<name>: expected a 4x4 matrix").
+Mat4 parse_mat4(const py::object& obj, const char* name, bool report_shape);
+
+// An integer index array: numpy's conversion of `obj` (an empty sequence of any dtype is
+// accepted), its shape checked by check_shape(array) (which throws the caller's message), then
+// converted to int64. Anything that is not integers is a TypeError "<name>: expected <what>".
+template <class CheckShape>
+std::vector<std::int64_t> parse_index_array(const py::object& obj, const char* name, const char* what,
+                                            CheckShape&& check_shape) {
+  const py::array a = py::array::ensure(obj);
+  if (!a || (a.size() > 0 && a.dtype().kind() != 'i' && a.dtype().kind() != 'u'))
+    throw py::type_error(std::string(name) + ": expected " + what);
+  check_shape(a);
+  const auto v = c_array<std::int64_t>(a, name);
+  return {v.data(), v.data() + v.size()};
+}
+
+// Results handed to Python: a numpy array that takes over the vector's buffer (no copy), or a
+// copy of `data` (the C++ object keeps its own).
+template <class T>
+py::array_t<T> owned_array(std::vector<T>&& v, std::vector<py::ssize_t> shape) {
+  auto* heap = new std::vector<T>(std::move(v));
+  py::capsule owner(heap, [](void* p) { delete static_cast<std::vector<T>*>(p); });
+  return py::array_t<T>(shape, heap->data(), owner);
+}
+template <class T>
+py::array_t<T> copied_array(const T* data, std::vector<py::ssize_t> shape) {
+  return py::array_t<T>(shape, data);
+}
+// A CSR matrix as the tuple (indptr int64, indices int32, data float64) that scipy.sparse takes.
+py::tuple csr_tuple(std::vector<std::int64_t>&& indptr, std::vector<std::int32_t>&& indices,
+                    std::vector<double>&& values);
 
 // Polygons as a flat corner list and offsets (face f is corners[offsets[f] .. offsets[f + 1])).
 struct Faces {

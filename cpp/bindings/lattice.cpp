@@ -49,38 +49,27 @@ LatticeBox parse_box(const py::object& origin, const py::object& edges, const py
   if (!frame.is_none()) {
     if (!origin.is_none() || !edges.is_none())
       throw py::value_error("frame: give either frame or origin/edges, not both");
-    require_real(frame, "frame");
-    const auto a = c_array<double>(frame, "frame");
-    if (a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)
-      throw py::value_error("frame: expected a 4x4 matrix");
-    Mat4 m;
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) m(r, c) = a.at(r, c);
-    return LatticeBox::from_matrix(m, "frame");
+    return LatticeBox::from_matrix(parse_mat4(frame, "frame", false), "frame");
   }
   const Vec3 o = origin.is_none() ? Vec3::Zero() : parse_vec3(origin, "origin");
   Mat3 e = Mat3::Identity();
-  if (!edges.is_none()) {
-    require_real(edges, "edges");
-    const auto a = c_array<double>(edges, "edges");
-    if (a.ndim() != 2 || a.shape(0) != 3 || a.shape(1) != 3)
-      throw py::value_error("edges: expected three edge vectors S, T, U as a 3x3 array (one per row)");
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) e(c, r) = a.at(r, c);
-  }
+  if (!edges.is_none())  // rows S, T, U are the box's edge columns
+    e = parse_matrix(edges, "edges", 3, 3, "expected three edge vectors S, T, U as a 3x3 array (one per row)", false)
+            .transpose();
   return LatticeBox::from_edges(o, e, "edges");
 }
 
-Outside parse_outside(const std::string& s) {
-  if (s == "clamp") return Outside::Clamp;
-  if (s == "unchanged") return Outside::Unchanged;
-  if (s == "extrapolate") return Outside::Extrapolate;
-  throw py::value_error("outside: expected 'clamp', 'unchanged' or 'extrapolate', got '" + s + "'");
-}
+const EnumNames<Outside> kOutsideNames("outside", {{"clamp", Outside::Clamp},
+                                                   {"unchanged", Outside::Unchanged},
+                                                   {"extrapolate", Outside::Extrapolate}});
 
-const char* outside_name(Outside o) {
-  return o == Outside::Clamp ? "clamp" : o == Outside::Unchanged ? "unchanged" : "extrapolate";
-}
+Outside parse_outside(const std::string& s) { return kOutsideNames.parse(s); }
+
+// Blender's interpolation types, lower case and without the KEY_ prefix of its enum.
+const EnumNames<BasisKind> kInterpolationNames("interpolation", {{"linear", BasisKind::BlenderLinear},
+                                                                 {"cardinal", BasisKind::BlenderCardinal},
+                                                                 {"catmull_rom", BasisKind::BlenderCatmullRom},
+                                                                 {"bspline", BasisKind::BlenderBSpline}});
 
 BasisKind parse_interpolation_one(const py::handle& h) {
   if (!py::isinstance<py::str>(h))
@@ -88,12 +77,7 @@ BasisKind parse_interpolation_one(const py::handle& h) {
   std::string s = h.cast<std::string>();
   if (s.rfind("KEY_", 0) == 0) s = s.substr(4);
   for (auto& c : s) c = static_cast<char>(std::tolower(c));
-  if (s == "linear") return BasisKind::BlenderLinear;
-  if (s == "cardinal") return BasisKind::BlenderCardinal;
-  if (s == "catmull_rom") return BasisKind::BlenderCatmullRom;
-  if (s == "bspline") return BasisKind::BlenderBSpline;
-  throw py::value_error("interpolation: expected 'linear', 'cardinal', 'catmull_rom' or 'bspline', got '" +
-                        h.cast<std::string>() + "'");
+  return kInterpolationNames.parse(s, h.cast<std::string>());
 }
 
 std::array<BasisKind, 3> parse_interpolation(const py::object& obj) {
@@ -107,14 +91,7 @@ std::array<BasisKind, 3> parse_interpolation(const py::object& obj) {
   return {parse_interpolation_one(seq[0]), parse_interpolation_one(seq[1]), parse_interpolation_one(seq[2])};
 }
 
-const char* interpolation_name(BasisKind k) {
-  switch (k) {
-    case BasisKind::BlenderLinear: return "linear";
-    case BasisKind::BlenderCardinal: return "cardinal";
-    case BasisKind::BlenderCatmullRom: return "catmull_rom";
-    default: return "bspline";
-  }
-}
+const char* interpolation_name(BasisKind k) { return kInterpolationNames.name(k); }
 
 // A (nu, nv, nw, 3) grid as a flat vector, checked against the lattice's resolution.
 std::vector<double> parse_grid(const py::object& obj, std::array<int, 3> res, const char* name) {
@@ -128,9 +105,7 @@ std::vector<double> parse_grid(const py::object& obj, std::array<int, 3> res, co
 }
 
 py::array grid_array(const std::vector<double>& g, std::array<int, 3> res) {
-  py::array_t<double> a({py::ssize_t(res[0]), py::ssize_t(res[1]), py::ssize_t(res[2]), py::ssize_t(3)});
-  std::copy(g.begin(), g.end(), a.mutable_data());
-  return std::move(a);
+  return copied_array(g.data(), {py::ssize_t(res[0]), py::ssize_t(res[1]), py::ssize_t(res[2]), py::ssize_t(3)});
 }
 
 template <class L>
@@ -186,13 +161,10 @@ py::array py_deform_bound(const ControlLattice& lat, const PyBinding& pb, const 
 }
 
 py::tuple py_weights(const PyBinding& pb) {
-  SparseWeights w;
+  WeightTable w;
   without_gil("the sparse weight matrix (" + working_size(pb.binding->size(), 12.0 * 64) + " at most)",
               [&] { w = pb.lattice->weights_matrix(*pb.binding); });
-  py::array_t<std::int64_t> indptr(py::ssize_t(w.indptr.size()), w.indptr.data());
-  py::array_t<std::int32_t> indices(py::ssize_t(w.indices.size()), w.indices.data());
-  py::array_t<double> values(py::ssize_t(w.values.size()), w.values.data());
-  return py::make_tuple(indptr, indices, values);
+  return csr_tuple(std::move(w.indptr), std::move(w.indices), std::move(w.values));
 }
 
 PyDirect py_direct(const ControlLattice& lat, const py::object& points, const py::object& targets) {
@@ -207,7 +179,7 @@ PyDirect py_direct(const ControlLattice& lat, const py::object& points, const py
   PyDirect d;
   d.control_points = grid_array(r.control_points, lat.resolution());
   d.displacement = grid_array(r.displacement, lat.resolution());
-  d.residual = py::array_t<double>(py::ssize_t(r.residual.size()), r.residual.data());
+  d.residual = copied_array(r.residual.data(), {py::ssize_t(r.residual.size())});
   for (double x : r.residual) d.max_residual = std::max(d.max_residual, x);  // finite: the core checks
   d.rank = r.rank;
   return d;
@@ -233,7 +205,7 @@ void bind_lattice(py::module_& m) {
 `lattice.deform_bound(binding)` then deforms them with the lattice's current control points.)")
       .def("__len__", [](const PyBinding& b) { return b.binding->size(); })
       .def_property_readonly("status", [](const PyBinding& b) {
-        return py::array_t<std::uint8_t>(py::ssize_t(b.binding->size()), b.binding->status.data());
+        return copied_array(b.binding->status.data(), {py::ssize_t(b.binding->size())});
       }, "Per point: 0 inside the lattice, 1 outside (the outside policy applies), 2 not placed (extended "
          "FFD: Newton did not converge; left unchanged).")
       .def_property_readonly("parameters", [](const PyBinding& b) { return parameters_array(*b.binding); },
@@ -264,12 +236,10 @@ unchanged are empty.)");
         return py::make_tuple(r[0], r[1], r[2]);
       })
       .def_property_readonly("strength", &ControlLattice::strength)
-      .def_property_readonly("outside", [](const ControlLattice& l) { return outside_name(l.outside()); })
+      .def_property_readonly("outside", [](const ControlLattice& l) { return kOutsideNames.name(l.outside()); })
       .def_property_readonly("handle_index", [](const ControlLattice& l) {
         const auto r = l.resolution();
-        py::array_t<int> a({py::ssize_t(r[0]), py::ssize_t(r[1]), py::ssize_t(r[2])});
-        std::copy(l.handle_of().begin(), l.handle_of().end(), a.mutable_data());
-        return a;
+        return copied_array(l.handle_of().data(), {py::ssize_t(r[0]), py::ssize_t(r[1]), py::ssize_t(r[2])});
       }, "For each control point, the handle it belongs to (merged control points share one).")
       .def_property_readonly("handles", &ControlLattice::handle_count)
       .def("bind", &py_bind, "points"_a, "Bind points: find their lattice coordinates once (LatticeBinding).")
@@ -401,12 +371,9 @@ move together (handle_index).)")
 u along the axis over `height`, centred at `center`. The seam and the axis are merged handles.)")
       .def_static("prism", [make_effd](const py::object& triangle, const py::object& height, const py::object& blocks,
                                        double strength, const py::object& weights, double tolerance, std::int64_t max_iterations) {
-        require_real(triangle, "triangle");
-        const auto tri = c_array<double>(triangle, "triangle");
-        if (tri.ndim() != 2 || tri.shape(0) != 3 || tri.shape(1) != 3)
-          throw py::value_error("triangle: expected three corners A, B, C as a 3x3 array (one per row)");
-        const Vec3 a(tri.at(0, 0), tri.at(0, 1), tri.at(0, 2)), b(tri.at(1, 0), tri.at(1, 1), tri.at(1, 2)),
-            c(tri.at(2, 0), tri.at(2, 1), tri.at(2, 2));
+        const Mat3 tri = parse_matrix(triangle, "triangle", 3, 3,
+                                      "expected three corners A, B, C as a 3x3 array (one per row)", false);
+        const Vec3 a = tri.row(0).transpose(), b = tri.row(1).transpose(), c = tri.row(2).transpose();
         const auto n = parse_counts(blocks, "blocks");
         const auto grid = ExtendedFFD::prism_grid(a, b, c, parse_vec3(height, "height"), n);
         const std::array<int, 3> counts{3 * n[0] + 1, 3 * n[1] + 1, 3 * n[2] + 1};

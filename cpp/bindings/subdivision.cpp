@@ -15,24 +15,13 @@ using namespace pybind11::literals;
 
 namespace {
 
-// A numpy array that owns the vector's buffer (no copy).
-template <class T>
-py::array_t<T> owned(std::vector<T>&& v, std::vector<py::ssize_t> shape) {
-  auto* heap = new std::vector<T>(std::move(v));
-  py::capsule owner(heap, [](void* p) { delete static_cast<std::vector<T>*>(p); });
-  return py::array_t<T>(shape, heap->data(), owner);
-}
-
 std::vector<std::int64_t> int_rows(const py::object& obj, const char* name, py::ssize_t columns) {
-  const py::array a = py::array::ensure(obj);
-  if (!a || (a.size() > 0 && a.dtype().kind() != 'i' && a.dtype().kind() != 'u'))
-    throw py::type_error(std::string(name) + ": expected integer vertex indices");
-  const bool ok = columns == 1 ? a.ndim() == 1 : (a.ndim() == 2 && a.shape(1) == columns) || a.size() == 0;
-  if (!ok)
-    throw py::value_error(std::string(name) + ": expected shape " + (columns == 1 ? "(k,)" : "(k, 2)") + ", got " +
-                          shape_of(a));
-  const auto v = c_array<std::int64_t>(a, name);
-  return {v.data(), v.data() + v.size()};
+  return parse_index_array(obj, name, "integer vertex indices", [&](const py::array& a) {
+    const bool ok = columns == 1 ? a.ndim() == 1 : (a.ndim() == 2 && a.shape(1) == columns) || a.size() == 0;
+    if (!ok)
+      throw py::value_error(std::string(name) + ": expected shape " + (columns == 1 ? "(k,)" : "(k, 2)") + ", got " +
+                            shape_of(a));
+  });
 }
 
 std::vector<double> real_vector(const py::object& obj, const char* name) {
@@ -50,34 +39,25 @@ std::pair<py::object, py::object> pair_of(const py::object& obj, const char* nam
   return {s[0], s[1]};
 }
 
-// The named scheme; 'auto' is decided by the mesh (Loop when every face is a triangle).
-std::optional<SubdivisionScheme> parse_scheme(const std::string& s) {
-  if (s == "catmull_clark") return SubdivisionScheme::CatmullClark;
-  if (s == "loop") return SubdivisionScheme::Loop;
-  if (s == "auto") return std::nullopt;
-  throw py::value_error("scheme: expected 'auto', 'catmull_clark' or 'loop', got '" + s + "'");
-}
+// 'auto' is decided by the mesh (Loop when every face is a triangle).
+const EnumNames<std::optional<SubdivisionScheme>> kSchemeNames("scheme", {{"auto", std::nullopt},
+                                                                          {"catmull_clark", SubdivisionScheme::CatmullClark},
+                                                                          {"loop", SubdivisionScheme::Loop}});
+const EnumNames<BoundaryRule> kBoundaryNames("boundary", {{"edge_and_corner", BoundaryRule::EdgeAndCorner},
+                                                          {"edge_only", BoundaryRule::EdgeOnly}});
+const EnumNames<UvSmooth> kUvSmoothNames(
+    "uv_smooth", {{"none", UvSmooth::None},
+                  {"preserve_corners", UvSmooth::PreserveCorners},
+                  {"preserve_corners_and_junctions", UvSmooth::PreserveCornersAndJunctions},
+                  {"preserve_corners_junctions_and_concave", UvSmooth::PreserveCornersJunctionsAndConcave},
+                  {"preserve_boundaries", UvSmooth::PreserveBoundaries},
+                  {"smooth_all", UvSmooth::SmoothAll}});
 
-BoundaryRule parse_boundary(const std::string& s) {
-  if (s == "edge_and_corner") return BoundaryRule::EdgeAndCorner;
-  if (s == "edge_only") return BoundaryRule::EdgeOnly;
-  throw py::value_error("boundary: expected 'edge_and_corner' or 'edge_only', got '" + s + "'");
-}
+std::optional<SubdivisionScheme> parse_scheme(const std::string& s) { return kSchemeNames.parse(s); }
 
-UvSmooth parse_uv_smooth(const std::string& s) {
-  static const std::pair<const char*, UvSmooth> names[] = {
-      {"none", UvSmooth::None},
-      {"preserve_corners", UvSmooth::PreserveCorners},
-      {"preserve_corners_and_junctions", UvSmooth::PreserveCornersAndJunctions},
-      {"preserve_corners_junctions_and_concave", UvSmooth::PreserveCornersJunctionsAndConcave},
-      {"preserve_boundaries", UvSmooth::PreserveBoundaries},
-      {"smooth_all", UvSmooth::SmoothAll}};
-  for (const auto& [name, value] : names)
-    if (s == name) return value;
-  throw py::value_error("uv_smooth: expected 'none', 'preserve_corners', 'preserve_corners_and_junctions', "
-                        "'preserve_corners_junctions_and_concave', 'preserve_boundaries' or 'smooth_all', got '" +
-                        s + "'");
-}
+BoundaryRule parse_boundary(const std::string& s) { return kBoundaryNames.parse(s); }
+
+UvSmooth parse_uv_smooth(const std::string& s) { return kUvSmoothNames.parse(s); }
 
 // The control mesh keeps a copy of the cage's points (the caller may change them afterwards): the
 // default cage of every call that takes points=.
@@ -134,9 +114,7 @@ struct PyLimitSurface {
 // A 1-D numpy copy (the report keeps its own).
 template <class T>
 py::array_t<T> copy_of(const std::vector<T>& v) {
-  std::vector<T> c = v;
-  const auto n = py::ssize_t(c.size());
-  return owned(std::move(c), {n});
+  return copied_array(v.data(), {py::ssize_t(v.size())});
 }
 
 py::dict samples_dict(LimitSamples&& s, py::ssize_t n) {
@@ -145,7 +123,7 @@ py::dict samples_dict(LimitSamples&& s, py::ssize_t n) {
       {"position", &s.position}, {"du", &s.du}, {"dv", &s.dv}, {"normal", &s.normal},
       {"duu", &s.duu}, {"duv", &s.duv}, {"dvv", &s.dvv}};
   for (const auto& [name, v] : fields)
-    if (!v->empty()) d[name] = owned(std::move(*v), {n, 3});
+    if (!v->empty()) d[name] = owned_array(std::move(*v), {n, 3});
   return d;
 }
 
@@ -202,10 +180,10 @@ ControlMesh cage_with_uvs(const py::object& points, const py::object& faces, con
 PySubdividedMesh to_python(SubdividedMesh&& out) {
   PySubdividedMesh r;
   const auto faces_n = py::ssize_t(out.face_origin.size()), k = py::ssize_t(out.corners_per_face);
-  r.points = owned(std::move(out.points), {py::ssize_t(out.points.size() / 3), 3});
-  r.faces = owned(std::move(out.faces), {faces_n, k});
-  r.face_origin = owned(std::move(out.face_origin), {faces_n});
-  r.uvs = out.uvs.empty() ? py::object(py::none()) : py::object(owned(std::move(out.uvs), {faces_n * k, 2}));
+  r.points = owned_array(std::move(out.points), {py::ssize_t(out.points.size() / 3), 3});
+  r.faces = owned_array(std::move(out.faces), {faces_n, k});
+  r.face_origin = owned_array(std::move(out.face_origin), {faces_n});
+  r.uvs = out.uvs.empty() ? py::object(py::none()) : py::object(owned_array(std::move(out.uvs), {faces_n * k, 2}));
   r.level = out.level;
   r.scheme = scheme_name(out.scheme);
   return r;
@@ -275,7 +253,7 @@ void bind_subdivision(py::module_& m) {
           py::gil_scoped_release release;
           out = s.subdivider->subdivide(cage);
         }
-        return owned(std::move(out), {py::ssize_t(s.subdivider->vertex_count()), 3});
+        return owned_array(std::move(out), {py::ssize_t(s.subdivider->vertex_count()), 3});
       }, "points"_a = py::none(), "The refined points (N, 3) of this cage (the one given at construction by default).")
       .def("mesh", [](const PySubdivider& s, const py::object& points) {
         py::array_t<double, py::array::c_style> given;
@@ -293,12 +271,12 @@ void bind_subdivision(py::module_& m) {
       .def_property_readonly("faces", [](const PySubdivider& s) {
         std::vector<int> f = s.subdivider->faces();
         const auto k = py::ssize_t(s.subdivider->corners_per_face()), n = py::ssize_t(f.size()) / k;
-        return owned(std::move(f), {n, k});
+        return owned_array(std::move(f), {n, k});
       })
       .def_property_readonly("face_origin", [](const PySubdivider& s) {
         std::vector<int> f = s.subdivider->face_origin();
         const auto n = py::ssize_t(f.size());
-        return owned(std::move(f), {n});
+        return owned_array(std::move(f), {n});
       })
       .def_property_readonly("limit_surface", [](const PySubdivider& s) { return s.subdivider->limit_surface(); })
       .def("vertex_parameters", [](const PySubdivider& s) {
@@ -307,7 +285,7 @@ void bind_subdivision(py::module_& m) {
         std::vector<double> uv(2 * params.size());
         for (std::size_t i = 0; i < params.size(); ++i) ptex[i] = params[i].ptex, uv[2 * i] = params[i].u, uv[2 * i + 1] = params[i].v;
         const auto n = py::ssize_t(params.size());
-        return py::make_tuple(owned(std::move(ptex), {n}), owned(std::move(uv), {n, 2}));
+        return py::make_tuple(owned_array(std::move(ptex), {n}), owned_array(std::move(uv), {n, 2}));
       }, "(ptex (N,), uv (N, 2)): where each refined vertex lies on LimitSurface(points, faces) of the same settings.");
 
   m.def("subdivide", [](const py::object& points, const py::object& faces, std::int64_t level_arg,
@@ -364,7 +342,7 @@ ptex_offset[f+1] - 1.)").c_str())
       .def_property_readonly("ptex_offset", [](const PyLimitSurface& s) {
         std::vector<int> o = s.surface->ptex_offset();
         const auto n = py::ssize_t(o.size());
-        return owned(std::move(o), {n});
+        return owned_array(std::move(o), {n});
       })
       .def_property_readonly("vertex_count", [](const PyLimitSurface& s) { return s.surface->mesh().vertex_count(); })
       .def_property_readonly("scheme", [](const PyLimitSurface& s) { return scheme_name(s.surface->mesh().scheme); })
@@ -409,7 +387,7 @@ same topology (a deformed one) without rebuilding the patches.)")
           py::gil_scoped_release release;
           out = s.surface->limit_points(cage);
         }
-        return owned(std::move(out), {py::ssize_t(s.surface->mesh().vertex_count()), 3});
+        return owned_array(std::move(out), {py::ssize_t(s.surface->mesh().vertex_count()), 3});
       }, "points"_a = py::none(), "The limit position of every control vertex, (n, 3).")
       .def("smoothness_report", [](const PyLimitSurface& s, const py::object& points, std::int64_t samples_per_edge,
                                    const py::object& reference, std::int64_t worst, const py::object& deformer,
@@ -445,7 +423,7 @@ the bounding-box diagonal; worst_edges indices into edges by decreasing angle.)"
       .def_property_readonly("edges", [](const SmoothnessReport& r) {
         std::vector<int> e = r.edges;
         const auto n = py::ssize_t(e.size() / 2);
-        return owned(std::move(e), {n, 2});
+        return owned_array(std::move(e), {n, 2});
       })
       .def_property_readonly("edge_angle", [](const SmoothnessReport& r) { return copy_of(r.edge_angle); })
       .def_property_readonly("edge_gap", [](const SmoothnessReport& r) { return copy_of(r.edge_gap); })

@@ -18,16 +18,19 @@ PolygonMesh parse_mesh(const py::object& points, const py::object& faces) {
   return std::move(mesh).triangulate();
 }
 
+const EnumNames<SurfaceMethod> kMethodNames("method", {{"arap", SurfaceMethod::Arap},
+                                                       {"rotation_invariant", SurfaceMethod::RotationInvariant},
+                                                       {"laplacian", SurfaceMethod::Laplacian}});
+const EnumNames<bool> kUniformWeightNames("weights", {{"cotangent", false}, {"uniform", true}});
+
 std::vector<int> parse_indices(const py::object& obj, const char* name, std::size_t n) {
   if (obj.is_none()) return {};
-  const py::array a = py::array::ensure(obj);
-  if (!a || (a.size() > 0 && a.dtype().kind() != 'i' && a.dtype().kind() != 'u'))
-    throw py::type_error(std::string(name) + ": expected a sequence of integer vertex indices");
-  if (a.ndim() > 1) throw py::value_error(std::string(name) + ": expected a 1-D sequence of vertex indices");
-  const auto v = c_array<std::int64_t>(a, name);
+  const std::vector<std::int64_t> v =
+      parse_index_array(obj, name, "a sequence of integer vertex indices", [&](const py::array& a) {
+        if (a.ndim() > 1) throw py::value_error(std::string(name) + ": expected a 1-D sequence of vertex indices");
+      });
   std::vector<int> out;
-  for (py::ssize_t i = 0; i < v.size(); ++i) {
-    const std::int64_t x = v.data()[i];
+  for (const std::int64_t x : v) {
     if (x < 0 || std::uint64_t(x) >= n)
       throw py::value_error(std::string(name) + ": index " + std::to_string(x) + " is outside 0.." + std::to_string(n - 1));
     out.push_back(static_cast<int>(x));
@@ -42,11 +45,8 @@ void bind_surface(py::module_& m) {
     const PolygonMesh mesh = parse_mesh(points, faces);
     SparseMatrix l = cotangent_laplacian(mesh);  // symmetric: its column storage is its row storage
     l.makeCompressed();
-    py::array_t<std::int64_t> indptr(l.outerSize() + 1);
-    for (Eigen::Index i = 0; i <= l.outerSize(); ++i) indptr.mutable_data()[i] = l.outerIndexPtr()[i];
-    py::array_t<std::int32_t> indices(l.nonZeros(), l.innerIndexPtr());
-    py::array_t<double> data(l.nonZeros(), l.valuePtr());
-    return py::make_tuple(indptr, indices, data);
+    return csr_tuple({l.outerIndexPtr(), l.outerIndexPtr() + l.outerSize() + 1},
+                     {l.innerIndexPtr(), l.innerIndexPtr() + l.nonZeros()}, {l.valuePtr(), l.valuePtr() + l.nonZeros()});
   }, "points"_a, "faces"_a, R"(The cotangent Laplacian of a mesh as CSR (indptr, indices, data).
 
 L_ij = -(cot a + cot b)/2 for an edge, L_ii = -sum of the row: symmetric, rows sum to 0. Polygons
@@ -76,13 +76,8 @@ so that they are met only approximately, more closely as w grows.)")
                        const std::string& weights, std::int64_t iterations, double tolerance,
                        const std::optional<double>& constraint_weight) {
              SurfaceSettings s;
-             if (method == "arap") s.method = SurfaceMethod::Arap;
-             else if (method == "laplacian") s.method = SurfaceMethod::Laplacian;
-             else if (method == "rotation_invariant") s.method = SurfaceMethod::RotationInvariant;
-             else throw py::value_error("method: expected 'arap', 'rotation_invariant' or 'laplacian', got '" + method + "'");
-             if (weights == "cotangent") s.uniform_weights = false;
-             else if (weights == "uniform") s.uniform_weights = true;
-             else throw py::value_error("weights: expected 'cotangent' or 'uniform', got '" + weights + "'");
+             s.method = kMethodNames.parse(method);
+             s.uniform_weights = kUniformWeightNames.parse(weights);
              s.iterations = int_arg(iterations, "iterations", 1, 10000);
              s.tolerance = tolerance;
              s.constraint_weight = constraint_weight;  // its range is checked (and named) by the core
@@ -121,12 +116,9 @@ so that they are met only approximately, more closely as w grows.)")
       .def_property_readonly("factor_nonzeros", &SurfaceDeformer::factor_nonzeros,
                              "Non-zeros of the Cholesky factor (memory and solve time grow with it).")
       .def_property_readonly("energy", &SurfaceDeformer::energy, "ARAP energy after each iteration of the last deform.")
-      .def_property_readonly("method", [](const SurfaceDeformer& d) {
-        const SurfaceMethod m = d.settings().method;
-        return m == SurfaceMethod::Arap ? "arap" : m == SurfaceMethod::Laplacian ? "laplacian" : "rotation_invariant";
-      })
+      .def_property_readonly("method", [](const SurfaceDeformer& d) { return kMethodNames.name(d.settings().method); })
       .def_property_readonly("weights_kind", [](const SurfaceDeformer& d) {
-        return d.settings().uniform_weights ? "uniform" : "cotangent";
+        return kUniformWeightNames.name(d.settings().uniform_weights);
       });
 }
 

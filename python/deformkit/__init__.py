@@ -5,7 +5,9 @@ Every deformer shares one interface -- ``deform(points)``, ``jacobian(points)``,
 :class:`Stack`. Lattices (:class:`FFD`, :class:`BezierFFD`, :class:`BSplineLattice`,
 :class:`BlenderLattice`, :class:`ExtendedFFD`) add ``bind(points)`` / ``deform_bound(binding)``
 for deforming the same points again after their control points move, and
-``direct_manipulation(points, targets)``. :func:`subdivide`, :class:`LimitSurface` and
+``direct_manipulation(points, targets)``. :meth:`SimpleDeform.bind` gives the fixed map (a
+:class:`BarrDeformer`) that ``SimpleDeform.deform`` applies to given points, so that chunks of
+them deform as the whole would. :func:`subdivide`, :class:`LimitSurface` and
 :func:`smoothness_report` subdivide a (deformed) control mesh with OpenSubdiv and check that its
 limit surface is smooth.
 
@@ -20,6 +22,7 @@ from ._version import __version__  # generated into the wheel from pyproject.tom
 _arguments.install(_core)  # refused calls name their argument
 
 from ._core import (
+    BarrDeformer,
     Bend,
     BezierFFD,
     BlenderLattice,
@@ -50,7 +53,7 @@ from ._core import (
 )
 
 __all__ = [
-    "BSplineLattice", "Bend", "BezierFFD", "BlenderLattice", "Deformer", "DirectManipulation", "ExtendedFFD",
+    "BSplineLattice", "BarrDeformer", "Bend", "BezierFFD", "BlenderLattice", "Deformer", "DirectManipulation", "ExtendedFFD",
     "FFD", "Lattice", "LatticeBinding", "SimpleDeform", "Stack", "Stretch", "Taper", "Twist", "build_info",
     "SurfaceDeformer", "cotangent_laplacian", "mesh_volume",
     "LimitSurface", "SmoothnessReport", "SubdividedMesh", "Subdivider", "SUBDIVISION_MAX_FACES", "SUBDIVISION_MAX_LEVEL",

@@ -51,6 +51,11 @@ class Bend(Deformer):
                  region: tuple[float, float] | None = None, axis: _Axis = "x", frame: _Matrix4 | None = None,
                  weights: npt.ArrayLike | None = None) -> None: ...
 
+class BarrDeformer(Deformer):
+    """A Barr operator placed in object space: the fixed map SimpleDeform.bind(points) returns.
+
+    Its extent was measured once, on the bound points; it carries the SimpleDeform's weights."""
+
 class SimpleDeform(Deformer):
     """Blender's Simple Deform modifier: k = amount / (L1 - L0) over the limited extent."""
     def __init__(self, mode: Literal["TWIST", "BEND", "TAPER", "STRETCH"] = "TWIST", angle: float | None = None,
@@ -67,6 +72,11 @@ class SimpleDeform(Deformer):
     def deform_axis(self) -> str: ...
     @property
     def limits(self) -> tuple[float, float]: ...
+    def bind(self, points: npt.ArrayLike) -> BarrDeformer:
+        """The fixed map deform(points) applies, its extent measured on `points` once.
+
+        Deforming chunks of the points with it equals deform(points) bit for bit; it carries
+        these weights, which must count `points`."""
 
 class Stack(Deformer):
     """F_n o ... o F_1 with J = J_n(F_n-1(...)) ... J_1(x)."""

@@ -39,6 +39,7 @@ ENTRY_POINTS = {
     "Stretch": (dk.Stretch, "__init__", (), {}),
     "Bend": (dk.Bend, "__init__", (), {}),
     "SimpleDeform": (dk.SimpleDeform, "__init__", (), {}),
+    "SimpleDeform.bind": (lambda *a, **k: dk.SimpleDeform().bind(*a, **k), "bind", (PTS,), {}),
     "Stack": (dk.Stack, "__init__", ([dk.Twist()],), {}),
     "FFD": (dk.FFD, "__init__", (), {}),
     "BezierFFD": (dk.BezierFFD, "__init__", (), {}),
@@ -74,7 +75,7 @@ ENTRY_POINTS = {
 DOC_OWNER = {  # where each entry point's signature is documented
     "deform": dk.Deformer.deform, "displacement": dk.Deformer.displacement, "jacobian": dk.Deformer.jacobian,
     "transform_normals": dk.Deformer.transform_normals, "volume_ratio": dk.Deformer.volume_ratio,
-    "bind": dk.Lattice.bind, "deform_bound": dk.Lattice.deform_bound,
+    "SimpleDeform.bind": dk.SimpleDeform.bind, "bind": dk.Lattice.bind, "deform_bound": dk.Lattice.deform_bound,
     "lattice_coordinates": dk.Lattice.lattice_coordinates, "direct_manipulation": dk.Lattice.direct_manipulation,
     "SurfaceDeformer.deform": dk.SurfaceDeformer.deform, "Subdivider.subdivide": dk.Subdivider.subdivide,
     "Subdivider.mesh": dk.Subdivider.mesh, "LimitSurface.evaluate": dk.LimitSurface.evaluate,
@@ -115,7 +116,7 @@ def test_every_entry_point_is_walked():
     """The table covers the whole public API: every class and function deformkit exports."""
     exported = {n for n in dk.__all__ if callable(getattr(dk, n))}
     walked = {e.split(".")[0] for e in ENTRY_POINTS} | {"Deformer", "Lattice"}
-    results = {"LatticeBinding", "DirectManipulation", "SubdividedMesh", "SmoothnessReport", "build_info"}
+    results = {"LatticeBinding", "BarrDeformer", "DirectManipulation", "SubdividedMesh", "SmoothnessReport", "build_info"}
     assert exported - walked - results == set()
 
 

@@ -4,6 +4,7 @@
 #include "deformkit/barr/barr_deformer.hpp"
 #include "deformkit/core/deformer.hpp"
 #include "deformkit/core/frame.hpp"
+#include "deformkit/core/point_binding.hpp"
 #include "deformkit/barr/profile.hpp"
 #include "deformkit/barr/simple_deform.hpp"
 #include "deformkit/core/stack.hpp"

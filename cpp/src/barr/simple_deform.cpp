@@ -2,6 +2,7 @@
 
 #include "barr/extent_kernel.hpp"
 #include "core/parallel.hpp"
+#include "core/weight_blend.hpp"
 
 #include <algorithm>
 #include <cfloat>
@@ -98,6 +99,21 @@ template std::shared_ptr<BarrDeformer> SimpleDeform::resolve<float>(const float*
 template std::shared_ptr<BarrDeformer> SimpleDeform::resolve<double>(const double*, std::size_t) const;
 
 template <class T>
+std::shared_ptr<BarrDeformer> SimpleDeform::bind(const T* points, std::size_t n) const {
+  require_weight_count(weights(), n, "points", "rows");  // as deform(points) would report
+  std::shared_ptr<BarrDeformer> map = resolve(points, n);
+  if (!map) {
+    BarrOp unchanged;
+    unchanged.kind = BarrKind::Bend;  // curvature 0: the identity
+    map = std::make_shared<BarrDeformer>(unchanged, Placement(settings_.origin, blender_permutation(settings_)));
+  }
+  if (!weights().empty()) map->set_weights(weights());
+  return map;
+}
+template std::shared_ptr<BarrDeformer> SimpleDeform::bind<float>(const float*, std::size_t) const;
+template std::shared_ptr<BarrDeformer> SimpleDeform::bind<double>(const double*, std::size_t) const;
+
+template <class T>
 bool SimpleDeform::deform_any(const T* in, T* out, std::size_t n) const {
   const auto barr = resolve(in, n);
   if (!barr) {
@@ -117,8 +133,7 @@ void SimpleDeform::jacobian_impl(const double* in, double* jac, std::size_t n) c
     barr->jacobian(in, jac, n);
     return;
   }
-  for (std::size_t i = 0; i < n; ++i)
-    for (int e = 0; e < 9; ++e) jac[9 * i + e] = (e % 4 == 0) ? 1.0 : 0.0;
+  identity_jacobians(jac, n);
 }
 
 }  // namespace deformkit

@@ -1,6 +1,7 @@
 #include "deformkit/core/deformer.hpp"
 
 #include "core/parallel.hpp"
+#include "core/weight_blend.hpp"
 #include "core/scale_free.hpp"
 
 #include <algorithm>
@@ -30,20 +31,14 @@ void Deformer::set_weights(std::vector<double> weights) {
   weights_ = std::move(weights);
 }
 
-static void require_weight_count(const std::vector<double>& w, std::size_t n) {
+void require_weight_count(const std::vector<double>& w, std::size_t n, const char* holder, const char* unit) {
   if (!w.empty() && w.size() != n)
-    throw std::invalid_argument("weights: has " + std::to_string(w.size()) + " entries but points has " +
-                                std::to_string(n) + " rows");
+    throw std::invalid_argument("weights: has " + std::to_string(w.size()) + " entries but " + holder + " has " +
+                                std::to_string(n) + " " + unit);
 }
 
-template <class T>
-static void blend(const std::vector<double>& w, const T* in, T* out, std::size_t n) {
-  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i)
-      for (int a = 0; a < 3; ++a) {
-        out[3 * i + a] = static_cast<T>(blend_toward(in[3 * i + a], out[3 * i + a], w[i]));
-      }
-  });
+void identity_jacobians(double* jac, std::size_t n) {
+  for (std::size_t i = 0; i < 9 * n; ++i) jac[i] = (i % 9) % 4 == 0 ? 1.0 : 0.0;
 }
 
 // After an implementation reported a non-finite row: blame the input if it is the culprit,
@@ -59,7 +54,7 @@ static void report_non_finite(const T* in, const T* out, std::size_t n) {
 template <class T>
 void Deformer::deform_checked(const T* in, T* out, std::size_t n, bool input_verified) const {
   const std::vector<double>& w = weights_;
-  require_weight_count(w, n);
+  require_weight_count(w, n, "points", "rows");
   // In place, a non-finite row must be reported before anything is overwritten.
   if (in == out && !input_verified && !all_finite(in, n, 3)) require_finite_rows(in, n, "points");
   if (is_identity()) {  // exact, with no arithmetic that could round, flip -0.0 or overflow
@@ -81,7 +76,7 @@ void Deformer::deform_checked(const T* in, T* out, std::size_t n, bool input_ver
     source = original.data();
   }
   if (!deform_impl(source, out, n)) report_non_finite(source, out, n);
-  blend(w, source, out, n);
+  blend_toward_originals(w, source, out, n);
 }
 
 void Deformer::deform(const float* in, float* out, std::size_t n) const { deform_checked(in, out, n, false); }
@@ -121,10 +116,10 @@ static void blend_jacobians(const std::vector<double>& w, double* jac, std::size
 }
 
 void Deformer::jacobian(const double* in, double* jac, std::size_t n, bool float32_result) const {
-  require_weight_count(weights_, n);
+  require_weight_count(weights_, n, "points", "rows");
   require_finite_rows(in, n, "points");
   if (is_identity()) {
-    for (std::size_t i = 0; i < 9 * n; ++i) jac[i] = (i % 9) % 4 == 0 ? 1.0 : 0.0;
+    identity_jacobians(jac, n);
     return;
   }
   jacobian_impl(in, jac, n);

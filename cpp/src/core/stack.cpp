@@ -77,8 +77,7 @@ bool Stack::deform_impl(const float* in, float* out, std::size_t n) const { retu
 bool Stack::deform_impl(const double* in, double* out, std::size_t n) const { return deform_any(in, out, n); }
 
 void Stack::jacobian_impl(const double* in, double* jac, std::size_t n) const {
-  for (std::size_t i = 0; i < n; ++i)
-    for (int e = 0; e < 9; ++e) jac[9 * i + e] = (e % 4 == 0) ? 1.0 : 0.0;
+  identity_jacobians(jac, n);
   std::vector<double> points(in, in + 3 * n), stage(9 * n);
   for (std::size_t s = 0; s < deformers_.size(); ++s) {
     try {

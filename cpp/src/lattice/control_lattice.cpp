@@ -43,6 +43,34 @@ struct AxisWeights {
   int width;
 };
 
+// Keys below this many are sorted by counting, chunk by chunk (the counts fit in the L1 cache).
+constexpr std::uint64_t kCountingSortKeys = std::uint64_t(1) << 14;
+
+// Stable counting sort of one chunk of keys in three steps, so that the counting can share the
+// loop that computes the keys: count() each key, prefix(), then slot(key) hands each point its
+// sorted position in input order; afterwards run_end(key) is where key's run ends.
+class CountingSort {
+ public:
+  explicit CountingSort(std::uint64_t keys) : start_(keys + 1) {}
+  void clear() { std::fill(start_.begin(), start_.end(), 0u); }
+  void count(std::uint64_t key) { ++start_[key + 1]; }
+  void prefix() {
+    for (std::size_t k = 1; k < start_.size(); ++k) start_[k] += start_[k - 1];
+  }
+  std::uint32_t slot(std::uint64_t key) { return start_[key]++; }
+  std::uint32_t run_end(std::uint64_t key) const { return start_[key]; }
+
+ private:
+  std::vector<std::uint32_t> start_;
+};
+
+// The sorted copies of the points of the binding's dtype.
+template <class T>
+const Buffer<T>& sorted_points(const LatticeBinding& b) {
+  if constexpr (std::is_same<T, float>::value) return b.sorted_f;
+  else return b.sorted_d;
+}
+
 std::string grid_index(int flat, const std::array<int, 3>& res) {
   const int k = flat % res[2], j = (flat / res[2]) % res[1], i = flat / (res[1] * res[2]);
   return "[" + std::to_string(i) + ", " + std::to_string(j) + ", " + std::to_string(k) + "]";
@@ -255,6 +283,7 @@ LatticeBinding ControlLattice::bind_points(const T* in, std::size_t n) const {
   require_finite_rows(in, n, "points");
   if (n >= (std::size_t(1) << 32)) throw std::invalid_argument("points: more than 2^32 - 1 rows");
   LatticeBinding b;
+  b.point_count = n;
   b.resolution = resolution();
   b.layout = layout();
   b.single_precision = std::is_same<T, float>::value;
@@ -287,6 +316,11 @@ std::uint64_t ControlLattice::still_key() const {
   return std::uint64_t(axes_[0].count + 4) * (axes_[1].count + 4) * (axes_[2].count + 4);
 }
 
+std::array<std::int32_t, 3> ControlLattice::cell_of_key(std::uint64_t k) const {
+  const std::uint64_t r0 = axes_[0].count + 4, r1 = axes_[1].count + 4, r2 = axes_[2].count + 4;
+  return {int(k / (r1 * r2) % r0) - 2, int(k / r2 % r1) - 2, int(k % r2) - 2};
+}
+
 std::uint64_t ControlLattice::cell_key(const Vec3& p, double* t) const {
   std::uint64_t k = 0;
   for (int a = 0; a < 3; ++a) {
@@ -303,24 +337,23 @@ LatticeBinding ControlLattice::bind(const float* points, std::size_t n) const { 
 template <class T>
 void ControlLattice::sort_by_cell(LatticeBinding& b, const T* in, const std::uint64_t* key) const {
   const std::size_t n = b.size();
-  const std::uint64_t r0 = axes_[0].count + 4, r1 = axes_[1].count + 4, r2 = axes_[2].count + 4;
   const std::uint64_t still = still_key();
   auto span = [&](std::size_t i, int a) { return axes_[a].locate(b.parameters[3 * i + a], outside_); };
   Buffer<std::uint64_t> sorted_key(n);
   b.order.resize(n);
-  if (still + 1 <= (std::uint64_t(1) << 14)) {
+  if (still + 1 <= kCountingSortKeys) {
     // Counting sort (linear, stable) within chunks of points: the kernel's scattered writes then
     // stay inside one chunk's output, which fits in the L2 cache, whatever the point order.
     constexpr std::size_t kChunk = 32768;
     parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-      std::vector<std::uint32_t> start(still + 2);
+      CountingSort sort(still + 1);
       for (std::size_t c = (begin + kChunk - 1) / kChunk * kChunk; c < end; c += kChunk) {
         const std::size_t stop = std::min(n, c + kChunk);
-        std::fill(start.begin(), start.end(), 0u);
-        for (std::size_t i = c; i < stop; ++i) ++start[key[i] + 1];
-        for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+        sort.clear();
+        for (std::size_t i = c; i < stop; ++i) sort.count(key[i]);
+        sort.prefix();
         for (std::size_t i = c; i < stop; ++i) {
-          const std::size_t to = c + start[key[i]]++;
+          const std::size_t to = c + sort.slot(key[i]);
           b.order[to] = static_cast<std::uint32_t>(i);
           sorted_key[to] = key[i];
         }
@@ -341,7 +374,7 @@ void ControlLattice::sort_by_cell(LatticeBinding& b, const T* in, const std::uin
     std::int32_t& id = dense.empty() ? sparse.try_emplace(k, -1).first->second : dense[k];
     if (id < 0) {
       id = static_cast<std::int32_t>(b.cells.size());
-      b.cells.push_back({int(k / (r1 * r2) % r0) - 2, int(k / r2 % r1) - 2, int(k % r2) - 2});
+      b.cells.push_back(cell_of_key(k));
       b.cell_moves.push_back(k != still);
     }
     b.run_cell.push_back(id);
@@ -379,30 +412,39 @@ void ControlLattice::cell_block(const std::array<std::int32_t, 3>& cell, T* bloc
       }
 }
 
-// At rest the bound points come back as they were bound, bit for bit.
+// The bound points as they were bound: the x, y, z rows of the cell-sorted structure of arrays.
 template <class T>
-static void copy_bound(const LatticeBinding& b, const Buffer<T>& sorted, T* out) {
+static StoredPoints<T> stored_points(const LatticeBinding& b) {
+  const Buffer<T>& sorted = sorted_points<T>(b);
   const std::size_t n = b.size();
-  for (std::size_t i = 0; i < n; ++i)
-    for (int a = 0; a < 3; ++a) out[3 * std::size_t(b.order[i]) + a] = sorted[(3 + a) * n + i];
+  return StoredPoints<T>{{sorted.data() + 3 * n, sorted.data() + 4 * n, sorted.data() + 5 * n}, 1, b.order.data()};
 }
 
-template <class T>
-bool ControlLattice::deform_bound_points(const LatticeBinding& b, T* out) const {
-  if (b.layout != layout())
+void ControlLattice::check_binding(const PointBinding& binding) const {
+  const auto* b = dynamic_cast<const LatticeBinding*>(&binding);
+  if (!b) throw std::invalid_argument("binding: was not made by a lattice; bind the points to this lattice");
+  if (b->layout != layout())
     throw std::invalid_argument("binding: was made by a lattice with another basis, resolution or rest placement; "
                                 "bind the points to this lattice");
-  const Buffer<T>& sorted = [&]() -> const Buffer<T>& {
-    if constexpr (std::is_same<T, float>::value) return b.sorted_f;
-    else return b.sorted_d;
-  }();
-  if (sorted.size() != 6 * b.size())
-    throw std::invalid_argument(std::string("binding: holds ") + (b.single_precision ? "float32" : "float64") +
-                                " points; deform them into an array of that dtype");
-  if (is_identity()) {
-    copy_bound(b, sorted, out);
-    return true;
-  }
+}
+
+void ControlLattice::bound_points(const PointBinding& b, StoredPoints<float>& points) const {
+  points = stored_points<float>(static_cast<const LatticeBinding&>(b));
+}
+void ControlLattice::bound_points(const PointBinding& b, StoredPoints<double>& points) const {
+  points = stored_points<double>(static_cast<const LatticeBinding&>(b));
+}
+bool ControlLattice::deform_bound_impl(const PointBinding& b, float* out) const {
+  return deform_sorted(static_cast<const LatticeBinding&>(b), out);
+}
+bool ControlLattice::deform_bound_impl(const PointBinding& b, double* out) const {
+  return deform_sorted(static_cast<const LatticeBinding&>(b), out);
+}
+
+// The kernel over the binding's cell runs; the binding is this lattice's, of dtype T.
+template <class T>
+bool ControlLattice::deform_sorted(const LatticeBinding& b, T* out) const {
+  const Buffer<T>& sorted = sorted_points<T>(b);
   const std::size_t n = b.size();
   const KernelAxis kaxes[3] = {kernel_axis(axes_[0]), kernel_axis(axes_[1]), kernel_axis(axes_[2])};
   const std::size_t block_size = 3 * std::size_t(kaxes[0].width) * kaxes[1].width * kaxes[2].width;
@@ -442,11 +484,10 @@ bool ControlLattice::deform_bound_points(const LatticeBinding& b, T* out) const 
 template <class T>
 bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
   const std::uint64_t still = still_key();
-  const std::uint64_t r1 = axes_[1].count + 4, r2 = axes_[2].count + 4, r0 = axes_[0].count + 4;
-  if (still + 1 > (std::uint64_t(1) << 14)) {  // too many cells to sort by counting per chunk
+  if (still + 1 > kCountingSortKeys) {  // too many cells to sort by counting per chunk
     for (std::size_t i = 0; i < 3 * n; ++i)
       if (!std::isfinite(in[i])) return false;
-    return deform_bound_points(bind_points(in, n), out);
+    return deform_sorted(bind_points(in, n), out);
   }
   const KernelAxis kaxes[3] = {kernel_axis(axes_[0]), kernel_axis(axes_[1]), kernel_axis(axes_[2])};
   const std::size_t block_size = 3 * std::size_t(kaxes[0].width) * kaxes[1].width * kaxes[2].width;
@@ -455,13 +496,14 @@ bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     constexpr std::size_t kChunk = 8192;
     std::vector<std::uint64_t> key(kChunk);
-    std::vector<std::uint32_t> order(kChunk), start(still + 2);
+    std::vector<std::uint32_t> order(kChunk);
+    CountingSort sort(still + 1);
     std::vector<double> local(3 * kChunk);
     std::vector<T> soa(6 * kChunk), block(block_size);
     bool ok = true, results_finite = true;  // input rows, and the kernel's results
     for (std::size_t c = begin; c < end && ok; c += kChunk) {
       const std::size_t m = std::min(kChunk, end - c);
-      std::fill(start.begin(), start.end(), 0u);
+      sort.clear();
       for (std::size_t i = 0; i < m; ++i) {
         const Vec3 x(in[3 * (c + i)], in[3 * (c + i) + 1], in[3 * (c + i) + 2]);
         if (!x.allFinite()) {
@@ -476,27 +518,27 @@ bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
           break;
         }
         key[i] = displaces(status) ? cell_key(p, &local[3 * i]) : still;
-        ++start[key[i] + 1];
+        sort.count(key[i]);
       }
       if (!ok) break;
-      for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+      sort.prefix();
       for (std::size_t i = 0; i < m; ++i) {
-        const std::size_t to = start[key[i]]++;
+        const std::size_t to = sort.slot(key[i]);
         order[to] = static_cast<std::uint32_t>(c + i);
         for (int a = 0; a < 3; ++a) {
           soa[a * kChunk + to] = key[i] == still ? T(0) : static_cast<T>(local[3 * i + a]);
           soa[(3 + a) * kChunk + to] = in[3 * (c + i) + a];
         }
       }
-      // start[k] now ends cell k's run: walk the runs in key order.
+      // Walk the runs in key order.
       for (std::size_t lo = 0; lo < m;) {
         const std::uint64_t k = key[order[lo] - c];
-        const std::size_t hi = start[k];
+        const std::size_t hi = sort.run_end(k);
         if (k == still) {
           for (std::size_t i = lo; i < hi; ++i)
             for (int a = 0; a < 3; ++a) out[3 * std::size_t(order[i]) + a] = soa[(3 + a) * kChunk + i];
         } else {
-          cell_block({int(k / (r1 * r2) % r0) - 2, int(k / r2 % r1) - 2, int(k % r2) - 2}, block.data());
+          cell_block(cell_of_key(k), block.data());
           const T* t[3] = {&soa[lo], &soa[kChunk + lo], &soa[2 * kChunk + lo]};
           const T* x[3] = {&soa[3 * kChunk + lo], &soa[4 * kChunk + lo], &soa[5 * kChunk + lo]};
           results_finite = lattice_cell_kernel(kaxes, block.data(), t, x, &order[lo], hi - lo, out) && results_finite;
@@ -515,44 +557,11 @@ bool ControlLattice::deform_impl(const double* in, double* out, std::size_t n) c
   return deform_points(in, out, n);
 }
 
-// deform() blends the per-point weights in the Deformer base; the bound path must do the same.
-template <class T>
-static void blend_bound(const LatticeBinding& b, const std::vector<double>& w, const Buffer<T>& sorted, T* out) {
-  const std::size_t n = b.size();
-  if (w.empty()) return;
-  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) {
-      const std::size_t p = b.order[i];
-      for (int a = 0; a < 3; ++a) out[3 * p + a] = static_cast<T>(blend_toward(sorted[(3 + a) * n + i], out[3 * p + a], w[p]));
-    }
-  });
-}
-
-static void require_bound_weights(const std::vector<double>& w, const LatticeBinding& b) {
-  if (!w.empty() && w.size() != b.size())
-    throw std::invalid_argument("weights: has " + std::to_string(w.size()) + " entries but the binding has " +
-                                std::to_string(b.size()) + " points");
-}
-
-// As deform(): a result that overflows is an error, not inf or NaN handed back. Weights in [0, 1]
-// keep a blend of finite positions finite, so only the kernel's own report needs checking.
-void ControlLattice::deform_bound(const LatticeBinding& b, double* out) const {
-  require_bound_weights(weights(), b);
-  if (!deform_bound_points(b, out)) require_finite_results(out, b.size(), 3, "position");
-  if (!is_identity()) blend_bound(b, weights(), b.sorted_d, out);
-}
-void ControlLattice::deform_bound(const LatticeBinding& b, float* out) const {
-  require_bound_weights(weights(), b);
-  if (!deform_bound_points(b, out)) require_finite_results(out, b.size(), 3, "position");
-  if (!is_identity()) blend_bound(b, weights(), b.sorted_f, out);
-}
-
-SparseWeights ControlLattice::weights_matrix(const LatticeBinding& b) const {
+WeightTable ControlLattice::weights_matrix(const LatticeBinding& b) const {
   if (b.layout != layout())
     throw std::invalid_argument("binding: was made by a lattice with another basis, resolution or rest placement");
-  SparseWeights m;
+  WeightTable m;  // indptr starts as {0}
   m.indptr.reserve(b.size() + 1);
-  m.indptr.push_back(0);
   const int nv = axes_[1].count, nw = axes_[2].count;
   std::vector<std::pair<std::int32_t, double>> row;
   for (std::size_t i = 0; i < b.size(); ++i) {

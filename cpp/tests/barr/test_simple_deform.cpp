@@ -8,6 +8,8 @@
 
 #include <cfloat>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 using namespace deformkit;
 using namespace deformkit::test;
@@ -238,5 +240,65 @@ TEST(SimpleDeform, ExtentKernelMatchesAScalarPass) {
     EXPECT_NEAR(f.hi, hi, 1e-5);
     pts[3 * (n - 1) + 2] = NAN;  // in the tail or in a full vector, depending on n
     EXPECT_FALSE(coordinate_extent(row, 0.25, pts.data(), n).finite) << n;
+  }
+}
+
+// bind() fixes the extent: the bound map on any chunks equals deform() on all the points, bit for
+// bit, while deform() on a chunk alone measures that chunk.
+TEST(SimpleDeform, BoundMapDoesNotDependOnChunking) {
+  const std::size_t n = 40000, split = 13000;
+  const auto pts = random_points(n, -1.0, 2.0, 21);
+  for (SimpleDeformMode mode : {SimpleDeformMode::Twist, SimpleDeformMode::Bend, SimpleDeformMode::Taper,
+                                SimpleDeformMode::Stretch}) {
+    SimpleDeformSettings s;
+    s.mode = mode;
+    s.factor = 0.9;
+    s.deform_axis = 1;
+    s.origin = random_frame(5);
+    s.limit_lo = 0.15;
+    s.limit_hi = 0.85;
+    SimpleDeform d(s);
+    std::vector<double> w(n);
+    for (std::size_t i = 0; i < n; ++i) w[i] = double(i % 5) / 4.0;
+    d.set_weights(w);
+    std::vector<double> whole(3 * n), chunked(3 * n), alone(3 * split);
+    d.deform(pts.data(), whole.data(), n);
+    const auto map = d.bind(pts.data(), n);
+    EXPECT_EQ(map->weights(), d.weights());
+    // The weights count the bound points: chunks go through the weightless map and are blended
+    // as the whole was (weights[i] belongs to point i).
+    auto plain = std::make_shared<BarrDeformer>(map->op(), map->placement());
+    plain->set_weights(std::vector<double>(w.begin(), w.begin() + split));
+    plain->deform(pts.data(), chunked.data(), split);
+    plain->set_weights(std::vector<double>(w.begin() + split, w.end()));
+    plain->deform(pts.data() + 3 * split, chunked.data() + 3 * split, n - split);
+    EXPECT_EQ(chunked, whole) << int(mode);
+    std::vector<double> bound(3 * n);
+    map->deform(pts.data(), bound.data(), n);
+    EXPECT_EQ(bound, whole) << int(mode);
+    SimpleDeform first(s);
+    first.set_weights(std::vector<double>(w.begin(), w.begin() + split));
+    first.deform(pts.data(), alone.data(), split);
+    EXPECT_NE(alone, std::vector<double>(whole.begin(), whole.begin() + 3 * split)) << int(mode);
+  }
+}
+
+TEST(SimpleDeform, BindNamesItsArguments) {
+  SimpleDeform d{SimpleDeformSettings{}};
+  std::vector<double> pts = {0, 0, 0, 1, 1, 1, 2, 2, 2};
+  pts[4] = std::nan("");
+  try {
+    d.bind(pts.data(), 3);
+    ADD_FAILURE() << "bind accepted a non-finite row";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("points: row 1 is not finite", 0), 0u) << e.what();
+  }
+  d.set_weights({0.5, 0.5});
+  pts[4] = 1.0;
+  try {
+    d.bind(pts.data(), 3);
+    ADD_FAILURE() << "bind accepted two weights for three points";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()), "weights: has 2 entries but points has 3 rows");
   }
 }

@@ -162,3 +162,53 @@ TEST(ExtendedFFD, NewtonRoundTripOnACylinder) {
       EXPECT_NEAR(x, pts[3 * i + a], 1e-9);
     }
 }
+
+// The lattice's weights are the core's weight table: its generic product (what cages and RBF
+// will use) reproduces the lattice's own kernel, and the bound path (BoundDeformer) agrees with
+// deform() bit for bit, weights included.
+TEST(Lattice, WeightTableProductAndBoundPathMatchDeform) {
+  auto lat = std::make_shared<BlenderLattice>(skewed_box(), std::array<int, 3>{4, 3, 5},
+                                              std::array<BasisKind, 3>{BasisKind::BlenderBSpline,
+                                                                       BasisKind::BlenderCardinal,
+                                                                       BasisKind::BlenderLinear},
+                                              Outside::Clamp, 0.8);
+  perturb(*lat, 11, 0.1);
+  const std::size_t n = 30000;
+  const auto pts = random_points(n, -0.5, 1.8, 12);
+  const LatticeBinding b = lat->bind(pts.data(), n);
+  const WeightTable w = lat->weights_matrix(b);
+  w.require_valid(lat->control_count(), "weights");
+  std::vector<double> offset(lat->control_points().size());
+  for (std::size_t i = 0; i < offset.size(); ++i)
+    offset[i] = lat->strength() * (lat->control_points()[i] - lat->rest_control_points()[i]);
+  std::vector<double> moved(3 * n), out(3 * n);
+  apply_weight_table(w, offset.data(), 3, moved.data());
+  lat->deform(pts.data(), out.data(), n);
+  for (std::size_t i = 0; i < 3 * n; ++i) ASSERT_NEAR(out[i], pts[i] + moved[i], 1e-12) << i / 3;
+
+  std::vector<double> weights(n);
+  for (std::size_t i = 0; i < n; ++i) weights[i] = double(i % 9) / 8.0;
+  lat->set_weights(weights);
+  std::vector<double> bound(3 * n), unbound(3 * n);
+  lat->deform_bound(b, bound.data());
+  lat->deform(pts.data(), unbound.data(), n);
+  EXPECT_EQ(bound, unbound);
+  const std::vector<float> ptsf(pts.begin(), pts.end());
+  std::vector<float> boundf(3 * n), unboundf(3 * n);
+  lat->deform_bound(lat->bind(ptsf.data(), n), boundf.data());
+  lat->deform(ptsf.data(), unboundf.data(), n);
+  EXPECT_EQ(boundf, unboundf);
+}
+
+TEST(Lattice, ABindingOfAnotherFamilyIsRefused) {
+  const FFD lat(skewed_box(), {2, 2, 2});
+  PointBinding other;
+  other.point_count = 1;
+  std::vector<double> out(3);
+  try {
+    lat.deform_bound(other, out.data());
+    ADD_FAILURE() << "a foreign binding was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()), "binding: was not made by a lattice; bind the points to this lattice");
+  }
+}

@@ -29,6 +29,14 @@ class SimpleDeform : public Deformer {
   // nullptr when Blender leaves them unchanged (bend with |k| < 1e-6).
   template <class T>
   std::shared_ptr<BarrDeformer> resolve(const T* points, std::size_t n) const;
+  // The fixed spatial map that deform(points) applies: the Barr operator with the extent measured
+  // on these points, carrying this deformer's weights (which must count them). Unlike deform(),
+  // it measures nothing when called, so splitting points into chunks never changes a result
+  // (docs/blender/simple_deform.md, "Binding the extent"); where Blender leaves the points
+  // unchanged (bend with |k| < 1e-6) it is an identity bend. Throws std::invalid_argument naming
+  // `points` (a row not finite, an extent that overflows) or `weights` (a count other than n).
+  template <class T>
+  std::shared_ptr<BarrDeformer> bind(const T* points, std::size_t n) const;
 
  protected:
   bool deform_impl(const float* in, float* out, std::size_t n) const override;

@@ -62,6 +62,10 @@ void transform_normals(const Deformer& d, const double* points, const double* no
 void volume_ratio(const Deformer& d, const double* points, double* out, std::size_t n,
                   bool float32_result = false);
 
+// J = I at each of n points (n row-major 3x3 blocks): the Jacobians of a map that leaves points
+// where they are.
+void identity_jacobians(double* jac, std::size_t n);
+
 // cof(J) = det(J) J^-T, defined (and continuous) also where J is singular.
 Mat3 cofactor(const Mat3& j);
 

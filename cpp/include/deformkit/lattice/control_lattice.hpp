@@ -3,7 +3,7 @@
 // bind-once / deform-often path. F(x) = x + strength * sum_ijk w_ijk(x) (P_ijk - R_ijk), the
 // displacement form, which makes a lattice at rest the identity for every basis.
 #include "deformkit/core/buffer.hpp"
-#include "deformkit/core/deformer.hpp"
+#include "deformkit/core/point_binding.hpp"
 #include "deformkit/lattice/lattice_basis.hpp"
 
 #include <array>
@@ -22,13 +22,11 @@ enum class PointStatus : std::uint8_t {
 // nothing else. Points are sorted by lattice cell so that a cell's control points are loaded
 // once and its points fill the SIMD lanes; the weights are regenerated from the coordinates in
 // registers, which is cheaper than streaming 64 stored weights per point from memory.
-struct LatticeBinding {
+// The layout (PointBinding) identifies the lattice's bases, resolution and rest placement.
+struct LatticeBinding : PointBinding {
   std::array<int, 3> resolution{};
-  std::uint64_t layout = 0;          // identifies the lattice's bases and resolution
-  bool single_precision = false;     // points were float32: deform_bound returns float32
   Buffer<double> parameters;         // 3n, normalised lattice coordinates
   Buffer<std::uint8_t> status;       // n, PointStatus
-  std::size_t size() const { return status.size(); }
 
   // Sorted by cell: sorted position i is point order[i]; run r is [run_begin[r], run_begin[r+1]).
   Buffer<std::uint32_t> order;
@@ -41,16 +39,10 @@ struct LatticeBinding {
   Buffer<double> sorted_d;
 };
 
-// Rows of the sparse weight matrix W (deform = x + strength W (P - R), before any per-point
-// blend weights), over flattened control points (i * nv + j) * nw + k; duplicate columns
-// (Blender's index clamping) merged.
-struct SparseWeights {
-  std::vector<std::int64_t> indptr;
-  std::vector<std::int32_t> indices;
-  std::vector<double> values;
-};
+// The lattice's weight table is the core's: the name stays for the lattice code that uses it.
+using SparseWeights = WeightTable;
 
-class ControlLattice : public Deformer {
+class ControlLattice : public BoundDeformer {
  public:
   const LatticeAxes& axes() const { return axes_; }
   std::array<int, 3> resolution() const { return {axes_[0].count, axes_[1].count, axes_[2].count}; }
@@ -70,11 +62,13 @@ class ControlLattice : public Deformer {
 
   LatticeBinding bind(const double* points, std::size_t n) const;
   LatticeBinding bind(const float* points, std::size_t n) const;
-  // Throws std::invalid_argument naming `binding` when it was made by a lattice of another layout.
-  // Per-point weights, if set, blend as in deform() and must match the bound points.
-  void deform_bound(const LatticeBinding& binding, double* out) const;
-  void deform_bound(const LatticeBinding& binding, float* out) const;
-  SparseWeights weights_matrix(const LatticeBinding& binding) const;
+  // deform_bound (BoundDeformer) throws std::invalid_argument naming `binding` when it was made by
+  // a lattice of another layout; per-point weights blend as in deform().
+
+  // Rows of the weight matrix W (deform = x + strength W (P - R), before any per-point blend
+  // weights), over flattened control points (i * nv + j) * nw + k; duplicate columns (Blender's
+  // index clamping) merged.
+  WeightTable weights_matrix(const LatticeBinding& binding) const;
 
  protected:
   ControlLattice(const LatticeAxes& axes, std::vector<double> rest, Outside outside, double strength);
@@ -103,12 +97,18 @@ class ControlLattice : public Deformer {
   bool deform_points(const T* in, T* out, std::size_t n) const;
   template <class T>
   LatticeBinding bind_points(const T* in, std::size_t n) const;
+  void check_binding(const PointBinding& binding) const override;
+  bool deform_bound_impl(const PointBinding& binding, float* out) const override;
+  bool deform_bound_impl(const PointBinding& binding, double* out) const override;
+  void bound_points(const PointBinding& binding, StoredPoints<float>& points) const override;
+  void bound_points(const PointBinding& binding, StoredPoints<double>& points) const override;
   template <class T>
-  bool deform_bound_points(const LatticeBinding& b, T* out) const;
+  bool deform_sorted(const LatticeBinding& b, T* out) const;
   template <class T>
   void sort_by_cell(LatticeBinding& b, const T* in, const std::uint64_t* key) const;
   std::uint64_t cell_key(const Vec3& parameters, double* local) const;
   std::uint64_t still_key() const;
+  std::array<std::int32_t, 3> cell_of_key(std::uint64_t key) const;
   template <class T>
   void cell_block(const std::array<std::int32_t, 3>& cell, T* block) const;
   Vec3 contract(const std::vector<double>& grid, const Vec3& parameters, Mat3* derivative) const;

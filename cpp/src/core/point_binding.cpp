@@ -1,0 +1,76 @@
+#include "deformkit/core/point_binding.hpp"
+
+#include "core/parallel.hpp"
+#include "core/weight_blend.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+
+namespace deformkit {
+
+void WeightTable::require_valid(std::size_t columns, const char* name) const {
+  const std::string n(name);
+  if (indptr.empty() || indptr.front() != 0)
+    throw std::invalid_argument(n + ": indptr must start at 0");
+  if (std::uint64_t(indptr.back()) != indices.size() || indices.size() != values.size())
+    throw std::invalid_argument(n + ": indptr ends at " + std::to_string(indptr.back()) + " but there are " +
+                                std::to_string(indices.size()) + " indices and " + std::to_string(values.size()) +
+                                " values");
+  for (std::size_t r = 0; r + 1 < indptr.size(); ++r)
+    if (indptr[r + 1] < indptr[r])
+      throw std::invalid_argument(n + ": indptr decreases at row " + std::to_string(r));
+  for (std::size_t k = 0; k < indices.size(); ++k) {
+    if (indices[k] < 0 || std::size_t(indices[k]) >= columns)
+      throw std::invalid_argument(n + ": column " + std::to_string(indices[k]) + " is outside 0.." +
+                                  std::to_string(columns) + " - 1");
+    if (!std::isfinite(values[k])) throw std::invalid_argument(n + ": weight " + std::to_string(k) + " is not finite");
+  }
+}
+
+template <class T>
+void apply_weight_table(const WeightTable& w, const double* control, std::size_t width, T* out) {
+  parallel_blocks(w.rows(), [&](std::size_t begin, std::size_t end) {
+    std::vector<double> acc(width);  // in double also for float32 results
+    for (std::size_t i = begin; i < end; ++i) {
+      std::fill(acc.begin(), acc.end(), 0.0);
+      for (std::int64_t k = w.indptr[i]; k < w.indptr[i + 1]; ++k) {
+        const double* p = control + width * std::size_t(w.indices[k]);
+        for (std::size_t c = 0; c < width; ++c) acc[c] += w.values[k] * p[c];
+      }
+      for (std::size_t c = 0; c < width; ++c) out[width * i + c] = static_cast<T>(acc[c]);
+    }
+  });
+}
+template void apply_weight_table<float>(const WeightTable&, const double*, std::size_t, float*);
+template void apply_weight_table<double>(const WeightTable&, const double*, std::size_t, double*);
+
+// The bound path's policy, in the order deform() applies it: the weight count first (nothing is
+// computed for a call that cannot succeed), then the binding's owner and dtype.
+template <class T>
+void BoundDeformer::deform_bound_checked(const PointBinding& b, T* out) const {
+  require_weight_count(weights(), b.size(), "the binding", "points");
+  check_binding(b);
+  if (b.single_precision != std::is_same<T, float>::value)
+    throw std::invalid_argument(std::string("binding: holds ") + (b.single_precision ? "float32" : "float64") +
+                                " points; deform them into an array of that dtype");
+  StoredPoints<T> original;
+  if (is_identity()) {  // exact, as deform() at the identity
+    bound_points(b, original);
+    copy_stored(original, out, b.size());
+    return;
+  }
+  // The bound points were finite when bound, so a non-finite result is the parameters' overflow.
+  // Weights in [0, 1] keep a blend of finite positions finite: the kernel's report suffices.
+  if (!deform_bound_impl(b, out)) require_finite_results(out, b.size(), 3, "position");
+  if (weights().empty()) return;
+  bound_points(b, original);
+  blend_toward_stored(weights(), original, out, b.size());
+}
+
+void BoundDeformer::deform_bound(const PointBinding& b, float* out) const { deform_bound_checked(b, out); }
+void BoundDeformer::deform_bound(const PointBinding& b, double* out) const { deform_bound_checked(b, out); }
+
+}  // namespace deformkit
