@@ -409,26 +409,26 @@ Faces parse_faces(const py::object& faces) {
   return {std::move(corners), std::move(offsets)};
 }
 
-// An (m, k) array of int32 or int64 is read in place (as the checks of parse_faces pass it); other
-// integer arrays and lists go through parse_faces.
+// An (m, k) array of int32 or int64 with m >= 1, k >= 3 (which parse_faces would accept as it is)
+// is read in place; other integer arrays and lists go through parse_faces.
 template <class Index>
-static bool read_uniform_faces(const py::object& faces, const double* p, std::size_t n, PolygonMesh& mesh) {
-  if (!py::isinstance<py::array>(faces)) return false;
+std::optional<py::array_t<Index, py::array::c_style>> uniform_face_array(const py::object& faces) {
+  if (!py::isinstance<py::array>(faces)) return std::nullopt;
   const py::array a = py::reinterpret_borrow<py::array>(faces);
   if (a.dtype().kind() != 'i' || a.dtype().itemsize() != sizeof(Index) || a.ndim() != 2 || a.shape(0) == 0 ||
       a.shape(1) < 3 || a.shape(1) > std::numeric_limits<int>::max())
-    return false;
-  const auto f = c_array<Index>(a, "faces");
-  mesh = PolygonMesh(p, n, f.data(), std::size_t(f.shape(0)), int(f.shape(1)));
-  return true;
+    return std::nullopt;
+  return c_array<Index>(a, "faces");
 }
+template std::optional<py::array_t<std::int32_t, py::array::c_style>> uniform_face_array(const py::object&);
 
 PolygonMesh parse_polygon_mesh(const py::object& points, const py::object& faces) {
   const auto p = as_double(points_array(points, "points"));
   const std::size_t n = std::size_t(p.shape(0));
-  PolygonMesh mesh;
-  if (read_uniform_faces<std::int32_t>(faces, p.data(), n, mesh) || read_uniform_faces<std::int64_t>(faces, p.data(), n, mesh))
-    return mesh;
+  if (const auto f = uniform_face_array<std::int32_t>(faces))
+    return PolygonMesh(p.data(), n, f->data(), std::size_t(f->shape(0)), int(f->shape(1)));
+  if (const auto f = uniform_face_array<std::int64_t>(faces))
+    return PolygonMesh(p.data(), n, f->data(), std::size_t(f->shape(0)), int(f->shape(1)));
   const Faces f = parse_faces(faces);
   return PolygonMesh(p.data(), n, f.corners, f.offsets);
 }

@@ -207,6 +207,10 @@ Faces parse_faces(const py::object& faces);
 // `points` (n, 3) and `faces` (as parse_faces) as one checked PolygonMesh: the one way every
 // binding that takes a mesh reads it.
 PolygonMesh parse_polygon_mesh(const py::object& points, const py::object& faces);
+// `faces` as an (m, k) C-contiguous array of Index when it is one that parse_faces accepts as it is
+// (m >= 1, 3 <= k), without a copy where its layout allows; nullopt for anything else.
+template <class Index>
+std::optional<py::array_t<Index, py::array::c_style>> uniform_face_array(const py::object& faces);
 
 // One binding file per family: core.cpp (Deformer, Stack, mesh_volume), barr.cpp, lattice.cpp,
 // surface.cpp, subdivision.cpp.

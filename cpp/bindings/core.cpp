@@ -23,7 +23,16 @@ const char* kJacobianDoc = R"(Jacobian J = dF/dx at each point, shape (n, 3, 3),
 const char* kNormalsDoc = R"(Carry unit normals through the map: N' = det(J) J^-T N (the cofactor matrix), renormalised.)";
 const char* kVolumeDoc = R"(Local volume ratio det(J) at each point.)";
 
+// An int32 (m, k) face array is read where it is (a volume is one pass: a copy of the mesh would
+// cost as much again); any other faces are read into a PolygonMesh, through the same checks.
 double py_mesh_volume(const py::object& points, const py::object& faces) {
+  if (const auto f = uniform_face_array<std::int32_t>(faces)) {
+    const auto p = as_double(points_array(points, "points"));
+    const PolygonMeshView mesh = PolygonMeshView::borrowed(p.data(), std::size_t(p.shape(0)), f->data(),
+                                                           std::size_t(f->shape(0)), int(f->shape(1)));
+    py::gil_scoped_release release;
+    return mesh_volume(mesh);
+  }
   const PolygonMesh mesh = parse_polygon_mesh(points, faces);
   py::gil_scoped_release release;
   return mesh_volume(mesh);

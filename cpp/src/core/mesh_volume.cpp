@@ -23,9 +23,9 @@ static Vec3 axis_scales(const double* points, std::size_t n, int exponent[3]) {
   return scale;
 }
 
-double mesh_volume(const PolygonMesh& mesh) {
-  const double* points = mesh.points().data();
-  const std::size_t n = mesh.vertex_count();
+double mesh_volume(const PolygonMeshView& mesh) {
+  const double* points = mesh.points;
+  const std::size_t n = mesh.vertex_count;
   // a . (b x c) = det[a b c] scales by sx sy sz when the axes are scaled by (sx, sy, sz): with each
   // axis brought near 1 by a power of two (exact), no product overflows or underflows on the way
   // to a volume that a double can hold, however large or flat the mesh is.
@@ -35,7 +35,7 @@ double mesh_volume(const PolygonMesh& mesh) {
     return Vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]).cwiseProduct(scale);
   };
   // Relative to the first corner's point, so that a mesh far from the origin keeps its precision.
-  const Vec3 o = p(mesh.corners()[0]);
+  const Vec3 o = p(mesh.corners[0]);
   double six_v = 0.0;
   for (std::size_t f = 0; f < mesh.face_count(); ++f) {
     const int* c = mesh.face(f);

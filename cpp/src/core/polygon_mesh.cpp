@@ -9,6 +9,14 @@
 
 namespace deformkit {
 
+[[noreturn]] static void throw_corner_out_of_range(std::size_t face, std::int64_t index, std::size_t n) {
+  throw std::invalid_argument("faces: face " + std::to_string(face) + " has corner index " + std::to_string(index) +
+                              ", outside 0.." + std::to_string(std::int64_t(n) - 1));
+}
+
+// The checks of a mesh whose faces all have k corners (the same, in the same order, for a copied
+// and a borrowed mesh).
+
 PolygonMesh::PolygonMesh(const double* points, std::size_t n, const std::vector<std::int64_t>& corners,
                          const std::vector<std::int64_t>& offsets) {
   require_finite_rows(points, n, "points");
@@ -22,9 +30,7 @@ PolygonMesh::PolygonMesh(const double* points, std::size_t n, const std::vector<
     const std::int64_t begin = offsets[f], end = offsets[f + 1];
     if (end - begin < 3) throw std::invalid_argument("faces: face " + std::to_string(f) + " has fewer than 3 corners");
     for (std::int64_t c = begin; c < end; ++c) {
-      if (corners[c] < 0 || std::size_t(corners[c]) >= n)
-        throw std::invalid_argument("faces: face " + std::to_string(f) + " has corner index " +
-                                    std::to_string(corners[c]) + ", outside 0.." + std::to_string(std::int64_t(n) - 1));
+      if (corners[c] < 0 || std::size_t(corners[c]) >= n) throw_corner_out_of_range(f, corners[c], n);
       *out++ = int(corners[c]);
     }
     offsets_[f + 1] = end - offsets.front();
@@ -32,22 +38,43 @@ PolygonMesh::PolygonMesh(const double* points, std::size_t n, const std::vector<
   points_.assign(points, points + 3 * n);
 }
 
-template <class Index>
-PolygonMesh::PolygonMesh(const double* points, std::size_t n, const Index* faces, std::size_t m, int k) : uniform_(k) {
+static void require_uniform_faces(const double* points, std::size_t n, std::size_t m, int k) {
   require_finite_rows(points, n, "points");
   if (m == 0) throw std::invalid_argument("faces: no faces");
   if (k < 3) throw std::invalid_argument("faces: face 0 has fewer than 3 corners");
+}
+
+PolygonMeshView PolygonMeshView::borrowed(const double* points, std::size_t n, const int* faces, std::size_t m, int k) {
+  require_uniform_faces(points, n, m, k);
+  for (std::size_t c = 0; c < m * std::size_t(k); ++c)
+    if (faces[c] < 0 || std::size_t(faces[c]) >= n) throw_corner_out_of_range(c / std::size_t(k), faces[c], n);
+  PolygonMeshView v;
+  v.points = points, v.vertex_count = n, v.corners = faces, v.corner_count = m * std::size_t(k), v.uniform = k;
+  v.faces = m;
+  return v;
+}
+
+template <class Index>
+PolygonMesh::PolygonMesh(const double* points, std::size_t n, const Index* faces, std::size_t m, int k) : uniform_(k) {
+  require_uniform_faces(points, n, m, k);
   corners_.resize(m * std::size_t(k));
   for (std::size_t c = 0; c < corners_.size(); ++c) {
-    if (faces[c] < 0 || std::uint64_t(faces[c]) >= n)
-      throw std::invalid_argument("faces: face " + std::to_string(c / std::size_t(k)) + " has corner index " +
-                                  std::to_string(std::int64_t(faces[c])) + ", outside 0.." + std::to_string(std::int64_t(n) - 1));
+    if (faces[c] < 0 || std::uint64_t(faces[c]) >= n) throw_corner_out_of_range(c / std::size_t(k), faces[c], n);
     corners_[c] = int(faces[c]);
   }
   points_.assign(points, points + 3 * n);
 }
 template PolygonMesh::PolygonMesh(const double*, std::size_t, const std::int32_t*, std::size_t, int);
 template PolygonMesh::PolygonMesh(const double*, std::size_t, const std::int64_t*, std::size_t, int);
+
+PolygonMeshView PolygonMesh::view() const {
+  PolygonMeshView v;
+  v.points = points_.data(), v.vertex_count = vertex_count();
+  v.corners = corners_.data(), v.corner_count = corners_.size();
+  v.offsets = uniform_ ? nullptr : offsets_.data(), v.uniform = uniform_;
+  v.faces = face_count();
+  return v;
+}
 
 bool PolygonMesh::all_triangles() const {
   if (uniform_) return uniform_ == 3;

@@ -102,3 +102,23 @@ TEST(PolygonMesh, UniformFacesAreTheSameMeshAsOffsets) {
   }
   EXPECT_THROW(PolygonMesh(kCube.data(), 8, bad.data(), 0, 3), std::invalid_argument);
 }
+
+// A borrowed view of the caller's arrays is checked as a copied mesh is, and measures the same.
+TEST(PolygonMesh, BorrowedViewChecksAndMeasuresAsTheCopy) {
+  const std::vector<int> quads(kCubeQuads.begin(), kCubeQuads.end());
+  const PolygonMesh copied(kCube.data(), 8, quads.data(), 6, 4);
+  const PolygonMeshView view = PolygonMeshView::borrowed(kCube.data(), 8, quads.data(), 6, 4);
+  EXPECT_EQ(view.points, kCube.data());
+  EXPECT_EQ(view.corners, quads.data());
+  EXPECT_EQ(mesh_volume(view), mesh_volume(copied));
+  const std::vector<int> bad = {0, 1, 2, 0, 1, 8};
+  for (auto make : {+[](const int* f) { (void)PolygonMeshView::borrowed(kCube.data(), 8, f, 2, 3); },
+                    +[](const int* f) { (void)PolygonMesh(kCube.data(), 8, f, 2, 3); }}) {
+    try {
+      make(bad.data());
+      FAIL();
+    } catch (const std::invalid_argument& e) {
+      EXPECT_STREQ(e.what(), "faces: face 1 has corner index 8, outside 0..7");
+    }
+  }
+}

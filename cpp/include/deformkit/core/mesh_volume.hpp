@@ -7,6 +7,7 @@ namespace deformkit {
 // Divergence theorem: V = 1/6 sum over triangles a . (b x c), polygons fanned from their first
 // corner (PolygonMesh::triangulate). Positive for outward-facing winding. Throws
 // std::invalid_argument naming `points` when the volume overflows a double.
-double mesh_volume(const PolygonMesh& mesh);
+double mesh_volume(const PolygonMeshView& mesh);
+inline double mesh_volume(const PolygonMesh& mesh) { return mesh_volume(mesh.view()); }
 
 }  // namespace deformkit

@@ -7,6 +7,26 @@
 
 namespace deformkit {
 
+// A polygon mesh read where its arrays are kept: for a one-shot computation on the caller's
+// arrays (mesh_volume), which must not pay for a copy of the mesh. PolygonMesh::view() gives one
+// of a checked mesh; borrowed() checks arrays it does not own, exactly as PolygonMesh does.
+struct PolygonMeshView {
+  const double* points = nullptr;
+  std::size_t vertex_count = 0;
+  const int* corners = nullptr;
+  std::size_t corner_count = 0;
+  const std::int64_t* offsets = nullptr;  // face f starts at offsets[f]; null when uniform > 0
+  int uniform = 0;                        // every face has this many corners
+  std::size_t faces = 0;
+
+  std::size_t face_count() const { return faces; }
+  int face_size(std::size_t f) const { return uniform ? uniform : int(offsets[f + 1] - offsets[f]); }
+  const int* face(std::size_t f) const { return corners + (uniform ? f * std::size_t(uniform) : std::size_t(offsets[f])); }
+
+  // m faces of k corners each at faces[f k ..]: throws as PolygonMesh's constructor does.
+  static PolygonMeshView borrowed(const double* points, std::size_t n, const int* faces, std::size_t m, int k);
+};
+
 class PolygonMesh {
  public:
   PolygonMesh() = default;
@@ -34,6 +54,7 @@ class PolygonMesh {
     return corners_.data() + (uniform_ ? f * std::size_t(uniform_) : std::size_t(offsets_[f]));
   }
   bool all_triangles() const;
+  PolygonMeshView view() const;
 
   // Every face fanned from its first corner into triangles (c0, ci, ci+1), in face order: the
   // same points, triangles only (a triangle mesh is returned as it is).
