@@ -113,7 +113,7 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         else:
             base = base_positions(obj.data)
         built, key, failed, sub = [], [len(base), stack.show_volume_ratio], False, None
-        entries.laplacian.keep_only(uid, {e.bind_id for e in stack.entries if e.type in entries.laplacian.TYPES})
+        entries.prune(uid, stack.entries)
         for index, entry in enumerate(stack.entries):
             try:
                 if sub is not None:

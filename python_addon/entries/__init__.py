@@ -19,6 +19,7 @@ kind does not own properties but declares which of them it uses. A kind is a mod
     followed(entry) -> [(object, remembered name)] of the objects it follows (lattice, handles)
     volume_note(entries) -> the panel's note on the volume colors for these entries of the kind, or ""
     retyped(entry)  the entry became another kind: drop what only this kind keeps on it
+    prune(object_key, entries)  drop what it keeps for the object beyond these entries of its kind
     draw(col, obj, entry)  its settings in the panel
     classes     its operators, registered after the core's
 """
@@ -69,6 +70,12 @@ def last_index(entries):
 
 def followed(entry):
     return kind(entry).followed(entry)
+
+
+def prune(object_key, stack_entries):
+    """Every kind drops what it keeps for the object that none of its entries in the stack uses."""
+    for other in KINDS:
+        other.prune(object_key, [e for e in stack_entries if e.type in other.TYPES])
 
 
 def type_changed(entry):

@@ -72,6 +72,10 @@ def volume_note(entries):
     return ""
 
 
+def prune(object_key, entries):
+    """Nothing to drop: only Laplacian entries keep state per bind (their solvers)."""
+
+
 def retyped(entry):
     """The entry became another kind: nothing of a Barr entry is hidden."""
 

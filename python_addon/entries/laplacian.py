@@ -269,8 +269,9 @@ def status(obj, entry):
             list(cached.deformer.warnings))
 
 
-def keep_only(object_key, bind_ids):
+def prune(object_key, entries):
     """Drop the solvers of binds that the object no longer has (removed, unbound, retyped)."""
+    bind_ids = {e.bind_id for e in entries}
     cache.forget(object_key, "laplacian", keep=lambda key: key[1] in bind_ids)
 
 

@@ -386,6 +386,10 @@ def volume_note(entries):
     return "Volume colors are not carried through a Subdivide entry" if entries else ""
 
 
+def prune(object_key, entries):
+    """Nothing to drop: only Laplacian entries keep state per bind (their solvers)."""
+
+
 def retyped(entry):
     """The entry became another kind: its helpers go with the next evaluation (discard)."""
 

@@ -60,6 +60,17 @@ def test_nothing_includes_upward():
     assert wrong == []
 
 
+def test_nothing_includes_the_bindings():
+    """The bindings convert and check; the library and its tests never depend on them."""
+    library = [p for p in (REPO / "cpp").rglob("*") if p.suffix in (".hpp", ".cpp")
+               and not p.is_relative_to(REPO / "cpp" / "bindings")]
+    bindings = {p.name for p in (REPO / "cpp" / "bindings").iterdir()}
+    wrong = [f"{p.relative_to(REPO)} includes {name}" for p in library for name in INCLUDE.findall(p.read_text())
+             if name.startswith("bindings/") or pathlib.PurePath(name).name in bindings]
+    assert library and bindings >= {"common.hpp", "module.cpp"}
+    assert wrong == []
+
+
 def test_private_headers_stay_out_of_include():
     """Kernels, threads and solver internals are no part of the interface."""
     public = {p.stem for p in (REPO / "cpp" / "include").rglob("*.hpp")}
