@@ -22,7 +22,8 @@ from .outputs import (ATTR_RENDER, ATTR_VIEWPORT, ATTR_VOLUME, MODIFIER_NAME, NO
 
 
 _evaluating = set()  # session_uids being evaluated: writes below re-enter through handlers
-# In the cache: "inputs", (cache key,) -> (fingerprint of the settings, base positions) last written;
+# In the cache: "inputs", (cache key,) -> (fingerprint of the settings, base positions, {index: message}
+# of the entries that failed on them) last written;
 # "echo", (cache key,) -> time of the add-on's last write, whose depsgraph echo is expected.
 ECHO_WINDOW = 1.0    # seconds within which a depsgraph update of the mesh counts as that echo
 
@@ -90,8 +91,8 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
     With reuse_base, the base positions of the last evaluation are used when the settings changed
     (a parameter edit); with expect_echo, the depsgraph update this write causes is recognised as
     its echo (see is_echo_of_own_write). reuse_weights (default: as reuse_base) keeps the
-    vertex-group weights read last time. On any problem the
-    message goes on the stack or the entry and the mesh is left as it was."""
+    vertex-group weights read last time. A problem of the object's goes on the stack and leaves the
+    mesh as it was; an entry that fails shows its message and is skipped, the others still run."""
     uid = cache_key(obj)
     if uid in _evaluating or obj.mode == "EDIT":  # in edit mode the base mesh is stale until exit
         return False
@@ -112,7 +113,7 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
             base = cached[1]
         else:
             base = base_positions(obj.data)
-        built, key, failed, sub = [], [len(base), stack.show_volume_ratio], False, None
+        built, key, sub = [], [len(base), stack.show_volume_ratio], None
         entries.prune(uid, stack.entries)
         for index, entry in enumerate(stack.entries):
             try:
@@ -122,42 +123,43 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
                                      "above it")
                 kind, prepared = entry_setup(obj, entry, reuse_base if reuse_weights is None else reuse_weights)
             except ValueError as exc:
+                # As Blender skips a modifier it cannot run: its input goes on to the next entry.
                 _set_if_changed(entry, "error", str(exc))
-                failed = True
+                key.append((index, str(exc)))
                 continue
             if kind.LAST:
-                sub = prepared.data  # its error is cleared once it has subdivided
+                sub, sub_index = prepared.data, index  # its error is cleared once it has subdivided
             else:
                 _set_if_changed(entry, "error", "")
                 built.append((index, entry, kind, prepared))
             key.append(prepared.fingerprint)
-        if failed:
-            return False
         key = tuple(key)
         if (not force and cached is not None and cached[0] == key and np.array_equal(cached[1], base)
                 and outputs_present(obj)):
+            for index, message in cached[2].items():  # the entries that failed on these inputs still do
+                _set_if_changed(stack.entries[index], "error", message)
             return False
         viewport = [b for b in built if b[1].show_viewport]
         render = [b for b in built if b[1].show_render]
         pieces = [] if stack.show_volume_ratio else None
+        failures = {}  # entry index -> message of the entries that failed on their input (skipped)
         try:
-            positions = _deformed(uid, "viewport", viewport, base, pieces)
+            positions = _deformed(uid, "viewport", viewport, base, pieces, failures)
             same = [b[0] for b in render] == [b[0] for b in viewport]
-            render_positions = positions if same else _deformed(uid, "render", render, base)
-        except EntryFailed as exc:
-            _set_if_changed(stack.entries[exc.index], "error", str(exc))
-            return False
+            render_positions = positions if same else _deformed(uid, "render", render, base, failures=failures)
         except ValueError as exc:
             _set_if_changed(stack, "error", str(exc))
             return False
         subdivided = None
-        if sub is not None:  # before anything is written: a refused subdivision leaves the result as it was
+        if sub is not None:
             try:
                 subdivided = subdivide.results(uid, sub, positions, render_positions)
-            except EntryError as exc:
-                _set_if_changed(sub.entry, "error", str(exc))
-                return False
-            _set_if_changed(sub.entry, "error", "")
+            except EntryError as exc:  # skipped as any failing entry: the cage is shown
+                failures[sub_index] = str(exc)
+            else:
+                _set_if_changed(sub.entry, "error", "")
+        for index, message in failures.items():
+            _set_if_changed(stack.entries[index], "error", message)
         mesh = obj.data
         split = render_positions is not positions
         write_vector_attribute(mesh, ATTR_VIEWPORT, positions)
@@ -179,7 +181,7 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         subdivide.discard(obj, keep=helpers or ())
         ensure_modifier(obj, split, helpers)
         mesh.update()
-        cache.put("inputs", (uid,), (key, base))
+        cache.put("inputs", (uid,), (key, base, failures))
         if expect_echo:
             cache.put("echo", (uid,), time.monotonic())
         return True
@@ -187,12 +189,14 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         _evaluating.discard(uid)
 
 
-def _deformed(uid, kind, built, base, pieces=None):
+def _deformed(uid, kind, built, base, pieces=None, failures=None):
     """Run the entries in order: runs of stackable (Barr) entries as one dk.Stack, each other
     entry through its kind (a lattice through its binding, kept per object, entry and
     viewport/render; a Laplacian entry through its solver). `pieces`, if a list, receives
     (deformers, their input) for each stretch of entries between those without a Jacobian: the
-    factors of the volume ratio."""
+    factors of the volume ratio. `failures`, if a dict, receives {index: message} of the entries
+    that failed on their input, which are skipped (their input goes on, as Blender skips a modifier
+    that fails); without it the first failure raises EntryFailed."""
     points, pending, piece, piece_input = base, [], [], base
     for index, _entry, entry_kind, prepared in built:
         if entry_kind.STACKABLE:
@@ -206,7 +210,10 @@ def _deformed(uid, kind, built, base, pieces=None):
         try:
             points = entry_kind.deform((uid, index, kind), prepared, points)
         except EntryError as exc:
-            raise EntryFailed(index, str(exc)) from exc
+            if failures is None:
+                raise EntryFailed(index, str(exc)) from exc
+            failures.setdefault(index, str(exc))
+            continue  # skipped: contributes no factor to the volume ratio either
         if prepared.deformer is None:
             piece, piece_input = [], points
         else:

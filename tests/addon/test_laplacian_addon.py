@@ -395,7 +395,7 @@ def test_batch_recipe_binds_laplacian_entries(scene):
 
 
 # ---------------------------------------------------------------------------------------------
-# Topology changes and bad input: a message on the entry, the mesh left as it was
+# Topology changes and bad input: a message on the entry, which is skipped (its input passes through)
 
 def subdivide(bpy, obj):
     bpy.context.view_layer.objects.active = obj
@@ -438,6 +438,7 @@ def test_topology_changes_are_reported(scene, change, message):
     turn_and_shift(empty)
     update()  # the echo of the add-on's own write has passed
     before = evaluated(obj).copy()
+    assert np.abs(before - positions(obj.data)).max() > 1e-3  # the entry did something while it worked
     if change == "subdivide":
         subdivide(bpy, obj)
     else:
@@ -450,8 +451,8 @@ def test_topology_changes_are_reported(scene, change, message):
     with pytest.raises(ValueError, match="Laplacian: Mesh"):
         api.evaluate(obj)
     assert entry.error == message, entry.error
-    if change == "rotate_edge":
-        np.testing.assert_array_equal(evaluated(obj), before)  # the last result stays
+    # Skipped, as Blender skips a modifier it cannot run: the only entry, so the base mesh shows.
+    np.testing.assert_array_equal(evaluated(obj), positions(obj.data))
     api.unbind_laplacian(obj, 0)
     api.bind_laplacian(obj, 0)  # bound to the new mesh: fine again
     assert entry.error == "" and entry.bind_vertices == len(obj.data.vertices)
@@ -516,7 +517,10 @@ def test_bad_settings_leave_the_mesh_alone(scene, problem):
     make_problem(bpy, scene, obj, entry, empty, problem)
     update()  # handlers see the change by themselves
     assert PROBLEMS[problem] in entry.error, entry.error
-    np.testing.assert_array_equal(evaluated(obj), before)
+    if problem != "singular_at_bind":  # prepared without a handle object, that one never worked
+        assert np.abs(before - positions(obj.data)).max() > 1e-3  # the entry did something while it worked
+    # Skipped, as Blender skips a modifier it cannot run: the only entry, so the base mesh shows.
+    np.testing.assert_array_equal(evaluated(obj), positions(obj.data))
     with pytest.raises(ValueError, match="Laplacian: "):
         api.evaluate(obj)
 

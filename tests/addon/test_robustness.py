@@ -1,0 +1,58 @@
+"""A broken entry as Blender treats a broken modifier: it is skipped with its message shown, and the
+rest of the stack still evaluates."""
+import numpy as np
+import pytest
+
+from addon_helpers import close, evaluated, make_lattice, make_object, perturb_lattice, positions, update
+
+TWIST = dict(angle=1.1, deform_axis="Z", limits=(0.1, 0.9))
+BEND = dict(angle=0.7, deform_axis="X")
+
+
+def simple_deform(dk, mode, angle, deform_axis, limits=(0.0, 1.0)):
+    return dk.SimpleDeform(mode=mode, angle=angle, deform_axis=deform_axis, limits=limits)
+
+
+def twist_then_bend(dk, points):
+    """Bend(Twist(x)) computed by the deformkit module alone, with the entries' parameters."""
+    return dk.Stack([simple_deform(dk, "TWIST", **TWIST), simple_deform(dk, "BEND", **BEND)]).deform(points)
+
+
+@pytest.mark.parametrize("problem, message", [
+    ("lattice_deleted", "lattice object 'Lattice' no longer exists"),
+    ("lattice_unlinked", "lattice object 'Lattice' was deleted (it is in no scene)"),
+    ("bad_basis", "the Bezier Blocks basis needs 3k + 1 points per axis"),
+])
+def test_a_failing_entry_is_skipped_and_the_others_evaluate(scene, problem, message):
+    import bpy
+    import deformkit as dk
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    base = positions(obj.data).copy()
+    lat = make_lattice(bpy, resolution=(3, 4, 2))
+    perturb_lattice(lat)
+    api.add_entry(obj, "TWIST", **TWIST)
+    middle = api.add_entry(obj, "LATTICE", lattice=lat)
+    api.add_entry(obj, "BEND", **BEND)
+    assert middle.error == ""
+    with_lattice = evaluated(obj).copy()
+    expected = twist_then_bend(dk, base)
+    assert np.abs(with_lattice - expected).max() > 1e-2  # the lattice did something while it worked
+    if problem == "lattice_deleted":
+        bpy.data.objects.remove(lat)
+    elif problem == "lattice_unlinked":  # what deleting in the viewport does while the entry holds it
+        scene.collection.objects.unlink(lat)
+    else:
+        middle.lattice_basis = "BEZIER"  # 3 x 4 x 2 points: not 3k + 1 on every axis
+    update()  # the handlers see it by themselves
+    assert message in middle.error, middle.error
+    assert close(evaluated(obj), expected), np.abs(evaluated(obj) - expected).max()
+    assert [e.error for e in obj.deformkit.entries][::2] == ["", ""]
+    with pytest.raises(ValueError, match="Lattice: "):  # the api reports it, as the panel shows it
+        api.evaluate(obj)
+    assert message in middle.error and close(evaluated(obj), expected)
+    middle.strength = middle.strength  # an evaluation with nothing changed keeps the message
+    assert message in middle.error and close(evaluated(obj), expected)
+    api.remove_entry(obj, 1)  # and without the broken entry: the same result
+    assert close(evaluated(obj), expected) and all(e.error == "" for e in obj.deformkit.entries)
+
