@@ -42,9 +42,9 @@ def _require_mesh(obj):
 
 
 def add_entry(obj, type="TWIST", **params):
-    """Append an entry of `type` (Twist, Taper, Bend, Stretch, Lattice, Laplacian, Subdivide;
-    case-insensitive) and evaluate. A Laplacian entry starts unbound (see add_laplacian); a
-    Subdivide entry must stay the last one."""
+    """Add an entry of `type` (Twist, Taper, Bend, Stretch, Lattice, Laplacian, Subdivide;
+    case-insensitive) at the end of the stack, or just above a Subdivide entry (which must stay
+    the last one), and evaluate. A Laplacian entry starts unbound (see add_laplacian)."""
     _require_mesh(obj)
     kind = str(type).upper()
     if kind not in TYPES:
@@ -52,10 +52,14 @@ def add_entry(obj, type="TWIST", **params):
     kinds.check_params(kind, params)  # before the entry is added: a refused call changes nothing
     stack = obj.deformkit
     name = _unique_name(stack, kind.title())  # before add(): the new entry has a default name
+    at = len(stack.entries) if kinds.kind(kind).LAST else kinds.last_index(stack.entries)
     entry = stack.entries.add()
     entry.type = kind
     entry.name = name
-    stack.active_index = len(stack.entries) - 1
+    if at < len(stack.entries) - 1:
+        stack.entries.move(len(stack.entries) - 1, at)
+        entry = stack.entries[at]  # the moved item: the old reference points at the end of the list
+    stack.active_index = at
     set_params(entry, **params)
     evaluation.evaluate(obj)
     return entry
@@ -150,7 +154,8 @@ def add_laplacian(obj, bind=True, **params):
     """Append a Laplacian entry with these parameters and (by default) bind it at once."""
     entry = add_entry(obj, "LAPLACIAN", **params)
     if bind:
-        bind_laplacian(obj, len(obj.deformkit.entries) - 1)
+        bind_laplacian(obj, obj.deformkit.active_index)  # the new entry, which may be above a Subdivide entry
+        entry = obj.deformkit.entries[obj.deformkit.active_index]
     return entry
 
 

@@ -69,9 +69,10 @@ def apply_recipe(recipe, objects=None, where=None):
             # A Laplacian entry does nothing until bound: "bind": true binds it to what comes in.
             bind = spec.pop("bind", False)
             api.add_entry(obj, kind, **spec)
-            recipe_entries[(obj.name, len(obj.deformkit.entries) - 1)] = where["entry"]
+            index = obj.deformkit.active_index  # the new entry: above a saved Subdivide entry, if any
+            recipe_entries[(obj.name, index)] = where["entry"]
             if bind:
-                api.bind_laplacian(obj, len(obj.deformkit.entries) - 1)
+                api.bind_laplacian(obj, index)
         where["entry"] = None
     return objects
 

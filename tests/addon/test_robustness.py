@@ -56,3 +56,34 @@ def test_a_failing_entry_is_skipped_and_the_others_evaluate(scene, problem, mess
     api.remove_entry(obj, 1)  # and without the broken entry: the same result
     assert close(evaluated(obj), expected) and all(e.error == "" for e in obj.deformkit.entries)
 
+
+def test_new_entries_go_above_the_subdivide_entry(scene):
+    """A Subdivide entry must stay last (it changes the topology), so entries added after it, by the
+    api or the Add menu's operator, are inserted just above it instead of being refused below it."""
+    import bpy
+    import deformkit as dk
+    from addon_helpers import polygons
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    base = positions(obj.data).copy()
+    api.add_entry(obj, "SUBDIVIDE", levels=1, use_limit_surface=False)
+    twist = api.add_entry(obj, "TWIST", **TWIST)
+    assert twist.name == "Twist" and obj.deformkit.active_index == 0
+    with bpy.context.temp_override(object=obj, active_object=obj):
+        assert bpy.ops.deformkit.entry_add(type="BEND") == {"FINISHED"}
+    stack = obj.deformkit
+    assert [e.type for e in stack.entries] == ["TWIST", "BEND", "SUBDIVIDE"] and stack.active_index == 1
+    api.set_params(stack.entries[1], **BEND)
+    assert all(e.error == "" for e in stack.entries), [e.error for e in stack.entries]
+    # The result: Bend(Twist(x)) subdivided, as dk computes it without the add-on.
+    expected = dk.subdivide(twist_then_bend(dk, base).astype(np.float64), polygons(obj.data), 1,
+                            limit_surface=False)
+    ev = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    shown = positions(ev.to_mesh())
+    ev.to_mesh_clear()
+    assert len(shown) == len(expected.points) and close(shown, expected.points), len(shown)
+    laplacian = api.add_laplacian(obj, anchors_group="Upper")  # bound at the new entry's index
+    assert [e.type for e in stack.entries] == ["TWIST", "BEND", "LAPLACIAN", "SUBDIVIDE"]
+    assert laplacian.name == stack.entries[2].name and laplacian.bind_id != 0 and laplacian.error == ""
+    second = api.add_entry(obj, "SUBDIVIDE")  # a second one still goes last, and is refused there
+    assert stack.entries[4] == second and "must be the last entry" in second.error

@@ -406,7 +406,12 @@ def test_bad_settings_show_on_the_entry_and_leave_the_mesh(scene, problem):
     before, made = evaluated(obj).copy(), helpers(bpy)
     if problem in ("after", "two_subdivides"):
         # A Subdivide entry has no angle: api.set_params refuses parameters of other kinds.
-        late = api.add_entry(obj, "TWIST", angle=1.0) if problem == "after" else api.add_entry(obj, "SUBDIVIDE")
+        if problem == "after":  # a new entry goes above the Subdivide entry: moved below it
+            api.add_entry(obj, "TWIST", angle=1.0)
+            api.move_entry(obj, 0, 1)
+            late = obj.deformkit.entries[1]
+        else:
+            late = api.add_entry(obj, "SUBDIVIDE")
         assert "must be the last entry" in late.error and "Subdivide" in late.error, late.error
     elif problem == "loop_on_quads":
         entry.scheme = "LOOP"
