@@ -17,6 +17,7 @@ space ((object cache key, "viewport"/"render") -> (refine key, dk.Subdivider, Re
 points)), and what each helper mesh holds in "subdivide_written" ((object cache key, helper mesh
 name) -> the key of the topology and face data written into it).
 """
+import re
 import zlib
 from collections import namedtuple
 
@@ -155,6 +156,20 @@ def level(entry, kind):
     return entry.render_levels if entry.show_render else 0
 
 
+_TOO_MANY_FACES = re.compile(r"level: (\d+) would make (\d+) faces, more than max_faces=(\d+) ")
+
+
+def in_ui_terms(message, setting):
+    """dk.Subdivider's message, with what to do in the panel: its max_faces is no setting there
+    (the add-on keeps the core's default), so the level (`setting`, the field's label) is what to lower."""
+    found = _TOO_MANY_FACES.match(message)
+    if found is None:
+        return message
+    level, faces, limit = (int(g) for g in found.groups())
+    return (f"level {level} would make {faces:,} faces, more than the {limit:,} deformkit allows: "
+            f"lower {setting}")
+
+
 def subdivide(key, sub, level, cage):
     """The cage subdivided to `level` (level 0: the cage). The refined topology is kept under `key`
     (None: not kept), so that a new cage of the same mesh, a frame or a parameter edit of the
@@ -173,7 +188,8 @@ def subdivide(key, sub, level, cage):
                                           **sub.kwargs)
         m = subdivider.mesh(cage)
     except (ValueError, TypeError) as exc:
-        raise EntryError(str(exc)) from exc
+        raise EntryError(in_ui_terms(str(exc), "Render" if key and key[1] == "render" else "Levels Viewport")) \
+            from exc
     except MemoryError:
         raise EntryError(f"not enough memory for level {level}: lower the level") from None
     count, k = m.faces.shape

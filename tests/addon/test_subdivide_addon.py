@@ -395,6 +395,24 @@ def test_apply_bakes_the_subdivided_mesh_as_blender_does(scene):
     assert set_distance(positions(other.data), positions(twin.data)) < 3e-5
 
 
+def too_many_faces(obj, level):
+    """Catmull-Clark's face count: an n-gon becomes n quads, each quad then 4 per level; above 2^24."""
+    faces = sum(len(p.vertices) for p in obj.data.polygons) * 4 ** (level - 1)
+    assert faces > 2 ** 24
+    return faces
+
+
+def test_too_high_render_levels_say_which_field_to_lower(scene):
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    entry = api.add_entry(obj, "SUBDIVIDE", levels=1, render_levels=8)
+    label = type(entry).bl_rna.properties["render_levels"].name
+    assert entry.error == (f"level 8 would make {too_many_faces(obj, 8):,} faces, more than the {2 ** 24:,} "
+                           f"deformkit allows: lower {label}"), entry.error
+    assert "max_faces" not in entry.error
+
+
 @pytest.mark.parametrize("problem", ["after", "non_manifold", "loop_on_quads", "too_high", "loose_vertex",
                                      "two_subdivides"])
 def test_bad_settings_show_on_the_entry_and_leave_the_mesh(scene, problem):
@@ -416,9 +434,12 @@ def test_bad_settings_show_on_the_entry_and_leave_the_mesh(scene, problem):
     elif problem == "loop_on_quads":
         entry.scheme = "LOOP"
         assert entry.error.startswith("faces: the Loop scheme needs triangles"), entry.error
-    elif problem == "too_high":  # 384 faces * 4^8 is more than 2^24
+    elif problem == "too_high":
         entry.levels = 8
-        assert entry.error.startswith("level:") and "max_faces" in entry.error, entry.error
+        # In the panel's terms (max_faces is no setting there): the field to lower, by its label.
+        faces = too_many_faces(obj, 8)
+        assert entry.error == (f"level 8 would make {faces:,} faces, more than the {2 ** 24:,} deformkit allows: "
+                               f"lower {type(entry).bl_rna.properties['levels'].name}"), entry.error
     else:
         bm = bmesh.new()
         bm.from_mesh(obj.data)
