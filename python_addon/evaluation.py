@@ -130,7 +130,7 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
             if kind.LAST:
                 sub, sub_index = prepared.data, index  # its error is cleared once it has subdivided
             else:
-                _set_if_changed(entry, "error", "")
+                _set_if_changed(entry, "error", prepared.note)  # a note: the entry still runs
                 built.append((index, entry, kind, prepared))
             key.append(prepared.fingerprint)
         key = tuple(key)

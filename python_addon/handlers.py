@@ -7,7 +7,7 @@ import bpy
 from bpy.app.handlers import persistent
 
 from . import entries, evaluation
-from .entries import lattice
+from .entries import common, lattice
 
 WATCHED = (bpy.types.Object, bpy.types.Mesh, bpy.types.Lattice, bpy.types.Collection)
 
@@ -29,10 +29,11 @@ def _followed(obj):
 
 
 def _pointer_gone(obj):
-    """An entry whose lattice or handle object was deleted or unlinked, and which does not say so
-    yet (or one that says so, in case the object came back)."""
+    """An entry whose origin, lattice or handle object was deleted or unlinked, and which does not
+    say so yet (or one that says so, in case the object came back)."""
     for e in obj.deformkit.entries:
-        for target, name in entries.followed(e):
+        pairs = entries.followed(e) + ([(e.origin, e.origin_name)] if "origin" in entries.params(e.type) else [])
+        for target, name in pairs:
             if name or target is not None:
                 missing = target is None or not target.users_scene
                 if missing != bool(e.error):
@@ -49,6 +50,11 @@ def on_depsgraph_update(scene, depsgraph):
     moved = {u.id.original for u in updates if u.is_updated_transform}
     relinked = any(isinstance(u.id, bpy.types.Collection) for u in updates)  # objects deleted or linked
     for obj in _stack_objects(scene):
+        if relinked and any([common.clear_deleted(e) for e in obj.deformkit.entries]):
+            # Deleted in the UI: the fields are cleared at once, as Blender clears a modifier's, and
+            # each entry says which object it lost (the rest of the stack keeps evaluating).
+            evaluation.evaluate(obj)
+            continue
         used = _followed(obj)
         # Lattice edits show as an update of the Lattice object and of its data.
         watched = {e.origin for e in obj.deformkit.entries if e.origin is not None} | used \

@@ -7,7 +7,7 @@ import zlib
 import numpy as np
 
 from .. import native
-from .common import Prepared, draw_vertex_group, followed_object, influence_weights, write_base
+from .common import Prepared, deleted_name, draw_vertex_group, influence_weights, write_base
 
 TYPES = ("TWIST", "BEND", "TAPER", "STRETCH")
 ICON = "MOD_SIMPLEDEFORM"
@@ -33,11 +33,19 @@ def amount(entry):
 
 
 def origin_matrix(obj, entry):
-    """The origin object's frame in `obj`'s local space, as Simple Deform uses it."""
-    if entry.origin is not None and entry.origin == obj:  # Blender ignores an object that is its own origin
+    """The origin object's frame in `obj`'s local space, as Simple Deform uses it: None (the
+    object's own frame) without one, for the object itself (Blender ignores it) and for a deleted
+    one (Blender clears the modifier's field, and Simple Deform then has no origin)."""
+    if entry.origin is None or entry.origin == obj or deleted_name(entry, "origin"):
         return None
-    origin = followed_object(entry, "origin", "origin")
-    return None if origin is None else np.array(obj.matrix_world.inverted() @ origin.matrix_world)
+    return np.array(obj.matrix_world.inverted() @ entry.origin.matrix_world)
+
+
+def origin_note(entry):
+    """What the entry says when its origin object was deleted, else ''."""
+    name = deleted_name(entry, "origin")
+    return (f"origin object '{name}' no longer exists: deforming in the object's own frame, as Simple Deform "
+            "does without an origin") if name else ""
 
 
 def setup(obj, entry, reuse_weights=False):
@@ -51,7 +59,7 @@ def setup(obj, entry, reuse_weights=False):
     fingerprint = (amount(entry), entry.deform_axis, tuple(entry.limits), entry.lock_x, entry.lock_y, entry.lock_z,
                    entry.invert_vertex_group, None if origin is None else origin.tobytes(),
                    None if weights is None else zlib.crc32(deformer.weights.tobytes()))
-    return Prepared(deformer, fingerprint, None)
+    return Prepared(deformer, fingerprint, None, origin_note(entry))
 
 
 def deform(key, prepared, points):

@@ -9,8 +9,34 @@ from ..outputs import EntryError
 
 # deformer: a dk.Deformer with a Jacobian (in dk.Stack and the volume ratio), or None for kinds
 # without a pointwise map; fingerprint: everything besides the incoming points that the result
-# depends on; data: the kind's own (lattice.Setup, laplacian.Setup, subdivide.Setup) or None.
-Prepared = namedtuple("Prepared", "deformer fingerprint data")
+# depends on; data: the kind's own (lattice.Setup, laplacian.Setup, subdivide.Setup) or None;
+# note: a message for the entry that still evaluates (a deleted origin), or "".
+Prepared = namedtuple("Prepared", "deformer fingerprint data note", defaults=("",))
+# Entry properties that point at objects, each with a <prop>_name remembering the object's name.
+POINTERS = ("origin", "lattice", "handle_object")
+
+
+def deleted_name(entry, prop):
+    """The name of the object entry.<prop> pointed at if it was deleted (the pointer cleared, as
+    Blender clears a modifier's, or the object unlinked from every scene while held here), else ''."""
+    obj = getattr(entry, prop)
+    if obj is None:
+        return getattr(entry, prop + "_name")
+    return "" if obj.users_scene else obj.name
+
+
+def clear_deleted(entry):
+    """Clear the pointers of `entry` whose objects were deleted in the UI (unlinked from every
+    scene but kept alive by this pointer), as Blender clears a modifier's: the object can then be
+    freed, and the entry remembers its name for its message. Returns True if it cleared any."""
+    cleared = False
+    for prop in POINTERS:
+        obj = getattr(entry, prop)
+        if obj is not None and obj != entry.id_data and not obj.users_scene:
+            setattr(entry, prop, None)  # its update forgets the name (and re-evaluates)
+            setattr(entry, prop + "_name", obj.name)
+            cleared = True
+    return cleared
 
 
 def followed_object(entry, prop, role, unset=""):

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from addon_helpers import close, evaluated, make_object, positions, twin_with_simple_deform
+from addon_helpers import close, evaluated, make_object, positions, twin_with_simple_deform, update
 
 
 SETTINGS = [  # (entry type, Simple Deform settings); amounts by Blender's names
@@ -185,14 +185,21 @@ def test_bad_settings_leave_the_mesh_alone(scene, problem):
         bpy.context.view_layer.update()
         entry.angle = 2.0
         assert entry.error == "vertex group 'Upper' not found"
-    elif problem == "origin":
-        bpy.data.objects.remove(empty)
+    elif problem in ("origin", "origin_unlinked"):
+        if problem == "origin":
+            bpy.data.objects.remove(empty)
+        else:  # what deleting in the viewport does while we hold a reference
+            bpy.context.scene.collection.objects.unlink(empty)
         entry.angle = 2.0
-        assert entry.error == "origin object 'Empty' no longer exists"
-    elif problem == "origin_unlinked":  # what deleting in the viewport does while we hold a reference
-        bpy.context.scene.collection.objects.unlink(empty)
-        entry.angle = 2.0
-        assert entry.error == "origin object 'Empty' was deleted (it is in no scene)"
+        update()
+        assert entry.error == ("origin object 'Empty' no longer exists: deforming in the object's own frame, "
+                               "as Simple Deform does without an origin")
+        assert entry.origin is None  # cleared, as Blender clears its modifier's field
+        # Simple Deform without an origin: what Blender's shows once its origin object is deleted.
+        twin = twin_with_simple_deform(bpy, obj, deform_method="TWIST", angle=2.0, deform_axis="Z",
+                                       vertex_group="Upper")
+        assert close(evaluated(obj), evaluated(twin))
+        return
     elif problem == "shape_keys":
         obj.shape_key_add(name="Basis")
         entry.angle = 2.0

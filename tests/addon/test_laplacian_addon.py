@@ -466,7 +466,7 @@ PROBLEMS = {
     "zero_weights": "the anchors and handles vertex groups have no vertex with a weight above 0",
     "both_groups": "33 vertices are in both the anchors group 'Top' and the handles group 'Top'",
     "handle_object_deleted": "handle object 'Empty' no longer exists",
-    "handle_object_unlinked": "handle object 'Empty' was deleted (it is in no scene)",
+    "handle_object_unlinked": "handle object 'Empty' no longer exists",  # the handler clears the field
     "no_handle_object": "no handle object set",
     "nan_location": "handle object 'Empty': its transform is not finite (NaN or Inf)",
     "singular_at_bind": "the handle object's transform was singular when it was set",

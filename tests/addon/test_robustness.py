@@ -3,7 +3,8 @@ rest of the stack still evaluates."""
 import numpy as np
 import pytest
 
-from addon_helpers import close, evaluated, make_lattice, make_object, perturb_lattice, positions, update
+from addon_helpers import (close, evaluated, make_lattice, make_object, perturb_lattice, positions,
+                           twin_with_simple_deform, update)
 
 TWIST = dict(angle=1.1, deform_axis="Z", limits=(0.1, 0.9))
 BEND = dict(angle=0.7, deform_axis="X")
@@ -20,7 +21,7 @@ def twist_then_bend(dk, points):
 
 @pytest.mark.parametrize("problem, message", [
     ("lattice_deleted", "lattice object 'Lattice' no longer exists"),
-    ("lattice_unlinked", "lattice object 'Lattice' was deleted (it is in no scene)"),
+    ("lattice_unlinked", "lattice object 'Lattice' no longer exists"),
     ("bad_basis", "the Bezier Blocks basis needs 3k + 1 points per axis"),
 ])
 def test_a_failing_entry_is_skipped_and_the_others_evaluate(scene, problem, message):
@@ -46,6 +47,8 @@ def test_a_failing_entry_is_skipped_and_the_others_evaluate(scene, problem, mess
         middle.lattice_basis = "BEZIER"  # 3 x 4 x 2 points: not 3k + 1 on every axis
     update()  # the handlers see it by themselves
     assert message in middle.error, middle.error
+    if problem != "bad_basis":  # noticed at once, and the field cleared as Blender clears a modifier's
+        assert middle.lattice is None
     assert close(evaluated(obj), expected), np.abs(evaluated(obj) - expected).max()
     assert [e.error for e in obj.deformkit.entries][::2] == ["", ""]
     with pytest.raises(ValueError, match="Lattice: "):  # the api reports it, as the panel shows it
@@ -87,3 +90,40 @@ def test_new_entries_go_above_the_subdivide_entry(scene):
     assert laplacian.name == stack.entries[2].name and laplacian.bind_id != 0 and laplacian.error == ""
     second = api.add_entry(obj, "SUBDIVIDE")  # a second one still goes last, and is refused there
     assert stack.entries[4] == second and "must be the last entry" in second.error
+
+
+@pytest.mark.parametrize("how", ["removed", "deleted_in_ui"])
+def test_a_deleted_origin_is_noticed_at_once_as_simple_deform_does(scene, how):
+    """Blender clears a Simple Deform's origin when the object is deleted, and the modifier then
+    deforms in the object's own frame; the entry does the same at the next depsgraph update (no
+    parameter edit), says so, and the entries after it keep evaluating."""
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    empty = bpy.data.objects.new("Empty", None)
+    scene.collection.objects.link(empty)
+    empty.location, empty.rotation_euler = (0.3, 0.2, -0.4), (0.4, 0.0, 0.7)
+    update()
+    bend = api.add_entry(obj, "BEND", angle=1.2, deform_axis="Z", origin=empty)
+    api.add_entry(obj, "TWIST", **TWIST)
+    twin = twin_with_simple_deform(bpy, obj, deform_method="BEND", angle=1.2, deform_axis="Z", origin=empty)
+    after = twin.modifiers.new("Twist", "SIMPLE_DEFORM")
+    after.deform_method, after.angle, after.deform_axis, after.limits = "TWIST", TWIST["angle"], "Z", TWIST["limits"]
+    update()
+    with_origin = evaluated(obj).copy()
+    assert close(with_origin, evaluated(twin))
+    if how == "removed":
+        bpy.data.objects.remove(empty)
+        assert twin.modifiers[0].origin is None  # what Blender does to its own modifier
+    else:  # the viewport's Delete: unlinked from the scene, alive only through the entry's pointer
+        scene.collection.objects.unlink(empty)
+        twin.modifiers[0].origin = None  # Blender's modifier holds no user: the object is freed, its field cleared
+    update()  # a depsgraph update, no parameter edit
+    assert bend.origin is None
+    assert bend.error == ("origin object 'Empty' no longer exists: deforming in the object's own frame, as Simple "
+                          "Deform does without an origin"), bend.error
+    assert obj.deformkit.entries[1].error == ""
+    shown = evaluated(obj)
+    assert np.abs(shown - with_origin).max() > 1e-2 and close(shown, evaluated(twin))
+    if how == "deleted_in_ui":
+        assert "Empty" not in [o.name for o in bpy.data.objects if o.users]  # nothing holds it any more
