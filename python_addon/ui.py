@@ -3,7 +3,7 @@ import math
 
 import bpy
 
-from . import entries, native
+from . import entries, native, panel_text
 from .entries.common import draw_vertex_group  # noqa: F401  (where it was before the entries/ folder)
 from .properties import ENTRY_TYPES
 
@@ -63,6 +63,7 @@ class DEFORMKIT_PT_stack(bpy.types.Panel):
             layout.alert = True
             layout.label(text=native.IMPORT_ERROR, icon="ERROR")
             return
+        budget = panel_text.context_budget(context)
         row = layout.row()
         row.menu(DEFORMKIT_MT_add.bl_idname, icon="ADD")
         row.prop(stack, "show_volume_ratio", text="", icon="COLOR")
@@ -71,12 +72,13 @@ class DEFORMKIT_PT_stack(bpy.types.Panel):
                 [f"Result not updated until {', '.join(broken)} is fixed"] if broken else []):
             box = layout.box()
             box.alert = True
-            box.label(text=message, icon="ERROR")
+            panel_text.label_wrapped(box, message, "ERROR", budget)
         mod = obj.modifiers.get("deformkit")
         if len(stack.entries) and mod is not None and not mod.show_viewport:
-            layout.label(text="The 'deformkit' modifier, which shows the result, is hidden", icon="INFO")
+            panel_text.label_wrapped(layout, "The 'deformkit' modifier, which shows the result, is hidden", "INFO",
+                                     budget)
         for note in entries.volume_notes(stack.entries) if stack.show_volume_ratio else ():
-            layout.label(text=note, icon="INFO")
+            panel_text.label_wrapped(layout, note, "INFO", budget)
         for entry in stack.entries:
             draw_entry(layout.box(), obj, entry)
         draw_smoothness(layout.box(), stack)
@@ -99,13 +101,20 @@ def draw_entry(box, obj, entry):
     if entry.error:
         alert = box.row()
         alert.alert = True
-        alert.label(text=entry.error, icon="ERROR")
+        panel_text.label_wrapped(alert, entry.error, "ERROR")
     if not entry.show_expanded:
         return
-    box.row().prop(entry, "type", expand=True)
     col = box.column()
     col.use_property_split = True
+    # A dropdown: seven expanded buttons are cut to "Str… Latt…" at the default width.
+    col.prop(entry, "type", text=type_label(entry))
     entries.kind(entry).draw(col, obj, entry)
+
+
+def type_label(entry):
+    """The Type row's label: "Mode" for the Barr kinds, whose types are Simple Deform's modes
+    (its deform_method is named Mode), "Type" for the others."""
+    return "Mode" if entries.kind(entry).TYPES == entries.barr.TYPES else "Type"
 
 
 def draw_smoothness(box, stack):

@@ -1,0 +1,56 @@
+"""Text the panel draws, as plain functions the tests call: messages wrapped to the editor's width
+(a label is cut, not wrapped, by Blender)."""
+
+# Blender's default Properties editor width, and the average advance of its UI font at scale 1
+# (11 px text; measured on the panel's messages in Blender 3.4: 330 px holds about 48 characters
+# after the icon and the box margins).
+DEFAULT_WIDTH = 330
+CHAR_WIDTH = 6.0
+MARGIN = 40  # the icon and the box's padding on both sides
+MIN_BUDGET = 16
+
+
+def char_budget(width=None, ui_scale=1.0):
+    """How many characters of a message fit on one line of a region `width` pixels wide (the
+    region's width is in pixels after UI scaling, so the font is ui_scale times wider too)."""
+    scale = ui_scale if ui_scale and ui_scale > 0 else 1.0
+    width = width or DEFAULT_WIDTH * scale
+    return max(MIN_BUDGET, int((width - MARGIN * scale) / (CHAR_WIDTH * scale)))
+
+
+def context_budget(context=None):
+    """The character budget of the region being drawn (the default width without one, as in tests
+    and background mode)."""
+    import bpy
+    context = context if context is not None else bpy.context
+    region = getattr(context, "region", None)
+    preferences = getattr(context, "preferences", None) or bpy.context.preferences
+    # system.ui_scale is the resolution scale with the display's DPI; 0 without a window.
+    scale = (preferences.system.ui_scale or preferences.view.ui_scale) if preferences is not None else 1.0
+    return char_budget(region.width if region is not None else None, scale)
+
+
+def wrap(text, budget):
+    """`text` split at spaces into lines of at most `budget` characters; a word longer than the
+    budget gets a line of its own rather than being cut (a cut word reads as another word)."""
+    lines, line = [], ""
+    for word in text.split():
+        if line and len(line) + 1 + len(word) > budget:
+            lines.append(line)
+            line = word
+        else:
+            line = f"{line} {word}" if line else word
+    if line:
+        lines.append(line)
+    return lines
+
+
+def label_wrapped(layout, text, icon="NONE", budget=None):
+    """`text` as labels of at most `budget` characters, the icon on the first only (the others
+    indented to line up, as Blender's own multi-line reports)."""
+    budget = context_budget() if budget is None else budget
+    col = layout.column(align=True)
+    for i, line in enumerate(wrap(text, budget)):
+        col.label(text=line, icon=icon if i == 0 else ("BLANK1" if icon != "NONE" else "NONE"))
+    return col
+

@@ -1,0 +1,103 @@
+"""The panel at Blender's default Properties width (issue 14, "The panel"): the type as a dropdown,
+messages wrapped at word boundaries, tooltips and Simple Deform's angle range, the Laplacian's
+unanchored parts in one line with a Select button, a compact panel without entries, and Check
+Smoothness's figures with honest icons and readable angles."""
+import random
+import types
+
+from addon_helpers import CheckingLayout, make_object
+
+
+class KeywordLayout(CheckingLayout):
+    """A CheckingLayout that also records the keywords each property is drawn with."""
+
+    def __init__(self, log, keywords):
+        super().__init__(log)
+        self.keywords = keywords
+
+    def row(self, **_kw):
+        return KeywordLayout(self.log, self.keywords)
+
+    column = box = row
+
+    def prop(self, data, name, icon="NONE", **kw):
+        super().prop(data, name, icon=icon, **kw)
+        self.keywords.setdefault(name, []).append(kw)
+
+
+def draw_panel(obj, layout_type=CheckingLayout, *extra):
+    from deformkit_addon import ui
+    log = []
+    ui.DEFORMKIT_PT_stack.draw(types.SimpleNamespace(layout=layout_type(log, *extra)),
+                               types.SimpleNamespace(object=obj))
+    return log
+
+
+# ---------------------------------------------------------------------------------------------
+# 1. The type row and wrapped messages
+
+def test_the_type_is_a_dropdown_labelled_as_blender_does(scene):
+    import bpy
+    from deformkit_addon import api, entries
+    obj = make_object(bpy)
+    for entry_type in entries.TYPES:
+        if entry_type != "SUBDIVIDE":
+            api.add_entry(obj, entry_type)
+    keywords = {}
+    draw_panel(obj, KeywordLayout, keywords)
+    drawn = keywords["type"]
+    assert len(drawn) == len(obj.deformkit.entries)
+    assert not any(kw.get("expand") for kw in drawn)  # a dropdown, not one button per type
+    # Simple Deform names its mode property "Mode"; the Barr types are its modes.
+    simple_deform_mode = bpy.types.SimpleDeformModifier.bl_rna.properties["deform_method"].name
+    labels = [kw.get("text") for kw in drawn]
+    assert labels == [simple_deform_mode if e.type in entries.barr.TYPES else "Type" for e in obj.deformkit.entries]
+
+
+def test_wrap_keeps_every_word_whole_within_the_budget():
+    from deformkit_addon import panel_text
+    rng = random.Random(14)
+    for _ in range(300):
+        words = ["".join(rng.choice("abcdefghij'.,") for _ in range(rng.randint(1, 14)))
+                 for _ in range(rng.randint(0, 30))]
+        budget = rng.randint(16, 60)
+        text = (" " * rng.randint(1, 2)).join(words)
+        lines = panel_text.wrap(text, budget)
+        assert " ".join(lines).split() == words  # every word kept, in order, none cut
+        assert all(len(line) <= budget for line in lines)
+        assert all(line == line.strip() and line for line in lines)
+        # Greedy: the next line's first word would not have fit on the line before.
+        for before, after in zip(lines, lines[1:]):
+            assert len(before) + 1 + len(after.split()[0]) > budget
+
+
+def test_a_word_longer_than_the_budget_gets_its_own_line_uncut():
+    from deformkit_addon import panel_text
+    long_word = "/very/long/path/to/a/lattice/object/name.001"
+    lines = panel_text.wrap(f"object {long_word} no longer exists", 20)
+    assert lines == ["object", long_word, "no longer exists"]
+
+
+def test_the_budget_follows_the_region_width_and_the_ui_scale():
+    from deformkit_addon import panel_text
+    narrow, default, wide = (panel_text.char_budget(w) for w in (200, panel_text.DEFAULT_WIDTH, 600))
+    assert narrow < default < wide
+    assert panel_text.char_budget(None) == default
+    # At twice the UI scale the region is twice as many pixels wide for the same characters.
+    assert panel_text.char_budget(2 * panel_text.DEFAULT_WIDTH, 2.0) == default
+    assert panel_text.char_budget(1) == panel_text.MIN_BUDGET
+
+
+def test_a_long_entry_error_is_drawn_as_whole_lines(scene):
+    import bpy
+    from deformkit_addon import api, panel_text
+    obj = make_object(bpy)
+    entry = api.add_entry(obj, "TWIST")
+    entry.error = ("origin object 'A rather long origin name for an empty' was deleted (it is in no scene), "
+                   "set another origin or clear the field")
+    labels = [text for kind, text in draw_panel(obj) if kind == "label"]
+    lines = panel_text.wrap(entry.error, panel_text.char_budget())
+    assert len(lines) > 1
+    start = labels.index(lines[0])
+    assert labels[start:start + len(lines)] == lines
+
