@@ -101,3 +101,52 @@ def test_a_long_entry_error_is_drawn_as_whole_lines(scene):
     start = labels.index(lines[0])
     assert labels[start:start + len(lines)] == lines
 
+
+# ---------------------------------------------------------------------------------------------
+# 2. Tooltips and the angle's range, against Blender's own Simple Deform RNA
+
+def test_the_settings_artists_hover_have_tooltips(addon):
+    from deformkit_addon import properties
+    rna = properties.DEFORMKIT_PG_entry.bl_rna.properties
+    for name in ("type", "deform_axis", "lock_x", "lock_y", "lock_z", "vertex_group", "invert_vertex_group"):
+        assert rna[name].description.strip(), name
+        assert rna[name].description != rna[name].name, name
+    for item in rna["deform_axis"].enum_items:
+        assert item.identifier in item.description
+
+
+def test_the_locks_and_invert_say_what_simple_deform_says(addon):
+    import bpy
+    from deformkit_addon import properties
+    ours = properties.DEFORMKIT_PG_entry.bl_rna.properties
+    blender = bpy.types.SimpleDeformModifier.bl_rna.properties
+    for name in ("lock_x", "lock_y", "lock_z", "invert_vertex_group"):
+        assert ours[name].description == blender[name].description, name
+
+
+def test_the_angle_has_simple_deforms_soft_range_and_step(addon):
+    import bpy
+    from deformkit_addon import properties
+    ours = properties.DEFORMKIT_PG_entry.bl_rna.properties["angle"]
+    blender = bpy.types.SimpleDeformModifier.bl_rna.properties["angle"]
+    assert abs(ours.soft_min - blender.soft_min) < 1e-6 and abs(ours.soft_max - blender.soft_max) < 1e-6
+    assert ours.step == blender.step
+    assert ours.subtype == blender.subtype == "ANGLE"
+    # Only the UI range: values beyond it (typed, keyframed, driven) are still accepted.
+    assert ours.hard_min < ours.soft_min and ours.hard_max > ours.soft_max
+
+
+def test_the_saved_data_paths_keep_their_names_types_and_defaults(addon):
+    import math
+
+    from deformkit_addon import properties
+    rna = properties.DEFORMKIT_PG_entry.bl_rna.properties
+    assert (rna["type"].type, rna["type"].default, rna["type"].name) == ("ENUM", "TWIST", "Type")
+    assert (rna["angle"].type, rna["angle"].name) == ("FLOAT", "Angle")
+    assert abs(rna["angle"].default - math.radians(45.0)) < 1e-7
+    assert (rna["deform_axis"].type, rna["deform_axis"].default) == ("ENUM", "X")
+    assert [i.identifier for i in rna["deform_axis"].enum_items] == ["X", "Y", "Z"]
+    for name in ("lock_x", "lock_y", "lock_z", "invert_vertex_group"):
+        assert (rna[name].type, rna[name].default) == ("BOOLEAN", False), name
+    assert (rna["vertex_group"].type, rna["vertex_group"].default) == ("STRING", "")
+
