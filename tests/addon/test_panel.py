@@ -150,3 +150,114 @@ def test_the_saved_data_paths_keep_their_names_types_and_defaults(addon):
         assert (rna[name].type, rna[name].default) == ("BOOLEAN", False), name
     assert (rna["vertex_group"].type, rna["vertex_group"].default) == ("STRING", "")
 
+
+# ---------------------------------------------------------------------------------------------
+# 3. A Laplacian entry on a mesh of many loose parts
+
+def add_loose_parts(bpy, obj, count, anchored):
+    """`count` separate quads (plus a loose vertex) off the side of the tube, the first `anchored`
+    of them in the Bottom group; returns the new vertices' indices per part."""
+    import bmesh
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    first = len(bm.verts)
+    for k in range(count):
+        quad = [bm.verts.new((3.0 + k, dx, dz)) for dx, dz in ((0, 0), (0.5, 0), (0.5, 0.5), (0, 0.5))]
+        bm.faces.new(quad)
+    bm.verts.new((-3.0, 0.0, 0.0))
+    bm.to_mesh(obj.data)
+    bm.free()
+    parts = [list(range(first + 4 * k, first + 4 * k + 4)) for k in range(count)] + [[first + 4 * count]]
+    obj.vertex_groups["Bottom"].add([v for part in parts[:anchored] for v in part], 1.0, "REPLACE")
+    return parts
+
+
+def components_by_union_find(obj):
+    """The mesh's connected components through its polygons, by a plain union-find."""
+    parent = list(range(len(obj.data.vertices)))
+
+    def root(v):
+        while parent[v] != v:
+            parent[v] = parent[parent[v]]
+            v = parent[v]
+        return v
+
+    for polygon in obj.data.polygons:
+        vs = list(polygon.vertices)
+        for v in vs[1:]:
+            parent[root(v)] = root(vs[0])
+    groups = {}
+    for v in range(len(parent)):
+        groups.setdefault(root(v), set()).add(v)
+    return list(groups.values())
+
+
+def held_vertices(obj):
+    held = set()
+    for name in ("Bottom", "Top"):
+        index = obj.vertex_groups[name].index
+        held |= {v.index for v in obj.data.vertices if any(g.group == index and g.weight > 0 for g in v.groups)}
+    return held
+
+
+def test_loose_parts_are_one_line_with_a_select_button(scene):
+    import bpy
+    from deformkit_addon import api
+    from deformkit_addon.entries import laplacian
+    from addon_helpers import make_tube
+    obj = make_tube(bpy)
+    add_loose_parts(bpy, obj, count=43, anchored=3)
+    api.add_laplacian(obj, anchors_group="Bottom", handles_group="Top")
+    held = held_vertices(obj)
+    unheld = [c for c in components_by_union_find(obj) if not c & held]
+    assert len(unheld) == 43 - 3 + 1  # the quads outside Bottom and the loose vertex
+    log = draw_panel(obj)
+    labels = [text for kind, text in log if kind == "label"]
+    assert f"{len(unheld)} parts without anchors stay in place" in labels
+    assert not any("left where it is" in text for text in labels)  # no line per part
+    assert ("operator", "deformkit.laplacian_select_unanchored") in log
+    # The summary counts what the solver itself warned of, one warning per part.
+    solver_warnings = [w for w in laplacian.status(obj, obj.deformkit.entries[0])[1] if "left where it is" in w]
+    assert len(solver_warnings) == len(unheld)
+
+
+def test_one_loose_part_reads_in_the_singular(addon):
+    from deformkit_addon.entries import laplacian
+    warning = "component 3 (4 vertices) has no anchor or handle; it is left where it is"
+    assert laplacian.summarised_warnings([warning, "something else"]) == (1, ["something else"])
+    assert laplacian.unanchored_line(1) == "1 part without anchors stays in place"
+
+
+def test_select_selects_exactly_the_parts_without_anchors(scene):
+    import numpy as np
+    import bpy
+    from deformkit_addon import api
+    from addon_helpers import make_tube
+    obj = make_tube(bpy)
+    add_loose_parts(bpy, obj, count=12, anchored=5)
+    api.add_laplacian(obj, anchors_group="Bottom", handles_group="Top")
+    held = held_vertices(obj)
+    expected = sorted(v for c in components_by_union_find(obj) if not c & held for v in c)
+    for start in ("OBJECT", "EDIT"):
+        bpy.ops.object.mode_set(mode=start)
+        with bpy.context.temp_override(object=obj, active_object=obj):
+            assert bpy.ops.deformkit.laplacian_select_unanchored.poll()
+            assert bpy.ops.deformkit.laplacian_select_unanchored(index=0) == {"FINISHED"}
+        assert obj.mode == "EDIT"
+        bpy.ops.object.mode_set(mode="OBJECT")
+        selected = np.zeros(len(obj.data.vertices), bool)
+        obj.data.vertices.foreach_get("select", selected)
+        assert np.flatnonzero(selected).tolist() == expected
+        faces = [p.index for p in obj.data.polygons if p.select]
+        assert faces == [p.index for p in obj.data.polygons if set(p.vertices) <= set(expected)]
+        assert faces  # the loose quads
+
+
+def test_select_needs_a_laplacian_entry(scene):
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    api.add_entry(obj, "TWIST")
+    with bpy.context.temp_override(object=obj, active_object=obj):
+        assert not bpy.ops.deformkit.laplacian_select_unanchored.poll()
+
