@@ -1,5 +1,6 @@
 """Text the panel draws, as plain functions the tests call: messages wrapped to the editor's width
-(a label is cut, not wrapped, by Blender)."""
+(a label is cut, not wrapped, by Blender), and figures in readable units."""
+import math
 
 # Blender's default Properties editor width, and the average advance of its UI font at scale 1
 # (11 px text; measured on the panel's messages in Blender 3.4: 330 px holds about 48 characters
@@ -54,3 +55,14 @@ def label_wrapped(layout, text, icon="NONE", budget=None):
         col.label(text=line, icon=icon if i == 0 else ("BLANK1" if icon != "NONE" else "NONE"))
     return col
 
+
+def degrees(radians):
+    """An angle in degrees, readable: no exponent; below 0.001° (rounding noise of a smooth
+    surface) it reads "< 0.001°"."""
+    value = math.degrees(radians)
+    if value == 0.0:
+        return "0°"
+    if abs(value) < 0.001:
+        return "< 0.001°"
+    digits = 3 if abs(value) < 1 else 2 if abs(value) < 10 else 1
+    return f"{value:.{digits}f}°"

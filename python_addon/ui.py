@@ -1,6 +1,4 @@
 """Panel in the Modifiers tab, laid out like Blender's own modifier panels."""
-import math
-
 import bpy
 
 from . import entries, native, panel_text
@@ -66,6 +64,10 @@ class DEFORMKIT_PT_stack(bpy.types.Panel):
         budget = panel_text.context_budget(context)
         row = layout.row()
         row.menu(DEFORMKIT_MT_add.bl_idname, icon="ADD")
+        if not len(stack.entries):  # on every mesh: compact until it has entries
+            if stack.error:
+                panel_text.label_wrapped(layout, stack.error, "ERROR", budget)
+            return
         row.prop(stack, "show_volume_ratio", text="", icon="COLOR")
         broken = [e.name for e in stack.entries if e.error]
         for message in ([stack.error] if stack.error else []) + (
@@ -120,16 +122,28 @@ def type_label(entry):
 def draw_smoothness(box, stack):
     """Check Smoothness and the figures of its last run (of the cage, before any Subdivide entry)."""
     box.operator("deformkit.check_smoothness", icon="MOD_SMOOTH")
-    figures = stack.smoothness
-    if not figures.checked:
+    if not stack.smoothness.checked:
         return
     col = box.column(align=True)
-    col.label(text="Last check, of the cage:")
-    col.label(text=f"Max normal angle: {math.degrees(figures.max_angle):.3g}° at edge {tuple(figures.worst_edge)}")
-    col.label(text=f"Max gap: {figures.max_gap:.2g} of the diagonal")
-    col.label(text=f"Degenerate samples: {figures.degenerate}, flipped: {figures.flipped}")
-    col.label(text=f"Creased edges selected: {figures.selected}",
-              icon="ERROR" if figures.selected else "CHECKMARK")
+    for text, icon in smoothness_lines(stack.smoothness):
+        col.label(text=text, icon=icon)
+
+
+def smoothness_lines(figures):
+    """(text, icon) of each line the panel shows for the last Check Smoothness: a problem (creased
+    edges, flipped or degenerate samples) is a warning on its own line; the check mark only when
+    there is none."""
+    edge = f" at edge {tuple(figures.worst_edge)}" if figures.worst_edge[0] >= 0 else ""
+    lines = [("Last check, of the cage:", "NONE"),
+             (f"Max normal angle: {panel_text.degrees(figures.max_angle)}{edge}", "NONE"),
+             (f"Max gap: {figures.max_gap:.2g} of the diagonal", "NONE")]
+    problems = [(f"Flipped samples: {figures.flipped}", figures.flipped),
+                (f"Degenerate samples: {figures.degenerate}", figures.degenerate),
+                (f"Creased edges selected: {figures.selected}", figures.selected)]
+    lines += [(text, "ERROR" if count else "NONE") for text, count in problems]
+    if not any(count for _text, count in problems):
+        lines.append(("Smooth", "CHECKMARK"))
+    return lines
 
 
 classes = (DEFORMKIT_MT_add, DEFORMKIT_MT_entry_specials, DEFORMKIT_PT_stack)

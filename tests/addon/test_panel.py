@@ -261,3 +261,59 @@ def test_select_needs_a_laplacian_entry(scene):
     with bpy.context.temp_override(object=obj, active_object=obj):
         assert not bpy.ops.deformkit.laplacian_select_unanchored.poll()
 
+
+# ---------------------------------------------------------------------------------------------
+# 4. A compact panel without entries; Check Smoothness's figures
+
+def test_without_entries_the_panel_is_the_add_button(scene):
+    import bpy
+    obj = make_object(bpy)
+    log = draw_panel(obj)
+    assert log == []  # the Add menu only (CheckingLayout logs no menus): no toggles, no Check Smoothness
+    obj.deformkit.entries.add()
+    assert ("operator", "deformkit.check_smoothness") in draw_panel(obj)
+
+
+def figures(**values):
+    base = dict(checked=True, max_angle=0.0, max_gap=0.0, degenerate=0, flipped=0, worst_edge=(-1, -1), selected=0)
+    return types.SimpleNamespace(**{**base, **values})
+
+
+def test_a_flip_is_a_warning_not_a_check_mark(addon):
+    from deformkit_addon import ui
+    lines = ui.smoothness_lines(figures(flipped=200, max_angle=2.4e-13))
+    icons = dict(lines)
+    assert icons["Flipped samples: 200"] == "ERROR"
+    assert "CHECKMARK" not in icons.values()
+    for problem in (dict(selected=3), dict(degenerate=2)):
+        assert "CHECKMARK" not in dict(ui.smoothness_lines(figures(**problem))).values()
+    smooth = ui.smoothness_lines(figures(max_angle=1e-9, worst_edge=(4, 7)))
+    assert "ERROR" not in dict(smooth).values() and "CHECKMARK" in dict(smooth).values()
+
+
+def test_angles_read_in_degrees_without_exponents(addon):
+    import math
+
+    from deformkit_addon import panel_text
+    assert panel_text.degrees(math.radians(1.35e-11)) == "< 0.001°"
+    assert panel_text.degrees(0.0) == "0°"
+    rng = random.Random(4)
+    for _ in range(500):
+        value = 10 ** rng.uniform(-3, 2.5) * rng.choice((-1, 1))
+        text = panel_text.degrees(math.radians(value))
+        assert "e" not in text and text.endswith("°")
+        shown = float(text[:-1])
+        decimals = len(text[:-1].split(".")[1])
+        assert abs(shown - value) <= 0.5 * 10 ** -decimals + 1e-12
+        assert abs(shown - value) <= 0.01 * abs(value) + 0.0005  # within 1 % (3 significant digits from 0.1°)
+
+
+def test_the_panel_shows_the_smoothness_lines(scene):
+    import bpy
+    from deformkit_addon import api, ui
+    obj = make_object(bpy)
+    api.add_entry(obj, "SUBDIVIDE", levels=1)
+    api.check_smoothness(obj)
+    labels = [text for kind, text in draw_panel(obj) if kind == "label"]
+    expected = [text for text, _icon in ui.smoothness_lines(obj.deformkit.smoothness)]
+    assert labels[-len(expected):] == expected
