@@ -2,9 +2,9 @@
 (a label is cut, not wrapped, by Blender), and figures in readable units."""
 import math
 
-# Blender's default Properties editor width, and the average advance of its UI font at scale 1
-# (11 px text; measured on the panel's messages in Blender 3.4: 330 px holds about 48 characters
-# after the icon and the box margins).
+# Blender's default Properties editor width, and an estimate (not measured) of the average advance
+# of its 11 px UI font at scale 1: a budget is conservative when this errs wide, so lines that are
+# a little short are the worst case, never a cut word.
 DEFAULT_WIDTH = 330
 CHAR_WIDTH = 6.0
 MARGIN = 40  # the icon and the box's padding on both sides
@@ -48,7 +48,7 @@ def wrap(text, budget):
 
 def label_wrapped(layout, text, icon="NONE", budget=None):
     """`text` as labels of at most `budget` characters, the icon on the first only (the others
-    indented to line up, as Blender's own multi-line reports)."""
+    indented by a blank icon so that the text lines up)."""
     budget = context_budget() if budget is None else budget
     col = layout.column(align=True)
     for i, line in enumerate(wrap(text, budget)):
