@@ -1,10 +1,12 @@
 """Operators on the stack: thin wrappers around `api` with poll, undo and reports. Each entry kind's
 own operators (Lattice: fit, bind, reset, direct manipulation; Laplacian: bind, unbind) are in its
 module under entries/."""
+import math
+
 import bpy
 from bpy.props import EnumProperty, FloatProperty, IntProperty
 
-from . import api
+from . import api, panel_text
 from .entries.common import core_missing
 from .entries.common import mesh_object as _mesh_object
 from .properties import ENTRY_TYPES
@@ -115,7 +117,7 @@ class DEFORMKIT_OT_check_smoothness(bpy.types.Operator):
         edge = figures["worst_edge"]
         where = f" at edge {tuple(edge)}" if edge else ""
         self.report({"WARNING" if figures["selected_edges"] else "INFO"},
-                    f"Max normal angle {figures['max_angle_degrees']:.3g}°{where}; gap {figures['max_gap']:.2g}, "
+                    f"Max normal angle {panel_text.degrees(math.radians(figures['max_angle_degrees']))}{where}; gap {figures['max_gap']:.2g}, "
                     f"{figures['degenerate_samples']} degenerate, {figures['flipped_samples']} flipped samples; "
                     f"{len(figures['selected_edges'])} creased edges selected")
         return {"FINISHED"}

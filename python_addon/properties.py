@@ -22,7 +22,8 @@ ENTRY_TYPES = [
     ("SUBDIVIDE", "Subdivide", "OpenSubdiv subdivision (Catmull-Clark or Loop, with creases) of the mesh the "
      "entries above make; the last entry of the stack", "NONE", 6),
 ]
-AXES = [("X", "X", ""), ("Y", "Y", ""), ("Z", "Z", "")]
+AXES = [("X", "X", "Deform around the local X axis"), ("Y", "Y", "Deform around the local Y axis"),
+        ("Z", "Z", "Deform around the local Z axis")]
 LATTICE_BASES = [
     ("BLENDER", "Blender", "Blender's Lattice modifier, with the lattice's own interpolation settings", 0),
     ("BERNSTEIN", "Bernstein", "Sederberg-Parry FFD: one Bernstein polynomial of degree points - 1 per axis", 1),
@@ -118,24 +119,29 @@ def _not_self(self, obj):
 
 class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
     name: StringProperty(name="Name", default="Twist")
-    type: EnumProperty(name="Type", items=ENTRY_TYPES, default="TWIST", update=_type_changed)
+    type: EnumProperty(name="Type", items=ENTRY_TYPES, default="TWIST", update=_type_changed,
+                       description="What the entry does: one of Simple Deform's modes (Twist, Bend, Taper, "
+                                   "Stretch), a lattice, Laplacian surface editing or subdivision")
     show_viewport: BoolProperty(name="Viewport", description="Display in the viewport", default=True,
                                 update=_changed)
     show_render: BoolProperty(name="Render", description="Use in renders", default=True, update=_changed)
     show_expanded: BoolProperty(name="Expanded", default=True, description="Show the entry's settings")
+    # Simple Deform's soft range (±360°) and drag step.
     angle: FloatProperty(name="Angle", subtype="ANGLE", default=math.radians(45.0), update=_changed,
+                         soft_min=-2 * math.pi, soft_max=2 * math.pi, step=10,
                          description="Twist or bend angle over the limited extent (as Simple Deform)")
     factor: FloatProperty(name="Factor", default=0.785398, soft_min=-10.0, soft_max=10.0, update=_changed,
                           description="Taper or stretch amount (as Simple Deform)")
-    deform_axis: EnumProperty(name="Axis", items=AXES, default="X", update=_changed)
+    deform_axis: EnumProperty(name="Axis", items=AXES, default="X", update=_changed,
+                              description="Deform around local axis (of the origin object, if set)")
     origin: PointerProperty(name="Origin", type=bpy.types.Object, update=_origin_changed,
                             description="Object whose frame places the deformation")
     origin_name: StringProperty(options={"HIDDEN"})
     limits: FloatVectorProperty(name="Limits", size=2, default=(0.0, 1.0), min=0.0, max=1.0, precision=2,
                                 update=_changed, description="Lower and upper limits as fractions of the extent")
-    lock_x: BoolProperty(name="Lock X", update=_changed)
-    lock_y: BoolProperty(name="Lock Y", update=_changed)
-    lock_z: BoolProperty(name="Lock Z", update=_changed)
+    lock_x: BoolProperty(name="Lock X", update=_changed, description="Do not allow deformation along the X axis")
+    lock_y: BoolProperty(name="Lock Y", update=_changed, description="Do not allow deformation along the Y axis")
+    lock_z: BoolProperty(name="Lock Z", update=_changed, description="Do not allow deformation along the Z axis")
     lattice: PointerProperty(name="Lattice", type=bpy.types.Object, poll=_is_lattice, update=_lattice_changed,
                              description="Lattice object whose points deform the mesh (edit it in its edit mode)")
     lattice_name: StringProperty(options={"HIDDEN"})
@@ -145,8 +151,10 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
                             description="How far the mesh follows the lattice (as the Lattice modifier)")
     outside: EnumProperty(name="Outside", items=OUTSIDE, default="CLAMP", update=_changed,
                           description="What happens to points outside the lattice")
-    vertex_group: StringProperty(name="Vertex Group", update=_changed)
-    invert_vertex_group: BoolProperty(name="Invert", update=_changed)
+    vertex_group: StringProperty(name="Vertex Group", update=_changed,
+                                 description="Vertex group whose weights scale the entry's effect per vertex "
+                                             "(none: every vertex fully)")
+    invert_vertex_group: BoolProperty(name="Invert", update=_changed, description="Invert vertex group influence")
     # Laplacian entries
     method: EnumProperty(name="Method", items=SURFACE_METHODS, default="ARAP", update=_changed,
                          description="How the surface keeps its shape")

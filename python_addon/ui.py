@@ -1,9 +1,7 @@
 """Panel in the Modifiers tab, laid out like Blender's own modifier panels."""
-import math
-
 import bpy
 
-from . import entries, native
+from . import entries, native, panel_text
 from .entries.common import draw_vertex_group  # noqa: F401  (where it was before the entries/ folder)
 from .properties import ENTRY_TYPES
 
@@ -63,20 +61,26 @@ class DEFORMKIT_PT_stack(bpy.types.Panel):
             layout.alert = True
             layout.label(text=native.IMPORT_ERROR, icon="ERROR")
             return
+        budget = panel_text.context_budget(context)
         row = layout.row()
         row.menu(DEFORMKIT_MT_add.bl_idname, icon="ADD")
+        if not len(stack.entries):  # on every mesh: compact until it has entries
+            if stack.error:
+                panel_text.label_wrapped(layout, stack.error, "ERROR", budget)
+            return
         row.prop(stack, "show_volume_ratio", text="", icon="COLOR")
         broken = [e.name for e in stack.entries if e.error]
         for message in ([stack.error] if stack.error else []) + (
                 [f"Result not updated until {', '.join(broken)} is fixed"] if broken else []):
             box = layout.box()
             box.alert = True
-            box.label(text=message, icon="ERROR")
+            panel_text.label_wrapped(box, message, "ERROR", budget)
         mod = obj.modifiers.get("deformkit")
         if len(stack.entries) and mod is not None and not mod.show_viewport:
-            layout.label(text="The 'deformkit' modifier, which shows the result, is hidden", icon="INFO")
+            panel_text.label_wrapped(layout, "The 'deformkit' modifier, which shows the result, is hidden", "INFO",
+                                     budget)
         for note in entries.volume_notes(stack.entries) if stack.show_volume_ratio else ():
-            layout.label(text=note, icon="INFO")
+            panel_text.label_wrapped(layout, note, "INFO", budget)
         for entry in stack.entries:
             draw_entry(layout.box(), obj, entry)
         draw_smoothness(layout.box(), stack)
@@ -99,28 +103,47 @@ def draw_entry(box, obj, entry):
     if entry.error:
         alert = box.row()
         alert.alert = True
-        alert.label(text=entry.error, icon="ERROR")
+        panel_text.label_wrapped(alert, entry.error, "ERROR")
     if not entry.show_expanded:
         return
-    box.row().prop(entry, "type", expand=True)
     col = box.column()
     col.use_property_split = True
+    # A dropdown: seven expanded buttons are cut to "Str… Latt…" at the default width.
+    col.prop(entry, "type", text=type_label(entry))
     entries.kind(entry).draw(col, obj, entry)
+
+
+def type_label(entry):
+    """The Type row's label: "Mode" for the Barr kinds, whose types are Simple Deform's modes
+    (its deform_method is named Mode), "Type" for the others."""
+    return "Mode" if entries.kind(entry).TYPES == entries.barr.TYPES else "Type"
 
 
 def draw_smoothness(box, stack):
     """Check Smoothness and the figures of its last run (of the cage, before any Subdivide entry)."""
     box.operator("deformkit.check_smoothness", icon="MOD_SMOOTH")
-    figures = stack.smoothness
-    if not figures.checked:
+    if not stack.smoothness.checked:
         return
     col = box.column(align=True)
-    col.label(text="Last check, of the cage:")
-    col.label(text=f"Max normal angle: {math.degrees(figures.max_angle):.3g}° at edge {tuple(figures.worst_edge)}")
-    col.label(text=f"Max gap: {figures.max_gap:.2g} of the diagonal")
-    col.label(text=f"Degenerate samples: {figures.degenerate}, flipped: {figures.flipped}")
-    col.label(text=f"Creased edges selected: {figures.selected}",
-              icon="ERROR" if figures.selected else "CHECKMARK")
+    for text, icon in smoothness_lines(stack.smoothness):
+        col.label(text=text, icon=icon)
+
+
+def smoothness_lines(figures):
+    """(text, icon) of each line the panel shows for the last Check Smoothness: a problem (creased
+    edges, flipped or degenerate samples) is a warning on its own line; the check mark only when
+    there is none."""
+    edge = f" at edge {tuple(figures.worst_edge)}" if figures.worst_edge[0] >= 0 else ""
+    lines = [("Last check, of the cage:", "NONE"),
+             (f"Max normal angle: {panel_text.degrees(figures.max_angle)}{edge}", "NONE"),
+             (f"Max gap: {figures.max_gap:.2g} of the diagonal", "NONE")]
+    problems = [(f"Flipped samples: {figures.flipped}", figures.flipped),
+                (f"Degenerate samples: {figures.degenerate}", figures.degenerate),
+                (f"Creased edges selected: {figures.selected}", figures.selected)]
+    lines += [(text, "ERROR" if count else "NONE") for text, count in problems]
+    if not any(count for _text, count in problems):
+        lines.append(("Smooth", "CHECKMARK"))
+    return lines
 
 
 classes = (DEFORMKIT_MT_add, DEFORMKIT_MT_entry_specials, DEFORMKIT_PT_stack)

@@ -16,6 +16,7 @@ depends on changes: method, weights, iterations (ARAP, rotation-invariant), anch
 Here too: the entry's settings and panel, and its Bind and Unbind operators.
 """
 import random
+import re
 import zlib
 from collections import namedtuple
 
@@ -24,6 +25,7 @@ import numpy as np
 
 from .. import api, cache, meshdata, native
 from ..outputs import EntryError
+from ..panel_text import label_wrapped
 from .common import KindOperator, Prepared, core_missing, followed_object, mesh_object, write_base
 
 TYPES = ("LAPLACIAN",)
@@ -269,6 +271,65 @@ def status(obj, entry):
             list(cached.deformer.warnings))
 
 
+# dk.SurfaceDeformer's warning for a connected component that nothing holds (surface_deformer.cpp,
+# fixed_vertices): one per component, so a mesh of many loose parts would fill the panel.
+_UNANCHORED = re.compile(r"component \d+ \(\d+ vertices\) has no anchor or handle; it is left where it is")
+
+
+def summarised_warnings(warnings):
+    """(number of parts left where they are, the other warnings) of the solver's warnings."""
+    others = [w for w in warnings if not _UNANCHORED.fullmatch(w)]
+    return len(warnings) - len(others), others
+
+
+def unanchored_line(count):
+    """The panel's one line for `count` parts without an anchor or handle."""
+    # Short enough for one line beside the Select button at the default width; the button's
+    # tooltip says that handles hold a part too.
+    if count == 1:
+        return "1 part without anchors stays in place"
+    return f"{count} parts without anchors stay in place"
+
+
+def face_components(topo):
+    """Each vertex's connected component through the polygons (a vertex in none is its own), as
+    dk.SurfaceDeformer groups them: labels are the smallest vertex index of the component.
+    Hooking and pointer jumping on numpy arrays (Shiloach-Vishkin): O(log n) rounds, no Python
+    loop over the mesh."""
+    parent = np.arange(topo.vertices)
+    a, offsets = _ordered_corners(topo)
+    b = np.repeat(a[offsets], topo.totals)  # each corner joined to its polygon's first
+    while True:
+        ra, rb = parent[a], parent[b]
+        differ = ra != rb
+        if not differ.any():
+            return parent
+        np.minimum.at(parent, np.maximum(ra, rb)[differ], np.minimum(ra, rb)[differ])
+        while True:  # every vertex points at its root again
+            grand = parent[parent]
+            if np.array_equal(grand, parent):
+                break
+            parent = grand
+
+
+def _ordered_corners(topo):
+    """The corners' vertices polygon by polygon, and each polygon's first corner in them."""
+    order = meshdata.corner_order(topo)
+    corners = np.asarray(topo.corners if order is None else topo.corners[order], np.int64)
+    return corners, np.cumsum(topo.totals, dtype=np.int64) - topo.totals
+
+
+def unanchored_vertices(obj, entry):
+    """The vertices of the components of the mesh with no anchor and no handle (those the
+    solver leaves where they are), sorted."""
+    topo = meshdata.topology(obj.data)
+    anchors, handles = members(obj, entry)
+    labels = face_components(topo)
+    held = np.zeros(topo.vertices, bool)
+    held[labels[np.concatenate([anchors, handles]).astype(np.int64)]] = True
+    return np.flatnonzero(~held[labels])
+
+
 def prune(object_key, entries):
     """Drop the solvers of binds that the object no longer has (removed, unbound, retyped)."""
     bind_ids = {e.bind_id for e in entries}
@@ -310,8 +371,13 @@ def draw(col, obj, entry):
     col.separator()
     text, warnings = status(obj, entry)
     col.label(text=text, icon="LINKED" if is_bound(entry) else "UNLINKED")
+    unanchored, warnings = summarised_warnings(warnings)
+    if unanchored:
+        row = col.row()
+        row.label(text=unanchored_line(unanchored), icon="INFO")
+        row.operator("deformkit.laplacian_select_unanchored", text="Select", icon="RESTRICT_SELECT_OFF").index = index
     for warning in warnings:
-        col.label(text=warning, icon="INFO")
+        label_wrapped(col, warning, "INFO")
     if is_bound(entry):
         col.operator("deformkit.laplacian_unbind", text="Unbind", icon="UNLINKED").index = index
     else:
@@ -361,4 +427,44 @@ class DEFORMKIT_OT_laplacian_unbind(_LaplacianOperator, bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (DEFORMKIT_OT_laplacian_bind, DEFORMKIT_OT_laplacian_unbind)
+class DEFORMKIT_OT_laplacian_select_unanchored(KindOperator, bpy.types.Operator):
+    """Select the parts of the mesh that have no anchor and no handle, which the entry leaves where they are (in Edit Mode)"""
+    bl_idname = "deformkit.laplacian_select_unanchored"
+    bl_label = "Select Parts Without Anchors"
+    TYPES = TYPES
+
+    @classmethod
+    def poll(cls, context):
+        obj = mesh_object(context)
+        if obj is None or not cls.has_entry(obj):
+            cls.poll_message_set("Needs a mesh with a Laplacian entry")
+            return False
+        return True
+
+    def run(self, context):
+        obj, index = self.target(context)
+        if obj.mode == "EDIT":
+            bpy.ops.object.mode_set(mode="OBJECT")  # writes the edit mesh back, to read it
+        vertices = unanchored_vertices(obj, obj.deformkit.entries[index])
+        select_vertices(obj.data, vertices)
+        bpy.ops.object.mode_set(mode="EDIT")
+        self.report({"INFO"}, f"{len(vertices)} vertices selected")
+        return {"FINISHED"}
+
+
+def select_vertices(mesh, vertices):
+    """Exactly `vertices` selected, with the edges and faces between them (as Edit Mode's flush)."""
+    chosen = np.zeros(len(mesh.vertices), bool)
+    chosen[vertices] = True
+    mesh.vertices.foreach_set("select", chosen)
+    edges = np.empty(2 * len(mesh.edges), np.int32)
+    mesh.edges.foreach_get("vertices", edges)
+    mesh.edges.foreach_set("select", chosen[edges].reshape(-1, 2).all(1))
+    topo = meshdata.topology(mesh)
+    if topo.faces:
+        corners, offsets = _ordered_corners(topo)
+        inside = np.minimum.reduceat(chosen[corners].astype(np.int8), offsets).astype(bool)
+        mesh.polygons.foreach_set("select", inside)
+
+
+classes = (DEFORMKIT_OT_laplacian_bind, DEFORMKIT_OT_laplacian_unbind, DEFORMKIT_OT_laplacian_select_unanchored)

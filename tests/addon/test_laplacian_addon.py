@@ -608,7 +608,7 @@ def test_panel_shows_the_laplacian_entry(scene):
 
     import bmesh
     import bpy
-    from deformkit_addon import api, ui
+    from deformkit_addon import api, panel_text, ui
     obj = make_tube(bpy)
     bm = bmesh.new()
     bm.from_mesh(obj.data)
@@ -634,8 +634,11 @@ def test_panel_shows_the_laplacian_entry(scene):
     log = draw()
     assert ("operator", "deformkit.laplacian_unbind") in log
     assert ("label", "Bound: 322 vertices, 32 anchors, 33 handles") in log
-    assert ("label", "component 1 (1 vertices) has no anchor or handle; it is left where it is") in log
-    assert ("label", "Volume colors leave out Laplacian entries (no Jacobian)") in log
+    assert ("label", "1 part without anchors stays in place") in log
+    assert ("operator", "deformkit.laplacian_select_unanchored") in log
+    labels = [text for kind, text in log if kind == "label"]
+    note = panel_text.wrap("Volume colors leave out Laplacian entries (no Jacobian)", panel_text.char_budget())
+    assert labels[labels.index(note[0]):][:len(note)] == note
     entry.anchors_group = "Missing"
     assert ("label", "anchors vertex group 'Missing' not found") in draw()
     log = []

@@ -1,0 +1,319 @@
+"""The panel at Blender's default Properties width (issue 14, "The panel"): the type as a dropdown,
+messages wrapped at word boundaries, tooltips and Simple Deform's angle range, the Laplacian's
+unanchored parts in one line with a Select button, a compact panel without entries, and Check
+Smoothness's figures with honest icons and readable angles."""
+import random
+import types
+
+from addon_helpers import CheckingLayout, make_object
+
+
+class KeywordLayout(CheckingLayout):
+    """A CheckingLayout that also records the keywords each property is drawn with."""
+
+    def __init__(self, log, keywords):
+        super().__init__(log)
+        self.keywords = keywords
+
+    def row(self, **_kw):
+        return KeywordLayout(self.log, self.keywords)
+
+    column = box = row
+
+    def prop(self, data, name, icon="NONE", **kw):
+        super().prop(data, name, icon=icon, **kw)
+        self.keywords.setdefault(name, []).append(kw)
+
+
+def draw_panel(obj, layout_type=CheckingLayout, *extra):
+    from deformkit_addon import ui
+    log = []
+    ui.DEFORMKIT_PT_stack.draw(types.SimpleNamespace(layout=layout_type(log, *extra)),
+                               types.SimpleNamespace(object=obj))
+    return log
+
+
+# ---------------------------------------------------------------------------------------------
+# 1. The type row and wrapped messages
+
+def test_the_type_is_a_dropdown_labelled_as_blender_does(scene):
+    import bpy
+    from deformkit_addon import api, entries
+    obj = make_object(bpy)
+    for entry_type in entries.TYPES:
+        if entry_type != "SUBDIVIDE":
+            api.add_entry(obj, entry_type)
+    keywords = {}
+    draw_panel(obj, KeywordLayout, keywords)
+    drawn = keywords["type"]
+    assert len(drawn) == len(obj.deformkit.entries)
+    assert not any(kw.get("expand") for kw in drawn)  # a dropdown, not one button per type
+    # Simple Deform names its mode property "Mode"; the Barr types are its modes.
+    simple_deform_mode = bpy.types.SimpleDeformModifier.bl_rna.properties["deform_method"].name
+    labels = [kw.get("text") for kw in drawn]
+    assert labels == [simple_deform_mode if e.type in entries.barr.TYPES else "Type" for e in obj.deformkit.entries]
+
+
+def test_wrap_keeps_every_word_whole_within_the_budget():
+    from deformkit_addon import panel_text
+    rng = random.Random(14)
+    for _ in range(300):
+        words = ["".join(rng.choice("abcdefghij'.,") for _ in range(rng.randint(1, 14)))
+                 for _ in range(rng.randint(0, 30))]
+        budget = rng.randint(16, 60)
+        text = (" " * rng.randint(1, 2)).join(words)
+        lines = panel_text.wrap(text, budget)
+        assert " ".join(lines).split() == words  # every word kept, in order, none cut
+        assert all(len(line) <= budget for line in lines)
+        assert all(line == line.strip() and line for line in lines)
+        # Greedy: the next line's first word would not have fit on the line before.
+        for before, after in zip(lines, lines[1:]):
+            assert len(before) + 1 + len(after.split()[0]) > budget
+
+
+def test_a_word_longer_than_the_budget_gets_its_own_line_uncut():
+    from deformkit_addon import panel_text
+    long_word = "/very/long/path/to/a/lattice/object/name.001"
+    lines = panel_text.wrap(f"object {long_word} no longer exists", 20)
+    assert lines == ["object", long_word, "no longer exists"]
+
+
+def test_the_budget_follows_the_region_width_and_the_ui_scale():
+    from deformkit_addon import panel_text
+    narrow, default, wide = (panel_text.char_budget(w) for w in (200, panel_text.DEFAULT_WIDTH, 600))
+    assert narrow < default < wide
+    assert panel_text.char_budget(None) == default
+    # At twice the UI scale the region is twice as many pixels wide for the same characters.
+    assert panel_text.char_budget(2 * panel_text.DEFAULT_WIDTH, 2.0) == default
+    assert panel_text.char_budget(1) == panel_text.MIN_BUDGET
+
+
+def test_a_long_entry_error_is_drawn_as_whole_lines(scene):
+    import bpy
+    from deformkit_addon import api, panel_text
+    obj = make_object(bpy)
+    entry = api.add_entry(obj, "TWIST")
+    entry.error = ("origin object 'A rather long origin name for an empty' was deleted (it is in no scene), "
+                   "set another origin or clear the field")
+    labels = [text for kind, text in draw_panel(obj) if kind == "label"]
+    lines = panel_text.wrap(entry.error, panel_text.char_budget())
+    assert len(lines) > 1
+    start = labels.index(lines[0])
+    assert labels[start:start + len(lines)] == lines
+
+
+# ---------------------------------------------------------------------------------------------
+# 2. Tooltips and the angle's range, against Blender's own Simple Deform RNA
+
+def test_the_settings_artists_hover_have_tooltips(addon):
+    from deformkit_addon import properties
+    rna = properties.DEFORMKIT_PG_entry.bl_rna.properties
+    for name in ("type", "deform_axis", "lock_x", "lock_y", "lock_z", "vertex_group", "invert_vertex_group"):
+        assert rna[name].description.strip(), name
+        assert rna[name].description != rna[name].name, name
+    for item in rna["deform_axis"].enum_items:
+        assert item.identifier in item.description
+
+
+def test_the_locks_and_invert_say_what_simple_deform_says(addon):
+    import bpy
+    from deformkit_addon import properties
+    ours = properties.DEFORMKIT_PG_entry.bl_rna.properties
+    blender = bpy.types.SimpleDeformModifier.bl_rna.properties
+    for name in ("lock_x", "lock_y", "lock_z", "invert_vertex_group"):
+        assert ours[name].description == blender[name].description, name
+
+
+def test_the_angle_has_simple_deforms_soft_range_and_step(addon):
+    import bpy
+    from deformkit_addon import properties
+    ours = properties.DEFORMKIT_PG_entry.bl_rna.properties["angle"]
+    blender = bpy.types.SimpleDeformModifier.bl_rna.properties["angle"]
+    assert abs(ours.soft_min - blender.soft_min) < 1e-6 and abs(ours.soft_max - blender.soft_max) < 1e-6
+    assert ours.step == blender.step
+    assert ours.subtype == blender.subtype == "ANGLE"
+    # Only the UI range: values beyond it (typed, keyframed, driven) are still accepted.
+    assert ours.hard_min < ours.soft_min and ours.hard_max > ours.soft_max
+
+
+def test_the_saved_data_paths_keep_their_names_types_and_defaults(addon):
+    import math
+
+    from deformkit_addon import properties
+    rna = properties.DEFORMKIT_PG_entry.bl_rna.properties
+    assert (rna["type"].type, rna["type"].default, rna["type"].name) == ("ENUM", "TWIST", "Type")
+    assert (rna["angle"].type, rna["angle"].name) == ("FLOAT", "Angle")
+    assert abs(rna["angle"].default - math.radians(45.0)) < 1e-7
+    assert (rna["deform_axis"].type, rna["deform_axis"].default) == ("ENUM", "X")
+    assert [i.identifier for i in rna["deform_axis"].enum_items] == ["X", "Y", "Z"]
+    for name in ("lock_x", "lock_y", "lock_z", "invert_vertex_group"):
+        assert (rna[name].type, rna[name].default) == ("BOOLEAN", False), name
+    assert (rna["vertex_group"].type, rna["vertex_group"].default) == ("STRING", "")
+
+
+# ---------------------------------------------------------------------------------------------
+# 3. A Laplacian entry on a mesh of many loose parts
+
+def add_loose_parts(bpy, obj, count, anchored):
+    """`count` separate quads (plus a loose vertex) off the side of the tube, the first `anchored`
+    of them in the Bottom group; returns the new vertices' indices per part."""
+    import bmesh
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    first = len(bm.verts)
+    for k in range(count):
+        quad = [bm.verts.new((3.0 + k, dx, dz)) for dx, dz in ((0, 0), (0.5, 0), (0.5, 0.5), (0, 0.5))]
+        bm.faces.new(quad)
+    bm.verts.new((-3.0, 0.0, 0.0))
+    bm.to_mesh(obj.data)
+    bm.free()
+    parts = [list(range(first + 4 * k, first + 4 * k + 4)) for k in range(count)] + [[first + 4 * count]]
+    obj.vertex_groups["Bottom"].add([v for part in parts[:anchored] for v in part], 1.0, "REPLACE")
+    return parts
+
+
+def components_by_union_find(obj):
+    """The mesh's connected components through its polygons, by a plain union-find."""
+    parent = list(range(len(obj.data.vertices)))
+
+    def root(v):
+        while parent[v] != v:
+            parent[v] = parent[parent[v]]
+            v = parent[v]
+        return v
+
+    for polygon in obj.data.polygons:
+        vs = list(polygon.vertices)
+        for v in vs[1:]:
+            parent[root(v)] = root(vs[0])
+    groups = {}
+    for v in range(len(parent)):
+        groups.setdefault(root(v), set()).add(v)
+    return list(groups.values())
+
+
+def held_vertices(obj):
+    held = set()
+    for name in ("Bottom", "Top"):
+        index = obj.vertex_groups[name].index
+        held |= {v.index for v in obj.data.vertices if any(g.group == index and g.weight > 0 for g in v.groups)}
+    return held
+
+
+def test_loose_parts_are_one_line_with_a_select_button(scene):
+    import bpy
+    from deformkit_addon import api
+    from deformkit_addon.entries import laplacian
+    from addon_helpers import make_tube
+    obj = make_tube(bpy)
+    add_loose_parts(bpy, obj, count=43, anchored=3)
+    api.add_laplacian(obj, anchors_group="Bottom", handles_group="Top")
+    held = held_vertices(obj)
+    unheld = [c for c in components_by_union_find(obj) if not c & held]
+    assert len(unheld) == 43 - 3 + 1  # the quads outside Bottom and the loose vertex
+    log = draw_panel(obj)
+    labels = [text for kind, text in log if kind == "label"]
+    assert f"{len(unheld)} parts without anchors stay in place" in labels
+    assert not any("left where it is" in text for text in labels)  # no line per part
+    assert ("operator", "deformkit.laplacian_select_unanchored") in log
+    # The summary counts what the solver itself warned of, one warning per part.
+    solver_warnings = [w for w in laplacian.status(obj, obj.deformkit.entries[0])[1] if "left where it is" in w]
+    assert len(solver_warnings) == len(unheld)
+
+
+def test_one_loose_part_reads_in_the_singular(addon):
+    from deformkit_addon.entries import laplacian
+    warning = "component 3 (4 vertices) has no anchor or handle; it is left where it is"
+    assert laplacian.summarised_warnings([warning, "something else"]) == (1, ["something else"])
+    assert laplacian.unanchored_line(1) == "1 part without anchors stays in place"
+
+
+def test_select_selects_exactly_the_parts_without_anchors(scene):
+    import numpy as np
+    import bpy
+    from deformkit_addon import api
+    from addon_helpers import make_tube
+    obj = make_tube(bpy)
+    add_loose_parts(bpy, obj, count=12, anchored=5)
+    api.add_laplacian(obj, anchors_group="Bottom", handles_group="Top")
+    held = held_vertices(obj)
+    expected = sorted(v for c in components_by_union_find(obj) if not c & held for v in c)
+    for start in ("OBJECT", "EDIT"):
+        bpy.ops.object.mode_set(mode=start)
+        with bpy.context.temp_override(object=obj, active_object=obj):
+            assert bpy.ops.deformkit.laplacian_select_unanchored.poll()
+            assert bpy.ops.deformkit.laplacian_select_unanchored(index=0) == {"FINISHED"}
+        assert obj.mode == "EDIT"
+        bpy.ops.object.mode_set(mode="OBJECT")
+        selected = np.zeros(len(obj.data.vertices), bool)
+        obj.data.vertices.foreach_get("select", selected)
+        assert np.flatnonzero(selected).tolist() == expected
+        faces = [p.index for p in obj.data.polygons if p.select]
+        assert faces == [p.index for p in obj.data.polygons if set(p.vertices) <= set(expected)]
+        assert faces  # the loose quads
+
+
+def test_select_needs_a_laplacian_entry(scene):
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    api.add_entry(obj, "TWIST")
+    with bpy.context.temp_override(object=obj, active_object=obj):
+        assert not bpy.ops.deformkit.laplacian_select_unanchored.poll()
+
+
+# ---------------------------------------------------------------------------------------------
+# 4. A compact panel without entries; Check Smoothness's figures
+
+def test_without_entries_the_panel_is_the_add_button(scene):
+    import bpy
+    obj = make_object(bpy)
+    log = draw_panel(obj)
+    assert log == []  # the Add menu only (CheckingLayout logs no menus): no toggles, no Check Smoothness
+    obj.deformkit.entries.add()
+    assert ("operator", "deformkit.check_smoothness") in draw_panel(obj)
+
+
+def figures(**values):
+    base = dict(checked=True, max_angle=0.0, max_gap=0.0, degenerate=0, flipped=0, worst_edge=(-1, -1), selected=0)
+    return types.SimpleNamespace(**{**base, **values})
+
+
+def test_a_flip_is_a_warning_not_a_check_mark(addon):
+    from deformkit_addon import ui
+    lines = ui.smoothness_lines(figures(flipped=200, max_angle=2.4e-13))
+    icons = dict(lines)
+    assert icons["Flipped samples: 200"] == "ERROR"
+    assert "CHECKMARK" not in icons.values()
+    for problem in (dict(selected=3), dict(degenerate=2)):
+        assert "CHECKMARK" not in dict(ui.smoothness_lines(figures(**problem))).values()
+    smooth = ui.smoothness_lines(figures(max_angle=1e-9, worst_edge=(4, 7)))
+    assert "ERROR" not in dict(smooth).values() and "CHECKMARK" in dict(smooth).values()
+
+
+def test_angles_read_in_degrees_without_exponents(addon):
+    import math
+
+    from deformkit_addon import panel_text
+    assert panel_text.degrees(math.radians(1.35e-11)) == "< 0.001°"
+    assert panel_text.degrees(0.0) == "0°"
+    rng = random.Random(4)
+    for _ in range(500):
+        value = 10 ** rng.uniform(-3, 2.5) * rng.choice((-1, 1))
+        text = panel_text.degrees(math.radians(value))
+        assert "e" not in text and text.endswith("°")
+        shown = float(text[:-1])
+        decimals = len(text[:-1].split(".")[1])
+        assert abs(shown - value) <= 0.5 * 10 ** -decimals + 1e-12
+        assert abs(shown - value) <= 0.01 * abs(value) + 0.0005  # within 1 % (3 significant digits from 0.1°)
+
+
+def test_the_panel_shows_the_smoothness_lines(scene):
+    import bpy
+    from deformkit_addon import api, ui
+    obj = make_object(bpy)
+    api.add_entry(obj, "SUBDIVIDE", levels=1)
+    api.check_smoothness(obj)
+    labels = [text for kind, text in draw_panel(obj) if kind == "label"]
+    expected = [text for text, _icon in ui.smoothness_lines(obj.deformkit.smoothness)]
+    assert labels[-len(expected):] == expected
