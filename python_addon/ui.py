@@ -71,7 +71,7 @@ class DEFORMKIT_PT_stack(bpy.types.Panel):
         row.prop(stack, "show_volume_ratio", text="", icon="COLOR")
         broken = [e.name for e in stack.entries if e.error]
         for message in ([stack.error] if stack.error else []) + (
-                [f"Result not updated until {', '.join(broken)} is fixed"] if broken else []):
+                [f"See the message on {', '.join(broken)}; the other entries still apply"] if broken else []):
             box = layout.box()
             box.alert = True
             panel_text.label_wrapped(box, message, "ERROR", budget)
