@@ -119,6 +119,29 @@ def move_entry(obj, index, direction):
     evaluation.evaluate(obj, force=True)
 
 
+def move_entry_to(obj, index, where):
+    """Move entry `index` to the first or the last place ('FIRST', 'LAST'), as a modifier's Move to
+    First/Last; the last place of an entry that keeps the topology is above a Subdivide entry,
+    which must stay last. Returns the entry's new index."""
+    stack = obj.deformkit
+    if not 0 <= index < len(stack.entries):
+        raise IndexError(f"index: {index} is out of range for {len(stack.entries)} entries")
+    if where not in ("FIRST", "LAST"):
+        raise ValueError(f"where: expected 'FIRST' or 'LAST', got {where!r}")
+    others = [e for i, e in enumerate(stack.entries) if i != index]
+    if where == "FIRST":
+        target = 0
+    elif kinds.kind(stack.entries[index]).LAST:
+        target = len(stack.entries) - 1
+    else:
+        target = kinds.last_index(others)
+    if target != index:
+        stack.entries.move(index, target)
+    stack.active_index = target
+    evaluation.evaluate(obj, force=True)
+    return target
+
+
 def apply(obj, index=0):
     """Bake entry `index` into the mesh; returns Blender's warning when it was not first."""
     stack = obj.deformkit

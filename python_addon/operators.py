@@ -56,14 +56,18 @@ class DEFORMKIT_OT_entry_remove(_EntryOperator, bpy.types.Operator):
 
 
 class DEFORMKIT_OT_entry_move(_EntryOperator, bpy.types.Operator):
-    """Move the entry up or down in the stack"""
+    """Move the entry up or down in the stack, or to its first or last place"""
     bl_idname = "deformkit.entry_move"
     bl_label = "Move deformkit Entry"
-    direction: EnumProperty(items=[("UP", "Up", ""), ("DOWN", "Down", "")])
+    direction: EnumProperty(items=[("UP", "Up", ""), ("DOWN", "Down", ""), ("FIRST", "First", "Move to the top"),
+                                   ("LAST", "Last", "Move to the bottom (above a Subdivide entry)")])
 
     def execute(self, context):
         try:
-            api.move_entry(context.object, self.entry_index(context), -1 if self.direction == "UP" else 1)
+            if self.direction in ("FIRST", "LAST"):
+                api.move_entry_to(context.object, self.entry_index(context), self.direction)
+            else:
+                api.move_entry(context.object, self.entry_index(context), -1 if self.direction == "UP" else 1)
         except IndexError:
             return {"CANCELLED"}
         return {"FINISHED"}

@@ -35,8 +35,11 @@ class DEFORMKIT_MT_entry_specials(bpy.types.Menu):
         layout = self.layout
         layout.operator("deformkit.entry_apply", text="Apply", icon="CHECKMARK").index = index
         layout.separator()
+        last = index < len(stack.entries) - 1
         for label, direction, icon, enabled in (("Move Up", "UP", "TRIA_UP", index > 0),
-                                                ("Move Down", "DOWN", "TRIA_DOWN", index < len(stack.entries) - 1)):
+                                                ("Move Down", "DOWN", "TRIA_DOWN", last),
+                                                ("Move to First", "FIRST", "TRIA_UP_BAR", index > 0),
+                                                ("Move to Last", "LAST", "TRIA_DOWN_BAR", last)):
             sub = layout.column()
             sub.enabled = enabled
             op = sub.operator("deformkit.entry_move", text=label, icon=icon)
