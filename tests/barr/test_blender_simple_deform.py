@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 import deformkit as dk
+from support.helpers import euler_xyz, trs
 from support.blender_runner import bpy_oracle as load_bpy_oracle, empty_scene, run_blender_binary, write_raw
 
 HERE = Path(__file__).resolve().parent
@@ -29,22 +30,6 @@ ATOL_REL = 2e-5  # times the bounding-box diagonal: float32 precision with headr
 
 # ---------------------------------------------------------------------------------------------
 # Geometry and transforms (deterministic)
-
-
-def euler_xyz(rx, ry, rz):
-    """Blender's XYZ Euler: R = Rz @ Ry @ Rx."""
-    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
-    rxm = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
-    rym = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
-    rzm = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
-    return rzm @ rym @ rxm
-
-
-def trs(t=(0, 0, 0), euler=(0, 0, 0), s=(1, 1, 1)):
-    m = np.eye(4)
-    m[:3, :3] = euler_xyz(*euler) @ np.diag(s)
-    m[:3, 3] = t
-    return m
 
 
 def make_torus():

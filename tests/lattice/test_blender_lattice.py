@@ -33,6 +33,7 @@ import numpy as np
 import pytest
 
 import deformkit as dk
+from support.helpers import euler_xyz, trs
 from support.blender_runner import bpy_oracle, empty_scene, run_blender_binary, write_raw
 
 ATOL_REL = 1e-5  # times the lattice size; see the module docstring
@@ -46,22 +47,6 @@ SHORT = {LINEAR: "lin", CARDINAL: "card", CATMULL_ROM: "cr", BSPLINE: "bsp"}
 
 # ---------------------------------------------------------------------------------------------
 # Transforms and the lattice's rest grid
-
-
-def euler_xyz(rx, ry, rz):
-    """Blender's XYZ Euler: R = Rz @ Ry @ Rx."""
-    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
-    rxm = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
-    rym = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
-    rzm = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
-    return rzm @ rym @ rxm
-
-
-def trs(t=(0, 0, 0), euler=(0, 0, 0), s=(1, 1, 1)):
-    m = np.eye(4)
-    m[:3, :3] = euler_xyz(*euler) @ np.diag(s)
-    m[:3, 3] = t
-    return m
 
 
 def apply(m, p):

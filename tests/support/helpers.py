@@ -238,3 +238,20 @@ def arap_step(w, p, q, fixed):
     free, out = np.setdiff1d(np.arange(len(p)), fixed), q.copy()
     out[free] = np.linalg.solve(L[np.ix_(free, free)], b[free] - L[np.ix_(free, fixed)] @ q[fixed])
     return out
+
+
+def euler_xyz(rx, ry, rz):
+    """Blender's XYZ Euler: R = Rz @ Ry @ Rx."""
+    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
+    rxm = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    rym = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    rzm = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return rzm @ rym @ rxm
+
+
+def trs(t=(0, 0, 0), euler=(0, 0, 0), s=(1, 1, 1)):
+    """A 4x4 matrix as Blender composes location, XYZ Euler rotation and scale."""
+    m = np.eye(4)
+    m[:3, :3] = euler_xyz(*euler) @ np.diag(s)
+    m[:3, 3] = t
+    return m
