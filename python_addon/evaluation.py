@@ -1,30 +1,32 @@
-"""Evaluation: turn an object's deformkit stack into positions and hand them to Blender.
+"""Evaluation: turn an object's deformkit stack into a result and hand it to Blender.
 
-The base mesh is never written. The stack's result is stored as a per-point position attribute
-(and a second one for renders when an entry is hidden in one of them) that a Geometry Nodes
-modifier named "deformkit" stores into the positions, so the result takes part in Blender's own
-modifier stack, saves with the file and survives with the add-on disabled; removing every entry
-removes the modifier and the attributes, which gives back the original mesh bit for bit. A
-Subdivide entry, last in the stack, subdivides that result into helper objects whose geometry the
-modifier then outputs instead (entries/subdivide.py). Each entry runs through its kind (entries/).
+The base mesh is never written. The entries deform the points Blender's first modifier gets (the
+shape keys mixed, the edit mesh's in Edit Mode: meshdata.input_positions), and the result is stored
+as offsets from them that a Geometry Nodes modifier named "deformkit" adds (outputs.py): in the
+object's own mesh, or in a per-object helper in Edit Mode and on a mesh shared by linked
+duplicates. So the result takes part in Blender's own modifier stack, saves with the file and
+survives with the add-on disabled; removing every entry removes the modifier and the attributes,
+which gives back the original mesh bit for bit. A Subdivide entry, last in the stack, subdivides
+that result into helper objects whose geometry the modifier then outputs instead
+(entries/subdivide.py). Each entry runs through its kind (entries/).
 """
 import time
 
 import bpy
 import numpy as np
 
-from . import cache, entries, native
+from . import cache, entries, native, outputs
 from .entries import common, subdivide
-from .meshdata import base_positions, cache_key, vertex_group_weights  # noqa: F401
-from .outputs import (ATTR_RENDER, ATTR_VIEWPORT, ATTR_VOLUME, MODIFIER_NAME, NODE_GROUP_NAME,  # noqa: F401
-                      EntryError, ensure_modifier, outputs_present, remove_outputs, write_vector_attribute,
-                      write_volume_colors)
+from .meshdata import base_positions, cache_key, input_positions, vertex_group_weights  # noqa: F401
+from .outputs import (ATTR_OFFSET, ATTR_OFFSET_RENDER, ATTR_VOLUME, MODIFIER_NAME, NODE_GROUP_NAME,  # noqa: F401
+                      EntryError, remove_outputs)
 
 
 _evaluating = set()  # session_uids being evaluated: writes below re-enter through handlers
-# In the cache: "inputs", (cache key,) -> (fingerprint of the settings, base positions, {index: message}
-# of the entries that failed on them) last written;
-# "echo", (cache key,) -> time of the add-on's last write, whose depsgraph echo is expected.
+# In the cache: "inputs", (cache key,) -> (fingerprint of the settings, input positions, {index:
+# message} of the entries that failed on them, the viewport result) last written;
+# "echo", (cache key,) -> time of the add-on's last write into the object's own mesh, whose
+# depsgraph echo is expected.
 ECHO_WINDOW = 1.0    # seconds within which a depsgraph update of the mesh counts as that echo
 
 
@@ -40,19 +42,26 @@ def object_problem(obj):
     """Why deformkit cannot run on `obj`, or '' if it can."""
     if obj.type != "MESH":
         return f"'{obj.name}' is not a mesh; deformkit entries work on meshes"
-    if obj.data.shape_keys is not None:
-        return "objects with shape keys are not supported yet (shape keys are evaluated before modifiers)"
-    if len(obj.data.vertices) == 0:
+    if len(obj.data.vertices) == 0 and obj.mode != "EDIT":
         return "the mesh has no vertices"
-    if obj.data.users > 1 + int(obj.data.use_fake_user):
-        return (f"the mesh '{obj.data.name}' is shared by {obj.data.users} users; deformkit stores its result "
-                "in the mesh, so make it single user (Object > Relations > Make Single User)")
     mod = obj.modifiers.get(MODIFIER_NAME)
     if mod is not None and mod.type != "NODES":
         return f"a {mod.type.lower()} modifier named '{MODIFIER_NAME}' is in the way; rename it"
     if not native.available():
         return native.IMPORT_ERROR
     return ""
+
+
+def shared_mesh(obj):
+    """True when other objects use obj's mesh too (linked duplicates): the result is kept per object."""
+    return obj.data.users > 1 + int(obj.data.use_fake_user)
+
+
+def shown(entry, kind, editing):
+    """Whether the entry runs in the viewport (in Edit Mode: only with its Edit Mode toggle) or in renders."""
+    if kind == "render":
+        return entry.show_render
+    return entry.show_viewport and (entry.show_in_editmode or not editing)
 
 
 def origin_matrix(obj, entry):
@@ -88,13 +97,13 @@ def _set_if_changed(owner, prop, value):
 def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weights=None):
     """Recompute `obj`'s deformkit result. Returns True if it wrote a new result.
 
-    With reuse_base, the base positions of the last evaluation are used when the settings changed
+    With reuse_base, the input positions of the last evaluation are used when the settings changed
     (a parameter edit); with expect_echo, the depsgraph update this write causes is recognised as
     its echo (see is_echo_of_own_write). reuse_weights (default: as reuse_base) keeps the
     vertex-group weights read last time. A problem of the object's goes on the stack and leaves the
     mesh as it was; an entry that fails shows its message and is skipped, the others still run."""
     uid = cache_key(obj)
-    if uid in _evaluating or obj.mode == "EDIT":  # in edit mode the base mesh is stale until exit
+    if uid in _evaluating:
         return False
     stack = obj.deformkit
     problem = object_problem(obj)
@@ -103,17 +112,22 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         return False
     _evaluating.add(uid)
     try:
-        if len(stack.entries) == 0:
+        editing = obj.mode == "EDIT"
+        if len(stack.entries) == 0 or not any(e.show_viewport or e.show_render for e in stack.entries):
+            # Nothing shown anywhere: the original mesh, as with every modifier hidden.
             subdivide.discard(obj)
-            remove_outputs(obj)
+            remove_outputs(obj, mesh_attributes=not editing)  # Edit Mode: the edit mesh holds them
             cache.forget(uid)
             return True
+        weights = reuse_base if reuse_weights is None else reuse_weights
         cached = cache.get("inputs", (uid,))
-        if reuse_base and cached is not None and len(cached[1]) == len(obj.data.vertices):
+        count = len(obj.data.vertices) if not editing else None
+        if reuse_base and cached is not None and (count is None or len(cached[1]) == count):
             base = cached[1]
         else:
-            base = base_positions(obj.data)
-        built, key, sub = [], [len(base), stack.show_volume_ratio], None
+            base = input_positions(obj, weights)
+        per_object = editing or shared_mesh(obj)
+        built, key, sub = [], [len(base), stack.show_volume_ratio, editing, per_object], None
         entries.prune(uid, stack.entries)
         for index, entry in enumerate(stack.entries):
             try:
@@ -121,26 +135,27 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
                     raise EntryError(f"comes after the {entries.LABELS[sub.entry.type]} entry '{sub.entry.name}', "
                                      "which must be the last entry (it changes the topology): move this entry "
                                      "above it")
-                kind, prepared = entry_setup(obj, entry, reuse_base if reuse_weights is None else reuse_weights)
+                kind, prepared = entry_setup(obj, entry, weights)
             except ValueError as exc:
                 # As Blender skips a modifier it cannot run: its input goes on to the next entry.
                 _set_if_changed(entry, "error", str(exc))
                 key.append((index, str(exc)))
                 continue
             if kind.LAST:
-                sub, sub_index = prepared.data, index  # its error is cleared once it has subdivided
+                if not editing or entry.show_in_editmode:
+                    sub, sub_index = prepared.data, index  # its error is cleared once it has subdivided
             else:
                 _set_if_changed(entry, "error", prepared.note)  # a note: the entry still runs
                 built.append((index, entry, kind, prepared))
-            key.append(prepared.fingerprint)
+            key.append((prepared.fingerprint, entry.show_in_editmode))
         key = tuple(key)
         if (not force and cached is not None and cached[0] == key and np.array_equal(cached[1], base)
-                and outputs_present(obj)):
+                and _outputs_present(obj, per_object, sub is not None)):
             for index, message in cached[2].items():  # the entries that failed on these inputs still do
                 _set_if_changed(stack.entries[index], "error", message)
             return False
-        viewport = [b for b in built if b[1].show_viewport]
-        render = [b for b in built if b[1].show_render]
+        viewport = [b for b in built if shown(b[1], "viewport", editing)]
+        render = [b for b in built if shown(b[1], "render", editing)]
         pieces = [] if stack.show_volume_ratio else None
         failures = {}  # entry index -> message of the entries that failed on their input (skipped)
         try:
@@ -160,33 +175,131 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
                 _set_if_changed(sub.entry, "error", "")
         for index, message in failures.items():
             _set_if_changed(stack.entries[index], "error", message)
-        mesh = obj.data
-        split = render_positions is not positions
-        write_vector_attribute(mesh, ATTR_VIEWPORT, positions)
-        if split:
-            write_vector_attribute(mesh, ATTR_RENDER, render_positions)
-        elif ATTR_RENDER in mesh.attributes:
-            mesh.attributes.remove(mesh.attributes[ATTR_RENDER])
+        ratio = None
         if stack.show_volume_ratio and viewport:
             # Laplacian entries have no Jacobian: det J of the others, each run at its own input.
             ratio = np.ones(len(base))
             for deformers, points in pieces:
                 ratio *= native.dk.Stack(deformers).volume_ratio(points)
-            write_volume_colors(mesh, ratio)
-        elif ATTR_VOLUME in mesh.attributes:
-            mesh.attributes.remove(mesh.attributes[ATTR_VOLUME])
         if sub is None:  # no Subdivide entry (any more): its refined topologies go
             subdivide.forget(uid)
         helpers = subdivided and subdivide.write(obj, sub, subdivided)  # None: nothing subdivided
         subdivide.discard(obj, keep=helpers or ())
-        ensure_modifier(obj, split, helpers)
-        mesh.update()
-        cache.put("inputs", (uid,), (key, base, failures))
-        if expect_echo:
+        offsets = positions - base
+        render_offsets = None if render_positions is positions else render_positions - base
+        if helpers:
+            outputs.ensure_modifier(obj, "subdivided", list(zip(outputs.HELPER_INPUTS, helpers))
+                                    + [(outputs.VERTICES_INPUT, len(base))])
+        elif per_object:
+            helper = outputs.result_helper(obj)
+            outputs.write_result_helper(helper, offsets, render_offsets, ratio)
+            outputs.ensure_modifier(obj, "per_object_volume" if ratio is not None else "per_object",
+                                    [(outputs.RESULT_INPUT, helper)])
+        else:
+            outputs.ensure_modifier(obj, "offsets_split" if render_offsets is not None else "offsets")
+        if not editing:
+            _write_own_mesh(obj, None if (per_object or helpers) else (offsets, render_offsets), ratio)
+        if not per_object:
+            outputs.discard_result_helper(obj)
+        _edit_mode_toggles(obj, stack)
+        cache.put("inputs", (uid,), (key, base, failures, positions))
+        cache.put("mode", (uid,), obj.mode)
+        _set_if_changed(stack, "notice", "")
+        if expect_echo and not editing:
             cache.put("echo", (uid,), time.monotonic())
         return True
     finally:
         _evaluating.discard(uid)
+
+
+def _write_own_mesh(obj, offsets, ratio):
+    """The offsets (viewport, render or None) and volume colors in obj's own mesh; with offsets
+    None (the result is elsewhere) none of them: a shared mesh's would show on every object using it."""
+    mesh = obj.data
+    outputs.remove_attributes(mesh, outputs.LEGACY_ATTRIBUTES)
+    if offsets is None:
+        outputs.remove_attributes(mesh, outputs.OUTPUT_ATTRIBUTES)
+    else:
+        viewport, render = offsets
+        outputs.write_vector_attribute(mesh, ATTR_OFFSET, viewport)
+        if render is not None:
+            outputs.write_vector_attribute(mesh, ATTR_OFFSET_RENDER, render)
+        else:
+            outputs.remove_attributes(mesh, (ATTR_OFFSET_RENDER,))
+        if ratio is not None:
+            outputs.write_volume_colors(mesh, ratio)
+        else:
+            outputs.remove_attributes(mesh, (ATTR_VOLUME,))
+    mesh.update()
+
+
+def _edit_mode_toggles(obj, stack):
+    """The modifier's Edit Mode and On Cage follow the entries': shown in Edit Mode when one entry
+    is, on the cage when the last entry shown there is (one modifier shows the whole stack's result)."""
+    mod = outputs.our_modifier(obj)
+    if mod is None:
+        return
+    in_edit = [e for e in stack.entries if e.show_viewport and e.show_in_editmode]
+    _set_if_changed(mod, "show_in_editmode", bool(in_edit))
+    _set_if_changed(mod, "show_on_cage", bool(in_edit) and in_edit[-1].show_on_cage)
+
+
+def _outputs_present(obj, per_object, subdivided):
+    kind = outputs.modifier_kind(obj)
+    if kind is None:
+        return False
+    if subdivided:
+        return kind == "subdivided" and None not in outputs.helper_objects(obj)
+    if per_object:
+        return kind.startswith("per_object") and outputs.modifier_input(obj, outputs.RESULT_INPUT) is not None
+    return kind.startswith("offsets") and ATTR_OFFSET in obj.data.attributes
+
+
+def mode_changed(obj):
+    """True when obj entered or left Edit Mode since its last evaluation."""
+    seen = cache.get("mode", (cache_key(obj),))
+    return seen is not None and seen != obj.mode
+
+
+def modifier_gone(obj):
+    """Notice a "deformkit" modifier that the user applied (Ctrl+A), converted (Object > Convert >
+    Mesh) or removed, so the entries do not deform the result a second time: the mesh changed with
+    it (its result is in the mesh) and the entries are removed; else they are turned off, as if the
+    modifier were hidden. Returns True if it acted."""
+    uid = cache_key(obj)
+    cached = cache.get("inputs", (uid,))
+    if cached is None or uid in _evaluating or obj.modifiers.get(MODIFIER_NAME) is not None:
+        return False
+    stack = obj.deformkit
+    cache.forget(uid)
+    base = None if obj.mode == "EDIT" else input_positions(obj)
+    if base is None or np.array_equal(base, cached[1]):
+        for entry in stack.entries:
+            entry.show_viewport = entry.show_render = False
+        stack.notice = ("The 'deformkit' modifier was removed, so the entries were turned off: turn one on to "
+                        "show them again (the modifier comes back)")
+    else:
+        subdivide.discard(obj)
+        stack.entries.clear()
+        stack.active_index = 0
+        outputs.remove_outputs(obj)
+        stack.notice = ("The 'deformkit' modifier was applied: its result is in the mesh now, so the entries "
+                        "were removed (Ctrl+Z brings them back)")
+    return True
+
+
+def stored_positions(obj, kind="viewport"):
+    """The result the "deformkit" modifier shows (viewport or render), from the stored offsets and
+    the input of the last evaluation, float32 (n, 3); None when there is none."""
+    cached = cache.get("inputs", (cache_key(obj),))
+    mod_kind = outputs.modifier_kind(obj)
+    if cached is None or mod_kind is None or mod_kind == "subdivided":
+        return None
+    owner = outputs.modifier_input(obj, outputs.RESULT_INPUT).data if mod_kind.startswith("per_object") else obj.data
+    name = ATTR_OFFSET_RENDER if kind == "render" and ATTR_OFFSET_RENDER in owner.attributes else ATTR_OFFSET
+    offsets = np.empty(len(cached[1]) * 3, np.float32)
+    owner.attributes[name].data.foreach_get("vector", offsets)
+    return cached[1] + offsets.reshape(-1, 3)
 
 
 def _deformed(uid, kind, built, base, pieces=None, failures=None):
@@ -232,13 +345,13 @@ def entry_input(obj, index, kind="viewport"):
     for i, entry in enumerate(obj.deformkit.entries[:index]):
         if entries.kind(entry).LAST:
             raise EntryError(f"{entry.name}: a {entries.LABELS[entry.type]} entry must be the last entry")
-        if (entry.show_viewport if kind == "viewport" else entry.show_render):
+        if shown(entry, kind, obj.mode == "EDIT"):
             try:
                 built.append((i, entry, *entry_setup(obj, entry, reuse_weights=True)))
             except ValueError as exc:
                 raise EntryError(f"{entry.name}: {exc}") from exc
     try:
-        return _deformed(cache_key(obj), kind, built, base_positions(obj.data))
+        return _deformed(cache_key(obj), kind, built, input_positions(obj, reuse_weights=True))
     except EntryFailed as exc:
         raise EntryError(f"{obj.deformkit.entries[exc.index].name}: {exc}") from exc
 
@@ -283,6 +396,10 @@ def apply_entry(obj, index):
     stack = obj.deformkit
     if obj.mode == "EDIT":
         raise EntryError("apply: leave edit mode first (edit mode holds its own copy of the mesh)")
+    if obj.data.shape_keys is not None:
+        raise EntryError("apply: the mesh has shape keys, which the entry deforms mixed; applying it to the "
+                         "base mesh would not change that mix: apply or remove the shape keys first "
+                         "(Object Data > Shape Keys > Apply All Shape Keys / Delete All Shape Keys)")
     entry = stack.entries[index]
     base = base_positions(obj.data)
     kind, prepared = entry_setup(obj, entry)

@@ -1,15 +1,16 @@
-"""App handlers: playback, scrubbing, base-mesh edits, origin, lattice and handle-object edits,
-undo and file load re-evaluate stacks.
+"""App handlers: playback, scrubbing, base-mesh edits (in Edit Mode too), shape-key values, origin,
+lattice and handle-object edits, undo and file load re-evaluate stacks; a "deformkit" modifier that
+was applied, converted, removed or copied to another object is noticed here.
 
 Every evaluation is skipped when its inputs (parameters, origin frames, weights, base positions)
 are unchanged, which is also what stops the handlers from re-entering on their own writes."""
 import bpy
 from bpy.app.handlers import persistent
 
-from . import entries, evaluation
+from . import entries, evaluation, outputs
 from .entries import common, lattice
 
-WATCHED = (bpy.types.Object, bpy.types.Mesh, bpy.types.Lattice, bpy.types.Collection)
+WATCHED = (bpy.types.Object, bpy.types.Mesh, bpy.types.Lattice, bpy.types.Collection, bpy.types.Key)
 
 
 def _stack_objects(scene):
@@ -41,6 +42,14 @@ def _pointer_gone(obj):
     return False
 
 
+def _copies_let_go(updates):
+    """A "deformkit" modifier that shows another object's result (Copy Modifiers) is emptied."""
+    for u in updates:
+        obj = u.id.original if isinstance(u.id, bpy.types.Object) else None
+        if obj is not None and obj.type == "MESH" and outputs.is_copied(obj):
+            outputs.let_go_of_copy(obj)
+
+
 @persistent
 def on_depsgraph_update(scene, depsgraph):
     updates = [u for u in depsgraph.updates if isinstance(u.id, WATCHED)]
@@ -48,8 +57,12 @@ def on_depsgraph_update(scene, depsgraph):
         return
     changed = {u.id.original for u in updates}
     moved = {u.id.original for u in updates if u.is_updated_transform}
+    reshaped = {u.id.original for u in updates if u.is_updated_geometry}
     relinked = any(isinstance(u.id, bpy.types.Collection) for u in updates)  # objects deleted or linked
+    _copies_let_go(updates)
     for obj in _stack_objects(scene):
+        if evaluation.modifier_gone(obj):
+            continue  # applied, converted or removed: the entries were removed or turned off
         if relinked and any([common.clear_deleted(e) for e in obj.deformkit.entries]):
             # Deleted in the UI: the fields are cleared at once, as Blender clears a modifier's, and
             # each entry says which object it lost (the rest of the stack keeps evaluating).
@@ -59,13 +72,19 @@ def on_depsgraph_update(scene, depsgraph):
         # Lattice edits show as an update of the Lattice object and of its data.
         watched = {e.origin for e in obj.deformkit.entries if e.origin is not None} | used \
             | {o.data for o in used if o.type == "LATTICE"}
-        if watched & changed or (watched and obj in moved):
+        mesh_changed = obj.data in changed or (obj.data.shape_keys is not None and obj.data.shape_keys in changed)
+        if evaluation.mode_changed(obj):
+            evaluation.evaluate(obj)  # Edit Mode entered or left: the input and where the result goes change
+        elif watched & changed or (watched and obj in moved):
             # The origin frame, the lattice or a handle object changed (or the object moved, which
-            # changes them in its space). The base is read again only if the mesh changed too;
+            # changes them in its space). The input is read again only if the mesh changed too;
             # either way the mesh update that this write causes needs no second look.
-            evaluation.evaluate(obj, reuse_base=obj.data not in changed, expect_echo=True)
-        elif obj.data in changed and not evaluation.is_echo_of_own_write(obj):
-            evaluation.evaluate(obj)  # the base mesh may have been edited
+            evaluation.evaluate(obj, reuse_base=not mesh_changed, expect_echo=True)
+        elif obj.mode == "EDIT":
+            if obj.data in reshaped:  # an edit, not a selection change
+                evaluation.evaluate(obj, reuse_weights=True)
+        elif mesh_changed and not evaluation.is_echo_of_own_write(obj):
+            evaluation.evaluate(obj)  # the base mesh or a shape-key value may have changed
         elif relinked and _pointer_gone(obj):
             evaluation.evaluate(obj)  # show (or clear) the entry's message
 

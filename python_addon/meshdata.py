@@ -1,5 +1,6 @@
-"""Reading the base mesh: positions, vertex-group weights (kept between reads, the read is a slow
-Python loop), the polygons with a fingerprint of their connectivity, and edge selection."""
+"""Reading the base mesh: the points the modifiers get (shape keys mixed, the edit mesh's in Edit
+Mode), vertex-group weights (kept between reads, the read is a slow Python loop), the polygons with a
+fingerprint of their connectivity, and edge selection."""
 import zlib
 from collections import namedtuple
 
@@ -22,6 +23,26 @@ def base_positions(mesh):
     else:
         mesh.vertices.foreach_get("co", co)
     return co.reshape(-1, 3)
+
+
+def edit_positions(mesh):
+    """The edit mesh's points (Edit Mode holds the mesh in a BMesh until it is left)."""
+    import bmesh
+    verts = bmesh.from_edit_mesh(mesh).verts
+    return np.fromiter((c for v in verts for c in v.co), np.float32, len(verts) * 3).reshape(-1, 3)
+
+
+def input_positions(obj, reuse_weights=False):
+    """The points Blender's first modifier gets, which the entries deform: the mesh's, or the edit
+    mesh's in Edit Mode, with the shape keys mixed as Blender mixes them (shapekeys.py)."""
+    from . import shapekeys
+    mesh = obj.data
+    edit = edit_positions(mesh) if obj.mode == "EDIT" else None
+    if mesh.shape_keys is not None and len(mesh.shape_keys.key_blocks):
+        def weights_of(name):
+            return group_weights(obj, name, reuse_weights) if obj.vertex_groups.get(name) is not None else None
+        return shapekeys.mix(obj, weights_of, edit)
+    return edit if edit is not None else base_positions(mesh)
 
 
 def vertex_group_weights(obj, name):

@@ -1,19 +1,39 @@
-"""The stored result: per-point position attributes and the Geometry Nodes modifier named
-"deformkit" that stores them into the positions, placed first in the modifier stack (or, after a
-Subdivide entry, outputs its helper objects' geometry instead)."""
+"""The stored result and the Geometry Nodes modifier named "deformkit" that shows it.
+
+The result is stored as per-point offsets (deformed minus input), never as positions, so the
+modifier can only add to what it is given: on a mesh without the offsets (Copy Modifiers), with
+another vertex count, or below another modifier it passes its input through or moves it by the
+offsets, and never collapses a mesh. Where they live:
+
+* "offsets": attributes of the object's own mesh (Object Mode, mesh used by this object only):
+  the cheapest for Blender to read;
+* "per_object": a points-only helper mesh and object per object (Edit Mode, where the mesh belongs
+  to the edit mesh; a mesh shared by linked duplicates, each with its own entries), sampled by
+  index, and only when it has as many points as the input;
+* "subdivided": a Subdivide entry's helper objects, output in place of the input (entries/subdivide.py),
+  only when the input has the vertex count they were made from.
+The node groups are named "Needs deformkit add-on ..." so that the modifier's panel says what the
+result depends on; the modifier's output never carries the internal attributes (so Apply and
+Convert give a clean mesh).
+"""
 import bpy
 import numpy as np
 
 MODIFIER_NAME = "deformkit"
-NODE_GROUP_NAME = "deformkit_positions"            # one result for viewport and render
-SPLIT_NODE_GROUP_NAME = "deformkit_positions_split"  # different results in the viewport and in renders
-SUBDIVIDED_NODE_GROUP_NAME = "deformkit_subdivided"  # a Subdivide entry's helper objects
-GROUP_NAMES = {"single": NODE_GROUP_NAME, "split": SPLIT_NODE_GROUP_NAME, "subdivided": SUBDIVIDED_NODE_GROUP_NAME}
-HELPER_INPUTS = ("Viewport", "Render")
-ATTR_VIEWPORT = "deformkit_position"
-ATTR_RENDER = "deformkit_position_render"
+ATTR_OFFSET = "deformkit_offset"
+ATTR_OFFSET_RENDER = "deformkit_offset_render"
 ATTR_VOLUME = "deformkit_volume_ratio"
-OUTPUT_ATTRIBUTES = (ATTR_VIEWPORT, ATTR_RENDER, ATTR_VOLUME)
+OUTPUT_ATTRIBUTES = (ATTR_OFFSET, ATTR_OFFSET_RENDER, ATTR_VOLUME)
+LEGACY_ATTRIBUTES = ("deformkit_position", "deformkit_position_render")  # absolute positions, up to 0.1
+KIND_NAMES = {"offsets": "Needs deformkit add-on", "offsets_split": "Needs deformkit add-on (render)",
+              "per_object": "Needs deformkit add-on (object)", "per_object_volume": "Needs deformkit add-on (colors)",
+              "subdivided": "Needs deformkit add-on (subdivided)"}
+NODE_GROUP_NAME = KIND_NAMES["offsets"]
+MARKER = "deformkit_result"  # 0.1 marked its (absolute-position) groups "deformkit_node_group"
+RESULT_INPUT = "Result"  # the per-object helper; a Subdivide entry's helpers:
+HELPER_INPUTS = ("Viewport", "Render")
+VERTICES_INPUT = "Vertices"  # the vertex count the result was made for
+RESULT_OWNER = "deformkit_result_of"  # on a per-object helper: the name of its object
 
 
 class EntryError(ValueError):
@@ -30,27 +50,41 @@ def write_vector_attribute(mesh, name, values):
     attr.data.foreach_set("vector", np.ascontiguousarray(values, np.float32).ravel())
 
 
-def write_volume_colors(mesh, ratio):
+def volume_colors(ratio):
     """det J as a color: 1 is white, stretch (> 1) goes red, compression (< 1) blue."""
     t = np.clip(np.log2(np.maximum(ratio, 1e-6)), -1.0, 1.0).astype(np.float32)
     rgba = np.ones((len(t), 4), np.float32)
     rgba[:, 1] = 1.0 - np.abs(t)
     rgba[:, 0] = np.where(t < 0, 1.0 + t, 1.0)
     rgba[:, 2] = np.where(t > 0, 1.0 - t, 1.0)
+    return rgba
+
+
+def write_volume_colors(mesh, ratio):
     attr = mesh.attributes.get(ATTR_VOLUME)
     if attr is None:
         attr = mesh.attributes.new(ATTR_VOLUME, "FLOAT_COLOR", "POINT")
-    attr.data.foreach_set("color", rgba.ravel())
+    attr.data.foreach_set("color", volume_colors(ratio).ravel())
 
 
-def outputs_present(obj):
+def remove_attributes(mesh, names):
+    for name in names:
+        attr = mesh.attributes.get(name)
+        if attr is not None:
+            mesh.attributes.remove(attr)
+
+
+def our_modifier(obj):
+    """The "deformkit" modifier if it is one of ours (a Geometry Nodes modifier with our group)."""
     mod = obj.modifiers.get(MODIFIER_NAME)
-    if mod is None or mod.type != "NODES" or mod.node_group is None:
-        return False
-    kind = mod.node_group.get("deformkit_node_group")
-    if kind == "subdivided" and None in helper_objects(obj):
-        return False
-    return ATTR_VIEWPORT in obj.data.attributes and (kind != "split" or ATTR_RENDER in obj.data.attributes)
+    if mod is None or mod.type != "NODES" or mod.node_group is None or mod.node_group.get(MARKER) not in KIND_NAMES:
+        return None
+    return mod
+
+
+def modifier_kind(obj):
+    mod = our_modifier(obj)
+    return None if mod is None else mod.node_group[MARKER]
 
 
 def _add_socket(group, name, in_out, socket_type):
@@ -65,110 +99,265 @@ def _input_identifier(group, name):
     return group.inputs[name].identifier
 
 
+def _output(node, name=None):
+    # Blender 3.4 lists one socket per data type on these nodes; the enabled one is ours.
+    return [o for o in node.outputs if o.enabled and (name is None or o.name == name)][0]
+
+
+def _input(node, name):
+    return [i for i in node.inputs if i.enabled and i.name == name][0]
+
+
+class _Builder:
+    """A few nodes at a time, with the 3.4/4.x socket differences in one place."""
+
+    def __init__(self, group):
+        self.nodes, self.links = group.nodes, group.links
+        self.source, self.sink = self.nodes.new("NodeGroupInput"), self.nodes.new("NodeGroupOutput")
+
+    def node(self, kind, **settings):
+        node = self.nodes.new(kind)
+        for name, value in settings.items():
+            setattr(node, name, value)
+        return node
+
+    def link(self, a, b):
+        self.links.new(a, b)
+
+    def named(self, name, data_type="FLOAT_VECTOR"):
+        node = self.node("GeometryNodeInputNamedAttribute", data_type=data_type)
+        node.inputs["Name"].default_value = name
+        return _output(node, "Attribute")
+
+    def viewport_or_render(self, viewport, render, data_type="VECTOR"):
+        switch = self.node("GeometryNodeSwitch", input_type=data_type)
+        condition, if_false, if_true = [i for i in switch.inputs if i.enabled]
+        self.link(_output(self.node("GeometryNodeIsViewport")), condition)
+        self.link(render, if_false)
+        self.link(viewport, if_true)
+        return _output(switch)
+
+    def count_matches(self, geometry, count):
+        """True when `geometry` has `count` points (a single value)."""
+        size = self.node("GeometryNodeAttributeDomainSize", component="MESH")
+        self.link(geometry, size.inputs[0])
+        compare = self.node("FunctionNodeCompare", data_type="INT", operation="EQUAL")
+        self.link(_output(size, "Point Count"), _input(compare, "A"))
+        self.link(count, _input(compare, "B"))
+        return _output(compare)
+
+    def drop_internal(self, geometry):
+        for name in (ATTR_OFFSET, ATTR_OFFSET_RENDER):
+            remove = self.node("GeometryNodeRemoveAttribute")
+            remove.inputs["Name"].default_value = name
+            self.link(geometry, remove.inputs["Geometry"])
+            geometry = remove.outputs[0]
+        return geometry
+
+
 def node_group(kind):
-    """Geometry Nodes that give the result: "single", one stored position attribute everywhere (a
-    Store Named Attribute into "position": cheaper than Set Position on large meshes); "split", the
-    viewport attribute in the viewport and the render attribute in renders; "subdivided", the
-    geometry of the Viewport or Render object (a Subdivide entry's helpers) in place of the input.
-    Found by a marker, not by name, so a user's group of the same name is left alone."""
+    """The node group that shows a result of `kind` (see the module's docstring). Found by a
+    marker, not by name, so a user's group of the same name is left alone."""
     for group in bpy.data.node_groups:
-        if group.get("deformkit_node_group") == kind:
+        if group.get(MARKER) == kind:
             return group
-    group = bpy.data.node_groups.new(GROUP_NAMES[kind], "GeometryNodeTree")
-    group["deformkit_node_group"] = kind
+    group = bpy.data.node_groups.new(KIND_NAMES[kind], "GeometryNodeTree")
+    group[MARKER] = kind
     _add_socket(group, "Geometry", "INPUT", "NodeSocketGeometry")
     _add_socket(group, "Geometry", "OUTPUT", "NodeSocketGeometry")
-    nodes, links = group.nodes, group.links
-    source, sink = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
-    if kind == "single":
-        named = nodes.new("GeometryNodeInputNamedAttribute")
-        named.data_type = "FLOAT_VECTOR"
-        named.inputs["Name"].default_value = ATTR_VIEWPORT
-        store = nodes.new("GeometryNodeStoreNamedAttribute")
-        store.data_type = "FLOAT_VECTOR"
-        store.domain = "POINT"
-        store.inputs["Name"].default_value = "position"
-        links.new(source.outputs[0], store.inputs["Geometry"])
-        links.new(_output(named), [i for i in store.inputs if i.name == "Value" and i.enabled][0])
-        links.new(store.outputs[0], sink.inputs[0])
-        return group
-    is_viewport = nodes.new("GeometryNodeIsViewport")
+    b = _Builder(group)
+    geometry = b.source.outputs[0]
     if kind == "subdivided":
-        objects = []
         for name in HELPER_INPUTS:
             _add_socket(group, name, "INPUT", "NodeSocketObject")
-            info = nodes.new("GeometryNodeObjectInfo")
-            info.transform_space = "ORIGINAL"  # the helper holds positions in this object's space
-            links.new(source.outputs[name], info.inputs["Object"])
-            objects.append(info.outputs["Geometry"])
-        switch = nodes.new("GeometryNodeSwitch")
-        switch.input_type = "GEOMETRY"
-        condition, if_false, if_true = [i for i in switch.inputs if i.enabled]  # 3.4 lists every type
-        links.new(is_viewport.outputs[0], condition)
-        links.new(objects[1], if_false)
-        links.new(objects[0], if_true)
-        links.new(_output(switch), sink.inputs[0])
+        _add_socket(group, VERTICES_INPUT, "INPUT", "NodeSocketInt")
+        helpers = []
+        for name in HELPER_INPUTS:
+            info = b.node("GeometryNodeObjectInfo", transform_space="ORIGINAL")  # in this object's space
+            b.link(b.source.outputs[name], info.inputs["Object"])
+            helpers.append(info.outputs["Geometry"])
+        subdivided = b.viewport_or_render(helpers[0], helpers[1], "GEOMETRY")
+        switch = b.node("GeometryNodeSwitch", input_type="GEOMETRY")
+        condition, if_false, if_true = [i for i in switch.inputs if i.enabled]
+        b.link(b.count_matches(geometry, b.source.outputs[VERTICES_INPUT]), condition)
+        b.link(b.drop_internal(geometry), if_false)
+        b.link(subdivided, if_true)
+        b.link(_output(switch), b.sink.inputs[0])
         return group
-    not_viewport = nodes.new("FunctionNodeBooleanMath")
-    not_viewport.operation = "NOT"
-    links.new(is_viewport.outputs[0], not_viewport.inputs[0])
-    geometry = source.outputs[0]
-    for attribute, selection in ((ATTR_VIEWPORT, is_viewport.outputs[0]), (ATTR_RENDER, not_viewport.outputs[0])):
-        named = nodes.new("GeometryNodeInputNamedAttribute")
-        named.data_type = "FLOAT_VECTOR"
-        named.inputs["Name"].default_value = attribute
-        set_position = nodes.new("GeometryNodeSetPosition")
-        links.new(geometry, set_position.inputs["Geometry"])
-        links.new(selection, set_position.inputs["Selection"])
-        links.new(_output(named), set_position.inputs["Position"])
-        geometry = set_position.outputs[0]
-    links.new(geometry, sink.inputs[0])
+    if kind.startswith("per_object"):
+        _add_socket(group, RESULT_INPUT, "INPUT", "NodeSocketObject")
+        info = b.node("GeometryNodeObjectInfo", transform_space="ORIGINAL")
+        b.link(b.source.outputs[RESULT_INPUT], info.inputs["Object"])
+        helper = info.outputs["Geometry"]
+        size = b.node("GeometryNodeAttributeDomainSize", component="MESH")
+        b.link(helper, size.inputs[0])
+        matches = b.count_matches(geometry, _output(size, "Point Count"))
+
+        def sampled(value, data_type):
+            sample = b.node("GeometryNodeSampleIndex", data_type=data_type, domain="POINT")
+            b.link(helper, sample.inputs["Geometry"])
+            b.link(b.node("GeometryNodeInputIndex").outputs[0], sample.inputs["Index"])
+            b.link(value, _input(sample, "Value"))
+            return _output(sample)
+
+        offset = sampled(b.viewport_or_render(b.named(ATTR_OFFSET), b.named(ATTR_OFFSET_RENDER)), "FLOAT_VECTOR")
+        move = b.node("GeometryNodeSetPosition")
+        b.link(geometry, move.inputs["Geometry"])
+        b.link(matches, move.inputs["Selection"])
+        b.link(offset, move.inputs["Offset"])
+        geometry = move.outputs[0]
+        if kind == "per_object_volume":
+            store = b.node("GeometryNodeStoreNamedAttribute", data_type="FLOAT_COLOR", domain="POINT")
+            store.inputs["Name"].default_value = ATTR_VOLUME
+            b.link(geometry, store.inputs["Geometry"])
+            b.link(matches, store.inputs["Selection"])
+            b.link(sampled(b.named(ATTR_VOLUME, "FLOAT_COLOR"), "FLOAT_COLOR"), _input(store, "Value"))
+            geometry = store.outputs[0]
+        b.link(b.drop_internal(geometry), b.sink.inputs[0])
+        return group
+    # Own-mesh offsets: a Store Named Attribute into "position" is cheaper than Set Position on large meshes.
+    offset = b.named(ATTR_OFFSET)
+    if kind == "offsets_split":
+        offset = b.viewport_or_render(offset, b.named(ATTR_OFFSET_RENDER))
+    add = b.node("ShaderNodeVectorMath", operation="ADD")
+    b.link(b.node("GeometryNodeInputPosition").outputs[0], add.inputs[0])
+    b.link(offset, add.inputs[1])
+    store = b.node("GeometryNodeStoreNamedAttribute", data_type="FLOAT_VECTOR", domain="POINT")
+    store.inputs["Name"].default_value = "position"
+    b.link(geometry, store.inputs["Geometry"])
+    b.link(_output(add, "Vector"), _input(store, "Value"))
+    b.link(b.drop_internal(store.outputs[0]), b.sink.inputs[0])
     return group
 
 
-def _output(node):
-    # Blender 3.4 lists one output per data type on these nodes; the enabled one is ours.
-    return [o for o in node.outputs if o.enabled][0]
-
-
-def ensure_modifier(obj, split=False, helpers=None):
-    """The "deformkit" modifier with the node group for this result; `helpers`: the (viewport,
-    render) objects of a Subdivide entry, whose geometry it then outputs."""
+def ensure_modifier(obj, kind, inputs=()):
+    """The "deformkit" modifier showing a result of `kind`, with these (name, value) inputs. New,
+    it goes first in the stack: the entries deform the mesh as it comes in (shape keys applied)."""
     mod = obj.modifiers.get(MODIFIER_NAME)
     if mod is not None and mod.type != "NODES":
         raise EntryError(f"a modifier named '{MODIFIER_NAME}' of another type is in the way")
     if mod is None:
         mod = obj.modifiers.new(MODIFIER_NAME, "NODES")
-        # First in the stack: the positions were computed from the base mesh.
         with bpy.context.temp_override(object=obj, active_object=obj):
             bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=0)
-    kind = "subdivided" if helpers else "split" if split else "single"
-    if mod.node_group is None or mod.node_group.get("deformkit_node_group") != kind:
+    relink = False
+    if mod.node_group is None or mod.node_group.get(MARKER) != kind:
         mod.node_group = node_group(kind)
-    if helpers and tuple(helper_objects(obj)) != tuple(helpers):
-        for name, helper in zip(HELPER_INPUTS, helpers):
-            mod[_input_identifier(mod.node_group, name)] = helper
+        relink = True
+    for name, value in inputs:
+        identifier = _input_identifier(mod.node_group, name)
+        if mod.get(identifier) != value:
+            mod[identifier] = value
+            relink = True
+    if relink:
         # An ID property write tags nothing; assigning the group rebuilds the depsgraph's relations.
         mod.node_group = mod.node_group
     return mod
 
 
+def modifier_input(obj, name):
+    mod = our_modifier(obj)
+    if mod is None:
+        return None
+    try:
+        return mod.get(_input_identifier(mod.node_group, name))
+    except (StopIteration, KeyError):
+        return None
+
+
 def helper_objects(obj):
     """The objects the "deformkit" modifier's subdivided group outputs (viewport, render), or []."""
-    mod = obj.modifiers.get(MODIFIER_NAME)
-    if mod is None or mod.type != "NODES" or mod.node_group is None \
-            or mod.node_group.get("deformkit_node_group") != "subdivided":
+    if modifier_kind(obj) != "subdivided":
         return []
-    return [mod.get(_input_identifier(mod.node_group, name)) for name in HELPER_INPUTS]
+    return [modifier_input(obj, name) for name in HELPER_INPUTS]
 
 
-def remove_outputs(obj):
+def result_helper(obj, create=True):
+    """obj's per-object helper (points only, linked to no scene), made on first use. A copy of
+    obj (linked duplicate, Copy Modifiers) finds the original's on its modifier and makes its own."""
+    helper = modifier_input(obj, RESULT_INPUT)
+    if helper is not None and helper.get(RESULT_OWNER) == obj.name_full:
+        return helper
+    for candidate in bpy.data.objects:
+        if candidate.get(RESULT_OWNER) == obj.name_full:
+            return candidate
+    if not create:
+        return None
+    name = f"{obj.name_full} deformkit result"
+    helper = bpy.data.objects.new(name, bpy.data.meshes.new(name))
+    helper[RESULT_OWNER] = obj.name_full
+    return helper
+
+
+def write_result_helper(helper, offsets, render_offsets, ratio=None):
+    mesh = helper.data
+    if len(mesh.vertices) != len(offsets):
+        mesh.clear_geometry()
+        mesh.vertices.add(len(offsets))
+    write_vector_attribute(mesh, ATTR_OFFSET, offsets)
+    write_vector_attribute(mesh, ATTR_OFFSET_RENDER, offsets if render_offsets is None else render_offsets)
+    if ratio is not None:
+        write_volume_colors(mesh, ratio)
+    mesh.update()
+
+
+def discard_result_helper(obj):
+    helper = result_helper(obj, create=False)
+    if helper is not None:
+        mesh = helper.data
+        bpy.data.objects.remove(helper)
+        if mesh.users == 0:
+            bpy.data.meshes.remove(mesh)
+
+
+def is_copied(obj):
+    """True when obj's "deformkit" modifier shows another object's result (Copy Modifiers, or a
+    duplicate before its first evaluation)."""
+    kind = modifier_kind(obj)
+    if kind is None:
+        return False
+    if kind.startswith("per_object"):
+        helper = modifier_input(obj, RESULT_INPUT)
+        return helper is not None and helper.get(RESULT_OWNER) != obj.name_full
+    if kind == "subdivided":
+        return any(h is not None and h.get("deformkit_subdivision_of") not in (None, obj.name_full)
+                   and len(obj.deformkit.entries) == 0 for h in helper_objects(obj))
+    return False
+
+
+def let_go_of_copy(obj):
+    """A copied modifier is emptied (it then passes its input through), not deleted: it is the user's."""
+    mod = our_modifier(obj)
+    names = (RESULT_INPUT,) if mod.node_group[MARKER].startswith("per_object") else HELPER_INPUTS
+    for name in names:
+        mod[_input_identifier(mod.node_group, name)] = None
+    mod.node_group = mod.node_group
+
+
+def remove_outputs(obj, mesh_attributes=True):
+    """The modifier, the per-object helper and (with mesh_attributes) the mesh's attributes go."""
     mod = obj.modifiers.get(MODIFIER_NAME)
     if mod is not None and mod.type == "NODES":
         obj.modifiers.remove(mod)
-    mesh = obj.data
-    for name in OUTPUT_ATTRIBUTES:
-        attr = mesh.attributes.get(name)
-        if attr is not None:
-            mesh.attributes.remove(attr)
-    mesh.update()
+    discard_result_helper(obj)
+    if mesh_attributes:
+        remove_attributes(obj.data, OUTPUT_ATTRIBUTES + LEGACY_ATTRIBUTES)
+        obj.data.update()
+
+
+def place_problem(obj):
+    """What moving the "deformkit" modifier below others does, or '' when it is first among those shown."""
+    mod = our_modifier(obj)
+    if mod is None:
+        return ""
+    before = []
+    for other in obj.modifiers:
+        if other == mod:
+            break
+        if other.show_viewport:
+            before.append(other.name)
+    if not before:
+        return ""
+    return (f"The 'deformkit' modifier is below {', '.join(repr(n) for n in before)}: it adds the entries' "
+            "displacements of the mesh before those modifiers to their result, which is exact only where they "
+            "leave the mesh as it was. Move it to first to see the entries as computed")

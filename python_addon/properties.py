@@ -126,6 +126,11 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
                                 update=_changed)
     show_render: BoolProperty(name="Render", description="Use in renders", default=True, update=_changed)
     show_expanded: BoolProperty(name="Expanded", default=True, description="Show the entry's settings")
+    # Simple Deform's Edit Mode and On Cage toggles (one modifier shows the stack: see evaluation._edit_mode_toggles).
+    show_in_editmode: BoolProperty(name="Edit Mode", default=True, update=_changed,
+                                   description="Display the entry in Edit Mode")
+    show_on_cage: BoolProperty(name="On Cage", default=False, update=_changed,
+                               description="Adjust the edit cage to the entry's result")
     # Simple Deform's soft range (±360°) and drag step.
     angle: FloatProperty(name="Angle", subtype="ANGLE", default=math.radians(45.0), update=_changed,
                          soft_min=-2 * math.pi, soft_max=2 * math.pi, step=10,
@@ -243,6 +248,7 @@ class DEFORMKIT_PG_stack(bpy.types.PropertyGroup):
                     "they have no Jacobian")
     smoothness: PointerProperty(type=DEFORMKIT_PG_smoothness)
     error: StringProperty(options={"HIDDEN", "SKIP_SAVE"})
+    notice: StringProperty(options={"HIDDEN", "SKIP_SAVE"})  # what the add-on did on its own (evaluation.modifier_gone)
 
 
 classes = (DEFORMKIT_PG_entry, DEFORMKIT_PG_smoothness, DEFORMKIT_PG_stack)

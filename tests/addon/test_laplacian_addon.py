@@ -152,9 +152,8 @@ def test_incoming_handles_follow_earlier_entries(scene):
     twist.show_viewport = False
     rest_bent = dk().SimpleDeform(mode="BEND", angle=0.5, deform_axis="X").deform(base)
     assert close(evaluated(obj), rest_bent, size(base))
-    render = np.empty(len(base) * 3, np.float32)
-    obj.data.attributes[evaluation.ATTR_RENDER].data.foreach_get("vector", render)
-    assert close(render.reshape(-1, 3), expected, size(base))
+    render = evaluation.stored_positions(obj, "render")
+    assert close(render, expected, size(base))
     assert bend.error == ""
 
 

@@ -130,10 +130,9 @@ def expected_smooth(bpy, frame, level):
 
 
 def render_attribute(obj):
-    attr = obj.data.attributes["deformkit_position_render"]
-    values = np.empty(len(obj.data.vertices) * 3, np.float32)
-    attr.data.foreach_get("vector", values)
-    return values.reshape(-1, 3)
+    """The render result the modifier shows (0.1 stored it as positions, now as offsets)."""
+    from deformkit_addon import evaluation
+    return evaluation.stored_positions(obj, "render")
 
 
 def test_every_entry_keeps_its_kind_and_parameters(saved):
