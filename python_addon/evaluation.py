@@ -153,6 +153,7 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
                 and _outputs_present(obj, per_object, sub is not None)):
             for index, message in cached[2].items():  # the entries that failed on these inputs still do
                 _set_if_changed(stack.entries[index], "error", message)
+            _edit_mode_toggles(obj, stack)
             return False
         viewport = [b for b in built if shown(b[1], "viewport", editing)]
         render = [b for b in built if shown(b[1], "render", editing)]

@@ -147,9 +147,8 @@ def bare_twin(bpy, obj):
     twin.deformkit.entries.clear()
     for mod in list(twin.modifiers):
         twin.modifiers.remove(mod)
-    for name in ("deformkit_position", "deformkit_position_render", "deformkit_volume_ratio"):
-        if name in twin.data.attributes:
-            twin.data.attributes.remove(twin.data.attributes[name])
+    for name in [a.name for a in twin.data.attributes if a.name.startswith("deformkit_")]:
+        twin.data.attributes.remove(twin.data.attributes[name])
     return twin
 
 
