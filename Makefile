@@ -8,7 +8,7 @@ JOBS := 2
 VERSION = $(shell sed -n 's/^version = "\(.*\)"$$/\1/p' pyproject.toml)
 SOURCES := $(shell find cpp python -type f -not -name '*.pyc' 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: demo test setup build test-cpp test-cpp-asan test-python bench wheel addon-zips clean
+.PHONY: demo test setup build test-cpp test-cpp-asan test-python bench screenshots wheel addon-zips clean
 
 BLENDER := blender
 FIXTURES := blend_fixtures/.fixtures-made
@@ -68,6 +68,12 @@ bench: build
 	$(PY) benchmarks/bench_lattice.py
 	$(PY) benchmarks/bench_surface.py
 	$(PY) benchmarks/bench_subdivision.py
+
+# Pictures of the add-on's panel (default Properties width) and viewport (Object and Edit Mode), one
+# object per entry type, from Blender 3.4's GUI under Xvfb, in build/screenshots; to look at, not a test.
+screenshots: build
+	bash scripts/setup_screenshots.sh
+	$(PY) scripts/screenshots.py --out build/screenshots
 
 wheel: setup
 	$(PY) -m pip wheel -q --disable-pip-version-check --no-build-isolation --no-deps -w dist .
