@@ -1,7 +1,7 @@
 """Panel in the Modifiers tab, laid out like Blender's own modifier panels."""
 import bpy
 
-from . import entries, native, panel_text
+from . import entries, native, outputs, panel_text
 from .entries.common import draw_vertex_group  # noqa: F401  (where it was before the entries/ folder)
 from .properties import ENTRY_TYPES
 
@@ -67,6 +67,8 @@ class DEFORMKIT_PT_stack(bpy.types.Panel):
         budget = panel_text.context_budget(context)
         row = layout.row()
         row.menu(DEFORMKIT_MT_add.bl_idname, icon="ADD")
+        if stack.notice:
+            panel_text.label_wrapped(layout, stack.notice, "INFO", budget)
         if not len(stack.entries):  # on every mesh: compact until it has entries
             if stack.error:
                 panel_text.label_wrapped(layout, stack.error, "ERROR", budget)
@@ -82,11 +84,22 @@ class DEFORMKIT_PT_stack(bpy.types.Panel):
         if len(stack.entries) and mod is not None and not mod.show_viewport:
             panel_text.label_wrapped(layout, "The 'deformkit' modifier, which shows the result, is hidden", "INFO",
                                      budget)
+        draw_modifier_place(layout, obj, budget)
         for note in entries.volume_notes(stack.entries) if stack.show_volume_ratio else ():
             panel_text.label_wrapped(layout, note, "INFO", budget)
         for entry in stack.entries:
             draw_entry(layout.box(), obj, entry)
         draw_smoothness(layout.box(), stack)
+
+
+def draw_modifier_place(layout, obj, budget):
+    """What moving the "deformkit" modifier below others does, with the button that moves it back."""
+    problem = outputs.place_problem(obj)
+    if problem:
+        box = layout.box()
+        panel_text.label_wrapped(box, problem, "INFO", budget)
+        op = box.operator("object.modifier_move_to_index", text="Move 'deformkit' to First", icon="TRIA_UP_BAR")
+        op.modifier, op.index = outputs.MODIFIER_NAME, 0
 
 
 def draw_entry(box, obj, entry):
@@ -98,6 +111,9 @@ def draw_entry(box, obj, entry):
     row.label(text="", icon=ICONS[entry.type])
     row.prop(entry, "name", text="")
     toggles = row.row(align=True)
+    if entry.show_in_editmode:  # Blender's order and icons; On Cage only where Edit Mode is on
+        toggles.prop(entry, "show_on_cage", text="", icon="MESH_DATA")
+    toggles.prop(entry, "show_in_editmode", text="", icon="EDITMODE_HLT")
     toggles.prop(entry, "show_viewport", text="", icon="RESTRICT_VIEW_OFF" if entry.show_viewport else "RESTRICT_VIEW_ON")
     toggles.prop(entry, "show_render", text="", icon="RESTRICT_RENDER_OFF" if entry.show_render else "RESTRICT_RENDER_ON")
     row.menu(DEFORMKIT_MT_entry_specials.bl_idname, text="", icon="DOWNARROW_HLT")

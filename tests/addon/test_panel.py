@@ -317,3 +317,48 @@ def test_the_panel_shows_the_smoothness_lines(scene):
     labels = [text for kind, text in draw_panel(obj) if kind == "label"]
     expected = [text for text, _icon in ui.smoothness_lines(obj.deformkit.smoothness)]
     assert labels[-len(expected):] == expected
+
+
+# ---------------------------------------------------------------------------------------------
+# Edit Mode toggles, and what the helper modifier's place and fate mean
+
+def test_entries_have_simple_deforms_edit_mode_and_on_cage_toggles(scene):
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    entry = api.add_entry(obj, "TWIST")
+    drawn = [name for kind, name in draw_panel(obj) if kind == "prop"]
+    assert drawn.index("show_on_cage") < drawn.index("show_in_editmode") < drawn.index("show_viewport")
+    simple_deform = bpy.types.SimpleDeformModifier.bl_rna.properties
+    ours = entry.bl_rna.properties
+    for name in ("show_in_editmode", "show_on_cage"):
+        assert ours[name].name == simple_deform[name].name
+        assert ours[name].default == bpy.data.objects[obj.name].modifiers.new("t", "SIMPLE_DEFORM").__getattribute__(name)
+    entry.show_in_editmode = False  # as Blender: no On Cage without Edit Mode
+    assert "show_on_cage" not in [name for kind, name in draw_panel(obj) if kind == "prop"]
+
+
+def test_the_panel_says_what_a_moved_helper_does_and_moves_it_back(scene):
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    api.add_entry(obj, "TWIST")
+    assert ("operator", "object.modifier_move_to_index") not in draw_panel(obj)
+    obj.modifiers.new("Wave", "WAVE")
+    with bpy.context.temp_override(object=obj, active_object=obj):
+        bpy.ops.object.modifier_move_to_index(modifier="deformkit", index=1)
+    log = draw_panel(obj)
+    text = " ".join(t for kind, t in log if kind == "label")
+    assert "below 'Wave'" in text and ("operator", "object.modifier_move_to_index") in log
+
+
+def test_a_notice_shows_even_without_entries(scene):
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    api.add_entry(obj, "TWIST")
+    obj.modifiers.remove(obj.modifiers["deformkit"])
+    bpy.context.view_layer.update()
+    obj.deformkit.entries.clear()
+    text = " ".join(t for kind, t in draw_panel(obj) if kind == "label")
+    assert "was removed" in text
