@@ -62,7 +62,7 @@ bpy.ops.wm.read_factory_settings(use_empty=True)
 import deformkit_addon  # noqa: E402
 if not hasattr(bpy.types.Object, "deformkit"):
     deformkit_addon.register()
-from deformkit_addon import api, evaluation, native  # noqa: E402
+from deformkit_addon import api, evaluation, native, outputs  # noqa: E402
 dk = native.dk
 
 # Two identical meshes: a grid with a smooth z displacement (so the Z twist has an extent).
@@ -92,9 +92,9 @@ assert diff < 1e-4 * size and moved > 1e-3 * size and via_to_mesh == 0, (diff, m
 
 # Timers around the add-on's internals, keyed by phase ("set" = property callback, "dg" = depsgraph).
 T, phase = {}, ["set"]
-for name in ("evaluate", "base_positions", "write_vector_attribute", "_deformed", "ensure_modifier",
-             "is_echo_of_own_write"):
+for name in ("evaluate", "input_positions", "_write_own_mesh", "_deformed", "is_echo_of_own_write"):
     setattr(evaluation, name, timed(name, getattr(evaluation, name)))
+outputs.ensure_modifier = timed("ensure_modifier", outputs.ensure_modifier)
 native.dk = types.SimpleNamespace(**{**{n: getattr(dk, n) for n in dir(dk) if n[0] != "_"}, "Stack": timed_stack})
 
 runs = {"deformkit": [], "blender": []}
@@ -124,15 +124,15 @@ dg = bpy.context.evaluated_depsgraph_get()  # after the last change both sides m
 final_diff = float(np.abs(eval_positions(A, dg, buf.copy()) - eval_positions(B, dg, buf.copy())).max())
 assert final_diff < 1e-4 * size, final_diff
 for r in runs["deformkit"]:  # derived parts
-    parts = ("base_positions", "_deformed", "write_vector_attribute", "ensure_modifier")
+    parts = ("input_positions", "_deformed", "_write_own_mesh", "ensure_modifier")
     r["set:other"] = r["set"] - sum(r.get(f"set:{k}", 0) for k in parts)
     r["dg:GN+rest"] = r["depsgraph"] - r.get("dg:evaluate", 0) - r.get("dg:is_echo_of_own_write", 0)
 ROWS = [(side, key, label) for side, rows in (
     ("deformkit", [("total", "deformkit total (set + depsgraph + count)"),
                    ("set", "  set angle: property callback -> evaluate()"),
-                   ("set:base_positions", "    base_positions (foreach_get)"),
+                   ("set:input_positions", "    input_positions (foreach_get)"),
                    ("set:deform", "    dk.Stack.deform"),
-                   ("set:write_vector_attribute", "    write_vector_attribute (foreach_set)"),
+                   ("set:_write_own_mesh", "    _write_own_mesh (offsets: foreach_set)"),
                    ("set:ensure_modifier", "    ensure_modifier"),
                    ("set:other", "    other (fingerprint, mesh.update())"),
                    ("depsgraph", "  depsgraph update"),

@@ -24,7 +24,7 @@ from .outputs import (ATTR_OFFSET, ATTR_OFFSET_RENDER, ATTR_VOLUME, MODIFIER_NAM
 
 _evaluating = set()  # session_uids being evaluated: writes below re-enter through handlers
 # In the cache: "inputs", (cache key,) -> (fingerprint of the settings, input positions, {index:
-# message} of the entries that failed on them, the viewport result) last written;
+# message} of the entries that failed on them) last written;
 # "echo", (cache key,) -> time of the add-on's last write into the object's own mesh, whose
 # depsgraph echo is expected.
 ECHO_WINDOW = 1.0    # seconds within which a depsgraph update of the mesh counts as that echo
@@ -186,8 +186,10 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
             subdivide.forget(uid)
         helpers = subdivided and subdivide.write(obj, sub, subdivided)  # None: nothing subdivided
         subdivide.discard(obj, keep=helpers or ())
-        offsets = positions - base
-        render_offsets = None if render_positions is positions else render_positions - base
+        # In place: on a large mesh a second copy of the points costs as much as the deformation.
+        render_offsets = None if render_positions is positions else np.subtract(render_positions, base,
+                                                                                 out=render_positions)
+        offsets = np.subtract(positions, base, out=positions)
         if helpers:
             outputs.ensure_modifier(obj, "subdivided", list(zip(outputs.HELPER_INPUTS, helpers))
                                     + [(outputs.VERTICES_INPUT, len(base))])
@@ -203,7 +205,7 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         if not per_object:
             outputs.discard_result_helper(obj)
         _edit_mode_toggles(obj, stack)
-        cache.put("inputs", (uid,), (key, base, failures, positions))
+        cache.put("inputs", (uid,), (key, base, failures))
         cache.put("mode", (uid,), obj.mode)
         _set_if_changed(stack, "notice", "")
         if expect_echo and not editing:

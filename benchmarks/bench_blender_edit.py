@@ -1,0 +1,102 @@
+"""An Edit Mode drag: a deformkit Twist entry vs Blender's Simple Deform, both shown in Edit Mode.
+
+    .venv/bin/python benchmarks/bench_blender_edit.py [--vertices N] [--repeats R] [--addon DIR]
+
+One Blender (bpy) process, two identical displaced grids in Edit Mode together: A with a deformkit
+Twist entry (Z axis), B with a Simple Deform modifier (TWIST, Z). Each step moves the same upper
+vertices of both by a little (what a mouse move during G does: bmesh edit + update_edit_mesh),
+alternating which goes first; time = the edit's update_edit_mesh + depsgraph update (for A: the
+add-on's handler reads the edit mesh, deforms and writes its result, and the depsgraph evaluates
+both Geometry Nodes passes) + evaluated vertex count. The bmesh moves themselves are not timed.
+"""
+import argparse
+import math
+import pathlib
+import statistics
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+ap = argparse.ArgumentParser()
+ap.add_argument("--vertices", type=int, default=100_000)
+ap.add_argument("--repeats", type=int, default=15)
+ap.add_argument("--warmup", type=int, default=3)
+ap.add_argument("--addon", default=str(pathlib.Path(__file__).resolve().parents[1] / "python_addon"))
+args = ap.parse_args()
+
+addons = pathlib.Path(tempfile.mkdtemp())
+(addons / "deformkit_addon").symlink_to(args.addon, target_is_directory=True)
+sys.path.insert(0, str(addons))
+import bmesh  # noqa: E402
+import bpy  # noqa: E402
+bpy.ops.wm.read_factory_settings(use_empty=True)
+import deformkit_addon  # noqa: E402
+if not hasattr(bpy.types.Object, "deformkit"):
+    deformkit_addon.register()
+from deformkit_addon import api, evaluation, native  # noqa: E402
+
+s = max(2, round(math.sqrt(args.vertices)) - 1)
+bpy.ops.mesh.primitive_grid_add(x_subdivisions=s, y_subdivisions=s, size=2)
+A = bpy.context.active_object
+co = evaluation.base_positions(A.data)
+co[:, 2] = 0.3 * np.sin(3 * co[:, 0]) * np.cos(2 * co[:, 1])
+A.data.vertices.foreach_set("co", co.ravel())
+A.data.update()
+B = A.copy()
+B.data = A.data.copy()
+bpy.context.scene.collection.objects.link(B)
+A.name, B.name = "deformkit", "blender"
+mod = B.modifiers.new("SimpleDeform", "SIMPLE_DEFORM")
+mod.deform_method, mod.deform_axis, mod.angle = "TWIST", "Z", 0.5
+mod.show_in_editmode = True
+api.add_entry(A, "TWIST", angle=0.5, deform_axis="Z")
+for o in (A, B):
+    o.select_set(True)
+bpy.context.view_layer.objects.active = A
+bpy.ops.object.mode_set(mode="EDIT")  # both, as multi-object editing does
+meshes = {o.name: bmesh.from_edit_mesh(o.data) for o in (A, B)}
+moved = {name: [v for v in bm.verts if v.co.y > 0.5] for name, bm in meshes.items()}
+nverts = len(co)
+
+
+def step(obj, dx):
+    for v in moved[obj.name]:
+        v.co.x += dx
+    t0 = time.perf_counter()
+    bmesh.update_edit_mesh(obj.data)
+    dg = bpy.context.evaluated_depsgraph_get()
+    dg.update()
+    assert len(obj.evaluated_get(dg).data.vertices) == nverts
+    return time.perf_counter() - t0
+
+
+runs = {"deformkit": [], "blender": []}
+for i in range(args.warmup + args.repeats):
+    for side in (("deformkit", "blender") if i % 2 == 0 else ("blender", "deformkit")):
+        t = step(A if side == "deformkit" else B, 0.002)
+        if i >= args.warmup:
+            runs[side].append(t)
+
+
+def edited_result(obj):
+    dg = bpy.context.evaluated_depsgraph_get()
+    mesh = obj.evaluated_get(dg).to_mesh()
+    try:
+        return evaluation.base_positions(mesh).copy()
+    finally:
+        obj.evaluated_get(dg).to_mesh_clear()
+
+
+diff = float(np.abs(edited_result(A) - edited_result(B)).max())
+assert diff < 1e-4 * 2.0, diff  # both show the same deformed edit
+print(f"deformkit {native.dk.build_info()}  |  bpy {bpy.app.version_string}")
+print(f"Edit Mode drag, {nverts:,} vertices ({len(moved['deformkit']):,} moved per step), {args.repeats} steps "
+      f"per side after {args.warmup} warm-up; |A - B| {diff:.1e} after the drag")
+print(f"{'':40s}{'median ms':>11s}{'min ms':>10s}")
+for side in runs:
+    print(f"{side + ' (update_edit_mesh + depsgraph)':40s}{1e3 * statistics.median(runs[side]):11.2f}"
+          f"{1e3 * min(runs[side]):10.2f}")
+ratio = statistics.median(runs["deformkit"]) / statistics.median(runs["blender"])
+print(f"ratio deformkit / Blender: median {ratio:.2f}")
