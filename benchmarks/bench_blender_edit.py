@@ -29,8 +29,8 @@ args = ap.parse_args()
 addons = pathlib.Path(tempfile.mkdtemp())
 (addons / "deformkit_addon").symlink_to(args.addon, target_is_directory=True)
 sys.path.insert(0, str(addons))
-import bmesh  # noqa: E402
 import bpy  # noqa: E402
+import bmesh  # noqa: E402  (after bpy, which provides it)
 bpy.ops.wm.read_factory_settings(use_empty=True)
 import deformkit_addon  # noqa: E402
 if not hasattr(bpy.types.Object, "deformkit"):

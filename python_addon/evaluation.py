@@ -94,14 +94,15 @@ def _set_if_changed(owner, prop, value):
         setattr(owner, prop, value)
 
 
-def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weights=None):
+def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weights=None, depsgraph=None):
     """Recompute `obj`'s deformkit result. Returns True if it wrote a new result.
 
     With reuse_base, the input positions of the last evaluation are used when the settings changed
     (a parameter edit); with expect_echo, the depsgraph update this write causes is recognised as
     its echo (see is_echo_of_own_write). reuse_weights (default: as reuse_base) keeps the
-    vertex-group weights read last time. A problem of the object's goes on the stack and leaves the
-    mesh as it was; an entry that fails shows its message and is skipped, the others still run."""
+    vertex-group weights read last time. depsgraph: the one that just evaluated an edit (Edit Mode
+    reads its input from it). A problem of the object's goes on the stack and leaves the mesh as it
+    was; an entry that fails shows its message and is skipped, the others still run."""
     uid = cache_key(obj)
     if uid in _evaluating:
         return False
@@ -125,7 +126,7 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         if reuse_base and cached is not None and (count is None or len(cached[1]) == count):
             base = cached[1]
         else:
-            base = input_positions(obj, weights)
+            base = input_positions(obj, weights, depsgraph)
         per_object = editing or shared_mesh(obj)
         built, key, sub = [], [len(base), stack.show_volume_ratio, editing, per_object], None
         entries.prune(uid, stack.entries)

@@ -82,7 +82,7 @@ def on_depsgraph_update(scene, depsgraph):
             evaluation.evaluate(obj, reuse_base=not mesh_changed, expect_echo=True)
         elif obj.mode == "EDIT":
             if obj.data in reshaped:  # an edit, not a selection change
-                evaluation.evaluate(obj, reuse_weights=True)
+                evaluation.evaluate(obj, reuse_weights=True, depsgraph=depsgraph)
         elif mesh_changed and not evaluation.is_echo_of_own_write(obj):
             evaluation.evaluate(obj)  # the base mesh or a shape-key value may have changed
         elif relinked and _pointer_gone(obj):

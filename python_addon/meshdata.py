@@ -32,12 +32,20 @@ def edit_positions(mesh):
     return np.fromiter((c for v in verts for c in v.co), np.float32, len(verts) * 3).reshape(-1, 3)
 
 
-def input_positions(obj, reuse_weights=False):
+def input_positions(obj, reuse_weights=False, depsgraph=None):
     """The points Blender's first modifier gets, which the entries deform: the mesh's, or the edit
-    mesh's in Edit Mode, with the shape keys mixed as Blender mixes them (shapekeys.py)."""
-    from . import shapekeys
+    mesh's in Edit Mode, with the shape keys mixed as Blender mixes them (shapekeys.py). In Edit
+    Mode, with the depsgraph that just evaluated the edit, the modifier's own record of its input."""
+    from . import outputs, shapekeys
     mesh = obj.data
-    edit = edit_positions(mesh) if obj.mode == "EDIT" else None
+    edit = None
+    if obj.mode == "EDIT":
+        import bmesh
+        count = len(bmesh.from_edit_mesh(mesh).verts)
+        captured = None if depsgraph is None else outputs.captured_input(obj, depsgraph, count)
+        if captured is not None:
+            return captured
+        edit = edit_positions(mesh)
     if mesh.shape_keys is not None and len(mesh.shape_keys.key_blocks):
         def weights_of(name):
             return group_weights(obj, name, reuse_weights) if obj.vertex_groups.get(name) is not None else None

@@ -23,7 +23,8 @@ MODIFIER_NAME = "deformkit"
 ATTR_OFFSET = "deformkit_offset"
 ATTR_OFFSET_RENDER = "deformkit_offset_render"
 ATTR_VOLUME = "deformkit_volume_ratio"
-OUTPUT_ATTRIBUTES = (ATTR_OFFSET, ATTR_OFFSET_RENDER, ATTR_VOLUME)
+ATTR_INPUT = "deformkit_input"  # per-object kinds: the modifier's input, read back in Edit Mode
+OUTPUT_ATTRIBUTES = (ATTR_OFFSET, ATTR_OFFSET_RENDER, ATTR_VOLUME, ATTR_INPUT)
 LEGACY_ATTRIBUTES = ("deformkit_position", "deformkit_position_render")  # absolute positions, up to 0.1
 KIND_NAMES = {"offsets": "Needs deformkit add-on", "offsets_split": "Needs deformkit add-on (render)",
               "per_object": "Needs deformkit add-on (object)", "per_object_volume": "Needs deformkit add-on (colors)",
@@ -200,6 +201,13 @@ def node_group(kind):
             b.link(value, _input(sample, "Value"))
             return _output(sample)
 
+        # The input as it came in (an edit, the shape keys), for captured_input: Edit Mode holds the
+        # mesh in a BMesh, which Python reads a hundred times slower than an attribute.
+        capture = b.node("GeometryNodeStoreNamedAttribute", data_type="FLOAT_VECTOR", domain="POINT")
+        capture.inputs["Name"].default_value = ATTR_INPUT
+        b.link(geometry, capture.inputs["Geometry"])
+        b.link(b.node("GeometryNodeInputPosition").outputs[0], _input(capture, "Value"))
+        geometry = capture.outputs[0]
         offset = sampled(b.viewport_or_render(b.named(ATTR_OFFSET), b.named(ATTR_OFFSET_RENDER)), "FLOAT_VECTOR")
         move = b.node("GeometryNodeSetPosition")
         b.link(geometry, move.inputs["Geometry"])
@@ -308,6 +316,26 @@ def discard_result_helper(obj):
         bpy.data.objects.remove(helper)
         if mesh.users == 0:
             bpy.data.meshes.remove(mesh)
+
+
+def captured_input(obj, depsgraph, count):
+    """The input the per-object modifier last got, as float32 (count, 3), read from the evaluated
+    mesh; None unless the modifier is first, shown and the evaluated mesh has `count` points."""
+    mod = our_modifier(obj)
+    if mod is None or not mod.node_group[MARKER].startswith("per_object") or place_problem(obj) \
+            or not (mod.show_viewport and (mod.show_in_editmode or obj.mode != "EDIT")):
+        return None
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        attr = mesh.attributes.get(ATTR_INPUT)
+        if attr is None or len(mesh.vertices) != count or attr.domain != "POINT":
+            return None
+        values = np.empty(count * 3, np.float32)
+        attr.data.foreach_get("vector", values)
+        return values.reshape(-1, 3)
+    finally:
+        evaluated.to_mesh_clear()
 
 
 def is_copied(obj):

@@ -49,6 +49,12 @@ def test_entries_follow_edits_live(scene):
         twin = edited_twin(bpy, obj, moved, deform_method="TWIST", angle=1.0, deform_axis="Z")
         assert close(evaluated(obj), evaluated(twin), 2.0), moved
         bpy.data.objects.remove(twin)
+        # What the handler reads: the modifier's record of its input, the edit mesh's points exactly.
+        import bmesh
+        from deformkit_addon import outputs
+        cage = np.array([v.co[:] for v in bmesh.from_edit_mesh(obj.data).verts], np.float32)
+        captured = outputs.captured_input(obj, bpy.context.evaluated_depsgraph_get(), len(cage))
+        np.testing.assert_array_equal(captured, cage)
     bpy.ops.object.mode_set(mode="OBJECT")  # Tab out: the same result from the mesh, which now has the edit
     twin = edited_twin(bpy, obj, 0.0, deform_method="TWIST", angle=1.0, deform_axis="Z")
     assert close(evaluated(obj), evaluated(twin), 2.0)
