@@ -169,7 +169,7 @@ def export_preview(objects, path):
         base = evaluation.base_positions(mesh).astype(np.float64)
         deformed = evaluation.evaluated_positions(obj, depsgraph).astype(np.float64)
         if len(deformed) != len(base):  # a later modifier changed the topology: show the cage
-            deformed = _stored_positions(mesh, base)
+            deformed = _stored_positions(obj, base)
         before.append(base @ world[:3, :3].T + world[:3, 3])
         after.append(deformed @ world[:3, :3].T + world[:3, 3])
         faces.append(tris.reshape(-1, 3) + offset)
@@ -178,13 +178,9 @@ def export_preview(objects, path):
         np.savez(path, before=np.vstack(before), after=np.vstack(after), faces=np.vstack(faces))
 
 
-def _stored_positions(mesh, base):
-    attr = mesh.attributes.get(evaluation.ATTR_VIEWPORT)
-    if attr is None:
-        return base
-    values = np.empty(len(mesh.vertices) * 3, np.float32)
-    attr.data.foreach_get("vector", values)
-    return values.reshape(-1, 3).astype(np.float64)
+def _stored_positions(obj, base):
+    stored = evaluation.stored_positions(obj)
+    return base if stored is None else stored.astype(np.float64)
 
 
 def process(input_path, output_path, recipe=None, preview_path=None, smoothness=False, token=None,

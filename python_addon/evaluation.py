@@ -202,7 +202,8 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         else:
             outputs.ensure_modifier(obj, "offsets_split" if render_offsets is not None else "offsets")
         if not editing:
-            _write_own_mesh(obj, None if (per_object or helpers) else (offsets, render_offsets), ratio)
+            # Under a Subdivide entry's result too: the cage's offsets, for stored_positions (batch previews).
+            _write_own_mesh(obj, None if per_object else (offsets, render_offsets), ratio)
         if not per_object:
             outputs.discard_result_helper(obj)
         _edit_mode_toggles(obj, stack)
@@ -293,13 +294,16 @@ def modifier_gone(obj):
 
 
 def stored_positions(obj, kind="viewport"):
-    """The result the "deformkit" modifier shows (viewport or render), from the stored offsets and
-    the input of the last evaluation, float32 (n, 3); None when there is none."""
+    """The result the "deformkit" modifier shows (viewport or render; under a Subdivide entry, the
+    cage it subdivides), from the stored offsets and the input of the last evaluation, float32
+    (n, 3); None when there is none."""
     cached = cache.get("inputs", (cache_key(obj),))
     mod_kind = outputs.modifier_kind(obj)
-    if cached is None or mod_kind is None or mod_kind == "subdivided":
+    if cached is None or mod_kind is None:
         return None
     owner = outputs.modifier_input(obj, outputs.RESULT_INPUT).data if mod_kind.startswith("per_object") else obj.data
+    if ATTR_OFFSET not in owner.attributes:
+        return None
     name = ATTR_OFFSET_RENDER if kind == "render" and ATTR_OFFSET_RENDER in owner.attributes else ATTR_OFFSET
     offsets = np.empty(len(cached[1]) * 3, np.float32)
     owner.attributes[name].data.foreach_get("vector", offsets)

@@ -72,6 +72,10 @@ class DEFORMKIT_PT_stack(bpy.types.Panel):
         if not len(stack.entries):  # on every mesh: compact until it has entries
             if stack.error:
                 panel_text.label_wrapped(layout, stack.error, "ERROR", budget)
+            if outputs.our_modifier(obj) is not None:  # Copy Modifiers brings the modifier, not the entries
+                panel_text.label_wrapped(layout, "The 'deformkit' modifier here has no entries on this object "
+                                         "(copied from another?): it leaves the mesh as it is. Copy entries with "
+                                         "the entry menu's Copy to Selected", "INFO", budget)
             return
         row.prop(stack, "show_volume_ratio", text="", icon="COLOR")
         broken = [e.name for e in stack.entries if e.error]

@@ -362,3 +362,18 @@ def test_a_notice_shows_even_without_entries(scene):
     obj.deformkit.entries.clear()
     text = " ".join(t for kind, t in draw_panel(obj) if kind == "label")
     assert "was removed" in text
+
+
+def test_a_copied_modifier_without_entries_says_what_it_does(scene):
+    import bpy
+    from deformkit_addon import api
+    source = make_object(bpy)
+    api.add_entry(source, "TWIST")
+    target = make_object(bpy, "Target", (0, 3, 0))
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o in (source, target))
+    bpy.context.view_layer.objects.active = source
+    bpy.ops.object.make_links_data(type="MODIFIERS")
+    text = " ".join(t for kind, t in draw_panel(target) if kind == "label")
+    assert "no entries on this object" in text
+    assert draw_panel(make_object(bpy, "Plain", (0, -3, 0))) == []  # a mesh without it: still compact
