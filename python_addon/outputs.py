@@ -284,7 +284,8 @@ def result_helper(obj, create=True):
     """obj's per-object helper (points only, linked to no scene), made on first use. A copy of
     obj (linked duplicate, Copy Modifiers) finds the original's on its modifier and makes its own."""
     helper = modifier_input(obj, RESULT_INPUT)
-    if helper is not None and helper.get(RESULT_OWNER) == obj.name_full:
+    if helper is not None and _owned_by(obj, helper):
+        helper[RESULT_OWNER] = obj.name_full  # adopted after a rename of obj
         return helper
     for candidate in bpy.data.objects:
         if candidate.get(RESULT_OWNER) == obj.name_full:
@@ -295,6 +296,12 @@ def result_helper(obj, create=True):
     helper = bpy.data.objects.new(name, bpy.data.meshes.new(name))
     helper[RESULT_OWNER] = obj.name_full
     return helper
+
+
+def _owned_by(obj, helper):
+    """A per-object helper is obj's if made for it, or for an object of a name that is gone (obj renamed)."""
+    owner = helper.get(RESULT_OWNER)
+    return owner == obj.name_full or (owner is not None and bpy.data.objects.get(owner) is None)
 
 
 def write_result_helper(helper, offsets, render_offsets, ratio=None):
@@ -346,7 +353,7 @@ def is_copied(obj):
         return False
     if kind.startswith("per_object"):
         helper = modifier_input(obj, RESULT_INPUT)
-        return helper is not None and helper.get(RESULT_OWNER) != obj.name_full
+        return helper is not None and not _owned_by(obj, helper)
     if kind == "subdivided":
         return any(h is not None and h.get("deformkit_subdivision_of") not in (None, obj.name_full)
                    and len(obj.deformkit.entries) == 0 for h in helper_objects(obj))

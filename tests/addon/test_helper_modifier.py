@@ -144,6 +144,13 @@ def test_linked_duplicates_each_show_their_own_entries(scene):
                        dk.SimpleDeform(mode="TAPER", factor=0.3, deform_axis="Z")]).deform(base)
     assert close(evaluated(obj), ours, 2.0) and close(evaluated(dup), theirs, 2.0)
     assert not any(a.name.startswith("deformkit_offset") for a in obj.data.attributes)  # none in the shared mesh
+    dup.name = "Renamed"  # keeps its own result
+    helpers = {o.name for o in bpy.data.objects if o.get("deformkit_result_of")}
+    dup.deformkit.entries[0].angle = -0.5
+    theirs = dk.Stack([dk.SimpleDeform(mode="TWIST", angle=-0.5, deform_axis="Z"),
+                       dk.SimpleDeform(mode="TAPER", factor=0.3, deform_axis="Z")]).deform(base)
+    assert close(evaluated(dup), theirs, 2.0) and close(evaluated(obj), ours, 2.0)
+    assert {o.name for o in bpy.data.objects if o.get("deformkit_result_of")} == helpers  # none made anew
     bpy.data.objects.remove(dup)  # single user again: back in its own mesh
     obj.deformkit.entries[0].angle = 1.1
     assert close(evaluated(obj), dk.SimpleDeform(mode="TWIST", angle=1.1, deform_axis="Z").deform(base), 2.0)
