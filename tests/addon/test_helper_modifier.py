@@ -176,3 +176,24 @@ def test_with_the_addon_disabled_edits_still_show(scene, addon):
         np.testing.assert_array_equal(after[~top], shown[~top])
     finally:
         addon.register()
+
+
+def test_volume_colors_on_a_shared_mesh_are_per_object(scene):
+    import bpy
+    from deformkit_addon import api, outputs
+    from deformkit_addon.native import dk
+    obj = make_object(bpy)
+    api.add_entry(obj, "TAPER", factor=0.8, deform_axis="Z")
+    other = bpy.data.objects.new("Other", obj.data)  # shares the mesh, no entries of its own
+    bpy.context.scene.collection.objects.link(other)
+    obj.deformkit.show_volume_ratio = True
+    bpy.context.view_layer.update()
+    dg = bpy.context.evaluated_depsgraph_get()
+    mesh = obj.evaluated_get(dg).to_mesh()
+    rgba = np.empty(len(mesh.vertices) * 4, np.float32)
+    mesh.attributes[outputs.ATTR_VOLUME].data.foreach_get("color", rgba)
+    obj.evaluated_get(dg).to_mesh_clear()
+    ratio = dk.SimpleDeform(mode="TAPER", factor=0.8, deform_axis="Z").volume_ratio(positions(obj.data))
+    np.testing.assert_allclose(rgba.reshape(-1, 4), outputs.volume_colors(ratio), atol=1e-6)
+    assert outputs.ATTR_VOLUME not in obj.data.attributes  # not in the shared mesh: Other shows none
+    np.testing.assert_array_equal(evaluated(other), positions(obj.data))
