@@ -10,8 +10,10 @@ deformkit side is broken down by timers monkeypatched around the add-on's functi
 property callback; "depsgraph" includes the add-on's depsgraph handler re-check). --addon DIR runs
 a (patched) copy of the add-on instead.
 """
-import argparse, json, math, pathlib, statistics, sys, tempfile, time, types
+import argparse, json, pathlib, statistics, time, types
 import numpy as np
+
+from bench_common import blender_with_addon, displaced_grid_pair
 
 ap = argparse.ArgumentParser()
 for option, default in (("--vertices", 1_000_000), ("--repeats", 15), ("--warmup", 3)):
@@ -54,29 +56,11 @@ def stat(side, key):
 
 (c0, i0), _, (c1, i1) = cpu_ticks(), time.sleep(0.5), cpu_ticks()
 busy = 1 - (i1 - i0) / max(c1 - c0, 1)  # CPU busy fraction before the run
-addons = pathlib.Path(tempfile.mkdtemp())
-(addons / "deformkit_addon").symlink_to(args.addon, target_is_directory=True)
-sys.path.insert(0, str(addons))
+blender_with_addon(args.addon)
 import bpy  # noqa: E402
-bpy.ops.wm.read_factory_settings(use_empty=True)
-import deformkit_addon  # noqa: E402
-if not hasattr(bpy.types.Object, "deformkit"):
-    deformkit_addon.register()
 from deformkit_addon import api, evaluation, native, outputs  # noqa: E402
 dk = native.dk
-
-# Two identical meshes: a grid with a smooth z displacement (so the Z twist has an extent).
-s = max(2, round(math.sqrt(args.vertices)) - 1)
-bpy.ops.mesh.primitive_grid_add(x_subdivisions=s, y_subdivisions=s, size=2)
-A = bpy.context.active_object
-co = evaluation.base_positions(A.data)
-co[:, 2] = 0.3 * np.sin(3 * co[:, 0]) * np.cos(2 * co[:, 1])
-A.data.vertices.foreach_set("co", co.ravel())
-A.data.update()
-B = A.copy()  # identical object B, before A gets its entry
-B.data = A.data.copy()
-bpy.context.scene.collection.objects.link(B)
-A.name, B.name = "deformkit", "blender"
+A, B, co = displaced_grid_pair(args.vertices)
 nverts, size = len(co), float(np.ptp(co, axis=0).max())
 mod = B.modifiers.new("SimpleDeform", "SIMPLE_DEFORM")
 mod.deform_method, mod.deform_axis, mod.angle = "TWIST", "Z", 0.5

@@ -10,14 +10,13 @@ add-on's handler reads the edit mesh, deforms and writes its result, and the dep
 both Geometry Nodes passes) + evaluated vertex count. The bmesh moves themselves are not timed.
 """
 import argparse
-import math
 import pathlib
 import statistics
-import sys
-import tempfile
 import time
 
 import numpy as np
+
+from bench_common import blender_with_addon, displaced_grid_pair
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--vertices", type=int, default=100_000)
@@ -26,28 +25,11 @@ ap.add_argument("--warmup", type=int, default=3)
 ap.add_argument("--addon", default=str(pathlib.Path(__file__).resolve().parents[1] / "python_addon"))
 args = ap.parse_args()
 
-addons = pathlib.Path(tempfile.mkdtemp())
-(addons / "deformkit_addon").symlink_to(args.addon, target_is_directory=True)
-sys.path.insert(0, str(addons))
+blender_with_addon(args.addon)
 import bpy  # noqa: E402
 import bmesh  # noqa: E402  (after bpy, which provides it)
-bpy.ops.wm.read_factory_settings(use_empty=True)
-import deformkit_addon  # noqa: E402
-if not hasattr(bpy.types.Object, "deformkit"):
-    deformkit_addon.register()
 from deformkit_addon import api, evaluation, native  # noqa: E402
-
-s = max(2, round(math.sqrt(args.vertices)) - 1)
-bpy.ops.mesh.primitive_grid_add(x_subdivisions=s, y_subdivisions=s, size=2)
-A = bpy.context.active_object
-co = evaluation.base_positions(A.data)
-co[:, 2] = 0.3 * np.sin(3 * co[:, 0]) * np.cos(2 * co[:, 1])
-A.data.vertices.foreach_set("co", co.ravel())
-A.data.update()
-B = A.copy()
-B.data = A.data.copy()
-bpy.context.scene.collection.objects.link(B)
-A.name, B.name = "deformkit", "blender"
+A, B, co = displaced_grid_pair(args.vertices)
 mod = B.modifiers.new("SimpleDeform", "SIMPLE_DEFORM")
 mod.deform_method, mod.deform_axis, mod.angle = "TWIST", "Z", 0.5
 mod.show_in_editmode = True

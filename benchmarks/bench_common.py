@@ -79,3 +79,42 @@ def omp_threads(count):
         yield True
     finally:
         gomp.omp_set_num_threads(before)
+
+
+def blender_with_addon(addon_dir):
+    """bpy on an empty scene with the add-on at `addon_dir` registered as deformkit_addon (a
+    symlink in a temporary addons folder, as users install it). Returns the deformkit_addon package."""
+    import importlib
+    import pathlib
+    import sys
+    import tempfile
+    addons = pathlib.Path(tempfile.mkdtemp())
+    (addons / "deformkit_addon").symlink_to(addon_dir, target_is_directory=True)
+    sys.path.insert(0, str(addons))
+    import bpy
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    addon = importlib.import_module("deformkit_addon")
+    if not hasattr(bpy.types.Object, "deformkit"):
+        addon.register()
+    return addon
+
+
+def displaced_grid_pair(vertices):
+    """Two identical objects "deformkit" and "blender": a grid of about `vertices` points with a
+    smooth z displacement (so a Z twist has an extent). Returns (A, B, positions)."""
+    import math
+    import bpy
+    import numpy as np
+    from deformkit_addon import evaluation
+    s = max(2, round(math.sqrt(vertices)) - 1)
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=s, y_subdivisions=s, size=2)
+    a = bpy.context.active_object
+    co = evaluation.base_positions(a.data)
+    co[:, 2] = 0.3 * np.sin(3 * co[:, 0]) * np.cos(2 * co[:, 1])
+    a.data.vertices.foreach_set("co", co.ravel())
+    a.data.update()
+    b = a.copy()  # before A gets its entry
+    b.data = a.data.copy()
+    bpy.context.scene.collection.objects.link(b)
+    a.name, b.name = "deformkit", "blender"
+    return a, b, co
