@@ -15,6 +15,10 @@
 
     api.add_entry(obj, "SUBDIVIDE", levels=2, render_levels=3)  # last in the stack
     figures = api.check_smoothness(obj)  # of the cage; selects the creased edges
+    api.select_flipped(obj)  # selects the faces with flipped samples instead
+
+    api.duplicate_entry(obj, 0)  # below it, bind and all
+    api.copy_entry_to(obj, 0, [other])  # Copy to Selected
 """
 import re
 from collections import namedtuple

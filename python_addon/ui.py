@@ -103,8 +103,9 @@ def draw_entry(box, obj, entry):
     # The kind's icon, pressed on the active entry (the one Ctrl+A applies): a click makes it active,
     # as a click on a modifier's panel does.
     index = list(obj.deformkit.entries).index(entry)
-    row.operator("deformkit.entry_set_active", text="", icon=ICONS[entry.type], emboss=False,
-                 depress=index == obj.deformkit.active_index).index = index
+    active = index == obj.deformkit.active_index
+    row.operator("deformkit.entry_set_active", text="", icon=ICONS[entry.type], emboss=active,
+                 depress=active).index = index
     row.prop(entry, "name", text="")
     toggles = row.row(align=True)
     toggles.prop(entry, "show_viewport", text="", icon="RESTRICT_VIEW_OFF" if entry.show_viewport else "RESTRICT_VIEW_ON")
