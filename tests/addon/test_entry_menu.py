@@ -89,6 +89,28 @@ def test_duplicate_is_a_second_simple_deform_below(scene):
     assert close(ours, theirs), np.abs(ours - theirs).max()
 
 
+def test_a_duplicated_lattice_entry_is_a_second_lattice_modifier(scene):
+    """The copy is bound on its own (its binding is per entry), to the same lattice."""
+    import bpy
+    from deformkit_addon import api
+    from addon_helpers import make_lattice, perturb_lattice, twin_with_lattice_modifier
+    obj = make_object(bpy)
+    lattice = make_lattice(bpy)
+    perturb_lattice(lattice, amount=0.1)
+    api.add_entry(obj, "LATTICE", lattice=lattice, strength=0.7, vertex_group="Upper")
+    api.add_entry(obj, "TWIST", **TWIST)
+    api.duplicate_entry(obj, 0)
+    assert [e.type for e in obj.deformkit.entries] == ["LATTICE", "LATTICE", "TWIST"]
+    twin = twin_with_lattice_modifier(bpy, obj, lattice, strength=0.7, vertex_group="Upper")
+    for name, kind, settings in (("Lattice 2", "LATTICE", dict(object=lattice, strength=0.7, vertex_group="Upper")),
+                                 ("Twist", "SIMPLE_DEFORM", dict(deform_method="TWIST", **TWIST))):
+        mod = twin.modifiers.new(name, kind)
+        for key, value in settings.items():
+            setattr(mod, key, value)
+    ours, theirs = evaluated(obj), evaluated(twin)
+    assert close(ours, theirs, 3.0), np.abs(ours - theirs).max()
+
+
 def tube_with_bound_laplacian(bpy):
     from deformkit_addon import api
     obj = make_tube(bpy)
@@ -141,8 +163,8 @@ def test_a_subdivide_entry_cannot_be_duplicated(scene):
     for index, enabled in ((0, True), (1, False)):  # greyed out in the entry's menu, with that tooltip
         log = []
         layout = EnabledLayout(log)
-        ui.DEFORMKIT_MT_entry_specials.draw(types.SimpleNamespace(layout=layout),
-                                            types.SimpleNamespace(object=obj, deformkit_entry=obj.deformkit.entries[index]))
+        menu_context = types.SimpleNamespace(object=obj, deformkit_entry=obj.deformkit.entries[index])
+        ui.DEFORMKIT_MT_entry_specials.draw(types.SimpleNamespace(layout=layout), menu_context)
         assert ("deformkit.entry_duplicate", enabled) in log
         assert ("deformkit.entry_copy_to_selected", True) in log
 
