@@ -158,9 +158,13 @@ class DEFORMKIT_OT_entry_apply(_EntryOperator, bpy.types.Operator):
         return True
 
     def invoke(self, context, event):
-        # From the hotkey, with no index: Blender finds the modifier panel under the mouse, which a
-        # Python panel cannot, so the active entry (pressed in the panel) is applied.
-        return self.execute(context)
+        if self.index < 0 and getattr(context, "region", None) is not None and context.area.type == "PROPERTIES":
+            # The hotkey. Add-on key map items come before Blender's, whose Ctrl+A applies the modifier
+            # whose panel is under the mouse (Python cannot find the panel under the mouse) and
+            # passes the key on elsewhere: let it try first.
+            if bpy.ops.object.modifier_apply.poll() and "FINISHED" in bpy.ops.object.modifier_apply("INVOKE_DEFAULT"):
+                return {"FINISHED"}
+        return self.execute(context)  # the active entry (pressed in the panel), or the menu's
 
     def execute(self, context):
         try:
@@ -174,11 +178,10 @@ class DEFORMKIT_OT_entry_apply(_EntryOperator, bpy.types.Operator):
 
 
 def register_keymaps():
-    """Ctrl+A in the Properties editor applies the active entry, as it applies a modifier. Blender's
-    own item (object.modifier_apply) comes first and passes the key on when the mouse is over no
-    modifier panel. Background runs have no add-on key configuration."""
+    """Ctrl+A in the Properties editor applies the active entry, as it applies a modifier (over a
+    modifier's panel, the modifier: see DEFORMKIT_OT_entry_apply.invoke)."""
     keyconfig = bpy.context.window_manager.keyconfigs.addon
-    if keyconfig is None:
+    if keyconfig is None:  # some background runs have none: no keys to map
         return
     keymap = keyconfig.keymaps.new(name="Property Editor", space_type="PROPERTIES")
     item = keymap.keymap_items.new(DEFORMKIT_OT_entry_apply.bl_idname, "A", "PRESS", ctrl=True)
