@@ -41,9 +41,11 @@ def register():
         bpy.utils.register_class(cls)
     properties.register()
     handlers.register()
+    operators.register_keymaps()
 
 
 def unregister():
+    operators.unregister_keymaps()
     handlers.unregister()
     properties.unregister()
     for cls in reversed(classes):

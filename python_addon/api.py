@@ -15,7 +15,12 @@
 
     api.add_entry(obj, "SUBDIVIDE", levels=2, render_levels=3)  # last in the stack
     figures = api.check_smoothness(obj)  # of the cage; selects the creased edges
+    api.select_flipped(obj)  # selects the faces with flipped samples instead
+
+    api.duplicate_entry(obj, 0)  # below it, bind and all
+    api.copy_entry_to(obj, 0, [other])  # Copy to Selected
 """
+import re
 from collections import namedtuple
 
 import bpy
@@ -51,28 +56,102 @@ def add_entry(obj, type="TWIST", **params):
         raise ValueError(f"type: expected one of {', '.join(TYPES)}, got {type!r}")
     kinds.check_params(kind, params)  # before the entry is added: a refused call changes nothing
     stack = obj.deformkit
-    name = _unique_name(stack, kind.title())  # before add(): the new entry has a default name
-    at = len(stack.entries) if kinds.kind(kind).LAST else kinds.last_index(stack.entries)
-    entry = stack.entries.add()
-    entry.type = kind
-    entry.name = name
-    if at < len(stack.entries) - 1:
-        stack.entries.move(len(stack.entries) - 1, at)
-        entry = stack.entries[at]  # the moved item: the old reference points at the end of the list
-    stack.active_index = at
+    entry = _insert_entry(stack, _place_for(stack, kind), kind, _unique_name(stack, kind.title()))
     set_params(entry, **params)
     evaluation.evaluate(obj)
     return entry
 
 
+def _place_for(stack, entry_type):
+    """Where a new entry of this type goes: the end, or just above a Subdivide entry."""
+    return len(stack.entries) if kinds.kind(entry_type).LAST else kinds.last_index(stack.entries)
+
+
+def _insert_entry(stack, at, entry_type, name):
+    """A new entry of entry_type named `name` at index `at`, made the active one."""
+    entry = stack.entries.add()  # may move the items: references to other entries are stale after it
+    entry.type = entry_type
+    entry.name = name
+    if at < len(stack.entries) - 1:
+        stack.entries.move(len(stack.entries) - 1, at)
+        entry = stack.entries[at]  # the moved item: the old reference points at the end of the list
+    stack.active_index = at
+    return entry
+
+
 def _unique_name(stack, base):
+    """`base`, or with the first free .001 suffix (replacing one it has), as Blender names copies."""
     names = {e.name for e in stack.entries}
     if base not in names:
         return base
+    base = re.sub(r"\.\d{3}$", "", base)
     i = 1
     while f"{base}.{i:03d}" in names:
         i += 1
     return f"{base}.{i:03d}"
+
+
+# What a copy of an entry does not take from it: its type and name (set first), messages and the
+# helper objects the add-on writes, and a Laplacian bind (laplacian.copy_bind, where it is valid).
+_NOT_COPIED = {"rna_type", "type", "name", "error", "subdivision_viewport", "subdivision_render", "bind_id",
+               "bind_vertices", "bind_faces", "bind_topology", "handle_matrix", "bind_copied_from"}
+
+
+def _copy_settings(source, target):
+    for prop in source.bl_rna.properties:
+        if prop.identifier not in _NOT_COPIED and not prop.is_readonly:
+            setattr(target, prop.identifier, getattr(source, prop.identifier))
+
+
+def duplicate_entry(obj, index):
+    """A copy of entry `index` just below it, with its settings and (Laplacian) its bind, so that
+    it deforms as the original does, as a modifier's Duplicate; it becomes the active entry. A
+    Subdivide entry, which must be the last one, cannot be duplicated (ValueError)."""
+    stack = obj.deformkit
+    _check_index(stack, index)
+    source = stack.entries[index]
+    if kinds.kind(source).LAST:
+        raise ValueError(f"'{source.name}' cannot be duplicated: a {kinds.LABELS[source.type]} entry must be "
+                         "the last one")
+    copy = _insert_entry(stack, index + 1, source.type, _unique_name(stack, source.name))
+    source = stack.entries[index]  # add() may have moved it
+    _copy_settings(source, copy)
+    surface.copy_bind(source, copy)
+    evaluation.evaluate(obj, force=True)
+    return copy
+
+
+def copy_entry_to(obj, index, targets):
+    """Copy entry `index` to each of the other mesh objects in `targets`, as a modifier's Copy to
+    Selected: at the end of their stacks (above a Subdivide entry), same settings, the active entry
+    there. A Laplacian bind belongs to the mesh it was made on, so a copy of a bound entry arrives
+    unbound and its panel says to Bind again. A Subdivide entry is refused (ValueError, nothing
+    copied) if a target has one already. Returns the copies."""
+    stack = obj.deformkit
+    _check_index(stack, index)
+    source = stack.entries[index]
+    targets = [t for t in targets if t is not obj and t.type == "MESH"]
+    if kinds.kind(source).LAST:
+        having = [t.name for t in targets if kinds.last_index(t.deformkit.entries) < len(t.deformkit.entries)]
+        if having:
+            raise ValueError(f"{', '.join(having)} already {'has' if len(having) == 1 else 'have'} a "
+                             f"{kinds.LABELS[source.type]} entry, which must be the last one")
+    copies = []
+    for target in targets:
+        theirs = target.deformkit
+        copy = _insert_entry(theirs, _place_for(theirs, source.type), source.type,
+                             _unique_name(theirs, source.name))
+        _copy_settings(source, copy)
+        if surface.is_bound(source):
+            copy.bind_copied_from = obj.name
+        evaluation.evaluate(target, force=True)
+        copies.append(copy)
+    return copies
+
+
+def _check_index(stack, index):
+    if not 0 <= index < len(stack.entries):
+        raise IndexError(f"index: {index} is out of range for {len(stack.entries)} entries")
 
 
 def set_params(entry, **params):
@@ -394,3 +473,40 @@ def check_smoothness(obj, select=True, worst=10, min_angle=1e-6, samples_per_edg
     stored.worst_edge = figures["worst_edge"] or (-1, -1)
     stored.selected = len(figures["selected_edges"])
     return figures
+
+
+def select_flipped(obj, samples_per_edge=8):
+    """Check Smoothness (its figures go to the panel), then select exactly the control faces with
+    flipped samples, with their edges and vertices, in Object or Edit Mode. Returns their indices."""
+    faces = sorted(check_smoothness(obj, select=False, samples_per_edge=samples_per_edge)["flipped_faces"])
+    _select_faces(obj, faces)
+    return faces
+
+
+def _select_faces(obj, faces):
+    mesh = obj.data
+    if obj.mode == "EDIT":
+        import bmesh
+        bm = bmesh.from_edit_mesh(mesh)
+        for items in (bm.faces, bm.edges, bm.verts):
+            for item in items:
+                item.select = False
+        bm.faces.ensure_lookup_table()
+        for i in faces:
+            bm.faces[i].select_set(True)  # its edges and vertices too
+        bmesh.update_edit_mesh(mesh)
+        return
+    chosen = np.zeros(len(mesh.polygons), bool)
+    chosen[faces] = True
+    topo = meshdata.topology(mesh)
+    order = meshdata.corner_order(topo)
+    corner_face = np.repeat(chosen, topo.totals)  # corner by corner, polygon by polygon
+    corners = topo.corners if order is None else topo.corners[order]
+    edge_of = np.empty(len(mesh.loops), np.int32)
+    mesh.loops.foreach_get("edge_index", edge_of)
+    edge_of = edge_of if order is None else edge_of[order]
+    for items, members in ((mesh.vertices, corners), (mesh.edges, edge_of)):
+        flags = np.zeros(len(items), bool)
+        flags[members[corner_face]] = True
+        items.foreach_set("select", flags)
+    mesh.polygons.foreach_set("select", chosen)

@@ -6,7 +6,7 @@ import math
 import bpy
 from bpy.props import EnumProperty, FloatProperty, IntProperty
 
-from . import api, panel_text
+from . import api, entries, panel_text
 from .entries.common import core_missing
 from .entries.common import mesh_object as _mesh_object
 from .properties import ENTRY_TYPES
@@ -73,6 +73,73 @@ class DEFORMKIT_OT_entry_move(_EntryOperator, bpy.types.Operator):
         return {"FINISHED"}
 
 
+class DEFORMKIT_OT_entry_set_active(_EntryOperator, bpy.types.Operator):
+    """Make this the active entry (the one Ctrl+A applies)"""
+    bl_idname = "deformkit.entry_set_active"
+    bl_label = "Set Active deformkit Entry"
+
+    def execute(self, context):
+        stack = context.object.deformkit
+        if not 0 <= self.index < len(stack.entries):
+            return {"CANCELLED"}
+        stack.active_index = self.index
+        return {"FINISHED"}
+
+
+class DEFORMKIT_OT_entry_duplicate(_EntryOperator, bpy.types.Operator):
+    """Duplicate the entry below it, with the same settings (a Laplacian entry's bind too)"""
+    bl_idname = "deformkit.entry_duplicate"
+    bl_label = "Duplicate deformkit Entry"
+
+    @classmethod
+    def description(cls, context, properties):
+        # The menu greys the item out for a Subdivide entry; its tooltip says why.
+        obj = _mesh_object(context)
+        stack = obj.deformkit if obj is not None else None
+        index = properties.index if properties.index >= 0 else (stack.active_index if stack else -1)
+        if stack is not None and 0 <= index < len(stack.entries) and entries.kind(stack.entries[index]).LAST:
+            return "A Subdivide entry must be the last one, so it cannot be duplicated"
+        return cls.__doc__
+
+    def execute(self, context):
+        try:
+            api.duplicate_entry(context.object, self.entry_index(context))
+        except (ValueError, IndexError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        return {"FINISHED"}
+
+
+class DEFORMKIT_OT_entry_copy_to_selected(_EntryOperator, bpy.types.Operator):
+    """Copy the entry to the other selected mesh objects (a Laplacian entry arrives unbound: bind it there)"""
+    bl_idname = "deformkit.entry_copy_to_selected"
+    bl_label = "Copy deformkit Entry to Selected"
+
+    @staticmethod
+    def targets(context):
+        return [o for o in getattr(context, "selected_objects", ()) if o != context.object and o.type == "MESH"]
+
+    @classmethod
+    def poll(cls, context):
+        if not super().poll(context):
+            return False
+        if not cls.targets(context):
+            cls.poll_message_set("Select the other mesh objects to copy to")
+            return False
+        return True
+
+    def execute(self, context):
+        try:
+            copies = api.copy_entry_to(context.object, self.entry_index(context), self.targets(context))
+        except (ValueError, IndexError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        unbound = [c.id_data.name for c in copies if c.bind_copied_from]
+        if unbound:
+            self.report({"WARNING"}, f"Copied unbound to {', '.join(unbound)}: a bind belongs to its mesh, Bind again")
+        return {"FINISHED"}
+
+
 class DEFORMKIT_OT_entry_apply(_EntryOperator, bpy.types.Operator):
     """Apply the entry: bake its deformation into the mesh and remove it"""
     bl_idname = "deformkit.entry_apply"
@@ -82,10 +149,22 @@ class DEFORMKIT_OT_entry_apply(_EntryOperator, bpy.types.Operator):
     def poll(cls, context):
         if not super().poll(context):
             return False
+        space = getattr(context, "space_data", None)
+        if space is not None and space.type == "PROPERTIES" and space.context != "MODIFIER":
+            return False  # Ctrl+A on another tab of the Properties editor is not ours
         if context.object.mode == "EDIT":
             cls.poll_message_set("Leave edit mode to apply")
             return False
         return True
+
+    def invoke(self, context, event):
+        if self.index < 0 and getattr(context, "region", None) is not None and context.area.type == "PROPERTIES":
+            # The hotkey. Add-on key map items come before Blender's, whose Ctrl+A applies the modifier
+            # whose panel is under the mouse (Python cannot find the panel under the mouse) and
+            # passes the key on elsewhere: let it try first.
+            if bpy.ops.object.modifier_apply.poll() and "FINISHED" in bpy.ops.object.modifier_apply("INVOKE_DEFAULT"):
+                return {"FINISHED"}
+        return self.execute(context)  # the active entry (pressed in the panel), or the menu's
 
     def execute(self, context):
         try:
@@ -96,6 +175,26 @@ class DEFORMKIT_OT_entry_apply(_EntryOperator, bpy.types.Operator):
         if warning:
             self.report({"INFO"}, warning)
         return {"FINISHED"}
+
+
+def register_keymaps():
+    """Ctrl+A in the Properties editor applies the active entry, as it applies a modifier (over a
+    modifier's panel, the modifier: see DEFORMKIT_OT_entry_apply.invoke)."""
+    keyconfig = bpy.context.window_manager.keyconfigs.addon
+    if keyconfig is None:  # some background runs have none: no keys to map
+        return
+    keymap = keyconfig.keymaps.new(name="Property Editor", space_type="PROPERTIES")
+    item = keymap.keymap_items.new(DEFORMKIT_OT_entry_apply.bl_idname, "A", "PRESS", ctrl=True)
+    KEYMAP_ITEMS.append((keymap, item))
+
+
+def unregister_keymaps():
+    for keymap, item in KEYMAP_ITEMS:
+        keymap.keymap_items.remove(item)
+    KEYMAP_ITEMS.clear()
+
+
+KEYMAP_ITEMS = []
 
 
 class DEFORMKIT_OT_check_smoothness(bpy.types.Operator):
@@ -121,11 +220,33 @@ class DEFORMKIT_OT_check_smoothness(bpy.types.Operator):
         edge = figures["worst_edge"]
         where = f" at edge {tuple(edge)}" if edge else ""
         self.report({"WARNING" if figures["selected_edges"] else "INFO"},
-                    f"Max normal angle {panel_text.degrees(math.radians(figures['max_angle_degrees']))}{where}; gap {figures['max_gap']:.2g}, "
+                    f"Max normal angle {panel_text.degrees(math.radians(figures['max_angle_degrees']))}{where}; "
+                    f"gap {panel_text.percent(figures['max_gap'])} of the diagonal, "
                     f"{figures['degenerate_samples']} degenerate, {figures['flipped_samples']} flipped samples; "
                     f"{len(figures['selected_edges'])} creased edges selected")
         return {"FINISHED"}
 
 
-classes = (DEFORMKIT_OT_entry_add, DEFORMKIT_OT_entry_remove, DEFORMKIT_OT_entry_move, DEFORMKIT_OT_entry_apply,
-           DEFORMKIT_OT_check_smoothness)
+class DEFORMKIT_OT_select_flipped(bpy.types.Operator):
+    """Select the control faces whose limit surface has flipped samples (folds the entries made)"""
+    bl_idname = "deformkit.select_flipped"
+    bl_label = "Select Flipped"
+    bl_options = {"REGISTER", "UNDO"}  # the selection changes
+
+    @classmethod
+    def poll(cls, context):
+        return DEFORMKIT_OT_entry_add.poll(context)
+
+    def execute(self, context):
+        try:
+            faces = api.select_flipped(context.object)
+        except ValueError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"WARNING" if faces else "INFO"}, f"{len(faces)} faces with flipped samples selected")
+        return {"FINISHED"}
+
+
+classes = (DEFORMKIT_OT_entry_add, DEFORMKIT_OT_entry_remove, DEFORMKIT_OT_entry_move, DEFORMKIT_OT_entry_set_active,
+           DEFORMKIT_OT_entry_duplicate, DEFORMKIT_OT_entry_copy_to_selected, DEFORMKIT_OT_entry_apply,
+           DEFORMKIT_OT_check_smoothness, DEFORMKIT_OT_select_flipped)

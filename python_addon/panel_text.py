@@ -10,6 +10,15 @@ DEFAULT_WIDTH = 330
 CHAR_WIDTH = 6.0
 MARGIN = 40  # the icon and the box's padding on both sides
 MIN_BUDGET = 16
+# A use_property_split row gives its label 40 % of the row (UI_ITEM_PROP_SEP_DIVIDE); inside an
+# entry's box, beside the decorator column and the label's own padding, less is left: at the
+# default width Blender 3.4 cut "Boundary Smooth" (88 px in its UI font, blf.dimensions) after 11
+# characters and kept "Levels Viewport" (80 px) whole, about 14 characters at CHAR_WIDTH.
+LABEL_SHARE = 0.4
+LABEL_PADDING = 5
+# A button's icon and padding, in characters: at the default width Blender 3.4 showed "Selection
+# to Emp" and the ellipsis (2 characters wide) on a half row, 18 of a 24-character share.
+BUTTON_PADDING = 6
 
 
 def char_budget(width=None, ui_scale=1.0):
@@ -18,6 +27,19 @@ def char_budget(width=None, ui_scale=1.0):
     scale = ui_scale if ui_scale and ui_scale > 0 else 1.0
     width = width or DEFAULT_WIDTH * scale
     return max(MIN_BUDGET, int((width - MARGIN * scale) / (CHAR_WIDTH * scale)))
+
+
+def label_column_budget(width=None, ui_scale=1.0):
+    """How many characters of a property's label fit in the label column of a use_property_split
+    layout inside an entry's box."""
+    return max(1, int(LABEL_SHARE * char_budget(width, ui_scale)) - LABEL_PADDING)
+
+
+def row_characters(items):
+    """The characters a row of (text, is_button) items takes: their texts and each button's
+    padding. Blender shrinks every item of a row that is wider than the region, cutting them all,
+    so a row reads whole while this is within char_budget."""
+    return sum(len(text) + (BUTTON_PADDING if button else 0) for text, button in items)
 
 
 def context_budget(context=None):
@@ -67,3 +89,15 @@ def degrees(radians):
         return "< 0.001°"
     digits = 3 if abs(value) < 1 else 2 if abs(value) < 10 else 1
     return f"{value:.{digits}f}°"
+
+
+def percent(fraction):
+    """A fraction (of the bounding box's diagonal, say) as a percentage with two significant
+    digits and no exponent; below 0.0001 % (rounding noise of a closed surface) "< 0.0001 %"."""
+    value = 100.0 * abs(fraction)
+    if value == 0.0:
+        return "0 %"
+    if value < 1e-4:
+        return "< 0.0001 %"
+    digits = max(0, 1 - math.floor(math.log10(value)))
+    return f"{value:.{digits}f} %"

@@ -214,6 +214,12 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
     subdivision_viewport: PointerProperty(type=bpy.types.Object, options={"HIDDEN"})
     subdivision_render: PointerProperty(type=bpy.types.Object, options={"HIDDEN"})
     error: StringProperty(options={"HIDDEN", "SKIP_SAVE"})
+    # Closed by default, as a modifier's subpanels (Simple Deform's Restrictions) are.
+    show_restrictions: BoolProperty(name="Restrictions", default=False,
+                                    description="Show the limits, locks and vertex group")
+    # A Laplacian entry copied to another mesh (Copy to Selected) arrives unbound: a bind belongs
+    # to the mesh it was made on. The name of that object, until the copy is bound.
+    bind_copied_from: StringProperty(options={"HIDDEN"})
 
     @property
     def amount(self):

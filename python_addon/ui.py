@@ -22,7 +22,7 @@ class DEFORMKIT_MT_add(bpy.types.Menu):
 
 
 class DEFORMKIT_MT_entry_specials(bpy.types.Menu):
-    """The drop-down of an entry's header, like a modifier's: apply and move."""
+    """The drop-down of an entry's header, like a modifier's: apply, copy and move."""
     bl_label = "deformkit Entry"
     bl_idname = "DEFORMKIT_MT_entry_specials"
 
@@ -34,6 +34,11 @@ class DEFORMKIT_MT_entry_specials(bpy.types.Menu):
         index = list(stack.entries).index(entry)
         layout = self.layout
         layout.operator("deformkit.entry_apply", text="Apply", icon="CHECKMARK").index = index
+        layout.separator()
+        layout.operator("deformkit.entry_copy_to_selected", text="Copy to Selected", icon="COPYDOWN").index = index
+        sub = layout.column()
+        sub.enabled = not entries.kind(entry).LAST  # the operator's description says why
+        sub.operator("deformkit.entry_duplicate", text="Duplicate", icon="DUPLICATE").index = index
         layout.separator()
         last = index < len(stack.entries) - 1
         for label, direction, icon, enabled in (("Move Up", "UP", "TRIA_UP", index > 0),
@@ -112,7 +117,12 @@ def draw_entry(box, obj, entry):
     row.context_pointer_set("deformkit_entry", entry)
     row.prop(entry, "show_expanded", text="", emboss=False,
              icon="DOWNARROW_HLT" if entry.show_expanded else "RIGHTARROW")
-    row.label(text="", icon=ICONS[entry.type])
+    # The kind's icon, pressed on the active entry (the one Ctrl+A applies): a click makes it active,
+    # as a click on a modifier's panel does.
+    index = list(obj.deformkit.entries).index(entry)
+    active = index == obj.deformkit.active_index
+    row.operator("deformkit.entry_set_active", text="", icon=ICONS[entry.type], emboss=active,
+                 depress=active).index = index
     row.prop(entry, "name", text="")
     toggles = row.row(align=True)
     if entry.show_in_editmode:  # Blender's order and icons; On Cage only where Edit Mode is on
@@ -121,8 +131,7 @@ def draw_entry(box, obj, entry):
     toggles.prop(entry, "show_viewport", text="", icon="RESTRICT_VIEW_OFF" if entry.show_viewport else "RESTRICT_VIEW_ON")
     toggles.prop(entry, "show_render", text="", icon="RESTRICT_RENDER_OFF" if entry.show_render else "RESTRICT_RENDER_ON")
     row.menu(DEFORMKIT_MT_entry_specials.bl_idname, text="", icon="DOWNARROW_HLT")
-    row.operator("deformkit.entry_remove", text="", icon="X", emboss=False).index = list(
-        obj.deformkit.entries).index(entry)
+    row.operator("deformkit.entry_remove", text="", icon="X", emboss=False).index = index
     if entry.error:
         alert = box.row()
         alert.alert = True
@@ -149,7 +158,12 @@ def draw_smoothness(box, stack):
         return
     col = box.column(align=True)
     for text, icon in smoothness_lines(stack.smoothness):
-        col.label(text=text, icon=icon)
+        if text.startswith("Flipped") and stack.smoothness.flipped:
+            row = col.row()
+            row.label(text=text, icon=icon)
+            row.operator("deformkit.select_flipped", text="Select", icon="RESTRICT_SELECT_OFF")
+        else:
+            col.label(text=text, icon=icon)
 
 
 def smoothness_lines(figures):
@@ -159,7 +173,7 @@ def smoothness_lines(figures):
     edge = f" at edge {tuple(figures.worst_edge)}" if figures.worst_edge[0] >= 0 else ""
     lines = [("Last check, of the cage:", "NONE"),
              (f"Max normal angle: {panel_text.degrees(figures.max_angle)}{edge}", "NONE"),
-             (f"Max gap: {figures.max_gap:.2g} of the diagonal", "NONE")]
+             (f"Max gap: {panel_text.percent(figures.max_gap)} of the diagonal", "NONE")]
     problems = [(f"Flipped samples: {figures.flipped}", figures.flipped),
                 (f"Degenerate samples: {figures.degenerate}", figures.degenerate),
                 (f"Creased edges selected: {figures.selected}", figures.selected)]

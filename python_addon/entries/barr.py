@@ -7,7 +7,7 @@ import zlib
 import numpy as np
 
 from .. import native
-from .common import Prepared, deleted_name, draw_vertex_group, influence_weights, write_base
+from .common import Prepared, deleted_name, draw_subpanel, draw_vertex_group, influence_weights, write_base
 
 TYPES = ("TWIST", "BEND", "TAPER", "STRETCH")
 ICON = "MOD_SIMPLEDEFORM"
@@ -94,11 +94,13 @@ def draw(col, obj, entry):
     col.prop(entry, "origin")
     col.row().prop(entry, "deform_axis", expand=True)
     col.separator()
-    col.label(text="Restrictions")
-    col.prop(entry, "limits", slider=True)
+    group = draw_subpanel(col, entry, "show_restrictions", "Restrictions")
+    if group is None:
+        return
+    group.prop(entry, "limits", slider=True)
     if entry.type != "BEND":
-        row = col.row(heading="Lock", align=True)
+        row = group.row(heading="Lock", align=True)
         for axis in "xyz":
             if axis.upper() != entry.deform_axis:
                 row.prop(entry, f"lock_{axis}", text=axis.upper(), toggle=True)
-    draw_vertex_group(col, obj, entry)
+    draw_vertex_group(group, obj, entry)

@@ -116,6 +116,19 @@ class KindOperator:
             return {"CANCELLED"}
 
 
+def draw_subpanel(col, entry, prop, label):
+    """A collapsible group of an entry's settings, as a modifier's subpanel: a disclosure triangle
+    and the label, open or closed as entry.<prop> (saved per entry, as Blender saves a subpanel's
+    state per modifier). layout.panel() would do this but is Blender 4.2+ only. Returns the
+    group's column when open, else None."""
+    row = col.row(align=True)
+    row.use_property_split = False  # the triangle and label sit left, as a subpanel header
+    row.alignment = "LEFT"
+    is_open = getattr(entry, prop)
+    row.prop(entry, prop, text=label, emboss=False, icon="DOWNARROW_HLT" if is_open else "RIGHTARROW")
+    return col.column() if is_open else None
+
+
 def draw_vertex_group(col, obj, entry):
     row = col.row(align=True)
     row.prop_search(entry, "vertex_group", obj, "vertex_groups", text="Vertex Group")

@@ -237,16 +237,37 @@ def bind(obj, entry, incoming):
     deformer = build(entry, rest, topo, anchors, handles)
     key = meshdata.cache_key(obj)
     cache.pop("laplacian", (key, entry.bind_id))
-    used = {e.bind_id for e in obj.deformkit.entries}
-    bind_id = 0
-    while bind_id == 0 or bind_id in used:
-        bind_id = random.randrange(1, 1 << 31)
+    bind_id = new_bind_id(obj)
     entry[REST] = rest.ravel()
     entry.bind_vertices, entry.bind_faces, entry.bind_topology = topo.vertices, topo.faces, _signed(topo.crc)
     entry.handle_matrix = matrix.ravel().tolist()
     entry.bind_id = bind_id
+    entry.bind_copied_from = ""
     cache.put("laplacian", (key, bind_id), Solver(_settings(entry, topo), anchors, handles, rest, deformer))
     return topo.vertices
+
+
+def new_bind_id(obj):
+    """An id no entry of obj uses: solvers are kept per (object, bind id)."""
+    used = {e.bind_id for e in obj.deformkit.entries}
+    bind_id = 0
+    while bind_id == 0 or bind_id in used:
+        bind_id = random.randrange(1, 1 << 31)
+    return bind_id
+
+
+def copy_bind(source, target):
+    """Give `target`, a copy of `source` on the same object (Duplicate), source's bind: the rest,
+    the topology's fingerprint and the handle object's place at bind. Under a new bind id, so the
+    two never share a solver (their settings may part); the copy's is built from its rest, which
+    is source's, so it deforms as source does."""
+    if not is_bound(source):
+        return
+    target[REST] = saved_rest(source).ravel()
+    target.bind_vertices, target.bind_faces = source.bind_vertices, source.bind_faces
+    target.bind_topology = source.bind_topology
+    target.handle_matrix = source.handle_matrix[:]
+    target.bind_id = new_bind_id(target.id_data)
 
 
 def unbind(obj, entry):
@@ -263,6 +284,8 @@ def clear(entry):
 def status(obj, entry):
     """(status line, the solver's warnings) for the panel."""
     if not is_bound(entry):
+        if entry.bind_copied_from:  # Copy to Selected: a bind is of the mesh it was made on
+            return f"Copied unbound from '{entry.bind_copied_from}': Bind again", []
         return "Not bound", []
     cached = cache.get("laplacian", (meshdata.cache_key(obj), entry.bind_id))
     if cached is None:
@@ -287,8 +310,8 @@ def unanchored_line(count):
     # Short enough for one line beside the Select button at the default width; the button's
     # tooltip says that handles hold a part too.
     if count == 1:
-        return "1 part without anchors stays in place"
-    return f"{count} parts without anchors stay in place"
+        return "1 unanchored part stays in place"
+    return f"{count} unanchored parts stay in place"
 
 
 def face_components(topo):
@@ -370,7 +393,7 @@ def draw(col, obj, entry):
         col.prop(entry, "handle_object")
     col.separator()
     text, warnings = status(obj, entry)
-    col.label(text=text, icon="LINKED" if is_bound(entry) else "UNLINKED")
+    label_wrapped(col, text, "LINKED" if is_bound(entry) else "UNLINKED")
     unanchored, warnings = summarised_warnings(warnings)
     if unanchored:
         row = col.row()

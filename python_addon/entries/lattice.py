@@ -277,9 +277,10 @@ def draw(col, obj, entry):
     row = col.row(align=True)
     row.operator("deformkit.lattice_bind", text="Rebind" if bound else "Bind", icon="FILE_REFRESH").index = index
     row.operator("deformkit.lattice_reset", text="Reset", icon="LOOP_BACK").index = index
+    # Short labels: "Selection to Empties" is cut on a half row at the default width.
+    col.label(text="Move Selection To")
     row = col.row(align=True)
-    for targets, label, icon in (("CURSOR", "Selection to Cursor", "PIVOT_CURSOR"),
-                                 ("EMPTIES", "Selection to Empties", "EMPTY_AXIS")):
+    for targets, label, icon in (("CURSOR", "Cursor", "PIVOT_CURSOR"), ("EMPTIES", "Empties", "EMPTY_AXIS")):
         op = row.operator("deformkit.lattice_direct", text=label, icon=icon)
         op.index, op.targets = index, targets
 

@@ -411,16 +411,19 @@ def retyped(entry):
 
 
 def draw(col, obj, entry):
-    """Laid out like Blender's Subdivision Surface panel, then the size of what it made."""
-    col.prop(entry, "levels", text="Levels Viewport")
+    """Laid out like Blender's Subdivision Surface panel, then the size of what it made. Labels
+    are shorter than the property names where those are cut in the label column at the default
+    width (panel_text.label_column_budget): "Levels" over Viewport and Render, "Boundaries"."""
+    col.label(text="Levels")
+    col.prop(entry, "levels", text="Viewport")
     col.prop(entry, "render_levels", text="Render")
     col.prop(entry, "scheme")
     col.separator()
     col.label(text="Advanced")
     col.prop(entry, "use_limit_surface")
     col.prop(entry, "use_creases")
-    col.prop(entry, "sharpen_two_edge_vertices")
-    col.prop(entry, "boundary_smooth")
+    col.row(heading="Sharpen").prop(entry, "sharpen_two_edge_vertices", text="Two-Edge Vertices")
+    col.prop(entry, "boundary_smooth", text="Boundaries")
     col.prop(entry, "uv_smooth")
     render = entry.subdivision_render
     for label, helper in (("Viewport" if render else "Viewport and render", entry.subdivision_viewport),

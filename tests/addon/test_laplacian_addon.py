@@ -633,7 +633,7 @@ def test_panel_shows_the_laplacian_entry(scene):
     log = draw()
     assert ("operator", "deformkit.laplacian_unbind") in log
     assert ("label", "Bound: 322 vertices, 32 anchors, 33 handles") in log
-    assert ("label", "1 part without anchors stays in place") in log
+    assert ("label", "1 unanchored part stays in place") in log
     assert ("operator", "deformkit.laplacian_select_unanchored") in log
     labels = [text for kind, text in log if kind == "label"]
     note = panel_text.wrap("Volume colors leave out Laplacian entries (no Jacobian)", panel_text.char_budget())

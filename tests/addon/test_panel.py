@@ -22,7 +22,7 @@ class KeywordLayout(CheckingLayout):
 
     def prop(self, data, name, icon="NONE", **kw):
         super().prop(data, name, icon=icon, **kw)
-        self.keywords.setdefault(name, []).append(kw)
+        self.keywords.setdefault(name, []).append(dict(kw, icon=icon))
 
 
 def draw_panel(obj, layout_type=CheckingLayout, *extra):
@@ -213,7 +213,7 @@ def test_loose_parts_are_one_line_with_a_select_button(scene):
     assert len(unheld) == 43 - 3 + 1  # the quads outside Bottom and the loose vertex
     log = draw_panel(obj)
     labels = [text for kind, text in log if kind == "label"]
-    assert f"{len(unheld)} parts without anchors stay in place" in labels
+    assert f"{len(unheld)} unanchored parts stay in place" in labels
     assert not any("left where it is" in text for text in labels)  # no line per part
     assert ("operator", "deformkit.laplacian_select_unanchored") in log
     # The summary counts what the solver itself warned of, one warning per part.
@@ -225,7 +225,7 @@ def test_one_loose_part_reads_in_the_singular(addon):
     from deformkit_addon.entries import laplacian
     warning = "component 3 (4 vertices) has no anchor or handle; it is left where it is"
     assert laplacian.summarised_warnings([warning, "something else"]) == (1, ["something else"])
-    assert laplacian.unanchored_line(1) == "1 part without anchors stays in place"
+    assert laplacian.unanchored_line(1) == "1 unanchored part stays in place"
 
 
 def test_select_selects_exactly_the_parts_without_anchors(scene):
@@ -377,3 +377,242 @@ def test_a_copied_modifier_without_entries_says_what_it_does(scene):
     text = " ".join(t for kind, t in draw_panel(target) if kind == "label")
     assert "no entries on this object" in text
     assert draw_panel(make_object(bpy, "Plain", (0, -3, 0))) == []  # a mesh without it: still compact
+
+# 5. Restrictions as a collapsible subpanel; the active entry; Check Smoothness's gap and flips
+
+def test_restrictions_fold_as_simple_deforms_subpanel(scene):
+    import bpy
+    from deformkit_addon import api, properties
+    obj = make_object(bpy)
+    api.add_entry(obj, "TWIST")
+    api.add_entry(obj, "BEND")
+    twist, bend = obj.deformkit.entries
+    restricted = {"limits", "lock_x", "lock_y", "lock_z", "vertex_group", "invert_vertex_group"}
+    keywords = {}
+    drawn = {name for kind, name in draw_panel(obj, KeywordLayout, keywords) if kind == "prop"}
+    assert not drawn & restricted  # closed, as a new modifier's subpanels
+    assert [kw.get("icon") for kw in keywords["show_restrictions"]] == ["RIGHTARROW", "RIGHTARROW"]
+    assert properties.DEFORMKIT_PG_entry.bl_rna.properties["show_restrictions"].default is False
+    twist.show_restrictions = True  # per entry: the Bend entry's stays closed
+    keywords = {}
+    log = draw_panel(obj, KeywordLayout, keywords)
+    drawn = [name for kind, name in log if kind == "prop"]
+    assert restricted - {"lock_x"} <= set(drawn) and "lock_x" not in drawn  # none on the deform axis, X
+    assert drawn.count("limits") == 1 and "angle" in drawn and drawn.count("angle") == 2
+    assert [kw.get("icon") for kw in keywords["show_restrictions"]] == ["DOWNARROW_HLT", "RIGHTARROW"]
+
+
+class OperatorLayout(CheckingLayout):
+    """Records each operator drawn with its keywords."""
+
+    def __init__(self, log, calls):
+        super().__init__(log)
+        self.calls = calls
+
+    def row(self, **_kw):
+        return OperatorLayout(self.log, self.calls)
+
+    column = box = row
+
+    def operator(self, idname, **kw):
+        self.calls.append((idname, kw))
+        return super().operator(idname, **kw)
+
+
+def test_the_active_entry_is_shown_pressed_and_a_click_makes_another_active(scene):
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    for kind in ("TWIST", "BEND", "TAPER"):
+        api.add_entry(obj, kind)
+    for active in (2, 0):
+        with bpy.context.temp_override(object=obj, active_object=obj):
+            assert bpy.ops.deformkit.entry_set_active(index=active) == {"FINISHED"}
+        calls = []
+        draw_panel(obj, OperatorLayout, calls)
+        pressed = [kw["depress"] for idname, kw in calls if idname == "deformkit.entry_set_active"]
+        assert pressed == [i == active for i in range(3)]
+
+
+def test_the_gap_reads_as_a_percentage_without_exponents(addon):
+    from deformkit_addon import panel_text, ui
+    assert panel_text.percent(0.0) == "0 %"
+    assert panel_text.percent(3e-9) == "< 0.0001 %"
+    assert panel_text.percent(1.2e-5) == "0.0012 %"
+    rng = random.Random(6)
+    for _ in range(500):
+        fraction = 10 ** rng.uniform(-6, 0.5)
+        text = panel_text.percent(fraction)
+        assert "e" not in text and text.endswith(" %")
+        shown = float(text[:-2])
+        assert abs(shown - 100 * fraction) <= 0.05 * 100 * fraction  # two significant digits
+        assert len(text[:-2].replace(".", "").lstrip("0")) >= 2 or shown >= 10
+    lines = dict(ui.smoothness_lines(figures(max_gap=1.2e-5)))
+    assert "Max gap: 0.0012 % of the diagonal" in lines
+    assert not any("e-" in text for text in lines)
+
+
+def test_select_flipped_selects_the_folded_faces(scene):
+    """A Bend of 5 rad folds the sphere over: the faces with flipped samples are those of
+    dk.smoothness_report run directly on the stack's result against the base mesh, and the fold is
+    where the bend's Jacobian turns negative."""
+    import numpy as np
+    import bpy
+    import deformkit as dk
+    from deformkit_addon import api, ui
+    from addon_helpers import polygons, positions
+    obj = make_object(bpy)
+    api.add_entry(obj, "BEND", angle=3.0, deform_axis="X")
+    assert api.select_flipped(obj) == []  # bent, not folded
+    assert ("operator", "deformkit.select_flipped") not in draw_panel(obj)
+    obj.deformkit.entries[0].angle = 5.0
+    base = positions(obj.data)
+    cage = api.evaluated_positions(obj)
+    expected = sorted(dk.smoothness_report(cage, polygons(obj.data), reference=base).flipped_faces.tolist())
+    assert 0 < len(expected) < len(obj.data.polygons) // 10
+    negative = dk.SimpleDeform(mode="BEND", angle=5.0, deform_axis="X").volume_ratio(base) < 0
+    assert all(negative[list(obj.data.polygons[f].vertices)].any() for f in expected)
+    for mode in ("OBJECT", "EDIT"):
+        bpy.ops.object.mode_set(mode=mode)
+        with bpy.context.temp_override(object=obj, active_object=obj):
+            assert bpy.ops.deformkit.select_flipped() == {"FINISHED"}
+        bpy.ops.object.mode_set(mode="OBJECT")
+        assert [p.index for p in obj.data.polygons if p.select] == expected, mode
+        chosen = {v for f in expected for v in obj.data.polygons[f].vertices}
+        assert [v.index for v in obj.data.vertices if v.select] == sorted(chosen), mode
+    assert obj.deformkit.smoothness.flipped > 0
+    labels = dict(ui.smoothness_lines(obj.deformkit.smoothness))
+    assert labels[f"Flipped samples: {obj.deformkit.smoothness.flipped}"] == "ERROR"
+    assert ("operator", "deformkit.select_flipped") in draw_panel(obj)
+
+
+# ---------------------------------------------------------------------------------------------
+# 6. The type of a bound Laplacian entry: one click is undone with the bind
+
+def test_undoing_a_type_change_gives_the_bind_back(scene):
+    import numpy as np
+    import bpy
+    from deformkit_addon import surface
+    from addon_helpers import evaluated
+    from test_entry_menu import tube_with_bound_laplacian
+    obj, _empty = tube_with_bound_laplacian(bpy)
+    bound = evaluated(obj).copy()
+    rest = surface.saved_rest(obj.deformkit.entries[0])
+    bpy.ops.ed.undo_push(message="bound")
+    obj.deformkit.entries[0].type = "TWIST"  # the Type dropdown, which pushes an undo step
+    bpy.ops.ed.undo_push(message="type")
+    assert not surface.is_bound(obj.deformkit.entries[0])
+    bpy.ops.ed.undo()
+    obj = bpy.data.objects["Tube"]  # undo rebuilds the data: look the object up again
+    entry = obj.deformkit.entries[0]
+    assert entry.type == "LAPLACIAN" and surface.is_bound(entry)
+    np.testing.assert_array_equal(surface.saved_rest(entry), rest)
+    np.testing.assert_array_equal(evaluated(obj), bound)  # the solver, rebuilt from the rest: the same mesh
+    bpy.ops.ed.redo()
+    obj = bpy.data.objects["Tube"]
+    assert obj.deformkit.entries[0].type == "TWIST" and not surface.is_bound(obj.deformkit.entries[0])
+
+
+# ---------------------------------------------------------------------------------------------
+# 7. Every text the panel draws fits at the default width
+
+class BudgetLayout(CheckingLayout):
+    """Records every text the panel shows with where it goes: a property's label in the label
+    column of a use_property_split layout (its text= or the property's name), a row's items
+    (texts, and whether each is a button, which has padding), a line of its own. Splits inherit,
+    as in Blender, and only properties are split: a row of labels and buttons is full width."""
+
+    def __init__(self, log, found, split=False, row=None):
+        super().__init__(log)
+        self.found, self.use_property_split, self.items = found, split, row
+
+    def _child(self, row):
+        return BudgetLayout(self.log, self.found, self.use_property_split, row)
+
+    def row(self, heading="", **_kw):
+        items = dict(texts=[], split=False)
+        self.found["rows"].append(items)
+        if heading:
+            self.found["column"].append(heading)
+        return self._child(items)
+
+    def column(self, **_kw):
+        return self._child(None)
+
+    box = column
+
+    def _item(self, text, button, prop=False):
+        if not text:
+            return
+        row = self.items
+        if row is None:  # a line of its own
+            row = dict(texts=[], split=False)
+            self.found["rows"].append(row)
+        row["texts"].append((text, button))
+        row["split"] |= prop and self.use_property_split  # beside the label column
+
+    def label(self, text="", icon="NONE"):
+        super().label(text=text, icon=icon)
+        self._item(text, False)
+
+    def operator(self, idname, text=None, **kw):
+        import bpy
+        module, name = idname.split(".")
+        self._item(getattr(getattr(bpy.ops, module), name).get_rna_type().name if text is None else text, True)
+        return super().operator(idname, **kw)
+
+    def menu(self, idname, text=None, **kw):
+        import bpy
+        super().menu(idname, **kw)
+        self._item(getattr(bpy.types, idname).bl_label if text is None else text, True)
+
+    def prop(self, data, name, text=None, icon="NONE", **kw):
+        super().prop(data, name, icon=icon, **kw)
+        rna = data.bl_rna.properties[name]
+        text = rna.name if text is None else text
+        if rna.type == "BOOLEAN":
+            self._item(text, True, prop=True)  # a checkbox or toggle, beside its text
+        elif self.use_property_split:
+            self.found["column"].append(text)
+        elif not kw.get("expand"):
+            self._item(text, True, prop=True)
+
+    def prop_search(self, data, name, search_data, search_name, text=None, **kw):
+        super().prop_search(data, name, search_data, search_name, **kw)
+        text = data.bl_rna.properties[name].name if text is None else text
+        if self.use_property_split:
+            self.found["column"].append(text)
+        else:
+            self._item(text, True, prop=True)
+
+
+def test_every_text_fits_at_the_default_width(scene):
+    import bpy
+    from deformkit_addon import api, panel_text
+    from addon_helpers import make_lattice, make_tube
+    # The model flags what Blender 3.4 cut at the default width (issue 14).
+    assert len("Boundary Smooth") > panel_text.label_column_budget()
+    assert panel_text.row_characters([("Selection to Cursor", True), ("Selection to Empties", True)]) > \
+        panel_text.char_budget()
+    obj = make_tube(bpy)
+    add_loose_parts(bpy, obj, count=43, anchored=3)
+    lattice = make_lattice(bpy, scale=(6.0, 6.0, 8.0))
+    for kind in ("TWIST", "BEND", "TAPER", "STRETCH"):
+        api.add_entry(obj, kind, angle=5.0) if kind in ("TWIST", "BEND") else api.add_entry(obj, kind)
+    api.add_entry(obj, "LATTICE", lattice=lattice)
+    api.add_laplacian(obj, anchors_group="Bottom", handles_group="Top")
+    api.add_entry(obj, "SUBDIVIDE", levels=1)
+    for entry in obj.deformkit.entries:
+        entry.show_restrictions = True
+    obj.deformkit.show_volume_ratio = True
+    figures = obj.deformkit.smoothness  # as a Check Smoothness of a large, folded mesh leaves them
+    figures.checked, figures.max_angle, figures.max_gap, figures.worst_edge = True, 1.234, 0.0123, (123456, 654321)
+    figures.flipped, figures.degenerate, figures.selected = 123456, 12345, 100000
+    found = {"rows": [], "column": []}
+    draw_panel(obj, BudgetLayout, found)
+    column, budget = panel_text.label_column_budget(), panel_text.char_budget()
+    assert len(found["column"]) > 20 and len(found["rows"]) > 40
+    assert [text for text in found["column"] if len(text) > column] == []
+    too_wide = [row["texts"] for row in found["rows"]
+                if panel_text.row_characters(row["texts"]) > (budget - column if row["split"] else budget)]
+    assert too_wide == []
