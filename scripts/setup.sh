@@ -9,6 +9,7 @@ cd "$(dirname "$0")/.."
 # under its supernodal factorisation (Debian's alternatives pick it once installed). The serial
 # build: a threaded one spins on sched_yield between calls, taking a core from deformkit's own
 # OpenMP threads on a 2-core machine.
+# xvfb (xvfb-run, with xauth): a Blender 3.4 window without a screen, for the Ctrl+A test.
 declare -A APT_PINS=(
   [libeigen3-dev]=3.4.0
   [libosd-dev]=3.5.0
@@ -17,6 +18,8 @@ declare -A APT_PINS=(
   [blender]=3.4.1
   [libsuitesparse-dev]=5.12.0
   [libopenblas0-serial]=0.3.21
+  [xvfb]=21.1.7
+  [xauth]=1.1.2
 )
 # Shared libraries that the PyPI bpy wheel loads on a headless machine; numpy and pytest for Blender 3.4;
 # chattr (e2fsprogs) for the batch tests' read-only folder, which root cannot otherwise make.
