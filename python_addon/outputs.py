@@ -218,8 +218,13 @@ def node_group(kind):
             store = b.node("GeometryNodeStoreNamedAttribute", data_type="FLOAT_COLOR", domain="POINT")
             store.inputs["Name"].default_value = ATTR_VOLUME
             b.link(geometry, store.inputs["Geometry"])
-            b.link(matches, store.inputs["Selection"])
-            b.link(sampled(b.named(ATTR_VOLUME, "FLOAT_COLOR"), "FLOAT_COLOR"), _input(store, "Value"))
+            # Store Named Attribute has no Selection in 3.4: white (det J = 1) where the result is not shown.
+            switch = b.node("GeometryNodeSwitch", input_type="RGBA")
+            condition, if_false, if_true = [i for i in switch.inputs if i.enabled]
+            if_false.default_value = (1.0, 1.0, 1.0, 1.0)
+            b.link(matches, condition)
+            b.link(sampled(b.named(ATTR_VOLUME, "FLOAT_COLOR"), "FLOAT_COLOR"), if_true)
+            b.link(_output(switch), _input(store, "Value"))
             geometry = store.outputs[0]
         b.link(b.drop_internal(geometry), b.sink.inputs[0])
         return group
