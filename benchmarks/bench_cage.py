@@ -1,0 +1,149 @@
+"""Cage deformation: deformkit's mean value and Green coordinates against Blender's Mesh Deform.
+
+    .venv/bin/python benchmarks/bench_cage.py [--models Ogre,FireHydrant,Beast] [--repeats R] [--precision P]
+
+For each model of ../shared/cages (model, rest cage, deformed cage: same vertex order), in one
+bpy 5.0 process: Blender's Mesh Deform (Precision 5, its default) bind time and its frame after the
+cage moves to the deformed cage (depsgraph update + evaluated vertex count), and deformkit's
+dk.MeanValueCage / dk.GreenCage bind and deform_bound after setting the deformed cage (dense
+float64, float32 and sparsified weights). Shape quality from the same run: the mean change of the
+model's triangle angles (degrees) under the deformed cage, for each method. Skips with a message
+when ../shared/cages is absent.
+"""
+import argparse
+import pathlib
+import statistics
+import sys
+import time
+
+import numpy as np
+
+CAGES = pathlib.Path(__file__).resolve().parents[1].parent / "shared" / "cages"
+
+ap = argparse.ArgumentParser()
+ap.add_argument("--models", default="Ogre,FireHydrant,Beast")
+ap.add_argument("--repeats", type=int, default=7)
+ap.add_argument("--precision", type=int, default=5)
+args = ap.parse_args()
+if not CAGES.is_dir():
+    print(f"bench_cage: {CAGES} is absent (the project's test data); nothing to measure")
+    sys.exit(0)
+
+import bpy  # noqa: E402
+import deformkit as dk  # noqa: E402
+
+
+def imported(path):
+    """The one mesh object Blender's OBJ importer makes of `path`, its positions and polygons."""
+    before = set(bpy.data.objects)
+    bpy.ops.wm.obj_import(filepath=str(path), forward_axis="Y", up_axis="Z")
+    (obj,) = set(bpy.data.objects) - before
+    mesh = obj.data
+    co = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.attributes["position"].data.foreach_get("vector", co)
+    faces = [list(p.vertices) for p in mesh.polygons]
+    return obj, co.reshape(-1, 3).astype(np.float64), faces
+
+
+def triangles_of(faces):
+    return np.array([[f[0], f[i], f[i + 1]] for f in faces for i in range(1, len(f) - 1)])
+
+
+def angles(points, tris):
+    a, b, c = (points[tris[:, k]] for k in range(3))
+
+    def angle(u, v):
+        return np.arctan2(np.linalg.norm(np.cross(u, v), axis=1), (u * v).sum(1))
+    return np.stack([angle(b - a, c - a), angle(a - b, c - b), angle(a - c, b - c)], 1)
+
+
+def angle_distortion(rest, deformed, tris):
+    return float(np.degrees(np.abs(angles(deformed, tris) - angles(rest, tris))).mean())
+
+
+def timed(fn, repeats):
+    out, times = None, []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return out, statistics.median(times)
+
+
+def evaluated(obj):
+    dg = bpy.context.evaluated_depsgraph_get()
+    mesh = obj.evaluated_get(dg).data
+    co = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.attributes["position"].data.foreach_get("vector", co)
+    return co.reshape(-1, 3).astype(np.float64)
+
+
+def mesh_deform(model, cage, cage_rest, cage_moved, repeats):
+    """Blender's Mesh Deform: (bind s, frame s, deformed points)."""
+    mod = model.modifiers.new("MeshDeform", "MESH_DEFORM")
+    mod.object, mod.precision = cage, args.precision
+    bpy.context.view_layer.objects.active = model
+    t0 = time.perf_counter()
+    with bpy.context.temp_override(object=model, active_object=model):
+        bpy.ops.object.meshdeform_bind(modifier=mod.name)
+    bpy.context.evaluated_depsgraph_get().update()  # the bind runs in the modifier's next evaluation
+    bind = time.perf_counter() - t0
+    assert mod.is_bound, "Mesh Deform did not bind"
+    frames = []
+    for i in range(repeats + 1):
+        target = cage_moved if i % 2 == 0 else cage_rest
+        cage.data.attributes["position"].data.foreach_set("vector", target.astype(np.float32).ravel())
+        cage.data.update()
+        t0 = time.perf_counter()
+        dg = bpy.context.evaluated_depsgraph_get()
+        dg.update()
+        len(model.evaluated_get(dg).data.vertices)
+        if i:
+            frames.append(time.perf_counter() - t0)
+    cage.data.attributes["position"].data.foreach_set("vector", cage_moved.astype(np.float32).ravel())
+    cage.data.update()
+    deformed = evaluated(model)
+    model.modifiers.remove(mod)
+    return bind, statistics.median(frames), deformed
+
+
+def deformkit_cages(points, cage_rest, cage_faces, cage_moved, repeats):
+    """(method, storage) -> (bind s, deform s, deformed points, note)."""
+    rows = {}
+    for name in ("MeanValueCage", "GreenCage"):
+        kind = getattr(dk, name, None)
+        if kind is None:
+            continue
+        deformer = kind(cage_rest, cage_faces)
+        for storage, options in (("dense f64", {}), ("dense f32", {"precision": "float32"}),
+                                 ("sparse 1e-4", {"sparsify": 1e-4})):
+            try:
+                binding, bind = timed(lambda: deformer.bind(points, **options), 1)
+            except TypeError:
+                continue  # a storage this deformer does not offer
+            deformer.cage_points = cage_moved
+            deformed, deform = timed(lambda: deformer.deform_bound(binding), repeats)
+            deformer.cage_points = cage_rest
+            rows[(name, storage)] = (bind, deform, np.asarray(deformed, np.float64))
+    return rows
+
+
+print(f"deformkit {dk.build_info()}  |  bpy {bpy.app.version_string}  |  Mesh Deform precision {args.precision}")
+print(f"{'model':18s}{'method':28s}{'bind s':>9s}{'frame ms':>10s}{'angle dist °':>14s}{'|x - MD| max':>14s}")
+for name in args.models.split(","):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    model, points, faces = imported(CAGES / f"{name}.obj")
+    cage, cage_rest, cage_faces = imported(CAGES / f"{name}_Cage.obj")
+    _, cage_moved, moved_faces = imported(CAGES / f"{name}_Cage_Deformed.obj")
+    # The files list the same faces in different orders; the vertices are in the same order.
+    same = sorted(map(sorted, moved_faces)) == sorted(map(sorted, cage_faces))
+    assert same and len(cage_moved) == len(cage_rest), f"{name}: cages differ in topology"
+    tris = triangles_of(faces)
+    bind, frame, md = mesh_deform(model, cage, cage_rest, cage_moved, args.repeats)
+    label = f"{name} {len(points) // 1000}k/{len(cage_rest)}"
+    print(f"{label:18s}{'Blender Mesh Deform':28s}{bind:9.3f}{frame * 1e3:10.2f}"
+          f"{angle_distortion(points, md, tris):14.3f}{0.0:14.2e}")
+    for (method, storage), (b, d, x) in deformkit_cages(points, cage_rest, cage_faces, cage_moved,
+                                                         args.repeats).items():
+        print(f"{'':18s}{method + ' ' + storage:28s}{b:9.3f}{d * 1e3:10.2f}"
+              f"{angle_distortion(points, x, tris):14.3f}{np.abs(x - md).max():14.2e}")
