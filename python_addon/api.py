@@ -30,6 +30,7 @@ from mathutils import Matrix
 from . import cache, evaluation, meshdata, native
 from . import entries as kinds  # api.entries(obj) lists an object's entries
 from .entries import common
+from .entries import cage as cages
 from .entries import laplacian as surface
 from .entries import lattice as lattices
 from .entries import subdivide as subdivision
@@ -277,6 +278,25 @@ def bind_laplacian(obj, index):
 def unbind_laplacian(obj, index):
     """Forget entry `index`'s rest: it passes its input through until bound again."""
     surface.unbind(obj, laplacian_entry(obj, index))
+    evaluation.evaluate(obj, force=True)
+
+
+# Cage entries ---------------------------------------------------------------------------------
+
+def bind_cage(obj, index):
+    """Record the cage's current evaluated shape as entry `index`'s rest, as Mesh Deform's Bind;
+    returns the cage's vertex count. Raises ValueError (naming the first open edge or bad face of
+    the cage, ...), and leaves the entry as it was, if it cannot be bound."""
+    entry = entry_of_type(obj, index, "CAGE")
+    _require_mesh(obj)
+    count = cages.bind(obj, entry)
+    evaluation.evaluate(obj, force=True)
+    return count
+
+
+def unbind_cage(obj, index):
+    """Forget entry `index`'s rest cage: it passes its input through until bound again."""
+    cages.unbind(entry_of_type(obj, index, "CAGE"))
     evaluation.evaluate(obj, force=True)
 
 

@@ -19,8 +19,14 @@ ENTRY_TYPES = [
      "NONE", 4),
     ("LAPLACIAN", "Laplacian", "Laplacian surface editing or as-rigid-as-possible deformation: anchors stay, "
      "handles move and the rest of the surface keeps its shape (Bind first, as Laplacian Deform)", "NONE", 5),
+    ("CAGE", "Cage", "A closed mesh object (the cage) deforms the mesh through mean value or Green coordinates, "
+     "as Mesh Deform (Bind first)", "NONE", 7),  # saved as its number: listed before Subdivide, numbered after
     ("SUBDIVIDE", "Subdivide", "OpenSubdiv subdivision (Catmull-Clark or Loop, with creases) of the mesh the "
      "entries above make; the last entry of the stack", "NONE", 6),
+]
+CAGE_METHODS = [
+    ("MEAN_VALUE", "Mean Value", "Mean value coordinates (Ju, Schaefer, Warren 2005): smooth, interpolate the cage", 0),
+    ("GREEN", "Green", "Green coordinates (Lipman, Levin, Cohen-Or 2008): keep details' shape (quasi-conformal)", 1),
 ]
 AXES = [("X", "X", "Deform around the local X axis"), ("Y", "Y", "Deform around the local Y axis"),
         ("Z", "Z", "Deform around the local Z axis")]
@@ -93,6 +99,15 @@ def _origin_changed(self, context):
 def _lattice_changed(self, context):
     self.lattice_name = self.lattice.name if self.lattice else ""
     _changed(self, context)
+
+
+def _cage_changed(self, context):
+    self.cage_name = self.cage.name if self.cage else ""
+    _changed(self, context)
+
+
+def _is_cage(self, obj):
+    return obj.type == "MESH" and obj != self.id_data
 
 
 def _is_lattice(self, obj):
@@ -213,6 +228,14 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
     # The helper objects holding the subdivided meshes (see entries/subdivide.py); render: None when the same.
     subdivision_viewport: PointerProperty(type=bpy.types.Object, options={"HIDDEN"})
     subdivision_render: PointerProperty(type=bpy.types.Object, options={"HIDDEN"})
+    # Cage entries (the bind uses bind_id, bind_vertices, bind_faces and bind_topology, of the cage,
+    # and the ID property "deformkit_cage_rest": see entries/cage.py)
+    cage: PointerProperty(name="Cage", type=bpy.types.Object, poll=_is_cage, update=_cage_changed,
+                          description="Closed mesh object around the mesh whose shape deforms it (as Mesh Deform's "
+                                      "Object)")
+    cage_name: StringProperty(options={"HIDDEN"})
+    cage_method: EnumProperty(name="Method", items=CAGE_METHODS, default="MEAN_VALUE", update=_changed,
+                              description="The coordinates that tie the mesh to the cage")
     error: StringProperty(options={"HIDDEN", "SKIP_SAVE"})
     # Closed by default, as a modifier's subpanels (Simple Deform's Restrictions) are.
     show_restrictions: BoolProperty(name="Restrictions", default=False,

@@ -13,7 +13,7 @@ from ..outputs import EntryError
 # note: a message for the entry that still evaluates (a deleted origin), or "".
 Prepared = namedtuple("Prepared", "deformer fingerprint data note", defaults=("",))
 # Entry properties that point at objects, each with a <prop>_name remembering the object's name.
-POINTERS = ("origin", "lattice", "handle_object")
+POINTERS = ("origin", "lattice", "handle_object", "cage")
 
 
 def deleted_name(entry, prop):

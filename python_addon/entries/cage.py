@@ -1,0 +1,230 @@
+"""Cage entries: a closed mesh object (the cage) deforms the mesh through mean value or Green
+coordinates (dk.MeanValueCage, dk.GreenCage), as Blender's Mesh Deform modifier is used.
+
+Bind records the cage's rest shape in this object's space, with a fingerprint of its topology, on
+the entry itself (an ID property array, so it saves and undoes with the object and never reaches
+the mesh). Afterwards the entry follows the cage object's *evaluated* mesh: a cage rigged with an
+Armature, edited in Edit Mode, shape-keyed or keyframed drives the mesh, and moving the cage object
+moves the mesh, as with Mesh Deform. The mesh is bound to the rest cage once per incoming points
+(kept in the cache's "cage" space), and each evaluation is one product of the bound coordinates
+with the current cage.
+
+Here too: the entry's settings and panel, and its Bind and Unbind operators.
+"""
+import zlib
+from collections import namedtuple
+
+import bpy
+import numpy as np
+
+from .. import api, cache, meshdata, native
+from ..outputs import EntryError
+from .common import KindOperator, Prepared, core_missing, draw_vertex_group, followed_object, influence_weights, \
+    write_base
+from .laplacian import _signed, is_bound, new_bind_id
+
+TYPES = ("CAGE",)
+ICON = "MOD_MESHDEFORM"
+STACKABLE = False  # deformed through its binding
+LAST = False
+MENU = ()
+FIELDS = ("cage", "cage_method", "strength", "vertex_group", "invert_vertex_group")
+CLASSES = {"MEAN_VALUE": "MeanValueCage", "GREEN": "GreenCage"}
+
+REST = "deformkit_cage_rest"  # the entry's ID property: the cage at bind, x y z per vertex, in this object's space
+
+# deformer: the dk cage deformer with the current cage and the entry's influence; bind: the key its
+# deformer and bindings are kept under; fingerprint: everything besides the incoming points.
+Setup = namedtuple("Setup", "deformer bind fingerprint")
+# In the cache: "cage", (object cache key, bind id, method) -> the deformer made from the rest cage;
+# "cage_binding", (object cache key, entry index, "viewport"/"render") -> (bind key, points, binding).
+
+
+def fields(entry_type):
+    return FIELDS
+
+
+def cage_object(entry, obj):
+    cage = followed_object(entry, "cage", "cage", "no cage object set: pick a closed mesh object around the mesh")
+    if cage.type != "MESH":
+        raise EntryError(f"cage '{cage.name}' is not a mesh object")
+    if cage == obj:
+        raise EntryError("the cage must be another object than the mesh it deforms")
+    return cage
+
+
+def evaluated_cage(obj, cage):
+    """The cage's evaluated mesh (its modifiers, shape keys and edits applied) in obj's space:
+    (points float64 (m, 3), faces, topology fingerprint (vertices, faces, crc))."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    evaluated = cage.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        points = meshdata.base_positions(mesh).astype(np.float64)
+        topo = meshdata.topology(mesh)
+        faces = meshdata.polygons(topo)
+    finally:
+        evaluated.to_mesh_clear()
+    local = np.array(obj.matrix_world.inverted() @ cage.matrix_world)
+    points = points @ local[:3, :3].T + local[:3, 3]
+    return points, faces, (topo.vertices, topo.faces, _signed(topo.crc))
+
+
+def topology_change(entry, now):
+    """What changed in the cage's topology since bind, or ''."""
+    vertices, faces, crc = now
+    if (vertices, faces) != (entry.bind_vertices, entry.bind_faces):
+        return (f"the cage had {entry.bind_vertices} vertices and {entry.bind_faces} faces at bind and has "
+                f"{vertices} and {faces} now: bind again")
+    if crc != entry.bind_topology:
+        return "the cage's faces connect its vertices differently than at bind: bind again"
+    return ""
+
+
+def _deformer(obj, entry, faces):
+    key = (meshdata.cache_key(obj), entry.bind_id, entry.cage_method)
+    deformer = cache.get("cage", key)
+    if deformer is None:
+        cls = getattr(native.dk, CLASSES[entry.cage_method], None)
+        if cls is None:
+            raise EntryError(f"this build of deformkit has no cage deformers: {native.BUILD_HINT}")
+        rest = np.asarray(entry[REST], np.float64).reshape(-1, 3)
+        try:
+            deformer = cache.put("cage", key, cls(rest, faces))
+        except ValueError as exc:
+            raise EntryError(str(exc)) from exc
+    return key, deformer
+
+
+def setup(obj, entry, reuse_weights=False):
+    if not is_bound(entry) or REST not in entry:
+        raise EntryError("not bound: press Bind (records the cage's rest shape, as Mesh Deform's Bind)")
+    cage = cage_object(entry, obj)
+    points, faces, topo = evaluated_cage(obj, cage)
+    changed = topology_change(entry, topo)
+    if changed:
+        raise EntryError(changed)
+    key, deformer = _deformer(obj, entry, faces)
+    deformer.cage_points = points
+    weights = influence_weights(obj, entry, reuse_weights)
+    if entry.strength != 1.0:
+        weights = np.full(len(obj.data.vertices), entry.strength) if weights is None else weights * entry.strength
+    deformer.weights = weights
+    fingerprint = (key, zlib.crc32(points.tobytes()),
+                   None if weights is None else zlib.crc32(np.ascontiguousarray(weights).tobytes()))
+    return Prepared(deformer, fingerprint, Setup(deformer, key, fingerprint))
+
+
+def deform(key, prepared, points):
+    """The entry's result on `points`, through a binding kept while the points and the bind stay."""
+    setup_ = prepared.data
+    cached = cache.get("cage_binding", key)
+    if cached is None or cached[0] != setup_.bind or not np.array_equal(cached[1], points):
+        try:
+            cached = cache.put("cage_binding", key, (setup_.bind, points, setup_.deformer.bind(points)))
+        except ValueError as exc:
+            raise EntryError(str(exc)) from exc
+    return setup_.deformer.deform_bound(cached[2])
+
+
+def bind(obj, entry):
+    """Record the cage's current evaluated shape as its rest (checked: a closed, consistently
+    oriented cage); nothing changes if that fails. Returns the cage's vertex count."""
+    cage = cage_object(entry, obj)
+    points, faces, topo = evaluated_cage(obj, cage)
+    cls = getattr(native.dk, CLASSES[entry.cage_method], None)
+    if cls is None:
+        raise EntryError(f"this build of deformkit has no cage deformers: {native.BUILD_HINT}")
+    cls(points, faces)  # checks the cage: ValueError naming the first open edge, bad face, ...
+    key = meshdata.cache_key(obj)
+    bind_id = new_bind_id(obj)
+    entry[REST] = points.astype(np.float32).ravel()
+    entry.bind_vertices, entry.bind_faces, entry.bind_topology = topo
+    entry.bind_id = bind_id
+    # The deformer is made again from the stored (float32) rest at the next setup, as after a file load.
+    cache.forget(key, "cage", keep=lambda k: k[1] != bind_id)
+    return topo[0]
+
+
+def unbind(entry):
+    if REST in entry:
+        del entry[REST]
+    entry.bind_id = 0
+
+
+def apply(obj, entry, prepared, base):
+    write_base(obj, prepared.deformer.deform(base))
+
+
+def followed(entry):
+    return [(entry.cage, entry.cage_name)]
+
+
+def volume_note(entries):
+    return ""
+
+
+def prune(object_key, entries):
+    """Deformers of binds no entry has any more go."""
+    alive = {(e.bind_id, e.cage_method) for e in entries}
+    cache.forget(object_key, "cage", keep=lambda k: (k[1], k[2]) in alive)
+
+
+def retyped(entry):
+    unbind(entry)
+
+
+def draw(col, obj, entry):
+    """Laid out like Blender's Mesh Deform panel: the cage, the method, Bind / Unbind."""
+    index = list(obj.deformkit.entries).index(entry)
+    col.prop(entry, "cage", text="Object")
+    col.prop(entry, "cage_method", text="Method")
+    col.prop(entry, "strength", slider=True)
+    draw_vertex_group(col, obj, entry)
+    col.separator()
+    if is_bound(entry):
+        col.label(text=f"Bound: cage of {entry.bind_vertices} vertices", icon="LINKED")
+        col.operator("deformkit.cage_unbind", text="Unbind", icon="UNLINKED").index = index
+    else:
+        col.label(text="Not bound", icon="UNLINKED")
+        col.operator("deformkit.cage_bind", text="Bind", icon="LINKED").index = index
+
+
+class _CageOperator(KindOperator):
+    TYPES = TYPES
+
+    @classmethod
+    def poll(cls, context):
+        if core_missing(cls):
+            return False
+        obj = context.object
+        if obj is not None and obj.type == "MESH" and cls.has_entry(obj):
+            return True
+        cls.poll_message_set("Needs a mesh with a Cage entry")
+        return False
+
+
+class DEFORMKIT_OT_cage_bind(_CageOperator, bpy.types.Operator):
+    """Record the cage's current shape as its rest: afterwards the mesh follows the cage's edits"""
+    bl_idname = "deformkit.cage_bind"
+    bl_label = "Bind to Cage"
+
+    def run(self, context):
+        obj, index = self.target(context)
+        count = api.bind_cage(obj, index)
+        self.report({"INFO"}, f"Bound '{obj.name}' to a cage of {count} vertices")
+        return {"FINISHED"}
+
+
+class DEFORMKIT_OT_cage_unbind(_CageOperator, bpy.types.Operator):
+    """Forget the cage's rest shape: the entry passes the mesh through until bound again"""
+    bl_idname = "deformkit.cage_unbind"
+    bl_label = "Unbind from Cage"
+
+    def run(self, context):
+        obj, index = self.target(context)
+        api.unbind_cage(obj, index)
+        return {"FINISHED"}
+
+
+classes = (DEFORMKIT_OT_cage_bind, DEFORMKIT_OT_cage_unbind)
