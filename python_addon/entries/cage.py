@@ -97,9 +97,9 @@ def _deformer(obj, entry, faces):
 
 
 def setup(obj, entry, reuse_weights=False):
-    if not is_bound(entry) or REST not in entry:
-        raise EntryError("not bound: press Bind (records the cage's rest shape, as Mesh Deform's Bind)")
     cage = cage_object(entry, obj)
+    if not is_bound(entry) or REST not in entry:
+        return Prepared(None, ("unbound",), None)  # as Mesh Deform before Bind: the mesh passes through
     points, faces, topo = evaluated_cage(obj, cage)
     changed = topology_change(entry, topo)
     if changed:
@@ -118,6 +118,8 @@ def setup(obj, entry, reuse_weights=False):
 def deform(key, prepared, points):
     """The entry's result on `points`, through a binding kept while the points and the bind stay."""
     setup_ = prepared.data
+    if setup_ is None:
+        return points
     cached = cache.get("cage_binding", key)
     if cached is None or cached[0] != setup_.bind or not np.array_equal(cached[1], points):
         try:
