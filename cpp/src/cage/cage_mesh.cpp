@@ -216,6 +216,11 @@ CageMesh::CageMesh(PolygonMesh polygons) : polygons_(std::move(polygons)) {
   if (six_volume < 0) {  // faces point inward: the coordinates assume outward triangles
     flipped_ = true;
     for (CageTriangle& t : triangles_) t = starting_at_smallest(t[0], t[2], t[1]);
+    // Sorted again within each polygon: the outward listing of the same cage gives these triangles.
+    for (std::size_t begin = 0, end = 0; begin < triangles_.size(); begin = end) {
+      while (end < triangles_.size() && triangle_face_[end] == triangle_face_[begin]) ++end;
+      std::sort(triangles_.begin() + std::ptrdiff_t(begin), triangles_.begin() + std::ptrdiff_t(end));
+    }
   }
   volume_ = std::abs(six_volume) / 6.0;
   const std::array<int, 2> hit = first_intersecting_triangles(polygons_.points(), triangles_);
