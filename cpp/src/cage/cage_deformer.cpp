@@ -1,5 +1,6 @@
 #include "deformkit/cage/cage_deformer.hpp"
 
+#include "cage/weight_rows.hpp"
 #include "core/parallel.hpp"
 
 #include <algorithm>
@@ -34,14 +35,8 @@ ControlColumns control_columns(const CageDeformer& d) {
 // sum_j w_j c_j for one row of weights (float or double), accumulated in double.
 template <class W>
 void row_product(const W* w, const ControlColumns& cc, std::size_t m, double* out) {
-  const double *cx = cc.c[0].data(), *cy = cc.c[1].data(), *cz = cc.c[2].data();
-  double x = 0, y = 0, z = 0;
-#pragma omp simd reduction(+ : x, y, z)
-  for (std::size_t j = 0; j < m; ++j) {
-    const double wj = double(w[j]);
-    x += wj * cx[j], y += wj * cy[j], z += wj * cz[j];
-  }
-  out[0] = x, out[1] = y, out[2] = z;
+  const double* c[3] = {cc.c[0].data(), cc.c[1].data(), cc.c[2].data()};
+  weight_rows_product(w, 1, m, c, out);
 }
 
 // The first row noted in an OpenMP region, reported after it (exceptions may not leave one).
@@ -290,15 +285,18 @@ bool CageDeformer::multiply(const CageBinding& b, T* out) const {
     apply_weight_table(b.sparse, rows.data(), 3, out);
     return all_finite(out, n, 3);
   }
+  const double* c[3] = {cc.c[0].data(), cc.c[1].data(), cc.c[2].data()};
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    constexpr std::size_t kRows = 256;  // rows per kernel call: results stay in the L1 cache
+    double y[3 * kRows];
     bool ok = true;
-    for (std::size_t i = begin; i < end; ++i) {
-      double y[3];
-      if (b.storage == WeightStorage::Float64) row_product(b.weights_f64.data() + i * m, cc, m, y);
-      else row_product(b.weights_f32.data() + i * m, cc, m, y);
-      for (int a = 0; a < 3; ++a) {
-        out[3 * i + a] = static_cast<T>(y[a]);
-        ok = ok && std::isfinite(out[3 * i + a]);
+    for (std::size_t lo = begin; lo < end; lo += kRows) {
+      const std::size_t count = std::min(kRows, end - lo);
+      if (b.storage == WeightStorage::Float64) weight_rows_product(b.weights_f64.data() + lo * m, count, m, c, y);
+      else weight_rows_product(b.weights_f32.data() + lo * m, count, m, c, y);
+      for (std::size_t k = 0; k < 3 * count; ++k) {
+        out[3 * lo + k] = static_cast<T>(y[k]);
+        ok = ok && std::isfinite(out[3 * lo + k]);
       }
     }
     if (!ok) finite = false;
