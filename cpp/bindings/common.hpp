@@ -213,11 +213,12 @@ template <class Index>
 std::optional<py::array_t<Index, py::array::c_style>> uniform_face_array(const py::object& faces);
 
 // One binding file per family: core.cpp (Deformer, Stack, mesh_volume), barr.cpp, lattice.cpp,
-// surface.cpp, subdivision.cpp.
+// surface.cpp, subdivision.cpp, cage.cpp.
 void bind_core(py::module_& m);
 void bind_barr(py::module_& m);
 void bind_lattice(py::module_& m);
 void bind_surface(py::module_& m);
 void bind_subdivision(py::module_& m);
+void bind_cage(py::module_& m);
 
 }  // namespace deformkit_py

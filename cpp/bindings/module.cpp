@@ -14,6 +14,7 @@ PYBIND11_MODULE(_core, m) {
   bind_lattice(m);
   bind_surface(m);
   bind_subdivision(m);
+  bind_cage(m);
 
   m.def("build_info", []() {
     py::dict info;

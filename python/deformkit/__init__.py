@@ -9,7 +9,8 @@ for deforming the same points again after their control points move, and
 :class:`BarrDeformer`) that ``SimpleDeform.deform`` applies to given points, so that chunks of
 them deform as the whole would. :func:`subdivide`, :class:`LimitSurface` and
 :func:`smoothness_report` subdivide a (deformed) control mesh with OpenSubdiv and check that its
-limit surface is smooth.
+limit surface is smooth. :class:`MeanValueCage` deforms points with a closed polygon cage (mean
+value coordinates), with the lattices' ``bind`` / ``deform_bound``.
 
 >>> import numpy as np, deformkit as dk
 >>> pts = np.random.rand(1000, 3)
@@ -27,6 +28,8 @@ from ._core import (
     BezierFFD,
     BlenderLattice,
     BSplineLattice,
+    CageBinding,
+    CageDeformer,
     Deformer,
     DirectManipulation,
     ExtendedFFD,
@@ -34,6 +37,7 @@ from ._core import (
     Lattice,
     LimitSurface,
     LatticeBinding,
+    MeanValueCage,
     SimpleDeform,
     SmoothnessReport,
     Stack,
@@ -58,4 +62,5 @@ __all__ = [
     "SurfaceDeformer", "cotangent_laplacian", "mesh_volume",
     "LimitSurface", "SmoothnessReport", "SubdividedMesh", "Subdivider", "SUBDIVISION_MAX_FACES", "SUBDIVISION_MAX_LEVEL",
     "smoothness_report", "subdivide",
+    "CageBinding", "CageDeformer", "MeanValueCage",
 ]

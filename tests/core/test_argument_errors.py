@@ -28,6 +28,10 @@ def limit():
     return dk.LimitSurface(CUBE, CUBE_FACES)
 
 
+def mean_value_cage():
+    return dk.MeanValueCage(CUBE, CUBE_FACES)
+
+
 def subdivider():
     return dk.Subdivider(CUBE, CUBE_FACES, 1)
 
@@ -48,6 +52,10 @@ ENTRY_POINTS = {
     "ExtendedFFD": (dk.ExtendedFFD, "__init__", (dk.BezierFFD(1).rest_control_points,), {}),
     "ExtendedFFD.cylinder": (dk.ExtendedFFD.cylinder, "cylinder", (), {}),
     "ExtendedFFD.prism": (dk.ExtendedFFD.prism, "prism", (TRIANGLE, [0, 0, 1]), {}),
+    "MeanValueCage": (dk.MeanValueCage, "__init__", (CUBE, CUBE_FACES), {}),
+    "MeanValueCage.bind": (lambda *a, **k: mean_value_cage().bind(*a, **k), "bind", (PTS,), {}),
+    "MeanValueCage.deform_bound": (lambda *a, **k: mean_value_cage().deform_bound(*a, **k), "deform_bound",
+                                   (mean_value_cage().bind(PTS),), {}),
     "SurfaceDeformer": (dk.SurfaceDeformer, "__init__", (GRID, QUADS), {"anchors": [0, 1, 2], "handles": [8]}),
     "Subdivider": (dk.Subdivider, "__init__", (CUBE, CUBE_FACES, 1), {}),
     "LimitSurface": (dk.LimitSurface, "__init__", (CUBE, CUBE_FACES), {}),
@@ -77,6 +85,7 @@ DOC_OWNER = {  # where each entry point's signature is documented
     "transform_normals": dk.Deformer.transform_normals, "volume_ratio": dk.Deformer.volume_ratio,
     "SimpleDeform.bind": dk.SimpleDeform.bind, "bind": dk.Lattice.bind, "deform_bound": dk.Lattice.deform_bound,
     "lattice_coordinates": dk.Lattice.lattice_coordinates, "direct_manipulation": dk.Lattice.direct_manipulation,
+    "MeanValueCage.bind": dk.CageDeformer.bind, "MeanValueCage.deform_bound": dk.CageDeformer.deform_bound,
     "SurfaceDeformer.deform": dk.SurfaceDeformer.deform, "Subdivider.subdivide": dk.Subdivider.subdivide,
     "Subdivider.mesh": dk.Subdivider.mesh, "LimitSurface.evaluate": dk.LimitSurface.evaluate,
     "LimitSurface.limit_points": dk.LimitSurface.limit_points,
@@ -115,8 +124,9 @@ CASES = [(entry, p.name) for entry in ENTRY_POINTS for p in parameters(entry)]
 def test_every_entry_point_is_walked():
     """The table covers the whole public API: every class and function deformkit exports."""
     exported = {n for n in dk.__all__ if callable(getattr(dk, n))}
-    walked = {e.split(".")[0] for e in ENTRY_POINTS} | {"Deformer", "Lattice"}
-    results = {"LatticeBinding", "BarrDeformer", "DirectManipulation", "SubdividedMesh", "SmoothnessReport", "build_info"}
+    walked = {e.split(".")[0] for e in ENTRY_POINTS} | {"Deformer", "Lattice", "CageDeformer"}
+    results = {"LatticeBinding", "BarrDeformer", "DirectManipulation", "SubdividedMesh", "SmoothnessReport", "build_info",
+               "CageBinding"}
     assert exported - walked - results == set()
 
 

@@ -22,3 +22,6 @@
 #include "deformkit/subdivision/limit_surface.hpp"
 #include "deformkit/subdivision/smoothness_report.hpp"
 #include "deformkit/subdivision/subdivide.hpp"
+#include "deformkit/cage/cage_deformer.hpp"
+#include "deformkit/cage/cage_mesh.hpp"
+#include "deformkit/cage/mean_value_cage.hpp"

@@ -1,0 +1,175 @@
+// Python bindings of the cage family: argument conversion and checking only.
+#include "common.hpp"
+
+#include <memory>
+#include <optional>
+#include <string>
+
+namespace deformkit_py {
+
+using namespace pybind11::literals;
+
+namespace {
+
+// A binding remembers its cage: its weights are that cage's coordinates.
+struct PyCageBinding {
+  std::shared_ptr<CageBinding> binding;
+  std::shared_ptr<const CageDeformer> cage;
+};
+
+// The core names the mesh's arrays `points` and `faces`; here they are the cage's.
+std::string cage_argument(const std::string& message) {
+  for (const char* name : {"points", "faces"})
+    if (message.rfind(std::string(name) + ":", 0) == 0) return "cage_" + message;
+  return message;
+}
+
+CageMesh parse_cage(const py::object& points, const py::object& faces) {
+  const py::array p = points_array(points, "cage_points");
+  try {
+    return CageMesh(parse_polygon_mesh(p, faces));
+  } catch (const py::type_error& e) {
+    throw py::type_error(cage_argument(e.what()));
+  } catch (const py::value_error& e) {
+    throw py::value_error(cage_argument(e.what()));
+  } catch (const std::invalid_argument& e) {
+    throw py::value_error(cage_argument(e.what()));
+  }
+}
+
+std::vector<double> parse_cage_points(const py::object& obj, const CageDeformer& cage) {
+  require_real(obj, "cage_points");
+  const auto a = c_array<double>(obj, "cage_points");
+  if (a.ndim() != 2 || a.shape(1) != 3 || std::size_t(a.shape(0)) != cage.vertex_count())
+    throw py::value_error("cage_points: expected shape (" + std::to_string(cage.vertex_count()) + ", 3), got " +
+                          shape_of(a));
+  return std::vector<double>(a.data(), a.data() + a.size());
+}
+
+py::array points_of(const std::vector<double>& p) {
+  return copied_array(p.data(), {py::ssize_t(p.size() / 3), py::ssize_t(3)});
+}
+
+const EnumNames<WeightStorage> kPrecisionNames("precision", {{"float64", WeightStorage::Float64},
+                                                             {"float32", WeightStorage::Float32}});
+
+PyCageBinding py_bind(const std::shared_ptr<CageDeformer>& cage, const py::object& points,
+                      const std::string& precision, const std::optional<double>& sparsify) {
+  CageBindOptions options;
+  options.storage = kPrecisionNames.parse(precision);
+  if (sparsify) {
+    const double t = finite_param(*sparsify, "sparsify");
+    if (!(t > 0.0)) throw py::value_error("sparsify: expected a positive threshold, got " + std::to_string(t));
+    if (options.storage == WeightStorage::Float32)
+      throw py::value_error("sparsify: sparsified weights are float64; give precision='float64' or no sparsify");
+    options.storage = WeightStorage::Sparse;
+    options.sparsify_threshold = t;
+  }
+  const py::array pts = points_array(points, "points");
+  const auto n = static_cast<std::size_t>(pts.shape(0));
+  auto b = std::make_shared<CageBinding>();
+  const double bytes = (options.storage == WeightStorage::Float32 ? 4.0 : 8.0) * double(cage->columns()) + 24.0;
+  without_gil("the cage binding (" + working_size(n, bytes) + ")", [&] {
+    if (is_float32(pts)) *b = cage->bind(static_cast<const float*>(pts.data()), n, options);
+    else *b = cage->bind(static_cast<const double*>(pts.data()), n, options);
+  });
+  return PyCageBinding{b, cage};
+}
+
+py::array py_deform_bound(const CageDeformer& cage, const PyCageBinding& pb, const py::object& out) {
+  const CageBinding& b = *pb.binding;
+  const auto rows = py::ssize_t(b.size());
+  py::array result = b.single_precision ? output_array<float>(out, rows, py::none(), false)
+                                        : output_array<double>(out, rows, py::none(), false);
+  without_gil("the cage's working arrays", [&] {
+    if (b.single_precision) cage.deform_bound(b, static_cast<float*>(result.mutable_data()));
+    else cage.deform_bound(b, static_cast<double*>(result.mutable_data()));
+  });
+  return result;
+}
+
+py::tuple py_weights(const PyCageBinding& pb) {
+  WeightTable w;
+  without_gil("the sparse weight matrix (" + working_size(pb.binding->size(), 12.0 * double(pb.binding->columns)) +
+                  " at most)",
+              [&] { w = pb.cage->weights_table(*pb.binding); });
+  return csr_tuple(std::move(w.indptr), std::move(w.indices), std::move(w.values));
+}
+
+const char* storage_name(WeightStorage s) {
+  return s == WeightStorage::Float64 ? "float64" : s == WeightStorage::Float32 ? "float32" : "sparse";
+}
+
+}  // namespace
+
+void bind_cage(py::module_& m) {
+  py::class_<PyCageBinding>(m, "CageBinding", R"(Points bound to a cage: their coordinates, computed once.
+
+`cage.deform_bound(binding)` then deforms them with the cage's current points: one matrix
+product W c (W the weights, c the control values). `storage` is 'float64', 'float32' or
+'sparse'. For a sparsified binding, `dropped_weight_max` is the largest sum of |dropped
+weights| of a point and `weight_change_max` the largest L1 change of a point's weights: at any
+deformed cage, a bound point moves at most weight_change_max * (the deformed control values'
+radius about any centre) away from where the dense weights put it.)")
+      .def("__len__", [](const PyCageBinding& b) { return b.binding->size(); })
+      .def_property_readonly("storage", [](const PyCageBinding& b) { return storage_name(b.binding->storage); })
+      .def_property_readonly("columns", [](const PyCageBinding& b) { return b.binding->columns; })
+      .def_property_readonly("dropped_weight_max", [](const PyCageBinding& b) { return b.binding->dropped_weight_max; })
+      .def_property_readonly("weight_change_max", [](const PyCageBinding& b) { return b.binding->weight_change_max; })
+      .def_property_readonly("float32_rounding_max",
+                             [](const PyCageBinding& b) { return b.binding->float32_rounding_max; },
+                             "float32 weights: the largest L1 change rounding made to a point's weights.")
+      .def("weights", &py_weights, R"(The weight matrix W as CSR (indptr, indices, data): every stored non-zero weight.
+
+Columns are the cage's control values (MeanValueCage: its vertices); deform_bound = W c (then
+blended by the cage's per-point weights, if any).)");
+
+  py::class_<CageDeformer, Deformer, std::shared_ptr<CageDeformer>>(m, "CageDeformer",
+                                                                    "Interface of the cage deformers: F(x) = sum_j w_j(x) c_j.")
+      .def_property("cage_points", [](const CageDeformer& c) { return points_of(c.cage_points()); },
+                    [](CageDeformer& c, const py::object& p) { c.set_cage_points(parse_cage_points(p, c)); },
+                    "The current cage (m, 3); assigning validates and copies. The rest cage is the identity.")
+      .def_property_readonly("rest_cage_points", [](const CageDeformer& c) { return points_of(c.rest_cage_points()); })
+      .def_property_readonly("triangles", [](const CageDeformer& c) {
+        const auto& t = c.cage().triangles();
+        std::vector<std::int32_t> flat;
+        flat.reserve(3 * t.size());
+        for (const auto& tri : t) flat.insert(flat.end(), tri.begin(), tri.end());
+        return owned_array(std::move(flat), {py::ssize_t(t.size()), py::ssize_t(3)});
+      }, "The cage's outward triangles (t, 3): every polygon split by the documented rule, flipped if inward.")
+      .def_property_readonly("triangle_faces", [](const CageDeformer& c) {
+        std::vector<std::int32_t> f(c.cage().triangle_face().begin(), c.cage().triangle_face().end());
+        const auto t = py::ssize_t(f.size());
+        return owned_array(std::move(f), {t});
+      }, "For each triangle, the index of the polygon of cage_faces it comes from.")
+      .def_property_readonly("flipped", [](const CageDeformer& c) { return c.cage().flipped(); },
+                             "True when the cage's faces pointed inward (negative volume) and were flipped.")
+      .def_property_readonly("volume", [](const CageDeformer& c) { return c.cage().volume(); },
+                             "The rest cage's enclosed volume (positive).")
+      .def_property_readonly("columns", &CageDeformer::columns, "The number of coordinates per point.")
+      .def("bind", &py_bind, "points"_a, py::kw_only(), "precision"_a = "float64", "sparsify"_a = py::none(),
+           R"(Bind points: compute their coordinates once (CageBinding).
+
+precision 'float64' (default) or 'float32' stores the dense weights in that type; sparsify=t
+(t > 0) keeps only weights of magnitude >= t, scaled so each point's weights keep their sum
+(float64). deform_bound's dtype is that of the points.)")
+      .def("deform_bound", &py_deform_bound, "binding"_a, py::kw_only(), "out"_a = py::none(),
+           "Deform bound points with the current cage: W c. The dtype is that of the bound points.");
+
+  py::class_<MeanValueCage, CageDeformer, std::shared_ptr<MeanValueCage>>(m, "MeanValueCage", R"(Mean value coordinates of a closed cage (Ju, Schaefer, Warren 2005).
+
+cage_points (m, 3) and cage_faces (an (f, k) integer array or a list of polygons) give the rest
+cage: closed, manifold, consistently oriented, not self-intersecting (an inward-facing cage is
+flipped: `flipped`). Polygons are split into triangles by a rule of their geometry (ears of the
+shortest diagonal). F(x) = sum_j w_j(x) v'_j with v' the current cage_points; the weights
+reproduce linear functions, interpolate on the cage and extend outside it. Computed in the
+determinant form of Thiery, Memari, Boubekeur 2018; Jacobians are exact.)")
+      .def(py::init([](const py::object& points, const py::object& faces, const py::object& weights) {
+             auto c = std::make_shared<MeanValueCage>(parse_cage(points, faces));
+             apply_weights(*c, weights);
+             return c;
+           }),
+           "cage_points"_a, "cage_faces"_a, py::kw_only(), "weights"_a = py::none());
+}
+
+}  // namespace deformkit_py
