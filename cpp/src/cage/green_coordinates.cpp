@@ -35,6 +35,7 @@ inline Dual operator/(const Dual& a, const Dual& b) {
   return {q, {(a.d[0] - q * b.d[0]) / b.v, (a.d[1] - q * b.d[1]) / b.v, (a.d[2] - q * b.d[2]) / b.v}};
 }
 inline Dual operator+(const Dual& a, double b) { return {a.v + b, {a.d[0], a.d[1], a.d[2]}}; }
+inline Dual operator-(const Dual& a, double b) { return a + (-b); }
 inline Dual operator-(double a, const Dual& b) { return {a - b.v, {-b.d[0], -b.d[1], -b.d[2]}}; }
 inline Dual operator*(double a, const Dual& b) { return {a * b.v, {a * b.d[0], a * b.d[1], a * b.d[2]}}; }
 inline Dual operator*(const Dual& a, double b) { return b * a; }
@@ -136,46 +137,53 @@ bool triangle_share(const V3<T>& x, const Triangle& t, TriangleShare<T>& out) {
   const T len[3] = {sqrt(dot(r[0], r[0])), sqrt(dot(r[1], r[1])), sqrt(dot(r[2], r[2]))};
   // h = n.(xi - x) on the triangle: positive when x is behind it (inside an outward cage).
   const T h = dot(n, r[0]);
-  // Van Oosterom & Strackee 1983: tan(Omega/2) = det(a,b,c) / (abc + (a.b)c + (a.c)b + (b.c)a), with
-  // det = 2 area h exactly, so the sign of Omega is the sign of h even at |h| ~ 1e-12.
-  const T denominator = len[0] * len[1] * len[2] + dot(r[0], r[1]) * len[2] + dot(r[0], r[2]) * len[1] +
-                        dot(r[1], r[2]) * len[0];
-  // x in the closed triangle's plane and on it (h = 0, denominator <= 0): the principal value, 0
-  // (n.(xi - x) = 0 on the whole face), not atan2's +-2 pi (docs/math/green_coordinates.md, "On the cage").
-  const T omega =
-      value(h) == 0 && !(value(denominator) > 0) ? T{} : 2.0 * atan2(twice_area * h, denominator);
+  const double side = value(h) > 0 ? 1.0 : value(h) < 0 ? -1.0 : 0.0;
 
-  // The edge line integrals f_e = int_e 1/r (Graglia 1993, IEEE Trans. Antennas Propag. 41(10)), in the form without cancellation for
-  // the side of the foot point, with t0 the in-plane distance of the foot point inside edge e.
-  T sum_tf{};
+  // Per edge (Graglia 1993, IEEE Trans. Antennas Propag. 41(10)): the line integral f_e = int_e 1/r and
+  // the edge's share beta_e of the solid angle |Omega| = sum_e beta_e, from x's offset w_e from the
+  // edge's line. w_e, f_e and beta_e are computed from the edge's lower-index end whichever triangle
+  // asks, so the two triangles of an edge see the same w_e and their solid angles sum to the winding
+  // number to rounding also 1e-12 from the edge (docs/math/green_coordinates.md, "Near edges").
+  T sum_tf{}, sum_hb{}, sum_b{};
   V3<T> sum_mf{T{}, T{}, T{}};
   for (int k = 0; k < 3; ++k) {
     const int k1 = (k + 1) % 3;
-    const Vec3 edge = t.p[k1] - t.p[k];
+    const bool forward = t.index[k] < t.index[k1];
+    const int lo = forward ? k : k1, hi = forward ? k1 : k;
+    const Vec3 edge = t.p[hi] - t.p[lo];
     const double length = edge.norm();
     const Vec3 e = edge / length;
-    const Vec3 m = e.cross(n);  // outward in the plane, for counter-clockwise triangles
-    const T t0 = dot(m, r[k]);
-    const T s_a = dot(e, r[k]);
-    const T s_b = s_a + length;
-    const T r0_squared = t0 * t0 + h * h;
-    // x on the edge's line: f_e diverges only where its weights t0 and h are both 0 (the paper's
-    // GCTriInt guard, docs/math/green_coordinates.md, "Guards").
+    const Vec3 m = (forward ? e : Vec3(-e)).cross(n);  // outward in the plane (counter-clockwise triangle)
+    // From the end nearer to x (ties: the lower index), w_e is a difference of small numbers near a vertex.
+    const bool from_lo = !(value(len[hi]) < value(len[lo]));
+    const V3<T>& a = r[from_lo ? lo : hi];
+    const T s_near = dot(e, a);
+    const T s_lo = from_lo ? s_near : s_near - length;
+    const T s_hi = from_lo ? s_near + length : s_near;
+    const V3<T> w{a.x - e.x() * s_near, a.y - e.y() * s_near, a.z - e.z() * s_near};
+    const T r0_squared = dot(w, w);
+    // x on the edge's line: f_e diverges only where its weights t0 and h are both 0, and beta_e is 0
+    // (the paper's GCTriInt guard, docs/math/green_coordinates.md, "Guards").
     if (!(value(r0_squared) > std::numeric_limits<double>::min())) continue;
-    T f;
-    if (value(s_a) >= 0)
-      f = log((len[k1] + s_b) / (len[k] + s_a));
-    else if (value(s_b) <= 0)
-      f = log((len[k] - s_a) / (len[k1] - s_b));
-    else
-      f = log((len[k1] + s_b) * (len[k] - s_a) / r0_squared);
+    const T t0 = dot(m, w);  // in-plane distance of x's foot point inside the edge
+    const T h_e = dot(n, w);
+    const T h_abs = value(h_e) < 0 ? 0.0 - h_e : h_e;
+    const T f = value(s_lo) >= 0   ? log((len[hi] + s_hi) / (len[lo] + s_lo))
+                : value(s_hi) <= 0 ? log((len[lo] - s_lo) / (len[hi] - s_hi))
+                                   : log((len[hi] + s_hi) * (len[lo] - s_lo) / r0_squared);
+    const T beta = atan2(t0 * s_hi, r0_squared + h_abs * len[hi]) - atan2(t0 * s_lo, r0_squared + h_abs * len[lo]);
     sum_tf = sum_tf + t0 * f;
+    sum_hb = sum_hb + h_abs * beta;
+    sum_b = sum_b + beta;
     sum_mf.x = sum_mf.x + m.x() * f;
     sum_mf.y = sum_mf.y + m.y() * f;
     sum_mf.z = sum_mf.z + m.z() * f;
   }
-  // int_t 1/r = sum_e t0_e f_e - |h| |Omega|, and |h||Omega| = h Omega (same sign).
-  out.psi = (sum_tf - h * omega) * (1.0 / kFourPi);
+  // The signed solid angle int_t h / r^3; 0 for x in the triangle's plane (the principal value on
+  // the face: n.(xi - x) = 0 there; docs/math/green_coordinates.md, "On the cage").
+  const T omega = side * sum_b;
+  // int_t 1/r = sum_e (t0_e f_e - |h| beta_e).
+  out.psi = (sum_tf - sum_hb) * (1.0 / kFourPi);
   out.solid_angle = omega;
   out.height = h;
   for (int l = 0; l < 3; ++l) {

@@ -348,6 +348,34 @@ TEST(GreenCoordinates, LinearReproductionNearTheSurfaceFromBothSides) {
               worst_inside, worst_outside);
 }
 
+// Near the cage's edges and vertices, where the two triangles of an edge must agree on x's offset
+// from it: radially in and out of the star-shaped cages, 1e-4..1e-12 from an edge or a vertex.
+TEST(GreenCoordinates, LinearReproductionNearEdgesAndVertices) {
+  std::mt19937 rng(19);
+  std::uniform_real_distribution<double> u(0.2, 0.8);
+  double worst = 0;
+  for (const auto& [name, c] : test_cages()) {
+    std::vector<Vec3> surface;
+    for (std::size_t j = 0; j < c.t(); ++j) {
+      const double a = u(rng);
+      surface.push_back((1 - a) * c.corner(j, 0) + a * c.corner(j, 1));
+    }
+    for (std::size_t i = 0; i < c.m(); ++i) surface.push_back(c.point(int(i)));
+    for (const Vec3& q : surface)
+      for (double d : {1e-4, 1e-8, 1e-10, 1e-12})
+        for (double side : {-1.0, 1.0}) {
+          const Vec3 x = q * (1 + side * d);
+          const Coordinates k = coordinates(c, x);
+          EXPECT_EQ(k.side.outside, side > 0) << name << " q=" << q.transpose() << " d=" << side * d;
+          EXPECT_NEAR(sum(k.phi), 1.0, 1e-13) << name << " q=" << q.transpose() << " d=" << side * d;
+          const double error = (reproduced(c, k) - x).norm();
+          EXPECT_LT(error, 1e-13) << name << " q=" << q.transpose() << " d=" << side * d;
+          worst = std::max(worst, error);
+        }
+  }
+  std::printf("[green] linear reproduction 1e-4..1e-12 from an edge or vertex, both sides: max error %.3g\n", worst);
+}
+
 // Outside, far away and in every direction (also where no face's prism holds x): the extension
 // through the nearest face keeps sum phi = 1 and linear reproduction.
 TEST(GreenCoordinates, LinearReproductionOutside) {
