@@ -24,8 +24,12 @@ struct Dual {
 inline double value(double a) { return a; }
 inline double value(const Dual& a) { return a.v; }
 
-inline Dual operator+(const Dual& a, const Dual& b) { return {a.v + b.v, {a.d[0] + b.d[0], a.d[1] + b.d[1], a.d[2] + b.d[2]}}; }
-inline Dual operator-(const Dual& a, const Dual& b) { return {a.v - b.v, {a.d[0] - b.d[0], a.d[1] - b.d[1], a.d[2] - b.d[2]}}; }
+inline Dual operator+(const Dual& a, const Dual& b) {
+  return {a.v + b.v, {a.d[0] + b.d[0], a.d[1] + b.d[1], a.d[2] + b.d[2]}};
+}
+inline Dual operator-(const Dual& a, const Dual& b) {
+  return {a.v - b.v, {a.d[0] - b.d[0], a.d[1] - b.d[1], a.d[2] - b.d[2]}};
+}
 inline Dual operator*(const Dual& a, const Dual& b) {
   return {a.v * b.v,
           {a.d[0] * b.v + a.v * b.d[0], a.d[1] * b.v + a.v * b.d[1], a.d[2] * b.v + a.v * b.d[2]}};
@@ -171,7 +175,11 @@ bool triangle_share(const V3<T>& x, const Triangle& t, TriangleShare<T>& out) {
     const T f = value(s_lo) >= 0   ? log((len[hi] + s_hi) / (len[lo] + s_lo))
                 : value(s_hi) <= 0 ? log((len[lo] - s_lo) / (len[hi] - s_hi))
                                    : log((len[hi] + s_hi) * (len[lo] - s_lo) / r0_squared);
-    const T beta = atan2(t0 * s_hi, r0_squared + h_abs * len[hi]) - atan2(t0 * s_lo, r0_squared + h_abs * len[lo]);
+    // beta_e = atan(y_hi / x_hi) - atan(y_lo / x_lo) with x > 0: both in (-pi/2, pi/2), so their
+    // difference is one atan2 of the difference's sine and cosine (scaled by x_hi x_lo / ...).
+    const T y_hi = t0 * s_hi, x_hi = r0_squared + h_abs * len[hi];
+    const T y_lo = t0 * s_lo, x_lo = r0_squared + h_abs * len[lo];
+    const T beta = atan2(y_hi * x_lo - y_lo * x_hi, x_hi * x_lo + y_hi * y_lo);
     sum_tf = sum_tf + t0 * f;
     sum_hb = sum_hb + h_abs * beta;
     sum_b = sum_b + beta;
@@ -343,7 +351,9 @@ void green_stretch_factors(const double* rest_points, const double* deformed_poi
 
 void green_scaled_normals(const double* deformed_points, const int* triangles, std::size_t triangle_count,
                           const double* stretch, double* out) {
-  auto point = [&](int i) { return Vec3(deformed_points[3 * i], deformed_points[3 * i + 1], deformed_points[3 * i + 2]); };
+  auto point = [&](int i) {
+    return Vec3(deformed_points[3 * i], deformed_points[3 * i + 1], deformed_points[3 * i + 2]);
+  };
   for (std::size_t j = 0; j < triangle_count; ++j) {
     const int* v = triangles + 3 * j;
     const Vec3 nn = (point(v[1]) - point(v[0])).cross(point(v[2]) - point(v[0]));
@@ -354,49 +364,53 @@ void green_scaled_normals(const double* deformed_points, const int* triangles, s
   }
 }
 
+namespace {
+
+// F += weight * control and, with a gradient, J += control gradient^T (one column of the sum).
+struct DeformedPoint {
+  double f[3] = {0, 0, 0};
+  double jacobian[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  void add(const double* control, double weight, const double* gradient) {
+    for (int r = 0; r < 3; ++r) {
+      f[r] += weight * control[r];
+      if (gradient)
+        for (int c = 0; c < 3; ++c) jacobian[3 * r + c] += control[r] * gradient[c];
+    }
+  }
+  void write(double out[3], double* jacobian_out) const {
+    for (int r = 0; r < 3; ++r) out[r] = f[r];
+    if (jacobian_out)
+      for (int k = 0; k < 9; ++k) jacobian_out[k] = jacobian[k];
+  }
+};
+
+}  // namespace
+
 void green_deform_point(const double* phi, const double* psi, const double* dphi, const double* dpsi,
                         const double* deformed_points, std::size_t point_count, const double* scaled_normals,
                         std::size_t triangle_count, double out[3], double* jacobian) {
-  double f[3] = {0, 0, 0}, jac[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
   const bool want_jacobian = jacobian && dphi && dpsi;
-  auto add = [&](const double* control, double weight, const double* gradient) {
-    for (int r = 0; r < 3; ++r) {
-      f[r] += weight * control[r];
-      if (want_jacobian)
-        for (int c = 0; c < 3; ++c) jac[3 * r + c] += control[r] * gradient[c];
-    }
-  };
+  DeformedPoint p;
   for (std::size_t i = 0; i < point_count; ++i)
-    add(deformed_points + 3 * i, phi[i], want_jacobian ? dphi + 3 * i : nullptr);
+    p.add(deformed_points + 3 * i, phi[i], want_jacobian ? dphi + 3 * i : nullptr);
   for (std::size_t j = 0; j < triangle_count; ++j)
-    add(scaled_normals + 3 * j, psi[j], want_jacobian ? dpsi + 3 * j : nullptr);
-  for (int r = 0; r < 3; ++r) out[r] = f[r];
-  if (want_jacobian)
-    for (int k = 0; k < 9; ++k) jacobian[k] = jac[k];
+    p.add(scaled_normals + 3 * j, psi[j], want_jacobian ? dpsi + 3 * j : nullptr);
+  p.write(out, want_jacobian ? jacobian : nullptr);
 }
 
 void green_deform_point(const double* phi, const double* psi, const double* dphi, const double* dpsi,
                         const TriangleCageView& deformed, const double* stretch, double out[3], double* jacobian) {
-  double f[3] = {0, 0, 0}, jac[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}, scaled_normal[3];
   const bool want_jacobian = jacobian && dphi && dpsi;
+  DeformedPoint p;
   for (std::size_t i = 0; i < deformed.point_count; ++i)
-    for (int r = 0; r < 3; ++r) {
-      f[r] += phi[i] * deformed.points[3 * i + r];
-      if (want_jacobian)
-        for (int c = 0; c < 3; ++c) jac[3 * r + c] += deformed.points[3 * i + r] * dphi[3 * i + c];
-    }
+    p.add(deformed.points + 3 * i, phi[i], want_jacobian ? dphi + 3 * i : nullptr);
   for (std::size_t j = 0; j < deformed.triangle_count; ++j) {
+    double scaled_normal[3];
     green_scaled_normals(deformed.points, deformed.triangles + 3 * j, 1, stretch ? stretch + j : nullptr,
                          scaled_normal);
-    for (int r = 0; r < 3; ++r) {
-      f[r] += psi[j] * scaled_normal[r];
-      if (want_jacobian)
-        for (int c = 0; c < 3; ++c) jac[3 * r + c] += scaled_normal[r] * dpsi[3 * j + c];
-    }
+    p.add(scaled_normal, psi[j], want_jacobian ? dpsi + 3 * j : nullptr);
   }
-  for (int r = 0; r < 3; ++r) out[r] = f[r];
-  if (want_jacobian)
-    for (int k = 0; k < 9; ++k) jacobian[k] = jac[k];
+  p.write(out, want_jacobian ? jacobian : nullptr);
 }
 
 }  // namespace deformkit

@@ -51,8 +51,8 @@ GreenSide green_coordinates(const double x[3], const TriangleCageView& cage, dou
 void green_coordinates_batch(const double* points, std::size_t n, const TriangleCageView& cage, double* phi,
                              double* psi, double* dphi, double* dpsi);
 
-// Lipman's per-triangle stretch factors s_j (Lipman et al. 2008, §4; from the edges u, v of t_j at rest
-// and u', v' deformed) into out (t): 1 at rest, sigma under a similarity of scale sigma.
+// Lipman's per-triangle stretch factors s_j (from the edges u, v of t_j at rest and u', v' deformed;
+// docs/math/green_coordinates.md, "Stretch factor") into out (t): 1 at rest, sigma under a similarity of scale sigma.
 void green_stretch_factors(const double* rest_points, const double* deformed_points, const int* triangles,
                            std::size_t triangle_count, double* out);
 

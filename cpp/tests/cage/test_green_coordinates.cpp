@@ -221,7 +221,8 @@ double gc_tri_int(const Vec3& p, const Vec3& v1, const Vec3& v2, const Vec3& eta
     return -sign / 2.0 *
            (2.0 * sc * std::atan(sc * C / std::sqrt(lambda + S * S * c)) +
             sl * std::log(2.0 * sl * S * S / ((1 - C) * (1 - C)) *
-                          (1 - 2.0 * c * C / (c * (1 + C) + lambda + std::sqrt(lambda * lambda + lambda * c * S * S)))));
+                          (1 - 2.0 * c * C /
+                                   (c * (1 + C) + lambda + std::sqrt(lambda * lambda + lambda * c * S * S)))));
   };
   return -1.0 / (4 * kPi) * std::abs(integral(kPi - alpha) - integral(kPi - alpha - beta) - std::sqrt(c) * beta);
 }
@@ -260,7 +261,9 @@ struct NamedCage {
   Cage cage;
 };
 
-std::vector<NamedCage> test_cages() { return {{"cube", cube()}, {"octahedron", perturbed_octahedron()}, {"icosphere", bumpy_icosphere()}}; }
+std::vector<NamedCage> test_cages() {
+  return {{"cube", cube()}, {"octahedron", perturbed_octahedron()}, {"icosphere", bumpy_icosphere()}};
+}
 
 // Every cage here is star-shaped about the origin, so lambda * (a point of the surface) is inside
 // for 0 < lambda < 1.
@@ -514,6 +517,24 @@ TEST(GreenCoordinates, UnitStretchDiffersUnderScaling) {
   }
 }
 
+// The convenience overload (normals computed per call) is the precomputed one, bit for bit.
+TEST(GreenCoordinates, DeformPointOverloadsAgree) {
+  const Cage c = bumpy_icosphere();
+  const Cage moved = edited(c, 83);
+  std::vector<double> s(c.t()), normals(3 * c.t());
+  green_stretch_factors(c.points.data(), moved.points.data(), c.triangles.data(), c.t(), s.data());
+  green_scaled_normals(moved.points.data(), c.triangles.data(), c.t(), s.data(), normals.data());
+  for (const Vec3& x : interior_points(c, 10, 89)) {
+    const Coordinates k = coordinates(c, x, true);
+    double a[3], b[3], ja[9], jb[9];
+    green_deform_point(k.phi.data(), k.psi.data(), k.dphi.data(), k.dpsi.data(), moved.points.data(), c.m(),
+                       normals.data(), c.t(), a, ja);
+    green_deform_point(k.phi.data(), k.psi.data(), k.dphi.data(), k.dpsi.data(), moved.view(), s.data(), b, jb);
+    for (int r = 0; r < 3; ++r) EXPECT_EQ(a[r], b[r]);
+    for (int r = 0; r < 9; ++r) EXPECT_EQ(ja[r], jb[r]);
+  }
+}
+
 // The deformed point's Jacobian from the coordinate gradients against central differences of F.
 TEST(GreenCoordinates, DeformedJacobianMatchesCentralDifferences) {
   const double h = 1e-5;
@@ -634,7 +655,8 @@ TEST(GreenCoordinates, AngleDistortionOfSmallTriangles) {
     for (int i = -12; i < 12; ++i)
       for (int j = -12; j < 12; ++j) {
         const Vec3 base(i * spacing + (j % 2) * spacing / 2, j * spacing * std::sqrt(3.0) / 2, -0.5 + 0.5 * plane);
-        const Vec3 tri[3] = {base, base + Vec3(spacing, 0, 0), base + Vec3(spacing / 2, spacing * std::sqrt(3.0) / 2, 0)};
+        const Vec3 tri[3] = {base, base + Vec3(spacing, 0, 0),
+                             base + Vec3(spacing / 2, spacing * std::sqrt(3.0) / 2, 0)};
         const Vec3 rest = angles(tri[0], tri[1], tri[2]);
         const Vec3 g = angles(green(tri[0]), green(tri[1]), green(tri[2]));
         const Vec3 g1 = angles(green_unit(tri[0]), green_unit(tri[1]), green_unit(tri[2]));
