@@ -118,10 +118,10 @@ inline Triangle triangle(const TriangleCageView& cage, std::size_t j) {
   return t;
 }
 
-// One triangle's share of the Green integrals at x (docs/math/green_coordinates.md, "Per-triangle
-// closed form"): the double layer with the hat functions (phi), the single layer (psi), the signed
-// solid angle, and the barycentric coordinates of x's foot point with its height below the plane
-// (the exterior extension's alpha_1..3 and -alpha_4).
+// One triangle's share of the Green integrals at x: the double layer with the hat functions (phi),
+// the single layer (psi), the signed solid angle, and the barycentric coordinates of x's foot point
+// with its height below the plane (the exterior extension's alpha_1..3 and -alpha_4);
+// docs/math/green_coordinates.md, "Per-triangle closed form".
 template <class T>
 struct TriangleShare {
   T phi[3];

@@ -21,8 +21,8 @@ struct TriangleCageView {
 
 // Where a point's coordinates came from: inside, the Green integrals alone; outside, the
 // integrals plus the exterior extension through `face` (the nearest triangle); on the cage surface
-// (on an edge or vertex, where the winding number is fractional), the integrals' inside limit
-// (docs/math/green_coordinates.md, "Exterior extension", "On the cage").
+// (where the winding number is fractional), the integrals' limit from inside
+// (docs/math/green_coordinates.md, "Exterior extension"; docs/math/green_coordinates.md, "On the cage").
 struct GreenSide {
   bool outside = false;
   bool on_surface = false;
@@ -33,13 +33,15 @@ struct GreenSide {
 // The raw Green integrals at x: phi (m) and psi (t), overwritten; their gradients
 // with respect to x into dphi (3m: dphi[3i + c] = d phi_i / d x_c) and dpsi (3t) when not null.
 // Inside the cage they reproduce x (sum phi_i v_i + sum psi_j n_j = x, sum phi_i = 1); outside both
-// sums are 0. Finite everywhere, also on the cage surface (there: one of its one-sided limits).
+// sums are 0. Finite everywhere; on the cage surface, the principal value (a face's own double
+// layer is 0 on its plane), so sum phi there is the fractional winding number.
 void green_integrals(const double x[3], const TriangleCageView& cage, double* phi, double* psi, double* dphi,
                      double* dpsi);
 
 // Green coordinates at x, inside, on and outside the cage: the raw integrals, and for a point
-// outside the cage (winding number 0) the exterior extension of §3.3 through the nearest triangle j, with
-// x = sum_k alpha_k v_jk + alpha_4 n_j: phi_jk += alpha_k, psi_j += alpha_4. Linear reproduction
+// outside the cage (winding number 0) the exterior extension of §3.3 through the nearest
+// triangle j, with x = sum_k alpha_k v_jk + alpha_4 n_j: phi_jk += alpha_k, psi_j += alpha_4
+// (on the cage: phi_jk += (1 - winding) alpha_k, the inside limit). Linear reproduction
 // then holds everywhere and the deformed point is continuous across the cage surface. On the cage's
 // edges and vertices the map is continuous but not differentiable: the gradients there are finite
 // (the log-singular edge terms are dropped) but not derivatives.
@@ -51,8 +53,9 @@ GreenSide green_coordinates(const double x[3], const TriangleCageView& cage, dou
 void green_coordinates_batch(const double* points, std::size_t n, const TriangleCageView& cage, double* phi,
                              double* psi, double* dphi, double* dpsi);
 
-// Lipman's per-triangle stretch factors s_j (from the edges u, v of t_j at rest and u', v' deformed;
-// docs/math/green_coordinates.md, "Stretch factor") into out (t): 1 at rest, sigma under a similarity of scale sigma.
+// Lipman's per-triangle stretch factors s_j into out (t), from the edges u, v of t_j at rest and
+// u', v' deformed: 1 at rest, sigma under a similarity of scale sigma
+// (docs/math/green_coordinates.md, "Stretch factor").
 void green_stretch_factors(const double* rest_points, const double* deformed_points, const int* triangles,
                            std::size_t triangle_count, double* out);
 
