@@ -62,6 +62,9 @@ inline Dual atan2(const Dual& y, const Dual& x) {
     for (int c = 0; c < 3; ++c) out.d[c] = (x.v * y.d[c] - y.v * x.d[c]) / r2;
   return out;
 }
+// The value set to 0, the derivative kept.
+inline Dual without_value(const Dual& a) { return {0.0, {a.d[0], a.d[1], a.d[2]}}; }
+inline double without_value(double) { return 0.0; }
 inline double sqrt(double a) { return std::sqrt(a); }
 inline double log(double a) { return std::log(a); }
 inline double atan2(double y, double x) { return std::atan2(y, x); }
@@ -122,6 +125,17 @@ inline Triangle triangle(const TriangleCageView& cage, std::size_t j) {
 // the single layer (psi), the signed solid angle, and the barycentric coordinates of x's foot point
 // with its height below the plane (the exterior extension's alpha_1..3 and -alpha_4);
 // docs/math/green_coordinates.md, "Per-triangle closed form".
+// (s_hi/R_hi - s_lo/R_lo) / t0 for x in a triangle's plane (R^2 = s^2 + t0^2): with both ends on one
+// side of x's foot, s/R = sign(s) / sqrt(1 + t0^2/s^2) and the difference is written without
+// cancellation, so it stays right (-> 0 like t0) as x nears the edge's line.
+double plane_slope_term(double t0, double s_lo, double s_hi, double r_lo, double r_hi) {
+  if (s_lo * s_hi > 0) {
+    const double a = r_hi / std::abs(s_hi), b = r_lo / std::abs(s_lo);
+    return (s_hi > 0 ? 1.0 : -1.0) * t0 * (1.0 / (s_lo * s_lo) - 1.0 / (s_hi * s_hi)) / (a * b * (a + b));
+  }
+  return (s_hi / r_hi - s_lo / r_lo) / t0;
+}
+
 template <class T>
 struct TriangleShare {
   T phi[3];
@@ -141,7 +155,14 @@ bool triangle_share(const V3<T>& x, const Triangle& t, TriangleShare<T>& out) {
   const T len[3] = {sqrt(dot(r[0], r[0])), sqrt(dot(r[1], r[1])), sqrt(dot(r[2], r[2]))};
   // h = n.(xi - x) on the triangle: positive when x is behind it (inside an outward cage).
   const T h = dot(n, r[0]);
-  const double side = value(h) > 0 ? 1.0 : value(h) < 0 ? -1.0 : 0.0;
+  const bool in_plane = value(h) == 0;
+  const double side = value(h) < 0 ? -1.0 : 1.0;
+  // The hat function of vertex l is Gamma_l(xi) = Gamma_l(foot) + g_l.(xi - foot) on the plane.
+  Vec3 g[3];
+  for (int l = 0; l < 3; ++l) {
+    g[l] = n.cross(t.p[(l + 2) % 3] - t.p[(l + 1) % 3]) / twice_area;
+    out.foot_barycentric[l] = 0.0 - dot(g[l], r[(l + 1) % 3]);
+  }
 
   // Per edge (Graglia 1993, IEEE Trans. Antennas Propag. 41(10)): the line integral f_e = int_e 1/r and
   // the edge's share beta_e of the solid angle |Omega| = sum_e beta_e, from x's offset w_e from the
@@ -149,6 +170,7 @@ bool triangle_share(const V3<T>& x, const Triangle& t, TriangleShare<T>& out) {
   // asks, so the two triangles of an edge see the same w_e and their solid angles sum to the winding
   // number to rounding also 1e-12 from the edge (docs/math/green_coordinates.md, "Near edges").
   T sum_tf{}, sum_hb{}, sum_b{};
+  double plane_slope = 0;
   V3<T> sum_mf{T{}, T{}, T{}};
   for (int k = 0; k < 3; ++k) {
     const int k1 = (k + 1) % 3;
@@ -166,12 +188,14 @@ bool triangle_share(const V3<T>& x, const Triangle& t, TriangleShare<T>& out) {
     const T s_hi = from_lo ? s_near + length : s_near;
     const V3<T> w{a.x - e.x() * s_near, a.y - e.y() * s_near, a.z - e.z() * s_near};
     const T r0_squared = dot(w, w);
-    // x on the edge's line: f_e diverges only where its weights t0 and h are both 0, and beta_e is 0
-    // (the paper's GCTriInt guard, docs/math/green_coordinates.md, "Guards").
-    if (!(value(r0_squared) > std::numeric_limits<double>::min())) continue;
+    // x on the edge itself: f_e diverges only where its weights t0 and h are both 0, and beta_e is 0
+    // (the paper's GCTriInt guard, docs/math/green_coordinates.md, "Guards"). On the edge's line
+    // beyond its ends f_e is finite and its gradient terms (f_e grad t0, f_e grad h) count.
+    const bool on_line = !(value(r0_squared) > std::numeric_limits<double>::min());
+    if (on_line && value(s_lo) <= 0 && value(s_hi) >= 0) continue;
     const T t0 = dot(m, w);  // in-plane distance of x's foot point inside the edge
     const T h_e = dot(n, w);
-    const T h_abs = value(h_e) < 0 ? 0.0 - h_e : h_e;
+    const T h_abs = in_plane ? T{} : value(h_e) < 0 ? 0.0 - h_e : h_e;
     const T f = value(s_lo) >= 0   ? log((len[hi] + s_hi) / (len[lo] + s_lo))
                 : value(s_hi) <= 0 ? log((len[lo] - s_lo) / (len[hi] - s_hi))
                                    : log((len[hi] + s_hi) * (len[lo] - s_lo) / r0_squared);
@@ -180,6 +204,10 @@ bool triangle_share(const V3<T>& x, const Triangle& t, TriangleShare<T>& out) {
     const T y_hi = t0 * s_hi, x_hi = r0_squared + h_abs * len[hi];
     const T y_lo = t0 * s_lo, x_lo = r0_squared + h_abs * len[lo];
     const T beta = atan2(y_hi * x_lo - y_lo * x_hi, x_hi * x_lo + y_hi * y_lo);
+    // In the plane Omega = 0 with slope dOmega/dh = int_t 1/rho^3 = -sum_e (s_hi/R_hi - s_lo/R_lo) / t0_e
+    // (polar coordinates about x; an edge whose line holds x adds 0).
+    if (in_plane && !on_line) plane_slope -= plane_slope_term(value(t0), value(s_lo), value(s_hi), value(len[lo]),
+                                                              value(len[hi]));
     sum_tf = sum_tf + t0 * f;
     sum_hb = sum_hb + h_abs * beta;
     sum_b = sum_b + beta;
@@ -187,21 +215,19 @@ bool triangle_share(const V3<T>& x, const Triangle& t, TriangleShare<T>& out) {
     sum_mf.y = sum_mf.y + m.y() * f;
     sum_mf.z = sum_mf.z + m.z() * f;
   }
-  // The signed solid angle int_t h / r^3; 0 for x in the triangle's plane (the principal value on
-  // the face: n.(xi - x) = 0 there; docs/math/green_coordinates.md, "On the cage").
-  const T omega = side * sum_b;
+  // The signed solid angle int_t h / r^3. For x on the closed triangle itself (in its plane, foot
+  // barycentrics >= 0) the principal value 0: n.(xi - x) = 0 on the whole face
+  // (docs/math/green_coordinates.md, "On the cage").
+  const bool on_triangle = in_plane && value(out.foot_barycentric[0]) >= 0 && value(out.foot_barycentric[1]) >= 0 &&
+                           value(out.foot_barycentric[2]) >= 0;
+  const T omega = on_triangle ? T{} : in_plane ? plane_slope * without_value(h) : side * sum_b;
   // int_t 1/r = sum_e (t0_e f_e - |h| beta_e).
   out.psi = (sum_tf - sum_hb) * (1.0 / kFourPi);
   out.solid_angle = omega;
   out.height = h;
-  for (int l = 0; l < 3; ++l) {
-    // The hat function of vertex l is Gamma_l(xi) = Gamma_l(foot) + g_l.(xi - foot) on the plane, and
-    // int_t (xi - x)_tangential / r^3 = -sum_e m_e f_e (divergence theorem in the plane).
-    const Vec3 g = n.cross(t.p[(l + 2) % 3] - t.p[(l + 1) % 3]) / twice_area;
-    const T gamma = 0.0 - dot(g, r[(l + 1) % 3]);
-    out.foot_barycentric[l] = gamma;
-    out.phi[l] = (gamma * omega - h * dot(g, sum_mf)) * (1.0 / kFourPi);
-  }
+  // int_t (xi - x)_tangential / r^3 = -sum_e m_e f_e (the divergence theorem in the plane).
+  for (int l = 0; l < 3; ++l)
+    out.phi[l] = (out.foot_barycentric[l] * omega - h * dot(g[l], sum_mf)) * (1.0 / kFourPi);
   return true;
 }
 

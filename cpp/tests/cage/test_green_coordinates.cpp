@@ -470,6 +470,31 @@ TEST(GreenCoordinates, GradientsMatchCentralDifferences) {
   std::printf("[green] gradients vs central differences (h = 1e-5): max relative difference %.3g\n", worst);
 }
 
+// In a face's plane off its triangle (h = 0 exactly: the cube's outside point (1.5, 0.3, 1) is in
+// the planes of the +z triangles) the raw integrals are smooth, and their gradients are too.
+TEST(GreenCoordinates, GradientsInAFacesPlane) {
+  const Cage c = cube();
+  const double h = 1e-5;
+  // (3, 1, -1) is also on two edges' lines; (3, 1 + 1e-9, -1) next to one.
+  for (const Vec3& x : {Vec3(1.5, 0.3, 1), Vec3(-1, 2, 0.2), Vec3(3, 1, -1), Vec3(3, 1 + 1e-9, -1)}) {
+    const double p[3] = {x.x(), x.y(), x.z()};
+    std::vector<double> phi(c.m()), psi(c.t()), dphi(3 * c.m()), dpsi(3 * c.t());
+    green_integrals(p, c.view(), phi.data(), psi.data(), dphi.data(), dpsi.data());
+    for (int a = 0; a < 3; ++a) {
+      double plus[3] = {p[0], p[1], p[2]}, minus[3] = {p[0], p[1], p[2]};
+      plus[a] += h;
+      minus[a] -= h;
+      std::vector<double> phi_p(c.m()), psi_p(c.t()), phi_m(c.m()), psi_m(c.t());
+      green_integrals(plus, c.view(), phi_p.data(), psi_p.data(), nullptr, nullptr);
+      green_integrals(minus, c.view(), phi_m.data(), psi_m.data(), nullptr, nullptr);
+      for (std::size_t i = 0; i < c.m(); ++i)
+        EXPECT_NEAR(dphi[3 * i + a], (phi_p[i] - phi_m[i]) / (2 * h), 1e-8) << x.transpose() << " phi " << i;
+      for (std::size_t j = 0; j < c.t(); ++j)
+        EXPECT_NEAR(dpsi[3 * j + a], (psi_p[j] - psi_m[j]) / (2 * h), 1e-8) << x.transpose() << " psi " << j;
+    }
+  }
+}
+
 // The stretch factor: 1 at rest, sigma under a similarity of scale sigma, and the norm of the
 // triangle's 2D conformal part otherwise (a uniform in-plane stretch by k gives k).
 TEST(GreenCoordinates, StretchFactors) {
