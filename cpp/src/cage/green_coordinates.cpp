@@ -121,10 +121,6 @@ inline Triangle triangle(const TriangleCageView& cage, std::size_t j) {
   return t;
 }
 
-// One triangle's share of the Green integrals at x: the double layer with the hat functions (phi),
-// the single layer (psi), the signed solid angle, and the barycentric coordinates of x's foot point
-// with its height below the plane (the exterior extension's alpha_1..3 and -alpha_4);
-// docs/math/green_coordinates.md, "Per-triangle closed form".
 // (s_hi/R_hi - s_lo/R_lo) / t0 for x in a triangle's plane (R^2 = s^2 + t0^2): with both ends on one
 // side of x's foot, s/R = sign(s) / sqrt(1 + t0^2/s^2) and the difference is written without
 // cancellation, so it stays right (-> 0 like t0) as x nears the edge's line.
@@ -145,6 +141,10 @@ struct TriangleShare {
   T height;
 };
 
+// One triangle's share of the Green integrals at x: the double layer with the hat functions (phi),
+// the single layer (psi), the signed solid angle, and the barycentric coordinates of x's foot point
+// with its height below the plane (the exterior extension's alpha_1..3 and -alpha_4);
+// docs/math/green_coordinates.md, "Per-triangle closed form".
 template <class T>
 bool triangle_share(const V3<T>& x, const Triangle& t, TriangleShare<T>& out) {
   const Vec3 nn = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]);
@@ -166,9 +166,10 @@ bool triangle_share(const V3<T>& x, const Triangle& t, TriangleShare<T>& out) {
 
   // Per edge (Graglia 1993, IEEE Trans. Antennas Propag. 41(10)): the line integral f_e = int_e 1/r and
   // the edge's share beta_e of the solid angle |Omega| = sum_e beta_e, from x's offset w_e from the
-  // edge's line. w_e, f_e and beta_e are computed from the edge's lower-index end whichever triangle
-  // asks, so the two triangles of an edge see the same w_e and their solid angles sum to the winding
-  // number to rounding also 1e-12 from the edge (docs/math/green_coordinates.md, "Near edges").
+  // edge's line. w_e, f_e and beta_e are computed the same way whichever triangle asks (direction
+  // from the lower vertex index, offset from the nearer end), so the two triangles of an edge see the
+  // same w_e and their solid angles sum to the winding number to rounding also 1e-12 from the edge
+  // (docs/math/green_coordinates.md, "Near edges").
   T sum_tf{}, sum_hb{}, sum_b{};
   double plane_slope = 0;
   V3<T> sum_mf{T{}, T{}, T{}};
@@ -206,8 +207,8 @@ bool triangle_share(const V3<T>& x, const Triangle& t, TriangleShare<T>& out) {
     const T beta = atan2(y_hi * x_lo - y_lo * x_hi, x_hi * x_lo + y_hi * y_lo);
     // In the plane Omega = 0 with slope dOmega/dh = int_t 1/rho^3 = -sum_e (s_hi/R_hi - s_lo/R_lo) / t0_e
     // (polar coordinates about x; an edge whose line holds x adds 0).
-    if (in_plane && !on_line) plane_slope -= plane_slope_term(value(t0), value(s_lo), value(s_hi), value(len[lo]),
-                                                              value(len[hi]));
+    if (in_plane && !on_line)
+      plane_slope -= plane_slope_term(value(t0), value(s_lo), value(s_hi), value(len[lo]), value(len[hi]));
     sum_tf = sum_tf + t0 * f;
     sum_hb = sum_hb + h_abs * beta;
     sum_b = sum_b + beta;
