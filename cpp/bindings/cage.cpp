@@ -170,6 +170,23 @@ determinant form of Thiery, Memari, Boubekeur 2018; Jacobians are exact.)")
              return c;
            }),
            "cage_points"_a, "cage_faces"_a, py::kw_only(), "weights"_a = py::none());
+
+  py::class_<GreenCage, CageDeformer, std::shared_ptr<GreenCage>>(m, "GreenCage", R"(Green coordinates of a closed cage (Lipman, Levin, Cohen-Or 2008).
+
+cage_points and cage_faces as for MeanValueCage. F(x) = sum_i phi_i(x) v'_i + sum_j psi_j(x) s_j n'_j
+over the cage's vertices v' and triangles (their unit outward normals n'), with Lipman's stretch
+factors s_j from the triangles' edges (stretch=False: s_j = 1). The coordinates reproduce linear
+functions; the map reproduces similarities of the cage and is quasi-conformal, so details keep
+their shape. Outside the cage the coordinates are extended through the nearest cage triangle
+(the paper's exterior extension), so the map is continuous across the cage. Not interpolating:
+a point on the cage moves with its face, not exactly onto it. Jacobians are exact.)")
+      .def(py::init([](const py::object& points, const py::object& faces, bool stretch, const py::object& weights) {
+             auto c = std::make_shared<GreenCage>(parse_cage(points, faces), stretch);
+             apply_weights(*c, weights);
+             return c;
+           }),
+           "cage_points"_a, "cage_faces"_a, py::kw_only(), "stretch"_a = true, "weights"_a = py::none())
+      .def_property_readonly("stretch", &GreenCage::stretch, "Whether Lipman's stretch factors scale the normals.");
 }
 
 }  // namespace deformkit_py

@@ -34,6 +34,7 @@ from ._core import (
     DirectManipulation,
     ExtendedFFD,
     FFD,
+    GreenCage,
     Lattice,
     LimitSurface,
     LatticeBinding,
@@ -62,5 +63,5 @@ __all__ = [
     "SurfaceDeformer", "cotangent_laplacian", "mesh_volume",
     "LimitSurface", "SmoothnessReport", "SubdividedMesh", "Subdivider", "SUBDIVISION_MAX_FACES", "SUBDIVISION_MAX_LEVEL",
     "smoothness_report", "subdivide",
-    "CageBinding", "CageDeformer", "MeanValueCage",
+    "CageBinding", "CageDeformer", "GreenCage", "MeanValueCage",
 ]

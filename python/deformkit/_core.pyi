@@ -362,6 +362,13 @@ class CageDeformer(Deformer):
     def deform_bound(self, binding: CageBinding, *, out: npt.NDArray[np.floating] | None = None
                      ) -> npt.NDArray[np.floating]: ...
 
+class GreenCage(CageDeformer):
+    """Green coordinates of a closed polygon cage (quasi-conformal, exterior extension, exact Jacobians)."""
+    def __init__(self, cage_points: npt.ArrayLike, cage_faces: _Faces, *, stretch: bool = True,
+                 weights: npt.ArrayLike | None = None) -> None: ...
+    @property
+    def stretch(self) -> bool: ...
+
 class MeanValueCage(CageDeformer):
     """Mean value coordinates of a closed polygon cage (determinant form, exact Jacobians)."""
     def __init__(self, cage_points: npt.ArrayLike, cage_faces: _Faces, *,

@@ -24,4 +24,5 @@
 #include "deformkit/subdivision/subdivide.hpp"
 #include "deformkit/cage/cage_deformer.hpp"
 #include "deformkit/cage/cage_mesh.hpp"
+#include "deformkit/cage/green_cage.hpp"
 #include "deformkit/cage/mean_value_cage.hpp"

@@ -1,0 +1,33 @@
+#include "deformkit/cage/green_cage.hpp"
+
+#include "cage/green_coordinates.hpp"
+
+#include <algorithm>
+
+namespace deformkit {
+
+GreenCage::GreenCage(CageMesh cage, bool stretch) : CageDeformer(std::move(cage)), stretch_(stretch) {
+  for (const CageTriangle& t : this->cage().triangles()) triangles_.insert(triangles_.end(), t.begin(), t.end());
+}
+
+void GreenCage::coordinates(const Vec3& x, double* w, double* dw) const {
+  const std::size_t m = vertex_count();
+  const TriangleCageView view{rest_cage_points().data(), m, triangles_.data(), triangles_.size() / 3};
+  const double p[3] = {x[0], x[1], x[2]};
+  green_coordinates(p, view, w, w + m, dw, dw == nullptr ? nullptr : dw + 3 * m);
+}
+
+void GreenCage::control_values(double* out) const {
+  const std::vector<double>& current = cage_points();
+  const std::size_t t = triangles_.size() / 3;
+  std::copy(current.begin(), current.end(), out);
+  std::vector<double> factors;
+  if (stretch_) {  // s_j from the rest and deformed edges (docs/math/green_coordinates.md, "Stretch factor")
+    factors.resize(t);
+    green_stretch_factors(rest_cage_points().data(), current.data(), triangles_.data(), t, factors.data());
+  }
+  green_scaled_normals(current.data(), triangles_.data(), t, stretch_ ? factors.data() : nullptr,
+                       out + current.size());
+}
+
+}  // namespace deformkit
