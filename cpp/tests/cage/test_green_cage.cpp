@@ -35,9 +35,10 @@ std::vector<double> mapped(const std::vector<double>& p, double s) {
 }
 
 std::vector<double> sample_points() {
-  // Inside the L-shaped prism, near its faces, and outside it (the exterior extension).
+  // Inside the L-shaped prism, near its faces, and outside it (the exterior extension; not where
+  // the nearest face changes, across which the extension jumps: docs/math/green_coordinates.md).
   return {0.5, 0.5, 0.5, 1.5, 0.5, 0.2, 0.5, 1.5, 0.8, 0.999, 0.5, 0.5, 1e-6, 0.3, 0.7,
-          -0.4, 0.5, 0.5, 2.5, 0.3, 0.4, 1.5, 1.5, 0.5, 0.5, 0.5, 1.7};
+          -0.4, 0.5, 0.5, 2.5, 0.3, 0.4, 1.3, 1.6, 0.5, 0.5, 0.5, 1.7};
 }
 
 }  // namespace
@@ -73,7 +74,10 @@ TEST(GreenCage, JacobianMatchesCentralDifferences) {
   std::uniform_real_distribution<double> u(-0.15, 0.15);
   for (double& v : moved) v += u(rng);
   g.set_cage_points(moved);
-  const std::vector<double> x = sample_points();
+  // Not the point above the top hexagon: its foot lies near a diagonal of the hexagon's split,
+  // across which the nearest triangle (the extension's) changes.
+  std::vector<double> x = sample_points();
+  x.resize(x.size() - 3);
   std::vector<double> jac(3 * x.size());
   g.jacobian(x.data(), jac.data(), x.size() / 3);
   const double h = 1e-6;
