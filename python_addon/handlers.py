@@ -30,14 +30,14 @@ def _followed(obj):
 
 
 def _pointer_gone(obj):
-    """An entry whose origin, lattice or handle object was deleted or unlinked, and which does not
-    say so yet (or one that says so, in case the object came back)."""
+    """An entry whose origin, lattice, handle or cage object was deleted or unlinked, and which does
+    not say so yet (its message may be another one), or one with a message, in case the object came back."""
     for e in obj.deformkit.entries:
         pairs = entries.followed(e) + ([(e.origin, e.origin_name)] if "origin" in entries.params(e.type) else [])
         for target, name in pairs:
             if name or target is not None:
                 missing = target is None or not target.users_scene
-                if missing != bool(e.error):
+                if missing and (not e.error or (name and name not in e.error)) or (not missing and e.error):
                     return True
     return False
 

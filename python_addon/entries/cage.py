@@ -36,8 +36,8 @@ REST = "deformkit_cage_rest"  # the entry's ID property: the cage at bind, x y z
 # deformer: the dk cage deformer with the current cage and the entry's influence; bind: the key its
 # deformer and bindings are kept under; fingerprint: everything besides the incoming points.
 Setup = namedtuple("Setup", "deformer bind fingerprint")
-# In the cache: "cage", (object cache key, bind id, method) -> the deformer made from the rest cage;
-# "cage_binding", (object cache key, entry index, "viewport"/"render") -> (bind key, points, binding).
+# In the cache: "cage_binding", (object cache key, entry index, "viewport"/"render") -> (bind key
+# (object cache key, bind id, method), points, binding).
 
 
 def fields(entry_type):
@@ -66,7 +66,8 @@ def evaluated_cage(obj, cage):
     finally:
         evaluated.to_mesh_clear()
     local = np.array(obj.matrix_world.inverted() @ cage.matrix_world)
-    points = points @ local[:3, :3].T + local[:3, 3]
+    # Rounded as the stored rest is (float32), so that a cage as it was at bind is the rest bit for bit.
+    points = (points @ local[:3, :3].T + local[:3, 3]).astype(np.float32).astype(np.float64)
     return points, faces, (topo.vertices, topo.faces, _signed(topo.crc))
 
 
@@ -81,19 +82,18 @@ def topology_change(entry, now):
     return ""
 
 
-def _deformer(obj, entry, faces):
-    key = (meshdata.cache_key(obj), entry.bind_id, entry.cage_method)
-    deformer = cache.get("cage", key)
-    if deformer is None:
-        cls = getattr(native.dk, CLASSES[entry.cage_method], None)
-        if cls is None:
-            raise EntryError(f"this build of deformkit has no cage deformers: {native.BUILD_HINT}")
-        rest = np.asarray(entry[REST], np.float64).reshape(-1, 3)
-        try:
-            deformer = cache.put("cage", key, cls(rest, faces))
-        except ValueError as exc:
-            raise EntryError(str(exc)) from exc
-    return key, deformer
+def _deformer(obj, entry, faces, weights):
+    """The dk cage deformer of the rest cage with these per-point weights. Made per evaluation (the
+    weights are the constructor's; checking a cage of a few hundred faces is cheap), while its
+    bindings, which depend on the rest cage only, are kept."""
+    cls = getattr(native.dk, CLASSES[entry.cage_method], None)
+    if cls is None:
+        raise EntryError(f"this build of deformkit has no cage deformers: {native.BUILD_HINT}")
+    rest = np.asarray(entry[REST], np.float64).reshape(-1, 3)
+    try:
+        return (meshdata.cache_key(obj), entry.bind_id, entry.cage_method), cls(rest, faces, weights=weights)
+    except ValueError as exc:
+        raise EntryError(str(exc)) from exc
 
 
 def setup(obj, entry, reuse_weights=False):
@@ -104,12 +104,11 @@ def setup(obj, entry, reuse_weights=False):
     changed = topology_change(entry, topo)
     if changed:
         raise EntryError(changed)
-    key, deformer = _deformer(obj, entry, faces)
-    deformer.cage_points = points
     weights = influence_weights(obj, entry, reuse_weights)
     if entry.strength != 1.0:
         weights = np.full(len(obj.data.vertices), entry.strength) if weights is None else weights * entry.strength
-    deformer.weights = weights
+    key, deformer = _deformer(obj, entry, faces, weights)
+    deformer.cage_points = points
     fingerprint = (key, zlib.crc32(points.tobytes()),
                    None if weights is None else zlib.crc32(np.ascontiguousarray(weights).tobytes()))
     return Prepared(deformer, fingerprint, Setup(deformer, key, fingerprint))
@@ -138,13 +137,10 @@ def bind(obj, entry):
     if cls is None:
         raise EntryError(f"this build of deformkit has no cage deformers: {native.BUILD_HINT}")
     cls(points, faces)  # checks the cage: ValueError naming the first open edge, bad face, ...
-    key = meshdata.cache_key(obj)
     bind_id = new_bind_id(obj)
     entry[REST] = points.astype(np.float32).ravel()
     entry.bind_vertices, entry.bind_faces, entry.bind_topology = topo
-    entry.bind_id = bind_id
-    # The deformer is made again from the stored (float32) rest at the next setup, as after a file load.
-    cache.forget(key, "cage", keep=lambda k: k[1] != bind_id)
+    entry.bind_id = bind_id  # a new bind key: the old bindings are not used again
     return topo[0]
 
 
@@ -167,9 +163,10 @@ def volume_note(entries):
 
 
 def prune(object_key, entries):
-    """Deformers of binds no entry has any more go."""
+    """Bindings of binds no entry has any more go."""
     alive = {(e.bind_id, e.cage_method) for e in entries}
-    cache.forget(object_key, "cage", keep=lambda k: (k[1], k[2]) in alive)
+    cache.forget(object_key, "cage_binding", keep=lambda k: k[1] < len(entries) and (
+        cache.get("cage_binding", k)[0][1:] in alive))
 
 
 def retyped(entry):
