@@ -60,19 +60,20 @@ def apply_recipe(recipe, objects=None, where=None):
             where["entry"] = f"deformers[{i}]"
             spec = dict(spec)
             kind = spec.pop("type")
-            for prop in ("origin", "lattice", "handle_object"):  # objects are named in the recipe
+            for prop in ("origin", "lattice", "handle_object", "cage"):  # objects are named in the recipe
                 if prop in spec:
                     found = bpy.data.objects.get(spec[prop])
                     if found is None:
                         raise BatchError(f"recipe: {prop} object '{spec[prop]}' not found")
                     spec[prop] = found
-            # A Laplacian entry does nothing until bound: "bind": true binds it to what comes in.
+            # Laplacian and Cage entries do nothing until bound: "bind": true binds a Laplacian entry to
+            # what comes in, a Cage entry to its cage's current shape.
             bind = spec.pop("bind", False)
             api.add_entry(obj, kind, **spec)
             index = obj.deformkit.active_index  # the new entry: above a saved Subdivide entry, if any
             recipe_entries[(obj.name, index)] = where["entry"]
             if bind:
-                api.bind_laplacian(obj, index)
+                (api.bind_cage if kind == "CAGE" else api.bind_laplacian)(obj, index)
         where["entry"] = None
     return objects
 

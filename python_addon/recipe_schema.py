@@ -29,10 +29,11 @@ TYPE_KEYS = {
     "LATTICE": ("lattice", "lattice_basis", "outside", "strength", "vertex_group", "invert_vertex_group"),
     "LAPLACIAN": ("method", "weights", "iterations", "anchors_group", "handles_group", "handle_target",
                   "handle_object", "bind"),
+    "CAGE": ("cage", "cage_method", "strength", "vertex_group", "invert_vertex_group", "bind"),
     "SUBDIVIDE": ("levels", "render_levels", "scheme", "boundary_smooth", "use_creases", "uv_smooth", "use_limit_surface",
                   "sharpen_two_edge_vertices"),
 }
-BATCH_ONLY = {"bind": {"kind": "bool"}}  # a Laplacian entry is bound to what comes in
+BATCH_ONLY = {"bind": {"kind": "bool"}}  # Laplacian and Cage entries: bound as they are added
 TOP_LEVEL = {"objects": "a list of object names (\"*\": every mesh)", "deformers": "a non-empty list of tables",
              "replace": "true or false (clear the objects' stacks first)",
              "smoothness": "true or false (smoothness figures in the report)"}

@@ -180,8 +180,9 @@ functions; the map reproduces similarities of the cage and is quasi-conformal, s
 their shape. Outside the cage the coordinates are extended through the nearest cage triangle
 (the paper's exterior extension), so the map is continuous across the cage. Not interpolating:
 a point on the cage moves with its face, not exactly onto it. Jacobians are exact.)")
-      .def(py::init([](const py::object& points, const py::object& faces, bool stretch, const py::object& weights) {
-             auto c = std::make_shared<GreenCage>(parse_cage(points, faces), stretch);
+      .def(py::init([](const py::object& points, const py::object& faces, const py::object& stretch,
+                       const py::object& weights) {
+             auto c = std::make_shared<GreenCage>(parse_cage(points, faces), bool_arg(stretch, "stretch"));
              apply_weights(*c, weights);
              return c;
            }),

@@ -52,8 +52,9 @@ def test_set_params_refuses_a_parameter_of_another_kind(scene):
 def test_operators_share_one_prefix_poll_and_undo(addon):
     import bpy
     operators = [cls for cls in addon.classes if issubclass(cls, bpy.types.Operator)]
-    # 11; issue 14: Select (unanchored parts), Set Active, Duplicate, Copy to Selected, Select Flipped
-    assert len(operators) == 16
+    # 11; issue 14: Select (unanchored parts), Set Active, Duplicate, Copy to Selected, Select Flipped;
+    # issue 15: Bind and Unbind to a cage
+    assert len(operators) == 18
     for cls in operators:
         assert cls.bl_idname.startswith("deformkit."), cls.bl_idname
         assert "poll" in {name for klass in cls.__mro__[:-1] if klass is not bpy.types.Operator

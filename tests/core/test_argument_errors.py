@@ -53,6 +53,7 @@ ENTRY_POINTS = {
     "ExtendedFFD.cylinder": (dk.ExtendedFFD.cylinder, "cylinder", (), {}),
     "ExtendedFFD.prism": (dk.ExtendedFFD.prism, "prism", (TRIANGLE, [0, 0, 1]), {}),
     "MeanValueCage": (dk.MeanValueCage, "__init__", (CUBE, CUBE_FACES), {}),
+    "GreenCage": (dk.GreenCage, "__init__", (CUBE, CUBE_FACES), {"stretch": True}),
     "MeanValueCage.bind": (lambda *a, **k: mean_value_cage().bind(*a, **k), "bind", (PTS,), {}),
     "MeanValueCage.deform_bound": (lambda *a, **k: mean_value_cage().deform_bound(*a, **k), "deform_bound",
                                    (mean_value_cage().bind(PTS),), {}),
