@@ -6,7 +6,9 @@ Writes <out>/<name>_twist_bend.obj (deformed positions, normals carried through 
 transform_normals, same vertex order as loaded) and <out>/<name>_twist_bend.png (before and after
 side by side), and prints a summary. Then a lattice: a B-spline lattice fitted to the mesh whose
 control points are solved by direct manipulation so that the top vertex leans sideways while the
-bottom stays put, written as <out>/<name>_lattice.obj and .png. The mesh defaults to ../shared/meshes/ogre.obj (else spot.obj)
+bottom stays put, written as <out>/<name>_lattice.obj and .png. Then a cage: a box cage around the
+mesh whose upper part is turned and widened, the mesh deformed by mean value and by Green coordinates,
+side by side in <out>/<name>_cage.png. The mesh defaults to ../shared/meshes/ogre.obj (else spot.obj)
 from the repository root; without that folder a subdivided square bar is generated instead.
 """
 import argparse
@@ -146,6 +148,79 @@ def lattice_demo(points, mesh, solid, weld, out, stem, name):
     print(f"wrote:         {obj_path}\n               {png_path}")
 
 
+def box_cage(lo, hi, n=2):
+    """A closed box of n x n quads per side, faces outward: (points, quads)."""
+    t = np.linspace(0.0, 1.0, n + 1)
+    points, faces, index = [], [], {}
+
+    def vertex(p):
+        key = tuple(np.round(p, 12))
+        if key not in index:
+            index[key] = len(points)
+            points.append(p)
+        return index[key]
+    for axis in range(3):
+        for side in (0.0, 1.0):
+            u, v = [a for a in range(3) if a != axis]
+            if side == 0.0:
+                u, v = v, u  # keep the faces outward on both sides
+            for i in range(n):
+                for j in range(n):
+                    corners = []
+                    for di, dj in ((0, 0), (1, 0), (1, 1), (0, 1)):
+                        p = np.empty(3)
+                        p[axis], p[u], p[v] = side, t[i + di], t[j + dj]
+                        corners.append(vertex(lo + p * (hi - lo)))
+                    faces.append(corners if axis != 1 else corners[::-1])
+    return np.array(points), np.array(faces)
+
+
+def cage_demo(points, mesh, out, stem, name):
+    """A box cage turned and widened at the top: mean value vs Green coordinates."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    pad = 0.05 * (hi - lo)
+    rest, quads = box_cage(lo - pad, hi + pad)
+    up = 1  # OBJ convention: +y is up
+    height = (rest[:, up] - rest[:, up].min()) / np.ptp(rest[:, up])
+    center = (lo + hi) / 2
+    angle = np.radians(35.0) * height
+    c, s_ = np.cos(angle), np.sin(angle)
+    rel = rest - center
+    moved = rest.copy()
+    moved[:, 0] = center[0] + (1 + 0.4 * height) * (c * rel[:, 0] - s_ * rel[:, 2])
+    moved[:, 2] = center[2] + (1 + 0.4 * height) * (s_ * rel[:, 0] + c * rel[:, 2])
+    results, lines = {}, []
+    for label, kind in (("mean value", dk.MeanValueCage), ("Green", dk.GreenCage)):
+        cage = kind(rest, quads)
+        if cage.flipped:
+            raise SystemExit("demo: the box cage came out inward")
+        t0 = time.perf_counter()
+        binding = cage.bind(points)
+        t_bind = time.perf_counter() - t0
+        cage.cage_points = moved
+        t0 = time.perf_counter()
+        results[label] = cage.deform_bound(binding)
+        t_deform = time.perf_counter() - t0
+        lines.append(f"{label}: bind {t_bind:.2f} s, deform_bound {t_deform * 1e3:.2f} ms, "
+                     f"mean angle change {angle_change(points, results[label], mesh.faces):.2f} deg")
+    png_path = out / f"{stem}_cage.png"
+    render_before_after(png_path, results["mean value"], results["Green"], mesh.faces,
+                        f"deformkit cage of {len(rest)} vertices, top turned 35 deg and widened 40%",
+                        (f"MeanValueCage: {name}", "GreenCage (quasi-conformal)"), 15.0, -60.0)
+    print("cage:          " + "\n               ".join(lines))
+    print(f"wrote:         {png_path}")
+
+
+def angle_change(before, after, faces):
+    """Mean change of the triangles' angles, in degrees."""
+    def angles(p):
+        a, b, c = p[faces[:, 0]], p[faces[:, 1]], p[faces[:, 2]]
+        def angle(u, v):
+            return np.arctan2(np.linalg.norm(np.cross(u, v), axis=1), (u * v).sum(1))
+        return np.stack([angle(b - a, c - a), angle(a - b, c - b), angle(a - c, b - c)], 1)
+    return float(np.degrees(np.abs(angles(after) - angles(before))).mean())
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="demo_out", help="output directory (created if missing)")
@@ -210,6 +285,7 @@ def main():
     print(f"render:        {t_render:.1f} s")
     print(f"wrote:         {obj_path}\n               {png_path}")
     lattice_demo(points, mesh, solid, weld, out, stem, name)
+    cage_demo(points, mesh, out, stem, name)
 
 
 if __name__ == "__main__":
