@@ -32,8 +32,8 @@ SCREEN = (1920, 1080)
 # messages (a deleted lattice, an unbound Laplacian, Check Smoothness's figures); and the Twist
 # tube's twin with Blender's own Simple Deform, to hold the panel and Edit Mode against. The inner
 # part builds them, the outer checks that each left its three pictures.
-SHOTS = ("no_entries", "twist", "bend", "taper", "stretch", "lattice", "laplacian", "subdivide", "messages",
-         "blender_simple_deform")
+SHOTS = ("no_entries", "twist", "bend", "taper", "stretch", "lattice", "laplacian", "cage", "subdivide",
+         "messages", "blender_simple_deform")
 VIEWS = ("panel", "object_mode", "edit_mode")
 INNER_FLAG = "--deformkit-screenshots-inner"
 
@@ -207,6 +207,16 @@ def build_scene(bpy):
     api.add_laplacian(obj, anchors_group="Bottom", handles_group="Top", handle_target="OBJECT", handle_object=empty)
     empty.location = (1.0, 0.0, 2.6)
     empty.rotation_euler = (0.0, math.radians(40), 0.0)
+    obj = objects["cage"] = tube(bpy, "Cage Tube")
+    bpy.ops.mesh.primitive_cube_add(location=(0.0, 0.0, 1.5), scale=(0.8, 0.8, 1.8))
+    cage = bpy.context.active_object
+    cage.name, cage.display_type = "Cage", "WIRE"
+    api.add_entry(obj, "CAGE", cage=cage, cage_method="GREEN")
+    api.bind_cage(obj, 0)
+    for v in cage.data.vertices:  # the cage's top turned and widened: the tube follows
+        if v.co.z > 0:
+            v.co.x, v.co.y = v.co.x * 1.5 - 0.3 * v.co.y, v.co.y * 1.5 + 0.3 * v.co.x
+    cage.data.update()
     obj = objects["subdivide"] = tube(bpy, "Subdivide Tube", rings=4, segments=6)
     api.add_entry(obj, "TWIST", angle=math.radians(60), deform_axis="Z")
     api.add_entry(obj, "SUBDIVIDE", levels=2)
@@ -313,8 +323,10 @@ def steps(bpy, out, objects):
     overlay.show_wireframes = True  # a twist of a smooth tube shows only in its edges
     for name, obj in objects.items():
         helpers = {o for o in bpy.data.objects if o.type != "MESH"} - {c for c in bpy.data.objects if c.type in (
-            "CAMERA", "LIGHT")}  # the lattice and the handle empty: shown with the object that uses them
-        used = {e.lattice for e in obj.deformkit.entries} | {e.handle_object for e in obj.deformkit.entries}
+            "CAMERA", "LIGHT")}  # the lattice, the handle empty, the cage: shown with the object that uses them
+        helpers |= {e.cage for o in objects.values() for e in o.deformkit.entries if e.cage is not None}
+        used = {e.lattice for e in obj.deformkit.entries} | {e.handle_object for e in obj.deformkit.entries} \
+            | {e.cage for e in obj.deformkit.entries}
         for other in list(objects.values()) + list(helpers):
             other.hide_set(other is not obj and other not in used)
         bpy.context.view_layer.objects.active = obj
