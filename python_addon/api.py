@@ -499,34 +499,5 @@ def select_flipped(obj, samples_per_edge=8):
     """Check Smoothness (its figures go to the panel), then select exactly the control faces with
     flipped samples, with their edges and vertices, in Object or Edit Mode. Returns their indices."""
     faces = sorted(check_smoothness(obj, select=False, samples_per_edge=samples_per_edge)["flipped_faces"])
-    _select_faces(obj, faces)
+    meshdata.select_faces(obj, faces)
     return faces
-
-
-def _select_faces(obj, faces):
-    mesh = obj.data
-    if obj.mode == "EDIT":
-        import bmesh
-        bm = bmesh.from_edit_mesh(mesh)
-        for items in (bm.faces, bm.edges, bm.verts):
-            for item in items:
-                item.select = False
-        bm.faces.ensure_lookup_table()
-        for i in faces:
-            bm.faces[i].select_set(True)  # its edges and vertices too
-        bmesh.update_edit_mesh(mesh)
-        return
-    chosen = np.zeros(len(mesh.polygons), bool)
-    chosen[faces] = True
-    topo = meshdata.topology(mesh)
-    order = meshdata.corner_order(topo)
-    corner_face = np.repeat(chosen, topo.totals)  # corner by corner, polygon by polygon
-    corners = topo.corners if order is None else topo.corners[order]
-    edge_of = np.empty(len(mesh.loops), np.int32)
-    mesh.loops.foreach_get("edge_index", edge_of)
-    edge_of = edge_of if order is None else edge_of[order]
-    for items, members in ((mesh.vertices, corners), (mesh.edges, edge_of)):
-        flags = np.zeros(len(items), bool)
-        flags[members[corner_face]] = True
-        items.foreach_set("select", flags)
-    mesh.polygons.foreach_set("select", chosen)

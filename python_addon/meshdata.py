@@ -129,15 +129,22 @@ def edge_lookup(mesh):
     return {(int(a), int(b)): i for i, (a, b) in enumerate(pairs.tolist())}
 
 
+def _edit_mesh_deselected(mesh):
+    """The edit mesh with nothing selected."""
+    import bmesh
+    bm = bmesh.from_edit_mesh(mesh)
+    for items in (bm.faces, bm.edges, bm.verts):
+        for item in items:
+            item.select = False
+    return bm
+
+
 def select_edges(obj, edges):
     """Select exactly these edges (and their vertices), in edit mode too."""
     mesh = obj.data
     if obj.mode == "EDIT":
         import bmesh
-        bm = bmesh.from_edit_mesh(mesh)
-        for items in (bm.faces, bm.edges, bm.verts):
-            for item in items:
-                item.select = False
+        bm = _edit_mesh_deselected(mesh)
         bm.edges.ensure_lookup_table()
         for i in edges:
             bm.edges[i].select_set(True)
@@ -153,3 +160,30 @@ def select_edges(obj, edges):
     mesh.vertices.foreach_set("select", vertices)
     mesh.edges.foreach_set("select", chosen)
     mesh.polygons.foreach_set("select", np.zeros(len(mesh.polygons), bool))
+
+
+def select_faces(obj, faces):
+    """Select exactly these faces (with their edges and vertices), in edit mode too."""
+    mesh = obj.data
+    if obj.mode == "EDIT":
+        import bmesh
+        bm = _edit_mesh_deselected(mesh)
+        bm.faces.ensure_lookup_table()
+        for i in faces:
+            bm.faces[i].select_set(True)  # its edges and vertices too
+        bmesh.update_edit_mesh(mesh)
+        return
+    chosen = np.zeros(len(mesh.polygons), bool)
+    chosen[faces] = True
+    topo = topology(mesh)
+    order = corner_order(topo)
+    corner_face = np.repeat(chosen, topo.totals)  # corner by corner, polygon by polygon
+    corners = topo.corners if order is None else topo.corners[order]
+    edge_of = np.empty(len(mesh.loops), np.int32)
+    mesh.loops.foreach_get("edge_index", edge_of)
+    edge_of = edge_of if order is None else edge_of[order]
+    for items, members in ((mesh.vertices, corners), (mesh.edges, edge_of)):
+        flags = np.zeros(len(items), bool)
+        flags[members[corner_face]] = True
+        items.foreach_set("select", flags)
+    mesh.polygons.foreach_set("select", chosen)
