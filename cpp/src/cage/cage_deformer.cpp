@@ -90,26 +90,51 @@ std::uint64_t CageDeformer::layout() const {
   return h;
 }
 
+void CageDeformer::coordinate_rows(const double* points, std::size_t n, double* w) const {
+  const std::size_t m = columns();
+  for (std::size_t i = 0; i < n; ++i)
+    coordinates(Vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]), w + i * m, nullptr);
+}
+
+namespace {
+
+// Points go to coordinate_rows() this many at a time: enough for the SIMD lanes of any target,
+// few enough that a chunk's rows stay in the L2 cache.
+constexpr std::size_t kChunk = 64;
+
+// Rows [lo, lo + count) of `in` as double (n x 3); a non-finite row becomes the origin and is
+// reported through `finite` (false), so that the chunk can still be computed as a whole.
+template <class T>
+void chunk_points(const T* in, std::size_t lo, std::size_t count, double* x, bool& finite) {
+  for (std::size_t k = 0; k < count; ++k) {
+    bool ok = true;
+    for (int a = 0; a < 3; ++a) ok = ok && std::isfinite(double(in[3 * (lo + k) + a]));
+    for (int a = 0; a < 3; ++a) x[3 * k + a] = ok ? double(in[3 * (lo + k) + a]) : 0.0;
+    finite = finite && ok;
+  }
+}
+
+}  // namespace
+
 template <class T>
 bool CageDeformer::deform_points(const T* in, T* out, std::size_t n) const {
   const ControlColumns cc = control_columns(*this);
   const std::size_t m = columns();
   std::atomic<bool> finite{true};
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    std::vector<double> w(m);
+    std::vector<double> w(kChunk * m), x(3 * kChunk);
     bool ok = true;
-    for (std::size_t i = begin; i < end; ++i) {
-      const Vec3 x(in[3 * i], in[3 * i + 1], in[3 * i + 2]);
-      if (!x.allFinite()) {
-        ok = false;
-        continue;
-      }
-      coordinates(x, w.data(), nullptr);
-      double y[3];
-      row_product(w.data(), cc, m, y);
-      for (int a = 0; a < 3; ++a) {
-        out[3 * i + a] = static_cast<T>(y[a]);
-        ok = ok && std::isfinite(out[3 * i + a]);
+    for (std::size_t lo = begin; lo < end; lo += kChunk) {
+      const std::size_t count = std::min(kChunk, end - lo);
+      chunk_points(in, lo, count, x.data(), ok);
+      coordinate_rows(x.data(), count, w.data());
+      for (std::size_t k = 0; k < count; ++k) {
+        double y[3];
+        row_product(w.data() + k * m, cc, m, y);
+        for (int a = 0; a < 3; ++a) {
+          out[3 * (lo + k) + a] = static_cast<T>(y[a]);
+          ok = ok && std::isfinite(out[3 * (lo + k) + a]);
+        }
       }
     }
     if (!ok) finite = false;
@@ -172,18 +197,25 @@ CageBinding CageDeformer::bind_points(const T* in, std::size_t n, const CageBind
   blocks.resize(std::size_t(threads) + 1);
   std::atomic<double> rounding{0.0};
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    std::vector<double> w(m);
+    std::vector<double> chunk(kChunk * m), x(3 * kChunk);
     Rows& rows = blocks[block_count++];
     rows.begin = begin;
     double round_max = 0.0;
     for (std::size_t i = begin; i < end; ++i) {
-      coordinates(Vec3(double(in[3 * i]), double(in[3 * i + 1]), double(in[3 * i + 2])), w.data(), nullptr);
-      if (!row_finite(w.data(), m)) {
+      const std::size_t k = (i - begin) % kChunk;
+      if (k == 0) {  // the next chunk's coordinates at once (the points are finite: checked above)
+        const std::size_t count = std::min(kChunk, end - i);
+        bool finite = true;
+        chunk_points(in, i, count, x.data(), finite);
+        coordinate_rows(x.data(), count, chunk.data());
+      }
+      double* w = chunk.data() + k * m;
+      if (!row_finite(w, m)) {
         overflow.note(i);
-        std::fill(w.begin(), w.end(), 0.0);
+        std::fill(w, w + m, 0.0);
       }
       if (options.storage == WeightStorage::Float64) {
-        std::copy(w.begin(), w.end(), b.weights_f64.begin() + std::ptrdiff_t(i * m));
+        std::copy(w, w + m, b.weights_f64.data() + i * m);
       } else if (options.storage == WeightStorage::Float32) {
         float* row = b.weights_f32.data() + i * m;
         double change = 0.0;

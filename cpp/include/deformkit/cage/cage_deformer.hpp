@@ -60,6 +60,10 @@ class CageDeformer : public BoundDeformer {
   virtual std::size_t columns() const = 0;
   virtual void coordinates(const Vec3& x, double* w, double* dw) const = 0;
   virtual void control_values(double* out) const = 0;
+  // The coordinates of n finite points (n x 3, row-major) into rows of w (n x columns()), without
+  // gradients. This default calls coordinates() per point; a kind overrides it to compute several
+  // points at once (SIMD lanes over points), equal to coordinates() to rounding.
+  virtual void coordinate_rows(const double* points, std::size_t n, double* w) const;
 
   // Throws std::invalid_argument naming `points` for a non-finite row, `sparsify` for a threshold
   // that is not positive and finite or that would drop every weight of a point (or leave weights
