@@ -1,5 +1,6 @@
 #include "deformkit/cage/cage_deformer.hpp"
 
+#include "cage/sparse_rows.hpp"
 #include "cage/weight_rows.hpp"
 #include "core/parallel.hpp"
 
@@ -54,6 +55,17 @@ class FirstRow {
   static constexpr std::size_t kNone = ~std::size_t(0);
   std::atomic<std::size_t> first_{kNone};
 };
+
+// Rows of results (count x 3) into out as T; false if one is not finite there.
+template <class T>
+bool store_rows(const double* y, std::size_t count, T* out) {
+  bool ok = true;
+  for (std::size_t k = 0; k < 3 * count; ++k) {
+    out[k] = static_cast<T>(y[k]);
+    ok = ok && std::isfinite(out[k]);
+  }
+  return ok;
+}
 
 template <class T>
 bool row_finite(const T* v, std::size_t m) {
@@ -240,17 +252,23 @@ CageBinding CageDeformer::bind_points(const T* in, std::size_t n, const CageBind
           continue;
         }
         std::int64_t count = 0;
-        double change = dropped;
+        double change = dropped, rounded = 0.0;
         for (std::size_t j = 0; j < m; ++j)
           if (std::abs(w[j]) >= options.sparsify_threshold) {
+            const double kept = w[j] * scale;
+            // float32 points keep float32 values (CageBinding::sparse_values_f32); held here as the
+            // doubles they widen to, so the join below is exact.
+            const double stored = std::is_same<T, float>::value ? double(static_cast<float>(kept)) : kept;
             rows.indices.push_back(std::int32_t(j));
-            rows.values.push_back(w[j] * scale);
-            change += std::abs(w[j] * scale - w[j]);
+            rows.values.push_back(stored);
+            change += std::abs(kept - w[j]);
+            rounded += std::abs(stored - kept);
             ++count;
           }
         rows.counts.push_back(count);
         rows.dropped = std::max(rows.dropped, dropped);
         rows.change = std::max(rows.change, change);
+        round_max = std::max(round_max, rounded);
       }
     }
     double cur = rounding.load();
@@ -272,7 +290,10 @@ CageBinding CageDeformer::bind_points(const T* in, std::size_t n, const CageBind
     for (const Rows& r : blocks) {
       for (std::int64_t c : r.counts) b.sparse.indptr.push_back(b.sparse.indptr.back() + c);
       b.sparse.indices.insert(b.sparse.indices.end(), r.indices.begin(), r.indices.end());
-      b.sparse.values.insert(b.sparse.values.end(), r.values.begin(), r.values.end());
+      if constexpr (std::is_same<T, float>::value)
+        b.sparse_values_f32.insert(b.sparse_values_f32.end(), r.values.begin(), r.values.end());
+      else
+        b.sparse.values.insert(b.sparse.values.end(), r.values.begin(), r.values.end());
       b.dropped_weight_max = std::max(b.dropped_weight_max, r.dropped);
       b.weight_change_max = std::max(b.weight_change_max, r.change);
     }
@@ -311,11 +332,25 @@ bool CageDeformer::multiply(const CageBinding& b, T* out) const {
   const std::size_t m = b.columns, n = b.size();
   std::atomic<bool> finite{true};
   if (b.storage == WeightStorage::Sparse) {
-    std::vector<double> rows(3 * m);
-    for (std::size_t j = 0; j < m; ++j)
-      for (int a = 0; a < 3; ++a) rows[3 * j + a] = cc.c[a][j];
-    apply_weight_table(b.sparse, rows.data(), 3, out);
-    return all_finite(out, n, 3);
+    std::vector<double> control(3 * m);
+    control_values(control.data());
+    const PaddedControlRows c4(control.data(), m);
+    parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+      constexpr std::size_t kRows = 256;  // rows per kernel call: results stay in the L1 cache
+      double y[3 * kRows];
+      bool ok = true;
+      for (std::size_t lo = begin; lo < end; lo += kRows) {
+        const std::size_t count = std::min(kRows, end - lo);
+        const std::int64_t* indptr = b.sparse.indptr.data() + lo;
+        if (b.single_precision)
+          sparse_rows_product(indptr, b.sparse.indices.data(), b.sparse_values_f32.data(), count, c4.rows(), y);
+        else
+          sparse_rows_product(indptr, b.sparse.indices.data(), b.sparse.values.data(), count, c4.rows(), y);
+        ok = store_rows(y, count, out + 3 * lo) && ok;
+      }
+      if (!ok) finite = false;
+    });
+    return finite;
   }
   const double* c[3] = {cc.c[0].data(), cc.c[1].data(), cc.c[2].data()};
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
@@ -345,7 +380,12 @@ bool CageDeformer::deform_bound_impl(const PointBinding& b, double* out) const {
 
 WeightTable CageDeformer::weights_table(const CageBinding& b) const {
   check_binding(b);
-  if (b.storage == WeightStorage::Sparse) return b.sparse;
+  if (b.storage == WeightStorage::Sparse && !b.single_precision) return b.sparse;
+  if (b.storage == WeightStorage::Sparse) {
+    WeightTable t{b.sparse.indptr, b.sparse.indices, {}};
+    t.values.assign(b.sparse_values_f32.begin(), b.sparse_values_f32.end());
+    return t;
+  }
   WeightTable t;
   const std::size_t m = b.columns;
   t.indptr.reserve(b.size() + 1);

@@ -17,7 +17,8 @@ namespace deformkit {
 enum class WeightStorage : std::uint8_t {
   Float64 = 0,  // dense n x columns float64 (the default)
   Float32 = 1,  // dense float32: half the memory, weights rounded to float
-  Sparse = 2,   // CSR float64 of the weights of magnitude >= the threshold, renormalised
+  Sparse = 2,   // CSR of the weights of magnitude >= the threshold, renormalised (float32 values
+                // for float32 points, float64 otherwise)
 };
 
 struct CageBindOptions {
@@ -31,7 +32,11 @@ struct CageBinding : PointBinding {
   std::size_t columns = 0;
   Buffer<double> weights_f64;  // n x columns, row-major (Float64)
   Buffer<float> weights_f32;   // n x columns (Float32)
-  WeightTable sparse;          // (Sparse)
+  // Sparse: the kept weights as CSR. For float32 points the values are rounded to float and kept
+  // in sparse_values_f32 (sparse.values is then empty): the output is float32 anyway, and the
+  // frame reads a third less memory.
+  WeightTable sparse;
+  Buffer<float> sparse_values_f32;
   Buffer<double> points_f64;   // n x 3, as bound (float64 points)
   Buffer<float> points_f32;    // (float32 points)
   // Sparse only, over the bound points: the largest sum of |dropped weights| of a point, and the
@@ -40,7 +45,10 @@ struct CageBinding : PointBinding {
   // control values' radius about it (the weights still sum to what they summed to).
   double dropped_weight_max = 0.0;
   double weight_change_max = 0.0;
-  double float32_rounding_max = 0.0;  // Float32: the largest L1 change rounding made to a point's weights
+  // Float32, and Sparse of float32 points: the largest L1 change rounding to float made to a point's
+  // (kept, renormalised) weights; the position error bound above then grows by
+  // float32_rounding_max * max_j |c'_j| (the rounded weights need not keep the row's sum).
+  double float32_rounding_max = 0.0;
 };
 
 class CageDeformer : public BoundDeformer {
