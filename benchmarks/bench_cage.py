@@ -6,10 +6,11 @@ For each model of ../shared/cages (model, rest cage, deformed cage: same vertex 
 bpy 5.0 process: Blender's Mesh Deform (Precision 5, its default) bind time and its frame after the
 cage moves to the deformed cage (depsgraph update + evaluated vertex count), and deformkit's
 dk.MeanValueCage / dk.GreenCage bind and deform_bound after setting the deformed cage (dense
-float64, float32 and sparsified weights). Shape quality from the same run: the mean change of the
-model's triangle angles (degrees) under the deformed cage, for each method, and how far each
-method's result lies from Mesh Deform's (mean and max over the vertices). Skips with a message
-when ../shared/cages is absent.
+float64, float32, and sparsified weights at Mesh Deform's threshold and at 1e-4, each with its
+kept weights per point and distance from the dense result). Shape quality from the same run: the
+mean change of the model's triangle angles (degrees) under the deformed cage, for each method, and
+how far each method's result lies from Mesh Deform's (mean and max over the vertices). Skips with
+a message when ../shared/cages is absent.
 """
 import argparse
 import pathlib
@@ -109,15 +110,24 @@ def mesh_deform(model, cage, cage_rest, cage_moved, repeats):
 
 
 def deformkit_cages(points, cage_rest, cage_faces, cage_moved, repeats):
-    """(method, storage) -> (bind s, deform s, deformed points, note)."""
+    """(method, storage) -> (bind s, deform s, deformed points, note); a sparse row's note is its
+    kept weights per point and its largest distance from the dense float64 result, relative to the
+    rest cage's bounding-box diagonal."""
     rows = {}
+    diagonal = float(np.linalg.norm(cage_rest.max(axis=0) - cage_rest.min(axis=0)))
+    # Sparsified at two accuracies (docs/math/cage.md, "Sparsified bindings"): Mesh Deform's own
+    # (its static bind keeps the harmonic weights above 1e-5, renormalised), and 1e-4, the largest
+    # threshold keeping every vertex within 1e-3 of the cage's diagonal of the dense result on
+    # Ogre, FireHydrant, Beast and WireSphere, for both coordinate kinds.
+    storages = [("dense f64", {}), ("dense f32", {"precision": "float32"}),
+                ("sparse 1e-5 (MD's)", {"sparsify": 1e-5}), ("sparse 1e-4", {"sparsify": 1e-4})]
     for name in ("MeanValueCage", "GreenCage"):
         kind = getattr(dk, name, None)
         if kind is None:
             continue
         deformer = kind(cage_rest, cage_faces)
-        for storage, options in (("dense f64", {}), ("dense f32", {"precision": "float32"}),
-                                 ("sparse 1e-4", {"sparsify": 1e-4})):
+        dense = None
+        for storage, options in storages:
             try:
                 binding, bind = timed(lambda: deformer.bind(points, **options), 1)
             except TypeError:
@@ -125,7 +135,14 @@ def deformkit_cages(points, cage_rest, cage_faces, cage_moved, repeats):
             deformer.cage_points = cage_moved
             deformed, deform = timed(lambda: deformer.deform_bound(binding), repeats)
             deformer.cage_points = cage_rest
-            rows[(name, storage)] = (bind, deform, np.asarray(deformed, np.float64))
+            deformed = np.asarray(deformed, np.float64)
+            dense = deformed if dense is None else dense
+            note = ""
+            if "sparsify" in options:
+                kept = len(binding.weights()[2]) / len(points)
+                error = np.linalg.norm(deformed - dense, axis=1).max() / diagonal
+                note = f"{kept:.1f} of {deformer.columns} weights/pt, max |x - dense| {error:.1e} diag"
+            rows[(name, storage)] = (bind, deform, deformed, note)
     return rows
 
 
@@ -145,8 +162,8 @@ for name in args.models.split(","):
     label = f"{name} {len(points) // 1000}k/{len(cage_rest)}"
     print(f"{label:18s}{'Blender Mesh Deform':28s}{bind:9.3f}{frame * 1e3:10.2f}"
           f"{angle_distortion(points, md, tris):14.3f}{0.0:15.2e}{0.0:10.2e}")
-    for (method, storage), (b, d, x) in deformkit_cages(points, cage_rest, cage_faces, cage_moved,
-                                                         args.repeats).items():
+    for (method, storage), (b, d, x, note) in deformkit_cages(points, cage_rest, cage_faces, cage_moved,
+                                                               args.repeats).items():
         print(f"{'':18s}{method + ' ' + storage:28s}{b:9.3f}{d * 1e3:10.2f}"
               f"{angle_distortion(points, x, tris):14.3f}{np.linalg.norm(x - md, axis=1).mean():15.2e}"
-              f"{np.linalg.norm(x - md, axis=1).max():10.2e}")
+              f"{np.linalg.norm(x - md, axis=1).max():10.2e}  {note}")
