@@ -259,6 +259,7 @@ CageBinding CageDeformer::bind_points(const T* in, std::size_t n, const CageBind
             // float32 points keep float32 values (CageBinding::sparse_values_f32); held here as the
             // doubles they widen to, so the join below is exact.
             const double stored = std::is_same<T, float>::value ? double(static_cast<float>(kept)) : kept;
+            if (!std::isfinite(stored)) overflow.note(i);  // beyond float's range
             rows.indices.push_back(std::int32_t(j));
             rows.values.push_back(stored);
             change += std::abs(kept - w[j]);
@@ -333,7 +334,8 @@ bool CageDeformer::multiply(const CageBinding& b, T* out) const {
   std::atomic<bool> finite{true};
   if (b.storage == WeightStorage::Sparse) {
     std::vector<double> control(3 * m);
-    control_values(control.data());
+    for (std::size_t j = 0; j < m; ++j)
+      for (int a = 0; a < 3; ++a) control[3 * j + a] = cc.c[a][j];
     const PaddedControlRows c4(control.data(), m);
     parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
       constexpr std::size_t kRows = 256;  // rows per kernel call: results stay in the L1 cache
