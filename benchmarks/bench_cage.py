@@ -120,7 +120,7 @@ def deformkit_cages(points, cage_rest, cage_faces, cage_moved, repeats):
     # threshold keeping every vertex within 1e-3 of the cage's diagonal of the dense result on
     # Ogre, FireHydrant, Beast and WireSphere, for both coordinate kinds.
     storages = [("dense f64", {}), ("dense f32", {"precision": "float32"}),
-                ("sparse 1e-5 (MD's)", {"sparsify": 1e-5}), ("sparse 1e-4", {"sparsify": 1e-4})]
+                ("sparse 1e-5 (MD)", {"sparsify": 1e-5}), ("sparse 1e-4", {"sparsify": 1e-4})]
     for name in ("MeanValueCage", "GreenCage"):
         kind = getattr(dk, name, None)
         if kind is None:
@@ -147,7 +147,7 @@ def deformkit_cages(points, cage_rest, cage_faces, cage_moved, repeats):
 
 
 print(f"deformkit {dk.build_info()}  |  bpy {bpy.app.version_string}  |  Mesh Deform precision {args.precision}")
-print(f"{'model':18s}{'method':28s}{'bind s':>9s}{'frame ms':>10s}{'angle dist °':>14s}{'|x - MD| mean':>15s}"
+print(f"{'model':18s}{'method':32s}{'bind s':>9s}{'frame ms':>10s}{'angle dist °':>14s}{'|x - MD| mean':>15s}"
       f"{'max':>10s}")
 for name in args.models.split(","):
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -160,10 +160,10 @@ for name in args.models.split(","):
     tris = triangles_of(faces)
     bind, frame, md = mesh_deform(model, cage, cage_rest, cage_moved, args.repeats)
     label = f"{name} {len(points) // 1000}k/{len(cage_rest)}"
-    print(f"{label:18s}{'Blender Mesh Deform':28s}{bind:9.3f}{frame * 1e3:10.2f}"
+    print(f"{label:18s}{'Blender Mesh Deform':32s}{bind:9.3f}{frame * 1e3:10.2f}"
           f"{angle_distortion(points, md, tris):14.3f}{0.0:15.2e}{0.0:10.2e}")
     for (method, storage), (b, d, x, note) in deformkit_cages(points, cage_rest, cage_faces, cage_moved,
                                                                args.repeats).items():
-        print(f"{'':18s}{method + ' ' + storage:28s}{b:9.3f}{d * 1e3:10.2f}"
+        print(f"{'':18s}{method + ' ' + storage:32s}{b:9.3f}{d * 1e3:10.2f}"
               f"{angle_distortion(points, x, tris):14.3f}{np.linalg.norm(x - md, axis=1).mean():15.2e}"
               f"{np.linalg.norm(x - md, axis=1).max():10.2e}  {note}")
