@@ -20,6 +20,8 @@ import time
 
 import numpy as np
 
+from bench_common import evaluated, imported, mesh_deform_bind
+
 CAGES = pathlib.Path(__file__).resolve().parents[1].parent / "shared" / "cages"
 
 ap = argparse.ArgumentParser()
@@ -33,18 +35,6 @@ if not CAGES.is_dir():
 
 import bpy  # noqa: E402
 import deformkit as dk  # noqa: E402
-
-
-def imported(path):
-    """The one mesh object Blender's OBJ importer makes of `path`, its positions and polygons."""
-    before = set(bpy.data.objects)
-    bpy.ops.wm.obj_import(filepath=str(path), forward_axis="Y", up_axis="Z")
-    (obj,) = set(bpy.data.objects) - before
-    mesh = obj.data
-    co = np.empty(len(mesh.vertices) * 3, np.float32)
-    mesh.attributes["position"].data.foreach_get("vector", co)
-    faces = [list(p.vertices) for p in mesh.polygons]
-    return obj, co.reshape(-1, 3).astype(np.float64), faces
 
 
 def triangles_of(faces):
@@ -72,25 +62,9 @@ def timed(fn, repeats):
     return out, statistics.median(times)
 
 
-def evaluated(obj):
-    dg = bpy.context.evaluated_depsgraph_get()
-    mesh = obj.evaluated_get(dg).data
-    co = np.empty(len(mesh.vertices) * 3, np.float32)
-    mesh.attributes["position"].data.foreach_get("vector", co)
-    return co.reshape(-1, 3).astype(np.float64)
-
-
 def mesh_deform(model, cage, cage_rest, cage_moved, repeats):
     """Blender's Mesh Deform: (bind s, frame s, deformed points)."""
-    mod = model.modifiers.new("MeshDeform", "MESH_DEFORM")
-    mod.object, mod.precision = cage, args.precision
-    bpy.context.view_layer.objects.active = model
-    t0 = time.perf_counter()
-    with bpy.context.temp_override(object=model, active_object=model):
-        bpy.ops.object.meshdeform_bind(modifier=mod.name)
-    bpy.context.evaluated_depsgraph_get().update()  # the bind runs in the modifier's next evaluation
-    bind = time.perf_counter() - t0
-    assert mod.is_bound, "Mesh Deform did not bind"
+    mod, bind = mesh_deform_bind(model, cage, args.precision)
     frames = []
     for i in range(repeats + 1):
         target = cage_moved if i % 2 == 0 else cage_rest

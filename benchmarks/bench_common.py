@@ -118,3 +118,99 @@ def displaced_grid_pair(vertices):
     bpy.context.scene.collection.objects.link(b)
     a.name, b.name = "deformkit", "blender"
     return a, b, co
+
+
+@contextmanager
+def c_stdout_silenced():
+    """File descriptor 1 to /dev/null inside the block: what C code (Blender) prints goes; Python's
+    own print is flushed before and after."""
+    import sys
+    libc = ctypes.CDLL(None)
+    sys.stdout.flush()
+    saved, devnull = os.dup(1), os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)
+    try:
+        yield
+    finally:
+        libc.fflush(None)  # C stdio's buffer still holds the text when stdout is a pipe or a file
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)
+
+
+def imported(path):
+    """The one mesh object Blender's OBJ importer makes of `path`, its positions (float64, the
+    mesh's float32 values) and polygons; the file's axes kept (Y forward, Z up)."""
+    import bpy
+    import numpy as np
+    before = set(bpy.data.objects)
+    with c_stdout_silenced():  # the importer's "OBJ import of ... took" lines would split the tables
+        bpy.ops.wm.obj_import(filepath=str(path), forward_axis="Y", up_axis="Z")
+    (obj,) = set(bpy.data.objects) - before
+    mesh = obj.data
+    co = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.attributes["position"].data.foreach_get("vector", co)
+    faces = [list(p.vertices) for p in mesh.polygons]
+    return obj, co.reshape(-1, 3).astype(np.float64), faces
+
+
+def evaluated(obj):
+    """obj's evaluated positions (all modifiers), float64 of the mesh's float32."""
+    import bpy
+    import numpy as np
+    dg = bpy.context.evaluated_depsgraph_get()
+    mesh = obj.evaluated_get(dg).data
+    co = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.attributes["position"].data.foreach_get("vector", co)
+    return co.reshape(-1, 3).astype(np.float64)
+
+
+def shared_cages_dir():
+    """../shared/cages beside the repository (the project's cage test data; never committed)."""
+    import pathlib
+    return pathlib.Path(__file__).resolve().parents[1].parent / "shared" / "cages"
+
+
+def cage_model(folder, name):
+    """Model `name` of the shared cages imported into the current scene: a namespace with model
+    (object), points, faces, cage (object), rest, cage_faces and moved (the deformed cage's points,
+    the rest cage's vertex order; its own imported object is removed)."""
+    import types
+    import bpy
+    model, points, faces = imported(folder / f"{name}.obj")
+    cage, rest, cage_faces = imported(folder / f"{name}_Cage.obj")
+    moved_obj, moved, moved_faces = imported(folder / f"{name}_Cage_Deformed.obj")
+    moved_mesh = moved_obj.data
+    bpy.data.objects.remove(moved_obj)
+    bpy.data.meshes.remove(moved_mesh)
+    # The files list the same faces in different orders; the vertices are in the same order.
+    same = sorted(map(sorted, moved_faces)) == sorted(map(sorted, cage_faces))
+    if not (same and len(moved) == len(rest)):
+        raise SystemExit(f"{name}: the rest and deformed cages differ in topology")
+    return types.SimpleNamespace(name=name, model=model, points=points, faces=faces, cage=cage, rest=rest,
+                                 cage_faces=cage_faces, moved=moved)
+
+
+def set_positions(mesh, points):
+    """Write (n, 3) points into a mesh's positions (float32) and tag it, as a script's cage edit does."""
+    import numpy as np
+    mesh.attributes["position"].data.foreach_set("vector", np.ascontiguousarray(points, np.float32).ravel())
+    mesh.update()
+
+
+def mesh_deform_bind(model, cage, precision):
+    """A Mesh Deform modifier on `model` bound to `cage` at `precision` by Blender's Bind operator.
+    Returns (modifier, seconds: the operator and the evaluation that runs the bind)."""
+    import time
+    import bpy
+    mod = model.modifiers.new("MeshDeform", "MESH_DEFORM")
+    mod.object, mod.precision = cage, precision
+    bpy.context.view_layer.objects.active = model
+    t0 = time.perf_counter()
+    with bpy.context.temp_override(object=model, active_object=model):
+        bpy.ops.object.meshdeform_bind(modifier=mod.name)
+    bpy.context.evaluated_depsgraph_get().update()  # the bind runs in the modifier's next evaluation
+    seconds = time.perf_counter() - t0
+    if not mod.is_bound:
+        raise SystemExit(f"Mesh Deform did not bind {model.name}")
+    return mod, seconds

@@ -37,7 +37,8 @@ REST = "deformkit_cage_rest"  # the entry's ID property: the cage at bind, x y z
 # deformer and bindings are kept under; fingerprint: everything besides the incoming points.
 Setup = namedtuple("Setup", "deformer bind fingerprint")
 # In the cache: "cage_binding", (object cache key, entry index, "viewport"/"render") -> (bind key
-# (object cache key, bind id, method), points, binding).
+# (object cache key, bind id, method), points, binding); "cage_deformer", bind key -> (crc of the
+# per-point weights, deformer).
 
 
 def fields(entry_type):
@@ -83,17 +84,23 @@ def topology_change(entry, now):
 
 
 def _deformer(obj, entry, faces, weights):
-    """The dk cage deformer of the rest cage with these per-point weights. Made per evaluation (the
-    weights are the constructor's; checking a cage of a few hundred faces is cheap), while its
-    bindings, which depend on the rest cage only, are kept."""
+    """The dk cage deformer of the rest cage with these per-point weights, kept while the bind and
+    the weights stay: checking the cage and building its tables costs about as much as a frame."""
     cls = getattr(native.dk, CLASSES[entry.cage_method], None)
     if cls is None:
         raise EntryError(f"this build of deformkit has no cage deformers: {native.BUILD_HINT}")
+    bind_key = (meshdata.cache_key(obj), entry.bind_id, entry.cage_method)
+    weights_crc = None if weights is None else zlib.crc32(np.ascontiguousarray(weights).tobytes())
+    cached = cache.get("cage_deformer", bind_key)
+    if cached is not None and cached[0] == weights_crc:
+        return bind_key, cached[1], weights_crc
     rest = np.asarray(entry[REST], np.float64).reshape(-1, 3)
     try:
-        return (meshdata.cache_key(obj), entry.bind_id, entry.cage_method), cls(rest, faces, weights=weights)
+        deformer = cls(rest, faces, weights=weights)
     except ValueError as exc:
         raise EntryError(str(exc)) from exc
+    cache.put("cage_deformer", bind_key, (weights_crc, deformer))
+    return bind_key, deformer, weights_crc
 
 
 def setup(obj, entry, reuse_weights=False):
@@ -107,10 +114,9 @@ def setup(obj, entry, reuse_weights=False):
     weights = influence_weights(obj, entry, reuse_weights)
     if entry.strength != 1.0:
         weights = np.full(len(obj.data.vertices), entry.strength) if weights is None else weights * entry.strength
-    key, deformer = _deformer(obj, entry, faces, weights)
+    key, deformer, weights_crc = _deformer(obj, entry, faces, weights)
     deformer.cage_points = points
-    fingerprint = (key, zlib.crc32(points.tobytes()),
-                   None if weights is None else zlib.crc32(np.ascontiguousarray(weights).tobytes()))
+    fingerprint = (key, zlib.crc32(points.tobytes()), weights_crc)
     return Prepared(deformer, fingerprint, Setup(deformer, key, fingerprint))
 
 
@@ -122,7 +128,9 @@ def deform(key, prepared, points):
     cached = cache.get("cage_binding", key)
     if cached is None or cached[0] != setup_.bind or not np.array_equal(cached[1], points):
         try:
-            cached = cache.put("cage_binding", key, (setup_.bind, points, setup_.deformer.bind(points)))
+            # float32 weights, as the mesh's positions are: half the memory and time per frame.
+            binding = setup_.deformer.bind(points, precision="float32")
+            cached = cache.put("cage_binding", key, (setup_.bind, points, binding))
         except ValueError as exc:
             raise EntryError(str(exc)) from exc
     return setup_.deformer.deform_bound(cached[2])
@@ -167,6 +175,7 @@ def prune(object_key, entries):
     alive = {(e.bind_id, e.cage_method) for e in entries}
     cache.forget(object_key, "cage_binding", keep=lambda k: k[1] < len(entries) and (
         cache.get("cage_binding", k)[0][1:] in alive))
+    cache.forget(object_key, "cage_deformer", keep=lambda k: k[1:] in alive)
 
 
 def retyped(entry):

@@ -1,6 +1,7 @@
 #include "deformkit/cage/green_cage.hpp"
 
 #include "cage/green_coordinates.hpp"
+#include "cage/green_rows.hpp"
 
 #include <algorithm>
 
@@ -8,13 +9,21 @@ namespace deformkit {
 
 GreenCage::GreenCage(CageMesh cage, bool stretch) : CageDeformer(std::move(cage)), stretch_(stretch) {
   for (const CageTriangle& t : this->cage().triangles()) triangles_.insert(triangles_.end(), t.begin(), t.end());
+  tables_ = std::make_shared<const GreenCageTables>(green_cage_tables(view()));
+}
+
+TriangleCageView GreenCage::view() const {
+  return {rest_cage_points().data(), vertex_count(), triangles_.data(), triangles_.size() / 3};
 }
 
 void GreenCage::coordinates(const Vec3& x, double* w, double* dw) const {
   const std::size_t m = vertex_count();
-  const TriangleCageView view{rest_cage_points().data(), m, triangles_.data(), triangles_.size() / 3};
   const double p[3] = {x[0], x[1], x[2]};
-  green_coordinates(p, view, w, w + m, dw, dw == nullptr ? nullptr : dw + 3 * m);
+  green_coordinates(p, view(), w, w + m, dw, dw == nullptr ? nullptr : dw + 3 * m);
+}
+
+void GreenCage::coordinate_rows(const double* points, std::size_t n, double* w) const {
+  green_coordinate_rows(points, n, view(), *tables_, w);
 }
 
 void GreenCage::control_values(double* out) const {

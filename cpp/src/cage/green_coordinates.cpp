@@ -1,11 +1,13 @@
 #include "cage/green_coordinates.hpp"
 
-#include "core/parallel.hpp"
+#include "cage/green_rows.hpp"
 
 #include <Eigen/Dense>
 
 #include <cmath>
 #include <limits>
+#include <map>
+#include <utility>
 
 namespace deformkit {
 namespace {
@@ -327,12 +329,13 @@ void green_integrals(const double x[3], const TriangleCageView& cage, double* ph
     integrals<double>(x, cage, phi, psi, nullptr, nullptr);
 }
 
-GreenSide green_coordinates(const double x[3], const TriangleCageView& cage, double* phi, double* psi, double* dphi,
-                            double* dpsi) {
+namespace {
+
+GreenSide extension(const double x[3], const TriangleCageView& cage, double winding, double* phi, double* psi,
+                    double* dphi, double* dpsi) {
   const bool gradients = dphi || dpsi;
   GreenSide side;
-  side.winding = gradients ? integrals<Dual>(x, cage, phi, psi, dphi, dpsi)
-                           : integrals<double>(x, cage, phi, psi, nullptr, nullptr);
+  side.winding = winding;
   if (side.winding >= 1.0 - kWindingTolerance || cage.triangle_count == 0) return side;
   side.outside = side.winding <= kWindingTolerance;
   side.on_surface = !side.outside;
@@ -348,14 +351,62 @@ GreenSide green_coordinates(const double x[3], const TriangleCageView& cage, dou
   return side;
 }
 
-void green_coordinates_batch(const double* points, std::size_t n, const TriangleCageView& cage, double* phi,
-                             double* psi, double* dphi, double* dpsi) {
-  const std::size_t m = cage.point_count, t = cage.triangle_count;
-  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i)
-      green_coordinates(points + 3 * i, cage, phi + i * m, psi + i * t, dphi ? dphi + 3 * i * m : nullptr,
-                        dpsi ? dpsi + 3 * i * t : nullptr);
-  });
+}  // namespace
+
+GreenSide green_coordinates(const double x[3], const TriangleCageView& cage, double* phi, double* psi, double* dphi,
+                            double* dpsi) {
+  const double winding = dphi || dpsi ? integrals<Dual>(x, cage, phi, psi, dphi, dpsi)
+                                      : integrals<double>(x, cage, phi, psi, nullptr, nullptr);
+  return extension(x, cage, winding, phi, psi, dphi, dpsi);
+}
+
+GreenSide green_extension(const double x[3], const TriangleCageView& cage, double winding, double* phi,
+                          double* psi) {
+  return extension(x, cage, winding, phi, psi, nullptr, nullptr);
+}
+
+GreenCageTables green_cage_tables(const TriangleCageView& cage) {
+  GreenCageTables tables;
+  std::map<std::pair<int, int>, int> edge_ids;
+  for (std::size_t j = 0; j < cage.triangle_count; ++j) {
+    const Triangle t = triangle(cage, j);
+    GreenCageTables::Triangle out;
+    // As triangle_share() computes them, so that both paths multiply by the same constants.
+    const Vec3 nn = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]);
+    const double twice_area = nn.norm();
+    out.degenerate = !(twice_area > 0);
+    const Vec3 n = out.degenerate ? Vec3::Zero() : Vec3(nn / twice_area);
+    for (int k = 0; k < 3; ++k) {
+      out.vertex[k] = t.index[k];
+      out.normal[k] = n[k];
+      const Vec3 g = n.cross(t.p[(k + 2) % 3] - t.p[(k + 1) % 3]) / twice_area;
+      const int k1 = (k + 1) % 3;
+      const bool forward = t.index[k] < t.index[k1];
+      const int lo = forward ? k : k1, hi = forward ? k1 : k;
+      const Vec3 edge = t.p[hi] - t.p[lo];
+      const double length = edge.norm();
+      const Vec3 e = edge / length;
+      const Vec3 m = (forward ? e : Vec3(-e)).cross(n);
+      for (int c = 0; c < 3; ++c) {
+        out.gradient[k][c] = g[c];
+        out.edge_normal[k][c] = m[c];
+      }
+      const auto key = std::make_pair(t.index[lo], t.index[hi]);
+      auto found = edge_ids.find(key);
+      if (found == edge_ids.end()) {
+        GreenCageTables::Edge ed;
+        ed.lo = key.first;
+        ed.hi = key.second;
+        for (int c = 0; c < 3; ++c) ed.direction[c] = e[c];
+        ed.length = length;
+        found = edge_ids.emplace(key, int(tables.edges.size())).first;
+        tables.edges.push_back(ed);
+      }
+      out.edge[k] = found->second;
+    }
+    tables.triangles.push_back(out);
+  }
+  return tables;
 }
 
 void green_stretch_factors(const double* rest_points, const double* deformed_points, const int* triangles,

@@ -48,10 +48,10 @@ void green_integrals(const double x[3], const TriangleCageView& cage, double* ph
 GreenSide green_coordinates(const double x[3], const TriangleCageView& cage, double* phi, double* psi, double* dphi,
                             double* dpsi);
 
-// Green coordinates of n points (n x 3), rows of phi (n x m), psi (n x t), dphi (n x 3m) and
-// dpsi (n x 3t; both nullable), in parallel over the points.
-void green_coordinates_batch(const double* points, std::size_t n, const TriangleCageView& cage, double* phi,
-                             double* psi, double* dphi, double* dpsi);
+// What green_coordinates() adds to the raw integrals at x (values only), given their winding
+// number: nothing inside, else the exterior extension or the on-surface limit.
+GreenSide green_extension(const double x[3], const TriangleCageView& cage, double winding, double* phi,
+                          double* psi);
 
 // Lipman's per-triangle stretch factors s_j into out (t), from the edges u, v of t_j at rest and
 // u', v' deformed: 1 at rest, sigma under a similarity of scale sigma

@@ -1,6 +1,7 @@
 #include "deformkit/cage/mean_value_cage.hpp"
 
 #include "cage/dual3.hpp"
+#include "cage/mean_value_rows.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -66,6 +67,8 @@ MeanValueCage::MeanValueCage(CageMesh cage) : CageDeformer(std::move(cage)) {
     const Vec3 n = (b - a).cross(c - a);
     area2_.push_back(n.norm());
     normal_.push_back(n / n.norm());
+    flat_triangles_.insert(flat_triangles_.end(), t.begin(), t.end());
+    for (int a = 0; a < 3; ++a) flat_normals_.push_back(normal_.back()[a]);
   }
   on_cage_ = kOnCage * this->cage().length_scale();
 }
@@ -155,6 +158,17 @@ void MeanValueCage::coordinates(const Vec3& x, double* w, double* dw) const {
     w[j] = result[j].v;
     for (int a = 0; a < 3; ++a) dw[3 * j + a] = result[j].d[a];
   }
+}
+
+void MeanValueCage::coordinate_rows(const double* points, std::size_t n, double* w) const {
+  const MeanValueCageView view{rest_cage_points().data(), vertex_count(), flat_triangles_.data(),
+                               flat_normals_.data(),      normal_.size(),  on_cage_,
+                               kNearPlane};
+  const std::size_t m = vertex_count();
+  std::vector<unsigned char> guarded(n);
+  mean_value_rows(points, n, view, w, guarded.data());
+  for (std::size_t i = 0; i < n; ++i)  // on a vertex or near a face's plane: the guarded branches
+    if (guarded[i]) weights(points + 3 * i, w + i * m);
 }
 
 }  // namespace deformkit

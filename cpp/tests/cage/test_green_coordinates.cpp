@@ -2,6 +2,7 @@
 // identity (partition of unity, linear reproduction), the paper's own Algorithm 1, central finite
 // differences, similarity maps, and continuity across the cage surface.
 #include "cage/green_coordinates.hpp"
+#include "cage/green_rows.hpp"
 
 #include <gtest/gtest.h>
 
@@ -698,22 +699,54 @@ TEST(GreenCoordinates, AngleDistortionOfSmallTriangles) {
   EXPECT_LT(distortion[0], distortion[2]);
 }
 
-// The batch is the single-point function, row by row, in parallel over more points than one
-// thread's grain.
-TEST(GreenCoordinates, BatchMatchesSinglePoints) {
-  const Cage c = perturbed_octahedron();
-  std::mt19937 rng(73);
-  std::uniform_real_distribution<double> u(-1.5, 1.5);
-  const std::size_t n = 20000;
-  std::vector<double> points(3 * n);
-  for (double& v : points) v = u(rng);
-  std::vector<double> phi(n * c.m()), psi(n * c.t()), dphi(3 * n * c.m()), dpsi(3 * n * c.t());
-  green_coordinates_batch(points.data(), n, c.view(), phi.data(), psi.data(), dphi.data(), dpsi.data());
-  for (std::size_t i = 0; i < n; i += 997) {
-    const Coordinates k = coordinates(c, Vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]), true);
-    for (std::size_t a = 0; a < c.m(); ++a) EXPECT_EQ(phi[i * c.m() + a], k.phi[a]);
-    for (std::size_t a = 0; a < c.t(); ++a) EXPECT_EQ(psi[i * c.t() + a], k.psi[a]);
-    for (std::size_t a = 0; a < 3 * c.m(); ++a) EXPECT_EQ(dphi[3 * i * c.m() + a], k.dphi[a]);
-    for (std::size_t a = 0; a < 3 * c.t(); ++a) EXPECT_EQ(dpsi[3 * i * c.t() + a], k.dpsi[a]);
+// The SIMD rows (green_rows.cpp) against the single-point code: the same closed form, so they agree
+// to a few ulps of the coordinates' scale, also 1e-12 from faces, edges and vertices, on them, in
+// faces' planes and outside (where the rows hand over to the single-point guards and extension).
+TEST(GreenCoordinates, RowsMatchSinglePoints) {
+  for (const NamedCage& named : test_cages()) {
+    const Cage& c = named.cage;
+    std::mt19937 rng(91);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    std::vector<Vec3> points = interior_points(c, 200, 5);
+    for (std::size_t j = 0; j < c.t(); ++j) {
+      const Vec3 on = point_on_triangle(c, j, rng);
+      points.push_back(on);
+      for (double h : {1e-3, 1e-6, 1e-9, 1e-12}) {
+        points.push_back(on + h * c.normal(j));
+        points.push_back(on - h * c.normal(j));
+      }
+      const Vec3 a = c.corner(j, 0), b = c.corner(j, 1);
+      const Vec3 mid = a + u(rng) * (b - a);
+      points.push_back(mid);
+      points.push_back(a);
+      for (double h : {1e-4, 1e-9, 1e-12}) {
+        points.push_back(mid - h * (c.normal(j) + (mid - a).cross(c.normal(j)).normalized()));
+        points.push_back(a + h * Vec3(u(rng), u(rng), u(rng)));
+      }
+      points.push_back(a + 2.0 * (b - a));          // on the edge's line beyond its end
+      points.push_back(on + (b - a) * 3.0);         // in the face's plane, off the face
+      points.push_back(3.0 * on);                   // outside
+      points.push_back(1e6 * on);                   // far outside
+    }
+    const std::size_t n = points.size(), w = c.m() + c.t();
+    std::vector<double> xs;
+    for (const Vec3& p : points) xs.insert(xs.end(), {p.x(), p.y(), p.z()});
+    const GreenCageTables tables = green_cage_tables(c.view());
+    for (std::size_t chunk : {std::size_t(1), std::size_t(3), std::size_t(64), n}) {
+      std::vector<double> rows(n * w, -7.0);
+      for (std::size_t lo = 0; lo < n; lo += chunk)
+        green_coordinate_rows(xs.data() + 3 * lo, std::min(chunk, n - lo), c.view(), tables, rows.data() + lo * w);
+      double worst = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        const Coordinates k = coordinates(c, points[i]);
+        double scale = 1.0;
+        for (double v : k.phi) scale = std::max(scale, std::abs(v));
+        for (double v : k.psi) scale = std::max(scale, std::abs(v));
+        for (std::size_t a = 0; a < c.m(); ++a) worst = std::max(worst, std::abs(rows[i * w + a] - k.phi[a]) / scale);
+        for (std::size_t a = 0; a < c.t(); ++a)
+          worst = std::max(worst, std::abs(rows[i * w + c.m() + a] - k.psi[a]) / scale);
+      }
+      EXPECT_LT(worst, 1e-13) << named.name << ", chunks of " << chunk;
+    }
   }
 }

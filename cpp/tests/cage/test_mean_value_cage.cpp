@@ -298,3 +298,41 @@ TEST(MeanValueCage, ACageDeformerRefusesBadInput) {
   bad.sparsify_threshold = 10.0;  // drops every weight
   EXPECT_THROW(c.bind(x, 1, bad), std::invalid_argument);
 }
+
+// The SIMD rows (mean_value_rows.cpp) against the single-point weights: the same determinant form,
+// so they agree to a few ulps of the weights' scale (times the conditioning beside a face's plane)
+// for points inside and outside, and the guarded
+// points (on vertices and faces, near faces' planes) come from the single-point code itself.
+TEST(MeanValueCage, RowsMatchSinglePoints) {
+  for (const PolygonSoup& shape : {unit_cube(), l_prism()}) {
+    const MeanValueCage c = make(shape);
+    std::vector<double> pts = random_points(300, -0.5, 2.5, 21);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> u(0.1, 0.4);
+    for (std::size_t t = 0; t < c.cage().triangles().size(); ++t) {
+      const Vec3 on = on_triangle(c, t, u(rng), u(rng));
+      std::vector<Vec3> extra = {on, vertex(c, c.cage().triangles()[t][0]), on + 3.0 * outward_normal(c, t)};
+      for (double h : {1e-2, 1e-6, 1e-9, 1e-12}) {
+        extra.push_back(on + h * outward_normal(c, t));
+        extra.push_back(on - h * outward_normal(c, t));
+      }
+      for (const Vec3& p : extra) pts.insert(pts.end(), {p.x(), p.y(), p.z()});
+    }
+    const std::size_t n = pts.size() / 3, m = c.columns();
+    for (std::size_t chunk : {std::size_t(1), std::size_t(5), std::size_t(64), n}) {
+      std::vector<double> rows(n * m, -7.0), w(m);
+      for (std::size_t lo = 0; lo < n; lo += chunk)
+        c.coordinate_rows(pts.data() + 3 * lo, std::min(chunk, n - lo), rows.data() + lo * m);
+      double worst = 0.0;
+      for (std::size_t i = 0; i < n; ++i) {
+        c.coordinates(Vec3(pts[3 * i], pts[3 * i + 1], pts[3 * i + 2]), w.data(), nullptr);
+        double scale = 1.0;
+        for (double v : w) scale = std::max(scale, std::abs(v));
+        // Beside a face's plane both lose eps d / h to the determinant's cancellation, each its own way.
+        scale *= plane_condition(c, Vec3(pts[3 * i], pts[3 * i + 1], pts[3 * i + 2]));
+        for (std::size_t j = 0; j < m; ++j) worst = std::max(worst, std::abs(rows[i * m + j] - w[j]) / scale);
+      }
+      EXPECT_LT(worst, 1e-13) << "chunks of " << chunk;
+    }
+  }
+}

@@ -4,9 +4,12 @@
 // cage (docs/math/green_coordinates.md).
 #include "deformkit/cage/cage_deformer.hpp"
 
+#include <memory>
 #include <vector>
 
 namespace deformkit {
+
+struct GreenCageTables;  // the rest cage's point-independent terms (private: cpp/src/cage/green_rows.hpp)
 
 class GreenCage : public CageDeformer {
  public:
@@ -19,6 +22,7 @@ class GreenCage : public CageDeformer {
   // current cage's vertices, then each triangle's s_j n(t'_j) (unit outward normal).
   std::size_t columns() const override { return vertex_count() + cage().triangles().size(); }
   void coordinates(const Vec3& x, double* w, double* dw) const override;
+  void coordinate_rows(const double* points, std::size_t n, double* w) const override;
   void control_values(double* out) const override;
 
  protected:
@@ -26,7 +30,10 @@ class GreenCage : public CageDeformer {
   const char* kind() const override { return "green"; }
 
  private:
+  struct TriangleCageView view() const;  // the rest cage, as the private kernels take it
+
   std::vector<int> triangles_;  // t x 3, outward
+  std::shared_ptr<const GreenCageTables> tables_;  // immutable: copies of the deformer share it
   bool stretch_;
 };
 

@@ -17,6 +17,7 @@ class MeanValueCage : public CageDeformer {
   // triangle), defined outside it; dw (3 per column) are the exact gradients (dual numbers through
   // the same formula), zero at a cage vertex.
   void coordinates(const Vec3& x, double* w, double* dw) const override;
+  void coordinate_rows(const double* points, std::size_t n, double* w) const override;
   void control_values(double* out) const override;
 
  protected:
@@ -27,6 +28,8 @@ class MeanValueCage : public CageDeformer {
   void weights(const T* x, T* w) const;
 
   std::vector<Vec3> normal_;   // unit outward normal per triangle
+  std::vector<int> flat_triangles_;      // t x 3, and
+  std::vector<double> flat_normals_;     // t x 3, for the SIMD rows
   std::vector<double> area2_;  // twice each triangle's area
   double on_cage_ = 0.0;       // a point this close to a vertex or face is on it
 };
