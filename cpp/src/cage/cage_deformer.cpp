@@ -205,7 +205,7 @@ CageBinding CageDeformer::bind_points(const T* in, std::size_t n, const CageBind
   };
   std::vector<Rows> blocks;
   std::atomic<std::size_t> block_count{0};
-  const int threads = std::max(1, omp_get_max_threads());
+  const int threads = parallel_threads();
   blocks.resize(std::size_t(threads) + 1);
   std::atomic<double> rounding{0.0};
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
