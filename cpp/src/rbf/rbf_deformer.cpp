@@ -215,38 +215,45 @@ RbfBinding RbfDeformer::bind_points(const T* in, std::size_t n) const {
   if constexpr (std::is_same<T, float>::value) b.points_f32.assign(in, in + 3 * n);
   else b.points_f64.assign(in, in + 3 * n);
   if (!grid_) return b;  // a global kernel's table would be n x m: the sums are evaluated per deform
-  // Compact: each point's kernel values at the controls within the support, counted then filled.
-  std::vector<std::int64_t> counts(n);
-  auto point = [&](std::size_t i, double x[3]) {
-    for (int a = 0; a < 3; ++a) x[a] = double(in[3 * i + a]);
+  // Compact: each point's kernel values at the controls within the support, one grid search per
+  // point; each block's rows are joined in block order afterwards.
+  struct Rows {
+    std::size_t begin = 0;
+    std::vector<std::int64_t> counts;
+    std::vector<std::int32_t> indices;
+    std::vector<double> values;
   };
+  std::vector<Rows> blocks(std::size_t(std::max(1, omp_get_max_threads())) + 1);
+  std::atomic<std::size_t> block_count{0};
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    Rows& rows = blocks[block_count++];
+    rows.begin = begin;
+    rows.counts.reserve(end - begin);
     for (std::size_t i = begin; i < end; ++i) {
-      double x[3];
-      point(i, x);
-      std::int64_t c = 0;
-      grid_->for_each_within(x, [&](std::size_t, double) { ++c; });
-      counts[i] = c;
-    }
-  });
-  b.table.indptr.resize(n + 1);
-  b.table.indptr[0] = 0;
-  for (std::size_t i = 0; i < n; ++i) b.table.indptr[i + 1] = b.table.indptr[i] + counts[i];
-  b.table.indices.resize(std::size_t(b.table.indptr[n]));
-  b.table.values.resize(std::size_t(b.table.indptr[n]));
-  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) {
-      double x[3];
-      point(i, x);
-      std::size_t k = std::size_t(b.table.indptr[i]);
+      const double x[3] = {double(in[3 * i]), double(in[3 * i + 1]), double(in[3 * i + 2])};
+      const std::size_t before = rows.values.size();
       grid_->for_each_within(x, [&](std::size_t j, double r) {
         double v, slope;
         rbf_kernel(options_.kernel, r, &v, &slope);
-        b.table.indices[k] = std::int32_t(j);
-        b.table.values[k++] = v;
+        rows.indices.push_back(std::int32_t(j));
+        rows.values.push_back(v);
       });
+      rows.counts.push_back(std::int64_t(rows.values.size() - before));
     }
   });
+  blocks.resize(block_count.load());
+  std::sort(blocks.begin(), blocks.end(), [](const Rows& a, const Rows& c) { return a.begin < c.begin; });
+  std::size_t total = 0;
+  for (const Rows& r : blocks) total += r.values.size();
+  b.table.indptr.reserve(n + 1);
+  b.table.indices.reserve(total);
+  b.table.values.reserve(total);
+  for (Rows& r : blocks) {
+    for (std::int64_t c : r.counts) b.table.indptr.push_back(b.table.indptr.back() + c);
+    b.table.indices.insert(b.table.indices.end(), r.indices.begin(), r.indices.end());
+    b.table.values.insert(b.table.values.end(), r.values.begin(), r.values.end());
+    r = Rows{};  // the block's memory goes as soon as it is copied
+  }
   return b;
 }
 
