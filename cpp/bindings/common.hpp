@@ -220,5 +220,6 @@ void bind_lattice(py::module_& m);
 void bind_surface(py::module_& m);
 void bind_subdivision(py::module_& m);
 void bind_cage(py::module_& m);
+void bind_rbf(py::module_& m);
 
 }  // namespace deformkit_py

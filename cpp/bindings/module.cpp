@@ -15,6 +15,7 @@ PYBIND11_MODULE(_core, m) {
   bind_surface(m);
   bind_subdivision(m);
   bind_cage(m);
+  bind_rbf(m);
 
   m.def("build_info", []() {
     py::dict info;

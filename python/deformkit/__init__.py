@@ -10,7 +10,9 @@ for deforming the same points again after their control points move, and
 them deform as the whole would. :func:`subdivide`, :class:`LimitSurface` and
 :func:`smoothness_report` subdivide a (deformed) control mesh with OpenSubdiv and check that its
 limit surface is smooth. :class:`MeanValueCage` deforms points with a closed polygon cage (mean
-value coordinates), with the lattices' ``bind`` / ``deform_bound``.
+value coordinates, :class:`GreenCage` Green coordinates), with the lattices' ``bind`` /
+``deform_bound``. :class:`RBF` moves any set of control points onto targets and everything else
+with them (radial basis functions, scipy's kernels and compactly supported Wendland ones).
 
 >>> import numpy as np, deformkit as dk
 >>> pts = np.random.rand(1000, 3)
@@ -39,6 +41,8 @@ from ._core import (
     LimitSurface,
     LatticeBinding,
     MeanValueCage,
+    RBF,
+    RBFBinding,
     SimpleDeform,
     SmoothnessReport,
     Stack,
@@ -64,4 +68,5 @@ __all__ = [
     "LimitSurface", "SmoothnessReport", "SubdividedMesh", "Subdivider", "SUBDIVISION_MAX_FACES", "SUBDIVISION_MAX_LEVEL",
     "smoothness_report", "subdivide",
     "CageBinding", "CageDeformer", "GreenCage", "MeanValueCage",
+    "RBF", "RBFBinding",
 ]

@@ -32,6 +32,10 @@ def mean_value_cage():
     return dk.MeanValueCage(CUBE, CUBE_FACES)
 
 
+def rbf():
+    return dk.RBF(CUBE, CUBE + 0.1)
+
+
 def subdivider():
     return dk.Subdivider(CUBE, CUBE_FACES, 1)
 
@@ -57,6 +61,10 @@ ENTRY_POINTS = {
     "MeanValueCage.bind": (lambda *a, **k: mean_value_cage().bind(*a, **k), "bind", (PTS,), {}),
     "MeanValueCage.deform_bound": (lambda *a, **k: mean_value_cage().deform_bound(*a, **k), "deform_bound",
                                    (mean_value_cage().bind(PTS),), {}),
+    "RBF": (dk.RBF, "__init__", (CUBE, CUBE + 0.1), {"kernel": "gaussian", "epsilon": 2.0, "degree": 1,
+                                                      "smoothing": 0.0}),
+    "RBF.bind": (lambda *a, **k: rbf().bind(*a, **k), "bind", (PTS,), {}),
+    "RBF.deform_bound": (lambda *a, **k: rbf().deform_bound(*a, **k), "deform_bound", (rbf().bind(PTS),), {}),
     "SurfaceDeformer": (dk.SurfaceDeformer, "__init__", (GRID, QUADS), {"anchors": [0, 1, 2], "handles": [8]}),
     "Subdivider": (dk.Subdivider, "__init__", (CUBE, CUBE_FACES, 1), {}),
     "LimitSurface": (dk.LimitSurface, "__init__", (CUBE, CUBE_FACES), {}),
@@ -87,6 +95,7 @@ DOC_OWNER = {  # where each entry point's signature is documented
     "SimpleDeform.bind": dk.SimpleDeform.bind, "bind": dk.Lattice.bind, "deform_bound": dk.Lattice.deform_bound,
     "lattice_coordinates": dk.Lattice.lattice_coordinates, "direct_manipulation": dk.Lattice.direct_manipulation,
     "MeanValueCage.bind": dk.CageDeformer.bind, "MeanValueCage.deform_bound": dk.CageDeformer.deform_bound,
+    "RBF.bind": dk.RBF.bind, "RBF.deform_bound": dk.RBF.deform_bound,
     "SurfaceDeformer.deform": dk.SurfaceDeformer.deform, "Subdivider.subdivide": dk.Subdivider.subdivide,
     "Subdivider.mesh": dk.Subdivider.mesh, "LimitSurface.evaluate": dk.LimitSurface.evaluate,
     "LimitSurface.limit_points": dk.LimitSurface.limit_points,
@@ -127,7 +136,7 @@ def test_every_entry_point_is_walked():
     exported = {n for n in dk.__all__ if callable(getattr(dk, n))}
     walked = {e.split(".")[0] for e in ENTRY_POINTS} | {"Deformer", "Lattice", "CageDeformer"}
     results = {"LatticeBinding", "BarrDeformer", "DirectManipulation", "SubdividedMesh", "SmoothnessReport", "build_info",
-               "CageBinding"}
+               "CageBinding", "RBFBinding"}
     assert exported - walked - results == set()
 
 

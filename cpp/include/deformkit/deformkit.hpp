@@ -26,3 +26,5 @@
 #include "deformkit/cage/cage_mesh.hpp"
 #include "deformkit/cage/green_cage.hpp"
 #include "deformkit/cage/mean_value_cage.hpp"
+#include "deformkit/rbf/rbf_deformer.hpp"
+#include "deformkit/rbf/rbf_kernel.hpp"

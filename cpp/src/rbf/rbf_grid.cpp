@@ -1,0 +1,51 @@
+#include "rbf/rbf_grid.hpp"
+
+#include <algorithm>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+namespace deformkit {
+
+RbfGrid::RbfGrid(const double* controls, std::size_t m, double radius)
+    : controls_(controls, controls + 3 * m), radius_(radius) {
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = std::numeric_limits<double>::infinity();
+    hi[a] = -lo[a];
+  }
+  for (std::size_t j = 0; j < m; ++j)
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], controls[3 * j + a]);
+      hi[a] = std::max(hi[a], controls[3 * j + a]);
+    }
+  double cells = 1.0;
+  for (int a = 0; a < 3; ++a) {
+    origin_[a] = lo[a];
+    const double span = std::floor((hi[a] - lo[a]) / radius) + 1.0;
+    cells *= span + 4.0;
+    extent_[a] = std::int64_t(std::min(span, 1e18));
+  }
+  if (!(cells < 1.8e19))
+    throw std::invalid_argument("radius: " + std::to_string(radius) +
+                                " is too small for the controls' extent (more grid cells than 2^64); use a larger radius");
+  std::vector<std::uint64_t> keys(m);
+  for (std::size_t j = 0; j < m; ++j) {
+    std::int64_t c[3];
+    for (int a = 0; a < 3; ++a)
+      c[a] = std::min(extent_[a] - 1, std::int64_t(std::floor((controls[3 * j + a] - origin_[a]) / radius)));
+    keys[j] = key(c[0], c[1], c[2]);
+  }
+  order_.resize(m);
+  std::iota(order_.begin(), order_.end(), 0u);
+  std::stable_sort(order_.begin(), order_.end(), [&](std::uint32_t a, std::uint32_t b) { return keys[a] < keys[b]; });
+  for (std::size_t s = 0; s < m;) {
+    std::size_t e = s;
+    while (e < m && keys[order_[e]] == keys[order_[s]]) ++e;
+    cells_.emplace(keys[order_[s]], std::make_pair(std::uint32_t(s), std::uint32_t(e)));
+    s = e;
+  }
+}
+
+}  // namespace deformkit
