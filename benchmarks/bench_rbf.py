@@ -177,7 +177,7 @@ def main():
     cols = [f"{'kernel':21s}{'eps':>6s}{'deg':>4s}{'cond':>9s}{'err/disp':>10s}",
             f"{'fit ms':>8s}{'targets ms':>11s}" + "".join(f"{'deform ' + label(n):>13s}" for n in sizes),
             f"{'fit ms':>8s}" + "".join(f"{'eval ' + label(n):>11s}" for n in sizes),
-            "".join(f"{'x ' + label(n):>8s}" for n in sizes) + f"{'|dk-scipy|':>11s}  targets"]
+            "".join(f"{'x ' + label(n):>8s}" for n in sizes) + f"{'dk-scipy':>11s}  targets"]
     groups = ["", " deformkit", " scipy RBFInterpolator", " scipy eval / dk deform"]
     print("|".join(g.ljust(len(c)) for g, c in zip(groups, cols)).rstrip())
     print("|".join(cols))
@@ -222,7 +222,7 @@ def main():
     print(load.report())
     print(f"targets: deform >= {TARGET_RATIO:.0f}x faster than scipy's evaluation at {sizes[0]:,} points; new "
           f"targets <= {TARGET_NEW_TARGETS * 1e3:.0f} ms. err/disp: largest |rbf - map| at the vertices over "
-          f"the largest displacement; |dk-scipy|: largest coordinate difference over all points, both sizes")
+          f"the largest displacement; dk-scipy: largest coordinate difference over all points, both sizes")
     n, m = sizes[-1], args.controls
     print(f"\npeak resident growth at {n:,} points (an n x m float64 matrix would be {n * m * 8 / MB:,.0f} MB; the "
           f"output alone {n * 3 * 8 / MB:.0f} MB):")
