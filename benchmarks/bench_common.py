@@ -214,3 +214,34 @@ def mesh_deform_bind(model, cage, precision):
     if not mod.is_bound:
         raise SystemExit(f"Mesh Deform did not bind {model.name}")
     return mod, seconds
+
+
+def _status_kib(field):
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith(field + ":"):
+                return int(line.split()[1])
+    raise OSError(f"/proc/self/status has no {field}")
+
+
+class PeakMemory:
+    """Peak growth of this process's resident set while the block ran (bytes, `growth`): the
+    kernel's high-water mark VmHWM minus the resident size on entry. On entry the mark is reset to
+    the current size by writing 5 to /proc/self/clear_refs (proc(5), Linux >= 4.0), so an earlier,
+    higher peak does not hide the block's own; where that is refused, `exact` is False and the
+    growth counts only what rose above the earlier peak."""
+
+    def __enter__(self):
+        self.exact = True
+        try:
+            with open("/proc/self/clear_refs", "w") as f:
+                f.write("5")
+        except OSError:
+            self.exact = False
+        self.start_rss = _status_kib("VmRSS") * 1024
+        self.start_hwm = _status_kib("VmHWM") * 1024
+        return self
+
+    def __exit__(self, *exc):
+        hwm = _status_kib("VmHWM") * 1024
+        self.growth = max(0, hwm - (self.start_rss if self.exact else self.start_hwm))

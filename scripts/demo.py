@@ -8,7 +8,10 @@ side by side), and prints a summary. Then a lattice: a B-spline lattice fitted t
 control points are solved by direct manipulation so that the top vertex leans sideways while the
 bottom stays put, written as <out>/<name>_lattice.obj and .png. Then a cage: a box cage around the
 mesh whose upper part is turned and widened, the mesh deformed by mean value and by Green coordinates,
-side by side in <out>/<name>_cage.png. The mesh defaults to ../shared/meshes/ogre.obj (else spot.obj)
+side by side in <out>/<name>_cage.png. Then RBF (the RBF note's noise-driven variants): a few dozen
+of the mesh's vertices as controls moved by smooth noise, four seeds, thin plate spline, and one
+Wendland C2 variant that moves the top only, its far part staying put, in <out>/<name>_rbf.png.
+The mesh defaults to ../shared/meshes/ogre.obj (else spot.obj)
 from the repository root; without that folder a subdivided square bar is generated instead.
 """
 import argparse
@@ -21,7 +24,7 @@ import numpy as np
 import trimesh
 
 import deformkit as dk
-from deformkit.preview import Y_UP, atomic_write, render_before_after
+from deformkit.preview import AFTER_COLOR, BEFORE_COLOR, Y_UP, atomic_write, render_before_after, render_panels
 
 ROOT = Path(__file__).resolve().parent.parent
 SHARED = (ROOT.parent / "shared").resolve()
@@ -211,6 +214,78 @@ def cage_demo(points, mesh, out, stem, name):
     print(f"wrote:         {png_path}")
 
 
+def farthest_points(points, count, seed):
+    """Indices of `count` points, each the farthest from those before: spread-out controls, no two
+    nearly coinciding (which would make the RBF system ill-conditioned, docs/math/rbf.md, "Conditioning")."""
+    index = [int(np.random.default_rng(seed).integers(len(points)))]
+    dist = np.linalg.norm(points - points[index[0]], axis=1)
+    for _ in range(count - 1):
+        index.append(int(np.argmax(dist)))
+        dist = np.minimum(dist, np.linalg.norm(points - points[index[-1]], axis=1))
+    return np.array(index)
+
+
+def smooth_noise(points, amplitude, wavelength, seed, modes=6):
+    """A smooth random displacement field at `points`: a sum of plane waves of about `wavelength`
+    in random directions and phases, each coordinate its own sum, scaled to an RMS of `amplitude`."""
+    rng = np.random.default_rng(seed)
+    directions = rng.normal(size=(3, modes, 3))
+    k = 2 * np.pi / wavelength * directions / np.linalg.norm(directions, axis=2, keepdims=True)
+    phase = rng.uniform(0, 2 * np.pi, (3, modes))
+    field = np.stack([np.sin(points @ k[c].T + phase[c]).sum(1) for c in range(3)], axis=1)
+    return amplitude * field / np.sqrt((field ** 2).mean())
+
+
+RBF_CONTROLS, RBF_VARIANTS = 40, 4
+COMPACT_COLOR = (0.45, 0.75, 0.5)  # the vertices the compact variant moves
+
+
+def rbf_demo(points, mesh, out, stem, name):
+    """The RBF note's variants: controls moved by smooth noise (thin plate spline, four seeds), and a
+    Wendland C2 variant that moves the top's controls only, so the far part stays put bit for bit."""
+    up = 1  # OBJ convention: +y is up
+    height = float(np.ptp(points[:, up]))
+    controls = points[farthest_points(points, RBF_CONTROLS, seed=5)]
+    variants, lines = [], []
+    for seed in range(1, RBF_VARIANTS + 1):
+        targets = controls + smooth_noise(controls, 0.04 * height, 0.8 * height, seed)
+        t0 = time.perf_counter()
+        rbf = dk.RBF(controls, targets, kernel="thin_plate_spline")
+        t_fit = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        variants.append(rbf.deform(points))
+        t_deform = time.perf_counter() - t0
+        landed = float(np.abs(rbf.deform(controls) - targets).max())
+        lines.append(f"seed {seed}: fit {t_fit * 1e3:.2f} ms, deform {t_deform * 1e3:.2f} ms, controls on their "
+                     f"targets to {landed:.1e}")
+    # Compact support: the controls of the top fifth only (no polynomial, degree -1), so a vertex
+    # farther than the radius from all of them cannot move (docs/rbf.md, "Compact kernels").
+    top = points[points[:, up] > points[:, up].max() - 0.2 * height]
+    head = top[farthest_points(top, RBF_CONTROLS, seed=6)]
+    radius = 0.15 * height
+    head_targets = head + smooth_noise(head, 0.03 * height, 0.3 * height, seed=7)
+    compact = dk.RBF(head, head_targets, kernel="wendland_c2", radius=radius, degree=-1)
+    local = compact.deform(points)
+    still = np.all(local == points, axis=1)
+    far = (np.linalg.norm(points[:, None, :] - head[None], axis=2) >= radius).all(axis=1)
+    if not still[far].all():
+        raise SystemExit("demo: a vertex beyond the Wendland kernel's support moved")
+    lines.append(f"wendland_c2 (radius {radius:.3g}, {len(head)} controls in the top fifth, degree -1): "
+                 f"{still.sum():,} of {len(points):,} vertices unmoved bit for bit, all {far.sum():,} beyond the "
+                 "radius among them")
+    moved_in_green = np.where(still[:, None], BEFORE_COLOR, COMPACT_COLOR)
+    png_path = out / f"{stem}_rbf.png"
+    render_panels(png_path, [points, *variants, local], mesh.faces,
+                  f"deformkit RBF: {RBF_CONTROLS} vertices as controls, moved by smooth noise (RMS 4% of the height), "
+                  f"thin plate spline, {RBF_VARIANTS} seeds; last: Wendland C2 moving the top only",
+                  [f"rest: {name}"] + [f"thin plate spline, noise seed {s}" for s in range(1, RBF_VARIANTS + 1)]
+                  + [f"wendland_c2: the top's {len(head)} controls moved (green);\n"
+                     f"{still.mean():.0%} of the vertices unmoved bit for bit (blue)"],
+                  15.0, -60.0, colors=[BEFORE_COLOR] + [AFTER_COLOR] * RBF_VARIANTS + [moved_in_green], columns=3)
+    print("rbf:           " + "\n               ".join(lines))
+    print(f"wrote:         {png_path}")
+
+
 def angle_change(before, after, faces):
     """Mean change of the triangles' angles, in degrees."""
     def angles(p):
@@ -286,6 +361,7 @@ def main():
     print(f"wrote:         {obj_path}\n               {png_path}")
     lattice_demo(points, mesh, solid, weld, out, stem, name)
     cage_demo(points, mesh, out, stem, name)
+    rbf_demo(points, mesh, out, stem, name)
 
 
 if __name__ == "__main__":

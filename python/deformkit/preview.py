@@ -54,7 +54,10 @@ def _draw(ax, vertices, faces, color, view, light, limits, title, to_plot):
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
     front = n @ view > 0  # back faces are hidden anyway; culling them helps the painter's sort
     shade = 0.3 + 0.7 * np.clip(n[front] @ light, 0, 1)
-    rgb = np.clip(np.outer(shade, color), 0, 1)
+    if color.ndim == 2:  # one colour per vertex: each face takes its vertices' mean
+        rgb = np.clip(shade[:, None] * color[faces[front]].mean(axis=1), 0, 1)
+    else:
+        rgb = np.clip(np.outer(shade, color), 0, 1)
     ax.add_collection3d(Poly3DCollection(tri[front], facecolors=rgb, edgecolors=rgb, linewidths=0.15))
     for set_lim, (a, b) in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), limits):
         set_lim(a, b)
@@ -67,24 +70,45 @@ def render_before_after(path, before, after, faces, title, labels=("before", "af
                         to_plot=Y_UP, after_faces=None):
     """Write a PNG with `before` and `after` (same triangles `faces`, or `after_faces` for a mesh of
     another topology, such as a subdivided one) side by side."""
+    render_panels(path, [before, after], faces, title, labels, elev, azim, to_plot,
+                  panel_faces=[None, after_faces])
+
+
+BEFORE_COLOR, AFTER_COLOR = (0.55, 0.65, 0.85), (0.95, 0.62, 0.35)
+
+
+def render_panels(path, meshes, faces, title, labels, elev=15.0, azim=-60.0, to_plot=Y_UP, panel_faces=None,
+                  colors=None, columns=None):
+    """Write a PNG with the meshes side by side (rows of `columns`, default all in one row), all in
+    one frame and one view so that they compare: the first in the "before" colour, the others in the
+    "after" one unless `colors` are given (an RGB triple per panel, or an (n, 3) array of one per
+    vertex). Each mesh uses the triangles `faces`, or its own in `panel_faces` (None: `faces`)."""
     faces = np.asarray(faces)
-    keep, f = decimate(before, faces, MAX_DRAWN_FACES)
-    drawn_after = (keep, f) if after_faces is None else decimate(after, np.asarray(after_faces), MAX_DRAWN_FACES)
-    both = np.vstack([before, after]) @ to_plot.T
-    mid, half = (both.min(axis=0) + both.max(axis=0)) / 2, np.ptp(both, axis=0).max() / 2 * 1.02
+    panel_faces = panel_faces or [None] * len(meshes)
+    colors = colors or [BEFORE_COLOR] + [AFTER_COLOR] * (len(meshes) - 1)
+    columns = columns or len(meshes)
+    rows = -(-len(meshes) // columns)
+    shared = decimate(meshes[0], faces, MAX_DRAWN_FACES)
+    drawn = [shared if own is None else decimate(v, np.asarray(own), MAX_DRAWN_FACES)
+             for v, own in zip(meshes, panel_faces)]
+    every = np.vstack(meshes) @ to_plot.T
+    mid, half = (every.min(axis=0) + every.max(axis=0)) / 2, np.ptp(every, axis=0).max() / 2 * 1.02
     limits = [(m - half, m + half) for m in mid]
     e, a = math.radians(elev), math.radians(azim)
     view = np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
     light = view + np.array([0.0, 0.0, 1.0]) + 0.6 * np.cross([0.0, 0.0, 1.0], view)
     light /= np.linalg.norm(light)
-    fig = plt.figure(figsize=(13, 6.8), dpi=100)
-    drawn = f"{len(f):,} faces drawn" + ("" if len(f) == len(faces) else f" of {len(faces):,}")
-    for i, (v, (k, tri), color, label) in enumerate(((before, (keep, f), (0.55, 0.65, 0.85), labels[0]),
-                                                     (after, drawn_after, (0.95, 0.62, 0.35), labels[1]))):
-        ax = fig.add_subplot(1, 2, i + 1, projection="3d", proj_type="ortho")
+    # Two panels in one row keep the before/after pictures' historical 13 x 6.8 inches.
+    height = 6.8 + 5.8 * (rows - 1)  # inches; the title keeps 0.952 of them at the top
+    fig = plt.figure(figsize=(6.5 * columns, height), dpi=100)
+    f = shared[1]
+    note = f"{len(f):,} faces drawn" + ("" if len(f) == len(faces) else f" of {len(faces):,}")
+    for i, (v, (k, tri), color, label) in enumerate(zip(meshes, drawn, colors, labels)):
+        ax = fig.add_subplot(rows, columns, i + 1, projection="3d", proj_type="ortho")
         ax.view_init(elev=elev, azim=azim)
-        _draw(ax, v[k], tri, np.array(color), view, light, limits, label, to_plot)
-    fig.suptitle(f"{title}\n({drawn})", fontsize=10)
-    fig.subplots_adjust(left=0, right=1, bottom=0, top=0.86, wspace=0)
+        color = np.asarray(color, dtype=np.float64)
+        _draw(ax, v[k], tri, color[k] if color.ndim == 2 else color, view, light, limits, label, to_plot)
+    fig.suptitle(f"{title}\n({note})", fontsize=10)
+    fig.subplots_adjust(left=0, right=1, bottom=0, top=1 - 0.952 / height, wspace=0, hspace=0.05)
     atomic_write(path, lambda fh: fig.savefig(fh, format="png"))
     plt.close(fig)
