@@ -33,6 +33,7 @@ from .entries import common
 from .entries import cage as cages
 from .entries import laplacian as surface
 from .entries import lattice as lattices
+from .entries import rbf as rbfs
 from .entries import subdivide as subdivision
 from .properties import LATTICE_BASES
 
@@ -298,6 +299,30 @@ def unbind_cage(obj, index):
     """Forget entry `index`'s rest cage: it passes its input through until bound again."""
     cages.unbind(entry_of_type(obj, index, "CAGE"))
     evaluation.evaluate(obj, force=True)
+
+
+# RBF entries ----------------------------------------------------------------------------------
+
+def bind_rbf(obj, index):
+    """Record entry `index`'s controls (all, the selected or a vertex group's vertices of its
+    control object) and their rest positions (the control object's current evaluated shape, another
+    object's or a shape key's, as Rest From says); returns the number of controls. Raises
+    ValueError (no control object, another vertex count, a system dk.RBF cannot fit, ...), and
+    leaves the entry as it was, if it cannot be bound."""
+    entry = entry_of_type(obj, index, "RBF")
+    _require_mesh(obj)
+    count = rbfs.bind(obj, entry)
+    evaluation.evaluate(obj, force=True)
+    return count
+
+
+def unbind_rbf(obj, index):
+    """Forget entry `index`'s controls and rest: it passes its input through until bound again."""
+    rbfs.unbind(entry_of_type(obj, index, "RBF"))
+    evaluation.evaluate(obj, force=True)
+
+
+BINDS = {"LAPLACIAN": bind_laplacian, "CAGE": bind_cage, "RBF": bind_rbf}  # the entries that need a Bind
 
 
 # Lattice entries ------------------------------------------------------------------------------
