@@ -20,7 +20,7 @@ import numpy as np
 from .. import api, cache, meshdata, native
 from ..outputs import EntryError
 from .common import (EntryOperator, Prepared, draw_vertex_group, evaluated_mesh_in, followed_mesh, forget_bindings,
-                     kept_binding, scaled_influence, weights_crc, write_base)
+                     kept_binding, scaled_influence, store_array, weights_crc, write_base)
 from .laplacian import _signed, is_bound, new_bind_id
 
 TYPES = ("CAGE",)
@@ -122,7 +122,7 @@ def bind(obj, entry):
         raise EntryError(f"this build of deformkit has no cage deformers: {native.BUILD_HINT}")
     cls(points, faces)  # checks the cage: ValueError naming the first open edge, bad face, ...
     bind_id = new_bind_id(obj)
-    entry[REST] = points.astype(np.float32).ravel()
+    store_array(entry, REST, points.astype(np.float32).ravel())
     entry.bind_vertices, entry.bind_faces, entry.bind_topology = topo
     entry.bind_id = bind_id  # a new bind key: the old bindings are not used again
     return topo[0]
@@ -148,8 +148,8 @@ def volume_note(entries):
 
 def prune(object_key, entries):
     """Bindings of binds no entry has any more go."""
+    forget_bindings(object_key, "cage_binding", entries, lambda e: (e.bind_id, e.cage_method))
     alive = {(e.bind_id, e.cage_method) for e in entries}
-    forget_bindings(object_key, "cage_binding", alive)
     cache.forget(object_key, "cage_deformer", keep=lambda k: k[1:] in alive)
 
 

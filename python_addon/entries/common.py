@@ -130,11 +130,27 @@ def kept_binding(space, key, bind_key, points, bind):
     return cached[2]
 
 
-def forget_bindings(object_key, space, alive):
-    """Drop the object's bindings in `space` whose bind key (past the object's cache key) is not
-    in `alive`. Keyed by what they were made for, not by the entry's place: the index counts the
-    whole stack, other kinds' entries too."""
-    cache.forget(object_key, space, keep=lambda k: cache.get(space, k)[0][1:] in alive)
+def stack_index(entry):
+    """The entry's place in its object's stack (an entry path ends in "entries[i]")."""
+    path = entry.path_from_id()
+    return int(path[path.rindex("[") + 1:-1])
+
+
+def forget_bindings(object_key, space, entries, tail):
+    """Drop the object's bindings in `space` but those of `entries` (of one kind) made for what
+    they are now: kept under the entry's place in the whole stack (other kinds' entries count),
+    with a bind key of (object cache key,) + tail(entry)."""
+    alive = {(stack_index(e),) + tail(e) for e in entries}
+    cache.forget(object_key, space, keep=lambda k: (k[1],) + cache.get(space, k)[0][1:] in alive)
+
+
+def store_array(entry, name, values):
+    """Keep a numpy array as the entry's ID property `name` (a bind's rest), replacing any old one:
+    Blender 5.0 copies an array assigned over one of another length into the old buffer (a crash
+    when longer, a truncated copy when shorter), so the old property goes first."""
+    if name in entry:
+        del entry[name]
+    entry[name] = values
 
 
 def write_base(obj, points):

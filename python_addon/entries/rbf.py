@@ -27,7 +27,8 @@ from .. import api, cache, meshdata, native
 from ..outputs import EntryError
 from ..properties import RBF_KERNELS, RBF_POLYNOMIALS
 from .common import (EntryOperator, Prepared, draw_vertex_group, evaluated_mesh_in, followed_mesh, followed_object,
-                     forget_bindings, in_space_of, kept_binding, scaled_influence, weights_crc, write_base)
+                     forget_bindings, in_space_of, kept_binding, scaled_influence, store_array, weights_crc,
+                     write_base)
 from .laplacian import is_bound, new_bind_id
 
 TYPES = ("RBF",)
@@ -80,7 +81,7 @@ def degree_problem(entry):
 
 
 def control_object(entry, obj):
-    return followed_mesh(entry, "controls", "control object", obj,
+    return followed_mesh(entry, "controls", "control", obj,
                          "no control object set: pick a mesh object whose vertices are the control points")
 
 
@@ -209,8 +210,8 @@ def bind(obj, entry):
     kernel, epsilon, radius = kernel_settings(entry)
     native.dk.RBF(rest, kernel=kernel, epsilon=epsilon, radius=radius, degree=DEGREES[entry.polynomial],
                   smoothing=entry.smoothing)  # ValueError naming the reason: coincident controls, ...
-    entry[REST] = rest.astype(np.float32).ravel()
-    entry[INDICES] = chosen.astype(np.int32)
+    store_array(entry, REST, rest.astype(np.float32).ravel())
+    store_array(entry, INDICES, chosen.astype(np.int32))
     entry.bind_vertices = count
     entry.bind_id = new_bind_id(obj)  # a new bind key: the old RBF and bindings are not used again
     return len(chosen)
@@ -237,7 +238,7 @@ def volume_note(entries):
 
 def prune(object_key, entries):
     """The fits and bindings of binds no entry has any more go."""
-    forget_bindings(object_key, "rbf_binding", {(e.bind_id,) + kernel_settings(e) for e in entries})
+    forget_bindings(object_key, "rbf_binding", entries, lambda e: (e.bind_id,) + kernel_settings(e))
     alive = {e.bind_id for e in entries}
     cache.forget(object_key, "rbf_deformer", keep=lambda k: k[1] in alive)
 
