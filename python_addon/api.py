@@ -13,6 +13,9 @@
                               handle_object=empty)  # bound at once; move the empty
     api.unbind_laplacian(obj, 2)
 
+    api.add_entry(obj, "RBF", controls=body, rest_from="SHAPE_KEY", rest_shape_key="Basis")
+    api.bind_rbf(obj, 3)  # the body's vertices drive the mesh, from their Basis to the shape-key mix
+
     api.add_entry(obj, "SUBDIVIDE", levels=2, render_levels=3)  # last in the stack
     figures = api.check_smoothness(obj)  # of the cage; selects the creased edges
     api.select_flipped(obj)  # selects the faces with flipped samples instead
@@ -49,9 +52,10 @@ def _require_mesh(obj):
 
 
 def add_entry(obj, type="TWIST", **params):
-    """Add an entry of `type` (Twist, Taper, Bend, Stretch, Lattice, Laplacian, Subdivide;
-    case-insensitive) at the end of the stack, or just above a Subdivide entry (which must stay
-    the last one), and evaluate. A Laplacian entry starts unbound (see add_laplacian)."""
+    """Add an entry of `type` (Twist, Taper, Bend, Stretch, Lattice, Laplacian, Cage, RBF,
+    Subdivide; case-insensitive) at the end of the stack, or just above a Subdivide entry (which
+    must stay the last one), and evaluate. Laplacian, Cage and RBF entries start unbound (see
+    add_laplacian, bind_cage, bind_rbf)."""
     _require_mesh(obj)
     kind = str(type).upper()
     if kind not in TYPES:
