@@ -13,6 +13,9 @@
                               handle_object=empty)  # bound at once; move the empty
     api.unbind_laplacian(obj, 2)
 
+    api.add_entry(obj, "RBF", controls=body, rest_from="SHAPE_KEY", rest_shape_key="Basis")
+    api.bind_rbf(obj, 3)  # the body's vertices drive the mesh, from their Basis to the shape-key mix
+
     api.add_entry(obj, "SUBDIVIDE", levels=2, render_levels=3)  # last in the stack
     figures = api.check_smoothness(obj)  # of the cage; selects the creased edges
     api.select_flipped(obj)  # selects the faces with flipped samples instead
@@ -33,6 +36,7 @@ from .entries import common
 from .entries import cage as cages
 from .entries import laplacian as surface
 from .entries import lattice as lattices
+from .entries import rbf as rbfs
 from .entries import subdivide as subdivision
 from .properties import LATTICE_BASES
 
@@ -48,9 +52,10 @@ def _require_mesh(obj):
 
 
 def add_entry(obj, type="TWIST", **params):
-    """Add an entry of `type` (Twist, Taper, Bend, Stretch, Lattice, Laplacian, Subdivide;
-    case-insensitive) at the end of the stack, or just above a Subdivide entry (which must stay
-    the last one), and evaluate. A Laplacian entry starts unbound (see add_laplacian)."""
+    """Add an entry of `type` (Twist, Taper, Bend, Stretch, Lattice, Laplacian, Cage, RBF,
+    Subdivide; case-insensitive) at the end of the stack, or just above a Subdivide entry (which
+    must stay the last one), and evaluate. Laplacian, Cage and RBF entries start unbound (see
+    add_laplacian, bind_cage, bind_rbf)."""
     _require_mesh(obj)
     kind = str(type).upper()
     if kind not in TYPES:
@@ -298,6 +303,30 @@ def unbind_cage(obj, index):
     """Forget entry `index`'s rest cage: it passes its input through until bound again."""
     cages.unbind(entry_of_type(obj, index, "CAGE"))
     evaluation.evaluate(obj, force=True)
+
+
+# RBF entries ----------------------------------------------------------------------------------
+
+def bind_rbf(obj, index):
+    """Record entry `index`'s controls (all, the selected or a vertex group's vertices of its
+    control object) and their rest positions (the control object's current evaluated shape, another
+    object's or a shape key's, as Rest From says); returns the number of controls. Raises
+    ValueError (no control object, another vertex count, a system dk.RBF cannot fit, ...), and
+    leaves the entry as it was, if it cannot be bound."""
+    entry = entry_of_type(obj, index, "RBF")
+    _require_mesh(obj)
+    count = rbfs.bind(obj, entry)
+    evaluation.evaluate(obj, force=True)
+    return count
+
+
+def unbind_rbf(obj, index):
+    """Forget entry `index`'s controls and rest: it passes its input through until bound again."""
+    rbfs.unbind(entry_of_type(obj, index, "RBF"))
+    evaluation.evaluate(obj, force=True)
+
+
+BINDS = {"LAPLACIAN": bind_laplacian, "CAGE": bind_cage, "RBF": bind_rbf}  # the entries that need a Bind
 
 
 # Lattice entries ------------------------------------------------------------------------------

@@ -17,6 +17,7 @@ from deformkit.batch import job as batch_job
 from deformkit.batch import shared as batch_io
 
 from . import api, batch_checks, evaluation, recipe_schema, subdivision
+from .entries import common
 
 
 class BatchError(Exception):
@@ -60,20 +61,21 @@ def apply_recipe(recipe, objects=None, where=None):
             where["entry"] = f"deformers[{i}]"
             spec = dict(spec)
             kind = spec.pop("type")
-            for prop in ("origin", "lattice", "handle_object", "cage"):  # objects are named in the recipe
+            for prop in common.POINTERS:  # objects are named in the recipe
                 if prop in spec:
                     found = bpy.data.objects.get(spec[prop])
                     if found is None:
                         raise BatchError(f"recipe: {prop} object '{spec[prop]}' not found")
                     spec[prop] = found
-            # Laplacian and Cage entries do nothing until bound: "bind": true binds a Laplacian entry to
-            # what comes in, a Cage entry to its cage's current shape.
+            # Laplacian, Cage and RBF entries do nothing until bound: "bind": true binds a Laplacian
+            # entry to what comes in, a Cage entry to its cage's current shape, an RBF entry to its
+            # controls' rest (Rest From).
             bind = spec.pop("bind", False)
             api.add_entry(obj, kind, **spec)
             index = obj.deformkit.active_index  # the new entry: above a saved Subdivide entry, if any
             recipe_entries[(obj.name, index)] = where["entry"]
             if bind:
-                (api.bind_cage if kind == "CAGE" else api.bind_laplacian)(obj, index)
+                api.BINDS[kind](obj, index)
         where["entry"] = None
     return objects
 

@@ -94,10 +94,11 @@ def on_reload(*_args):
     evaluation.forget()
     for scene in bpy.data.scenes:
         objects = _stack_objects(scene)
-        if any(e.origin is not None or e.lattice is not None or e.handle_object is not None
+        if any(e.origin is not None or any(t is not None for t, _ in entries.followed(e))
                for o in objects for e in o.deformkit.entries):
             # Blender 4+ does not save world matrices: at load_post they are unset until the
-            # depsgraph runs, and origin and lattice frames and handle motions are made of them.
+            # depsgraph runs, and origin and lattice frames, handle motions and the places of cages
+            # and controls are made of them.
             with bpy.context.temp_override(scene=scene, view_layer=scene.view_layers[0]):
                 bpy.context.evaluated_depsgraph_get()
         for obj in objects:

@@ -21,12 +21,62 @@ ENTRY_TYPES = [
      "handles move and the rest of the surface keeps its shape (Bind first, as Laplacian Deform)", "NONE", 5),
     ("CAGE", "Cage", "A closed mesh object (the cage) deforms the mesh through mean value or Green coordinates, "
      "as Mesh Deform (Bind first)", "NONE", 7),  # saved as its number: listed before Subdivide, numbered after
+    ("RBF", "RBF", "Radial basis functions: the vertices of a mesh object (the controls) move from their rest "
+     "positions to where they are now, and the mesh follows smoothly (Bind first)", "NONE", 8),
     ("SUBDIVIDE", "Subdivide", "OpenSubdiv subdivision (Catmull-Clark or Loop, with creases) of the mesh the "
      "entries above make; the last entry of the stack", "NONE", 6),
 ]
 CAGE_METHODS = [
     ("MEAN_VALUE", "Mean Value", "Mean value coordinates (Ju, Schaefer, Warren 2005): smooth, interpolate the cage", 0),
     ("GREEN", "Green", "Green coordinates (Lipman, Levin, Cohen-Or 2008): keep details' shape (quasi-conformal)", 1),
+]
+# RBF entries. The kernels are dk.RBF's, named as scipy.interpolate.RBFInterpolator names them
+# (the identifier lowercased): docs/math/rbf.md, "Kernels".
+RBF_KERNELS = [
+    ("THIN_PLATE_SPLINE", "Thin Plate Spline", "The smoothest fit with the least bending between the controls "
+     "(scipy's 'thin_plate_spline'); needs a Linear polynomial", 0),
+    ("CUBIC", "Cubic", "Smooth, a little stiffer than Thin Plate Spline (scipy's 'cubic'); needs a Linear polynomial",
+     1),
+    ("QUINTIC", "Quintic", "Smoother still, swings wider between far-apart controls (scipy's 'quintic'); needs a "
+     "Quadratic polynomial", 2),
+    ("LINEAR", "Linear", "Straight between the controls, creased at them (scipy's 'linear'); needs a Constant "
+     "polynomial", 3),
+    ("GAUSSIAN", "Gaussian", "Each control pulls a bell-shaped region about 1/Epsilon wide (scipy's 'gaussian')", 4),
+    ("MULTIQUADRIC", "Multiquadric", "Smooth and broad; Epsilon sets how round it is near the controls (scipy's "
+     "'multiquadric'); needs a Constant polynomial", 5),
+    ("INVERSE_MULTIQUADRIC", "Inverse Multiquadric", "Each control pulls a region about 1/Epsilon wide, fading "
+     "slowly (scipy's 'inverse_multiquadric')", 6),
+    ("INVERSE_QUADRATIC", "Inverse Quadratic", "Each control pulls a region about 1/Epsilon wide (scipy's "
+     "'inverse_quadratic')", 7),
+    ("WENDLAND_C0", "Wendland C0 (Compact)", "Each control moves only what is within Radius; creased at the "
+     "controls (deformkit's 'wendland_c0', not in scipy)", 8),
+    ("WENDLAND_C2", "Wendland C2 (Compact)", "Each control moves only what is within Radius; smooth (deformkit's "
+     "'wendland_c2', not in scipy)", 9),
+    ("WENDLAND_C4", "Wendland C4 (Compact)", "Each control moves only what is within Radius; smoother "
+     "(deformkit's 'wendland_c4', not in scipy)", 10),
+    ("CLIP", "Clip (Compact)", "The RBF note's (1 - distance/Radius)^2, equal to Wendland C0 (deformkit's 'clip', "
+     "not in scipy)", 11),
+]
+RBF_POLYNOMIALS = [  # dk.RBF's (and scipy's) degree: -1, 0, 1, 2
+    ("NONE", "None", "No polynomial term: with a Gaussian, inverse or compact kernel, what is far from every "
+     "control does not move (degree -1)", 0),
+    ("CONSTANT", "Constant", "Plus a common shift of every point (degree 0)", 1),
+    ("LINEAR", "Linear", "Plus an affine map: any move, turn, scale or shear of all the controls together moves "
+     "the mesh exactly so (degree 1; needs controls not all on a plane)", 2),
+    ("QUADRATIC", "Quadratic", "Plus a quadratic map (degree 2; needs at least 10 controls not on one quadric)", 3),
+]
+CONTROL_USE = [
+    ("ALL", "All Vertices", "Every vertex of the control object is a control point", 0),
+    ("SELECTED", "Selected", "The vertices selected in the control object when Bind is pressed", 1),
+    ("GROUP", "Vertex Group", "The vertices of a vertex group of the control object (weight above 0) when Bind is "
+     "pressed", 2),
+]
+REST_FROM = [
+    ("CURRENT", "Current Shape", "The control object's evaluated shape when Bind is pressed", 0),
+    ("OBJECT", "Object", "Another mesh object with the same vertex count (e.g. the body the clothes were made for, "
+     "the control object being the body they go to)", 1),
+    ("SHAPE_KEY", "Shape Key", "A shape key of the control object (e.g. the Basis: the controls then move as the "
+     "other keys move them)", 2),
 ]
 AXES = [("X", "X", "Deform around the local X axis"), ("Y", "Y", "Deform around the local Y axis"),
         ("Z", "Z", "Deform around the local Z axis")]
@@ -106,7 +156,17 @@ def _cage_changed(self, context):
     _changed(self, context)
 
 
-def _is_cage(self, obj):
+def _controls_changed(self, context):
+    self.controls_name = self.controls.name if self.controls else ""
+    _changed(self, context)
+
+
+def _rest_object_changed(self, context):
+    self.rest_object_name = self.rest_object.name if self.rest_object else ""
+    _changed(self, context)
+
+
+def _is_other_mesh(self, obj):
     return obj.type == "MESH" and obj != self.id_data
 
 
@@ -230,12 +290,50 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
     subdivision_render: PointerProperty(type=bpy.types.Object, options={"HIDDEN"})
     # Cage entries (the bind uses bind_id, bind_vertices, bind_faces and bind_topology, of the cage,
     # and the ID property "deformkit_cage_rest": see entries/cage.py)
-    cage: PointerProperty(name="Cage", type=bpy.types.Object, poll=_is_cage, update=_cage_changed,
+    cage: PointerProperty(name="Cage", type=bpy.types.Object, poll=_is_other_mesh, update=_cage_changed,
                           description="Closed mesh object around the mesh whose shape deforms it (as Mesh Deform's "
                                       "Object)")
     cage_name: StringProperty(options={"HIDDEN"})
     cage_method: EnumProperty(name="Method", items=CAGE_METHODS, default="MEAN_VALUE", update=_changed,
                               description="The coordinates that tie the mesh to the cage")
+    # RBF entries (the bind uses bind_id and bind_vertices, the control object's vertex count, and
+    # the ID properties "deformkit_rbf_rest" and "deformkit_rbf_indices": see entries/rbf.py)
+    controls: PointerProperty(name="Controls", type=bpy.types.Object, poll=_is_other_mesh, update=_controls_changed,
+                              description="Mesh object whose vertices are the control points: the mesh follows them "
+                                          "from their rest positions to where they are (edits, shape keys, hooks, "
+                                          "armatures and modifiers count)")
+    controls_name: StringProperty(options={"HIDDEN"})
+    controls_use: EnumProperty(name="Use", items=CONTROL_USE, default="ALL", update=_changed,
+                               description="Which of the control object's vertices are control points (taken at "
+                                           "bind)")
+    controls_group: StringProperty(name="Control Group", update=_changed,
+                                   description="Vertex group of the control object whose vertices are the control "
+                                               "points (taken at bind)")
+    rest_from: EnumProperty(name="Rest From", items=REST_FROM, default="CURRENT", update=_changed,
+                            description="Where the controls' rest positions come from (taken at bind)")
+    rest_object: PointerProperty(name="Rest Object", type=bpy.types.Object, poll=_is_other_mesh,
+                                 update=_rest_object_changed,
+                                 description="Mesh object with the control object's vertex count whose vertices are "
+                                             "the controls' rest positions (taken at bind)")
+    rest_object_name: StringProperty(options={"HIDDEN"})
+    rest_shape_key: StringProperty(name="Rest Shape Key", update=_changed,
+                                   description="Shape key of the control object whose positions are the controls' "
+                                               "rest (taken at bind)")
+    kernel: EnumProperty(name="Kernel", items=RBF_KERNELS, default="THIN_PLATE_SPLINE", update=_changed,
+                         description="The radial function that spreads each control's motion (dk.RBF's kernel)")
+    # min 2^-10, a float32 exactly (the batch's schema reads it from here): dk.RBF needs > 0.
+    epsilon: FloatProperty(name="Epsilon", default=1.0, min=0.0009765625, soft_min=0.01, soft_max=100.0, update=_changed,
+                           description="Shape parameter (scipy's epsilon): the kernel is taken at epsilon times the "
+                                       "distance, so larger is narrower")
+    radius: FloatProperty(name="Radius", default=1.0, min=0.0009765625, soft_max=100.0, subtype="DISTANCE", update=_changed,
+                          description="Support radius, in this object's space: a control moves nothing farther "
+                                      "than this from it")
+    polynomial: EnumProperty(name="Polynomial", items=RBF_POLYNOMIALS, default="LINEAR", update=_changed,
+                             description="The polynomial added to the kernel sum (dk.RBF's degree), which the fit "
+                                         "reproduces exactly")
+    smoothing: FloatProperty(name="Smoothing", default=0.0, min=0.0, soft_max=1.0, precision=4, update=_changed,
+                             description="0: every control lands exactly on its target; above 0 the fit is "
+                                         "smoother and only near them (scipy's smoothing)")
     error: StringProperty(options={"HIDDEN", "SKIP_SAVE"})
     # Closed by default, as a modifier's subpanels (Simple Deform's Restrictions) are.
     show_restrictions: BoolProperty(name="Restrictions", default=False,

@@ -30,10 +30,12 @@ TYPE_KEYS = {
     "LAPLACIAN": ("method", "weights", "iterations", "anchors_group", "handles_group", "handle_target",
                   "handle_object", "bind"),
     "CAGE": ("cage", "cage_method", "strength", "vertex_group", "invert_vertex_group", "bind"),
+    "RBF": ("controls", "controls_use", "controls_group", "rest_from", "rest_object", "rest_shape_key", "kernel",
+            "epsilon", "radius", "polynomial", "smoothing", "strength", "vertex_group", "invert_vertex_group", "bind"),
     "SUBDIVIDE": ("levels", "render_levels", "scheme", "boundary_smooth", "use_creases", "uv_smooth", "use_limit_surface",
                   "sharpen_two_edge_vertices"),
 }
-BATCH_ONLY = {"bind": {"kind": "bool"}}  # Laplacian and Cage entries: bound as they are added
+BATCH_ONLY = {"bind": {"kind": "bool"}}  # Laplacian, Cage and RBF entries: bound as they are added
 TOP_LEVEL = {"objects": "a list of object names (\"*\": every mesh)", "deformers": "a non-empty list of tables",
              "replace": "true or false (clear the objects' stacks first)",
              "smoothness": "true or false (smoothness figures in the report)"}

@@ -24,9 +24,9 @@ kind does not own properties but declares which of them it uses. A kind is a mod
     classes     its operators, registered after the core's
 """
 from ..properties import ENTRY_TYPES
-from . import barr, cage, laplacian, lattice, subdivide
+from . import barr, cage, laplacian, lattice, rbf, subdivide
 
-KINDS = (barr, lattice, laplacian, cage, subdivide)
+KINDS = (barr, lattice, laplacian, cage, rbf, subdivide)
 COMMON = ("name", "show_viewport", "show_render")  # every entry's parameters
 _BY_TYPE = {t: kind for kind in KINDS for t in kind.TYPES}
 if set(_BY_TYPE) != {t[0] for t in ENTRY_TYPES} or len(_BY_TYPE) != len(ENTRY_TYPES):

@@ -19,8 +19,8 @@ import numpy as np
 
 from .. import api, cache, meshdata, native
 from ..outputs import EntryError
-from .common import KindOperator, Prepared, core_missing, draw_vertex_group, followed_object, influence_weights, \
-    write_base
+from .common import (EntryOperator, Prepared, draw_vertex_group, evaluated_mesh_in, followed_mesh, forget_bindings,
+                     kept_binding, scaled_influence, store_array, weights_crc, write_base)
 from .laplacian import _signed, is_bound, new_bind_id
 
 TYPES = ("CAGE",)
@@ -46,30 +46,14 @@ def fields(entry_type):
 
 
 def cage_object(entry, obj):
-    cage = followed_object(entry, "cage", "cage", "no cage object set: pick a closed mesh object around the mesh")
-    if cage.type != "MESH":
-        raise EntryError(f"cage '{cage.name}' is not a mesh object")
-    if cage == obj:
-        raise EntryError("the cage must be another object than the mesh it deforms")
-    return cage
+    return followed_mesh(entry, "cage", "cage", obj, "no cage object set: pick a closed mesh object around the mesh")
 
 
 def evaluated_cage(obj, cage):
     """The cage's evaluated mesh (its modifiers, shape keys and edits applied) in obj's space:
     (points float64 (m, 3), faces, topology fingerprint (vertices, faces, crc))."""
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    evaluated = cage.evaluated_get(depsgraph)
-    mesh = evaluated.to_mesh()
-    try:
-        points = meshdata.base_positions(mesh).astype(np.float64)
-        topo = meshdata.topology(mesh)
-        faces = meshdata.polygons(topo)
-    finally:
-        evaluated.to_mesh_clear()
-    local = np.array(obj.matrix_world.inverted() @ cage.matrix_world)
-    # Rounded as the stored rest is (float32), so that a cage as it was at bind is the rest bit for bit.
-    points = (points @ local[:3, :3].T + local[:3, 3]).astype(np.float32).astype(np.float64)
-    return points, faces, (topo.vertices, topo.faces, _signed(topo.crc))
+    points, topo = evaluated_mesh_in(obj, cage, meshdata.topology)
+    return points, meshdata.polygons(topo), (topo.vertices, topo.faces, _signed(topo.crc))
 
 
 def topology_change(entry, now):
@@ -90,17 +74,17 @@ def _deformer(obj, entry, faces, weights):
     if cls is None:
         raise EntryError(f"this build of deformkit has no cage deformers: {native.BUILD_HINT}")
     bind_key = (meshdata.cache_key(obj), entry.bind_id, entry.cage_method)
-    weights_crc = None if weights is None else zlib.crc32(np.ascontiguousarray(weights).tobytes())
+    crc = weights_crc(weights)
     cached = cache.get("cage_deformer", bind_key)
-    if cached is not None and cached[0] == weights_crc:
-        return bind_key, cached[1], weights_crc
+    if cached is not None and cached[0] == crc:
+        return bind_key, cached[1], crc
     rest = np.asarray(entry[REST], np.float64).reshape(-1, 3)
     try:
         deformer = cls(rest, faces, weights=weights)
     except ValueError as exc:
         raise EntryError(str(exc)) from exc
-    cache.put("cage_deformer", bind_key, (weights_crc, deformer))
-    return bind_key, deformer, weights_crc
+    cache.put("cage_deformer", bind_key, (crc, deformer))
+    return bind_key, deformer, crc
 
 
 def setup(obj, entry, reuse_weights=False):
@@ -111,12 +95,9 @@ def setup(obj, entry, reuse_weights=False):
     changed = topology_change(entry, topo)
     if changed:
         raise EntryError(changed)
-    weights = influence_weights(obj, entry, reuse_weights)
-    if entry.strength != 1.0:
-        weights = np.full(len(obj.data.vertices), entry.strength) if weights is None else weights * entry.strength
-    key, deformer, weights_crc = _deformer(obj, entry, faces, weights)
+    key, deformer, crc = _deformer(obj, entry, faces, scaled_influence(obj, entry, reuse_weights))
     deformer.cage_points = points
-    fingerprint = (key, zlib.crc32(points.tobytes()), weights_crc)
+    fingerprint = (key, zlib.crc32(points.tobytes()), crc)
     return Prepared(deformer, fingerprint, Setup(deformer, key, fingerprint))
 
 
@@ -125,15 +106,10 @@ def deform(key, prepared, points):
     setup_ = prepared.data
     if setup_ is None:
         return points
-    cached = cache.get("cage_binding", key)
-    if cached is None or cached[0] != setup_.bind or not np.array_equal(cached[1], points):
-        try:
-            # float32 weights, as the mesh's positions are: half the memory and time per frame.
-            binding = setup_.deformer.bind(points, precision="float32")
-            cached = cache.put("cage_binding", key, (setup_.bind, points, binding))
-        except ValueError as exc:
-            raise EntryError(str(exc)) from exc
-    return setup_.deformer.deform_bound(cached[2])
+    # float32 weights, as the mesh's positions are: half the memory and time per frame.
+    binding = kept_binding("cage_binding", key, setup_.bind, points,
+                           lambda p: setup_.deformer.bind(p, precision="float32"))
+    return setup_.deformer.deform_bound(binding)
 
 
 def bind(obj, entry):
@@ -146,7 +122,7 @@ def bind(obj, entry):
         raise EntryError(f"this build of deformkit has no cage deformers: {native.BUILD_HINT}")
     cls(points, faces)  # checks the cage: ValueError naming the first open edge, bad face, ...
     bind_id = new_bind_id(obj)
-    entry[REST] = points.astype(np.float32).ravel()
+    store_array(entry, REST, points.astype(np.float32).ravel())
     entry.bind_vertices, entry.bind_faces, entry.bind_topology = topo
     entry.bind_id = bind_id  # a new bind key: the old bindings are not used again
     return topo[0]
@@ -172,9 +148,8 @@ def volume_note(entries):
 
 def prune(object_key, entries):
     """Bindings of binds no entry has any more go."""
+    forget_bindings(object_key, "cage_binding", entries, lambda e: (e.bind_id, e.cage_method))
     alive = {(e.bind_id, e.cage_method) for e in entries}
-    cache.forget(object_key, "cage_binding", keep=lambda k: k[1] < len(entries) and (
-        cache.get("cage_binding", k)[0][1:] in alive))
     cache.forget(object_key, "cage_deformer", keep=lambda k: k[1:] in alive)
 
 
@@ -198,18 +173,9 @@ def draw(col, obj, entry):
         col.operator("deformkit.cage_bind", text="Bind", icon="LINKED").index = index
 
 
-class _CageOperator(KindOperator):
+class _CageOperator(EntryOperator):
     TYPES = TYPES
-
-    @classmethod
-    def poll(cls, context):
-        if core_missing(cls):
-            return False
-        obj = context.object
-        if obj is not None and obj.type == "MESH" and cls.has_entry(obj):
-            return True
-        cls.poll_message_set("Needs a mesh with a Cage entry")
-        return False
+    NEEDS = "Needs a mesh with a Cage entry"
 
 
 class DEFORMKIT_OT_cage_bind(_CageOperator, bpy.types.Operator):

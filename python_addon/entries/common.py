@@ -1,10 +1,14 @@
-"""What several entry kinds share: the value a setup returns, the objects entries follow, the
-vertex-group influence, the operator base for acting on one entry of a kind, and panel rows."""
+"""What several entry kinds share: the value a setup returns, the objects entries follow and
+their evaluated meshes in the entry's space, the vertex-group influence, bindings kept between
+evaluations, the operator base for acting on one entry of a kind, and panel rows."""
+import zlib
 from collections import namedtuple
 
+import bpy
+import numpy as np
 from bpy.props import IntProperty
 
-from .. import meshdata, native
+from .. import cache, meshdata, native
 from ..outputs import EntryError
 
 # deformer: a dk.Deformer with a Jacobian (in dk.Stack and the volume ratio), or None for kinds
@@ -13,7 +17,7 @@ from ..outputs import EntryError
 # note: a message for the entry that still evaluates (a deleted origin), or "".
 Prepared = namedtuple("Prepared", "deformer fingerprint data note", defaults=("",))
 # Entry properties that point at objects, each with a <prop>_name remembering the object's name.
-POINTERS = ("origin", "lattice", "handle_object", "cage")
+POINTERS = ("origin", "lattice", "handle_object", "cage", "controls", "rest_object")
 
 
 def deleted_name(entry, prop):
@@ -56,6 +60,38 @@ def followed_object(entry, prop, role, unset=""):
     return obj
 
 
+def followed_mesh(entry, prop, role, obj, unset=""):
+    """As followed_object, for a mesh object other than obj (a cage, an RBF's controls)."""
+    other = followed_object(entry, prop, role, unset)
+    if other is None:
+        return None
+    if other.type != "MESH":
+        raise EntryError(f"{role} '{other.name}' is not a mesh object")
+    if other == obj:
+        raise EntryError(f"the {role} must be another object than the mesh it deforms")
+    return other
+
+
+def in_space_of(obj, other, points):
+    """Points (m, 3) of other's local space in obj's, float64, rounded to float32 as the entries'
+    stored rests are: a shape as it was at bind is then its rest bit for bit."""
+    local = np.array(obj.matrix_world.inverted() @ other.matrix_world)
+    return (np.asarray(points, np.float64) @ local[:3, :3].T + local[:3, 3]).astype(np.float32).astype(np.float64)
+
+
+def evaluated_mesh_in(obj, other, read=None):
+    """other's evaluated mesh (its modifiers, shape keys and Edit Mode edits applied): its points in
+    obj's space (in_space_of), and read(mesh) of that mesh (None without `read`)."""
+    evaluated = other.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    mesh = evaluated.to_mesh()
+    try:
+        points = meshdata.base_positions(mesh)
+        extra = None if read is None else read(mesh)
+    finally:
+        evaluated.to_mesh_clear()
+    return in_space_of(obj, other, points), extra
+
+
 def influence_weights(obj, entry, reuse_weights=False):
     """The entry's vertex-group weights as it applies them, inverted with Invert (as Simple Deform
     and the Lattice modifier: ungrouped vertices then get 1), or None without a group. They are read
@@ -65,6 +101,56 @@ def influence_weights(obj, entry, reuse_weights=False):
         return None
     weights = meshdata.group_weights(obj, entry.vertex_group, reuse_weights)
     return 1.0 - weights if entry.invert_vertex_group else weights
+
+
+def scaled_influence(obj, entry, reuse_weights=False):
+    """influence_weights times the entry's Strength (None: every vertex fully)."""
+    weights = influence_weights(obj, entry, reuse_weights)
+    if entry.strength != 1.0:
+        weights = np.full(len(obj.data.vertices), entry.strength) if weights is None else weights * entry.strength
+    return weights
+
+
+def weights_crc(weights):
+    """A fingerprint of per-point weights (None: no weights)."""
+    return None if weights is None else zlib.crc32(np.ascontiguousarray(weights).tobytes())
+
+
+def kept_binding(space, key, bind_key, points, bind):
+    """bind(points), kept in the cache's `space` under `key` ((object cache key, entry index,
+    "viewport"/"render")) while `bind_key` (what the binding depends on besides the points, its
+    [0] the object's cache key) and the points stay: binding costs more than a frame's
+    deform_bound. A ValueError of bind is the entry's failure (EntryError)."""
+    cached = cache.get(space, key)
+    if cached is None or cached[0] != bind_key or not np.array_equal(cached[1], points):
+        try:
+            cached = cache.put(space, key, (bind_key, points, bind(points)))
+        except ValueError as exc:
+            raise EntryError(str(exc)) from exc
+    return cached[2]
+
+
+def stack_index(entry):
+    """The entry's place in its object's stack (an entry path ends in "entries[i]")."""
+    path = entry.path_from_id()
+    return int(path[path.rindex("[") + 1:-1])
+
+
+def forget_bindings(object_key, space, entries, tail):
+    """Drop the object's bindings in `space` but those of `entries` (of one kind) made for what
+    they are now: kept under the entry's place in the whole stack (other kinds' entries count),
+    with a bind key of (object cache key,) + tail(entry)."""
+    alive = {(stack_index(e),) + tail(e) for e in entries}
+    cache.forget(object_key, space, keep=lambda k: (k[1],) + cache.get(space, k)[0][1:] in alive)
+
+
+def store_array(entry, name, values):
+    """Keep a numpy array as the entry's ID property `name` (a bind's rest), replacing any old one:
+    Blender 5.0 copies an array assigned over one of another length into the old buffer (a crash
+    when longer, a truncated copy when shorter), so the old property goes first."""
+    if name in entry:
+        del entry[name]
+    entry[name] = values
 
 
 def write_base(obj, points):
@@ -114,6 +200,22 @@ class KindOperator:
         except (ValueError, IndexError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
+
+
+class EntryOperator(KindOperator):
+    """A KindOperator available on a mesh with an entry of its kind (NEEDS: the poll message
+    otherwise, "Needs a mesh with a Cage entry")."""
+    NEEDS = ""
+
+    @classmethod
+    def poll(cls, context):
+        if core_missing(cls):
+            return False
+        obj = context.object
+        if obj is not None and obj.type == "MESH" and cls.has_entry(obj):
+            return True
+        cls.poll_message_set(cls.NEEDS)
+        return False
 
 
 def draw_subpanel(col, entry, prop, label):

@@ -26,7 +26,7 @@ import numpy as np
 from .. import api, cache, meshdata, native
 from ..outputs import EntryError
 from ..panel_text import label_wrapped
-from .common import KindOperator, Prepared, core_missing, followed_object, mesh_object, write_base
+from .common import KindOperator, Prepared, core_missing, followed_object, mesh_object, store_array, write_base
 
 TYPES = ("LAPLACIAN",)
 ICON = "MOD_MESHDEFORM"
@@ -238,7 +238,7 @@ def bind(obj, entry, incoming):
     key = meshdata.cache_key(obj)
     cache.pop("laplacian", (key, entry.bind_id))
     bind_id = new_bind_id(obj)
-    entry[REST] = rest.ravel()
+    store_array(entry, REST, rest.ravel())
     entry.bind_vertices, entry.bind_faces, entry.bind_topology = topo.vertices, topo.faces, _signed(topo.crc)
     entry.handle_matrix = matrix.ravel().tolist()
     entry.bind_id = bind_id
@@ -263,7 +263,7 @@ def copy_bind(source, target):
     is source's, so it deforms as source does."""
     if not is_bound(source):
         return
-    target[REST] = saved_rest(source).ravel()
+    store_array(target, REST, saved_rest(source).ravel())
     target.bind_vertices, target.bind_faces = source.bind_vertices, source.bind_faces
     target.bind_topology = source.bind_topology
     target.handle_matrix = source.handle_matrix[:]

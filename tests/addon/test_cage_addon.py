@@ -108,6 +108,7 @@ def test_cage_problems_show_on_the_entry(scene):
     import bmesh
     import bpy
     from deformkit_addon import api
+    from deformkit_addon.entries import cage as cages
     obj, cage, rest, faces = bound(bpy, "MEAN_VALUE")
     entry = obj.deformkit.entries[0]
     bm = bmesh.new()
@@ -119,6 +120,9 @@ def test_cage_problems_show_on_the_entry(scene):
     bpy.context.view_layer.update()
     assert "had 8 vertices and 6 faces at bind" in entry.error
     np.testing.assert_array_equal(evaluated(obj), positions(obj.data))  # skipped, as a broken modifier
+    api.bind_cage(obj, 0)  # bound again to 9 vertices (a rest of another length replaces the old one)
+    assert entry.error == "" and len(entry[cages.REST]) == 27
+    np.testing.assert_array_equal(evaluated(obj), positions(obj.data))
     bpy.data.objects.remove(cage)
     bpy.context.view_layer.update()
     assert entry.cage is None and "cage object 'Cage' no longer exists" in entry.error
