@@ -363,10 +363,7 @@ bool CageDeformer::multiply(const CageBinding& b, T* out) const {
       const std::size_t count = std::min(kRows, end - lo);
       if (b.storage == WeightStorage::Float64) weight_rows_product(b.weights_f64.data() + lo * m, count, m, c, y);
       else weight_rows_product(b.weights_f32.data() + lo * m, count, m, c, y);
-      for (std::size_t k = 0; k < 3 * count; ++k) {
-        out[3 * lo + k] = static_cast<T>(y[k]);
-        ok = ok && std::isfinite(out[3 * lo + k]);
-      }
+      ok = store_rows(y, count, out + 3 * lo) && ok;
     }
     if (!ok) finite = false;
   });
