@@ -8,8 +8,12 @@
 
 namespace deformkit {
 
-RbfGrid::RbfGrid(const double* controls, std::size_t m, double radius)
-    : controls_(controls, controls + 3 * m), radius_(radius) {
+namespace {
+// A dense cell index up to this many cells (16 MB); beyond, a hash map of the occupied ones.
+constexpr double kDenseCells = 4.0 * 1024 * 1024;
+}  // namespace
+
+RbfGrid::RbfGrid(const double* controls, std::size_t m, double radius) : radius_(radius) {
   double lo[3], hi[3];
   for (int a = 0; a < 3; ++a) {
     lo[a] = std::numeric_limits<double>::infinity();
@@ -40,6 +44,15 @@ RbfGrid::RbfGrid(const double* controls, std::size_t m, double radius)
   order_.resize(m);
   std::iota(order_.begin(), order_.end(), 0u);
   std::stable_sort(order_.begin(), order_.end(), [&](std::uint32_t a, std::uint32_t b) { return keys[a] < keys[b]; });
+  sorted_.resize(3 * m);
+  for (std::size_t s = 0; s < m; ++s)
+    for (int a = 0; a < 3; ++a) sorted_[3 * s + a] = controls[3 * std::size_t(order_[s]) + a];
+  if (cells <= kDenseCells) {
+    dense_.assign(std::size_t(cells) + 1, 0);
+    for (std::size_t j = 0; j < m; ++j) ++dense_[keys[j] + 1];
+    for (std::size_t k = 1; k < dense_.size(); ++k) dense_[k] += dense_[k - 1];
+    return;
+  }
   for (std::size_t s = 0; s < m;) {
     std::size_t e = s;
     while (e < m && keys[order_[e]] == keys[order_[s]]) ++e;

@@ -21,6 +21,28 @@ namespace hn = hwy::HWY_NAMESPACE;
 using D = hn::ScalableTag<double>;
 using V = hn::Vec<D>;
 
+// exp(y) for y <= 0, to a few ulps: y = k ln 2 + t with |t| <= ln 2 / 2 (k rounded by the
+// 1.5 * 2^52 shift), e^t by its Taylor polynomial to degree 13 (the remainder below 5e-18), and
+// 2^k added to the exponent bits. Below -707 (where 2^k would be subnormal) the result is 0:
+// less than 1e-307, nothing a sum of kernel values can see. Half the work of a general exp,
+// which must also handle overflow and subnormal results.
+HWY_INLINE V ExpNonPositive(D d, V y) {
+  const hn::RebindToSigned<D> di;
+  const V shift = hn::Set(d, 6755399441055744.0);  // 1.5 * 2^52: adding it rounds to an integer
+  const V shifted = hn::MulAdd(y, hn::Set(d, 1.4426950408889634074), shift);
+  const V k = hn::Sub(shifted, shift);
+  V t = hn::MulAdd(k, hn::Set(d, -6.93147180369123816490e-01), y);  // ln 2, high and low parts
+  t = hn::MulAdd(k, hn::Set(d, -1.90821492927058770002e-10), t);
+  V p = hn::Set(d, 1.0 / 6227020800.0);  // 1 / 13!
+  const double inverse_factorials[] = {1.0 / 479001600.0, 1.0 / 39916800.0, 1.0 / 3628800.0, 1.0 / 362880.0, 1.0 / 40320.0,
+                                       1.0 / 5040.0,     1.0 / 720.0,     1.0 / 120.0,    1.0 / 24.0,
+                                       1.0 / 6.0,        0.5,             1.0,            1.0};
+  for (double c : inverse_factorials) p = hn::MulAdd(p, t, hn::Set(d, c));
+  const auto exponent = hn::ShiftLeft<52>(hn::BitCast(di, shifted));  // k in the low bits of shifted
+  const V scaled = hn::BitCast(d, hn::Add(hn::BitCast(di, p), exponent));
+  return hn::IfThenElseZero(hn::Ge(y, hn::Set(d, -707.0)), scaled);
+}
+
 // phi as a function of r^2 (e2 = epsilon^2).
 template <RbfKernel K>
 HWY_INLINE V Phi(D d, V r2, V e2) {
@@ -37,7 +59,7 @@ HWY_INLINE V Phi(D d, V r2, V e2) {
   } else if constexpr (K == RbfKernel::Linear) {
     return hn::Neg(hn::Sqrt(hn::Mul(e2, r2)));
   } else if constexpr (K == RbfKernel::Gaussian) {
-    return hn::Exp(d, hn::Neg(hn::Mul(e2, r2)));
+    return ExpNonPositive(d, hn::Neg(hn::Mul(e2, r2)));
   } else if constexpr (K == RbfKernel::Multiquadric) {
     return hn::Neg(hn::Sqrt(hn::Add(one, hn::Mul(e2, r2))));
   } else if constexpr (K == RbfKernel::InverseMultiquadric) {

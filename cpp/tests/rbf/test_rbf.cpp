@@ -2,6 +2,7 @@
 // differences, interpolation at the controls, exact affine reproduction with the affine term,
 // compact support, Jacobians against finite differences, the bound path, and bad input.
 #include "deformkit/rbf/rbf_deformer.hpp"
+#include "rbf/rbf_rows.hpp"
 #include "test_util.hpp"
 
 #include <gtest/gtest.h>
@@ -218,4 +219,69 @@ TEST(RbfDeformer, RefusesBadInput) {
   RbfOptions smooth = o;
   smooth.smoothing = 1e-3;
   EXPECT_NO_THROW(RbfDeformer(dup.data(), 10, smooth));
+}
+
+// The grid visits exactly the controls within the support: the result equals the sum over every
+// control, for controls whose cells fit the dense cell index and for a far-flung set that takes
+// the hash map of occupied cells.
+TEST(RbfDeformer, TheGridFindsEveryControlWithinTheSupport) {
+  for (double spread : {1.0, 1e5}) {  // 1e5: 14M cells, past the dense index
+    std::vector<double> c = random_points(80, 0.0, 1.0, 37);
+    for (std::size_t j = 40; j < 80; ++j) c[3 * j] += spread;  // a second cluster, far away
+    RbfOptions o;
+    o.kernel.kind = RbfKernel::WendlandC2;
+    o.kernel.radius = 0.35;
+    o.degree = -1;
+    RbfDeformer rbf(c.data(), 80, o);
+    rbf.set_targets(smooth_targets(c));
+    std::vector<double> x = random_points(400, -0.2, 1.2, 41);
+    for (std::size_t i = 200; i < 400; ++i) x[3 * i] += spread;
+    std::vector<double> got(x.size());
+    rbf.deform(x.data(), got.data(), 400);
+    double worst = 0;
+    for (std::size_t i = 0; i < 400; ++i) {
+      Vec3 want = row(x, i);
+      for (std::size_t j = 0; j < 80; ++j) {
+        double v, slope;
+        rbf_kernel(o.kernel, (row(x, i) - row(c, j)).norm(), &v, &slope);
+        want += v * row(rbf.alpha(), j);
+      }
+      worst = std::max(worst, (row(got, i) - want).norm());
+    }
+    EXPECT_LT(worst, 1e-12 * (1.0 + spread)) << "spread " << spread;  // rounding of x - c at |x| ~ spread
+  }
+}
+
+// The SIMD kernel sums against the scalar definitions, one control at a time (the sum is then
+// phi itself): a few ulps for every global kernel, also where the Gaussian underflows.
+TEST(RbfKernel, SimdSumsMatchTheScalarKernels) {
+  std::vector<double> x;
+  for (int i = 0; i < 3000; ++i) x.insert(x.end(), {0.0, 0.0, 1e-3 * i * i * 1e-3 * 7.0});  // r from 0 to 63
+  x.insert(x.end(), {1e-8, 0, 0, 0, 0, 1e3});
+  const std::size_t n = x.size() / 3;
+  const double zero = 0.0, one = 1.0;
+  RbfColumns col;
+  for (int a = 0; a < 3; ++a) {
+    col.c[a] = &zero;
+    col.alpha[a] = &one;
+  }
+  col.m = 1;
+  for (RbfKernel k : kAll) {
+    if (rbf_compact(k)) continue;
+    RbfKernelShape shape = options_for(k).kernel;
+    std::vector<double> out(3 * n);
+    rbf_kernel_sums(x.data(), n, col, shape, out.data());
+    for (std::size_t i = 0; i < n; ++i) {
+      double v, slope;
+      const double r = std::sqrt(x[3 * i] * x[3 * i] + x[3 * i + 2] * x[3 * i + 2]);
+      rbf_kernel(shape, r, &v, &slope);
+      // Thin plate near s = 1: log s -> 0, so its error is a few ulps of s^2, not of s^2 log s. The
+      // Gaussian's: a few ulps of its argument s^2 (rounded differently from r^2 = |x - c|^2).
+      const double s2 = std::pow(shape.epsilon * r, 2);
+      const double scale = k == RbfKernel::ThinPlateSpline ? std::max(std::abs(v), s2)
+                           : k == RbfKernel::Gaussian      ? std::abs(v) * (1.0 + s2)
+                                                           : std::abs(v);
+      ASSERT_NEAR(out[3 * i], v, 2e-15 * scale + 1e-300) << int(k) << " at point " << i;
+    }
+  }
 }
