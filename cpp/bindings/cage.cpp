@@ -61,7 +61,8 @@ PyCageBinding py_bind(const std::shared_ptr<CageDeformer>& cage, const py::objec
     const double t = finite_param(*sparsify, "sparsify");
     if (!(t > 0.0)) throw py::value_error("sparsify: expected a positive threshold, got " + std::to_string(t));
     if (options.storage == WeightStorage::Float32)
-      throw py::value_error("sparsify: sparsified weights are float64; give precision='float64' or no sparsify");
+      throw py::value_error("sparsify: a sparsified binding keeps its weights in the points' dtype (float32 for "
+                            "float32 points), so precision does not apply; give precision='float64' (the default) or no sparsify");
     options.storage = WeightStorage::Sparse;
     options.sparsify_threshold = t;
   }

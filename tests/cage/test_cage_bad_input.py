@@ -56,7 +56,8 @@ def test_bad_cage_points_and_binding_arguments():
     for kwargs, words in [({"precision": "float16"}, "precision: expected 'float64' or 'float32', got 'float16'"),
                           ({"sparsify": 0.0}, "sparsify: expected a positive threshold"),
                           ({"sparsify": np.nan}, "sparsify: "),
-                          ({"sparsify": 0.1, "precision": "float32"}, "sparsify: sparsified weights are float64"),
+                          ({"sparsify": 0.1, "precision": "float32"},
+                           "sparsify: a sparsified binding keeps its weights in the points' dtype"),
                           ({"sparsify": 2.0}, "sparsify: threshold 2.000000 leaves the weights of point 0 summing to zero")]:
         with pytest.raises(ValueError) as info:
             cage.bind(pts, **kwargs)
