@@ -150,3 +150,14 @@ def test_composes_in_a_stack(controls, rng):
     x = rng.random((100, 3))
     both = dk.Stack([dk.Twist(rate=0.5), r]).deform(x)
     assert np.allclose(both, r.deform(dk.Twist(rate=0.5).deform(x)), atol=1e-14)
+
+
+def test_per_point_weights_blend_toward_the_input(controls, rng):
+    """Blender's vertex-group blend, as every deformer: x + w (F(x) - x), on the bound path too."""
+    x = rng.random((300, 3))
+    w = rng.random(300)
+    full = dk.RBF(controls, smooth_map(controls))
+    blended = dk.RBF(controls, smooth_map(controls), weights=w)
+    want = x + w[:, None] * (full.deform(x) - x)
+    assert np.abs(blended.deform(x) - want).max() < 1e-14
+    assert np.abs(blended.deform_bound(blended.bind(x)) - want).max() < 1e-14
