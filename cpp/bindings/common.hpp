@@ -221,5 +221,6 @@ void bind_surface(py::module_& m);
 void bind_subdivision(py::module_& m);
 void bind_cage(py::module_& m);
 void bind_rbf(py::module_& m);
+void bind_transfer(py::module_& m);
 
 }  // namespace deformkit_py

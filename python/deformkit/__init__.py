@@ -13,6 +13,8 @@ limit surface is smooth. :class:`MeanValueCage` deforms points with a closed pol
 value coordinates, :class:`GreenCage` Green coordinates), with the lattices' ``bind`` /
 ``deform_bound``. :class:`RBF` moves any set of control points onto targets and everything else
 with them (radial basis functions, scipy's kernels and compactly supported Wendland ones).
+:class:`DeformationTransfer` carries a source mesh's poses onto a target mesh of the same
+connectivity (Sumner and Popovic's deformation gradients).
 
 >>> import numpy as np, deformkit as dk
 >>> pts = np.random.rand(1000, 3)
@@ -33,6 +35,7 @@ from ._core import (
     CageBinding,
     CageDeformer,
     Deformer,
+    DeformationTransfer,
     DirectManipulation,
     ExtendedFFD,
     FFD,
@@ -69,4 +72,5 @@ __all__ = [
     "smoothness_report", "subdivide",
     "CageBinding", "CageDeformer", "GreenCage", "MeanValueCage",
     "RBF", "RBFBinding",
+    "DeformationTransfer",
 ]

@@ -5,7 +5,7 @@ import pathlib
 import re
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
-FAMILIES = ("core", "numerics", "barr", "lattice", "surface", "subdivision", "cage", "rbf")
+FAMILIES = ("core", "numerics", "barr", "lattice", "surface", "subdivision", "cage", "rbf", "transfer")
 ALLOWED = {"core": {"core"}, "numerics": {"core", "numerics"}}
 INCLUDE = re.compile(r'#include "([^"]+)"')
 

@@ -28,3 +28,4 @@
 #include "deformkit/cage/mean_value_cage.hpp"
 #include "deformkit/rbf/rbf_deformer.hpp"
 #include "deformkit/rbf/rbf_kernel.hpp"
+#include "deformkit/transfer/deformation_transfer.hpp"
