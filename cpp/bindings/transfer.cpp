@@ -78,6 +78,13 @@ correspondence) are not supported yet.)")
       }, "The vertices whose translation is fixed: the first of each connected part.")
       .def("transfer", [](const DeformationTransfer& d, const py::object& pose) {
              require_real(pose, "source_pose");
+             if (py::isinstance<py::array>(pose)) {  // as every deformer's points: floats, not silently cast
+               const auto kind = py::reinterpret_borrow<py::array>(pose).dtype().kind();
+               if (kind != 'f')
+                 throw py::type_error("source_pose: expected float32 or float64, got " +
+                                      std::string(py::str(py::reinterpret_borrow<py::array>(pose).dtype())) +
+                                      " (convert with .astype(np.float64))");
+             }
              const auto a = c_array<double>(pose, "source_pose");
              const auto n = py::ssize_t(d.vertex_count());
              const bool one = a.ndim() == 2;

@@ -106,6 +106,10 @@ def test_bad_input_is_refused_by_name():
         dt.transfer(flat)
     with pytest.raises(ValueError, match="^target_faces: triangle 0"):
         dk.DeformationTransfer(grid, quads, flat)
+    with pytest.raises(TypeError, match="^source_pose: expected float32 or float64, got int64"):
+        dt.transfer(grid.astype(np.int64))
+    assert np.array_equal(dt.transfer(grid.astype(">f8")), dt.transfer(grid))  # any float layout
+    assert dt.transfer(np.zeros((0, 9, 3))).shape == (0, 9, 3)
     x = grid.copy()
     dt.transfer(x)
     assert np.array_equal(x, grid)  # the pose is not modified
