@@ -29,6 +29,27 @@ void run_blocks(int count, void (*task)(void*, int), void* context);
 // many blocks are ever made, so per-block state may be sized by it).
 int parallel_threads();
 
+// fn(t) for t in [0, count), each once, on the caller and the workers as parallel_blocks runs its
+// blocks (at most parallel_threads() at a time); the first exception is rethrown here.
+template <class Fn>
+void parallel_tasks(int count, Fn&& fn) {
+  struct Context {
+    Fn* fn;
+    std::exception_ptr failure;
+    std::mutex failure_mutex;
+  } context{&fn, nullptr, {}};
+  run_blocks(count, [](void* c, int t) {
+    Context& ctx = *static_cast<Context*>(c);
+    try {
+      (*ctx.fn)(t);
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(ctx.failure_mutex);
+      if (!ctx.failure) ctx.failure = std::current_exception();
+    }
+  }, &context);
+  if (context.failure) std::rethrow_exception(context.failure);
+}
+
 template <class Fn>
 void parallel_blocks(std::size_t n, Fn&& fn) {
   const int threads = n < 2 * kParallelGrain || forked_after_threads() ? 1 : parallel_threads();

@@ -135,14 +135,15 @@ struct Solver {
 
   void run(double* y) const {
     const int w = width();
-    const int threads = forked_after_threads() ? 1 : int(f.ranges.size());  // 1 for a small factor
+    // The ranges' subtrees are independent: one task each, on the caller and the pool's workers,
+    // so a busy core does not stall the solve (core/parallel.hpp).
     const std::int32_t n = std::int32_t(f.size());
     std::vector<double> shared(f.ranges.size() * f.top.size() * std::size_t(w), 0.0);
     const std::size_t stride = f.top.size() * std::size_t(w);
-#pragma omp parallel for num_threads(threads) schedule(static, 1)
-    for (int t = 0; t < int(f.ranges.size()); ++t)
-      for (const auto& [lo, hi] : f.ranges[t])
+    parallel_tasks(int(f.ranges.size()), [&](int t) {
+      for (const auto& [lo, hi] : f.ranges[std::size_t(t)])
         for (std::int32_t j = lo; j <= hi; ++j) forward(j, hi, y, shared.data() + std::size_t(t) * stride);
+    });
     for (std::size_t t = 0; t < f.ranges.size(); ++t)
       for (std::size_t p = 0; p < f.top.size(); ++p)
         for (int c = 0; c < w; ++c) y[std::int64_t(f.top[p]) * w + c] += shared[t * stride + p * std::size_t(w) + std::size_t(c)];
@@ -151,10 +152,10 @@ struct Solver {
       for (std::int32_t j = 0; j < n; ++j)
         for (int c = 0; c < w; ++c) y[std::int64_t(j) * w + c] /= f.value[f.start[j]];
     for (auto it = f.top.rbegin(); it != f.top.rend(); ++it) backward(*it, y);
-#pragma omp parallel for num_threads(threads) schedule(static, 1)
-    for (int t = 0; t < int(f.ranges.size()); ++t)
-      for (auto range = f.ranges[t].rbegin(); range != f.ranges[t].rend(); ++range)
+    parallel_tasks(int(f.ranges.size()), [&](int t) {
+      for (auto range = f.ranges[std::size_t(t)].rbegin(); range != f.ranges[std::size_t(t)].rend(); ++range)
         for (std::int32_t j = range->second; j >= range->first; --j) backward(j, y);
+    });
   }
 };
 

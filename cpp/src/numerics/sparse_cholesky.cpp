@@ -134,7 +134,7 @@ bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) {
         c = CholeskyFactor{};
         return false;
       }
-  c.schedule(forked_after_threads() ? 1 : omp_get_max_threads());
+  c.schedule(forked_after_threads() ? 1 : parallel_threads());
   s.ready = true;
   return true;
 }
