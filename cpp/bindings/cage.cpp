@@ -17,24 +17,9 @@ struct PyCageBinding {
   std::shared_ptr<const CageDeformer> cage;
 };
 
-// The core names the mesh's arrays `points` and `faces`; here they are the cage's.
-std::string cage_argument(const std::string& message) {
-  for (const char* name : {"points", "faces"})
-    if (message.rfind(std::string(name) + ":", 0) == 0) return "cage_" + message;
-  return message;
-}
-
 CageMesh parse_cage(const py::object& points, const py::object& faces) {
   const py::array p = points_array(points, "cage_points");
-  try {
-    return CageMesh(parse_polygon_mesh(p, faces));
-  } catch (const py::type_error& e) {
-    throw py::type_error(cage_argument(e.what()));
-  } catch (const py::value_error& e) {
-    throw py::value_error(cage_argument(e.what()));
-  } catch (const std::invalid_argument& e) {
-    throw py::value_error(cage_argument(e.what()));
-  }
+  return with_mesh_prefix("cage", [&] { return CageMesh(parse_polygon_mesh(p, faces)); });
 }
 
 std::vector<double> parse_cage_points(const py::object& obj, const CageDeformer& cage) {

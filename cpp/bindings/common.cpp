@@ -433,4 +433,10 @@ PolygonMesh parse_polygon_mesh(const py::object& points, const py::object& faces
   return PolygonMesh(p.data(), n, f.corners, f.offsets);
 }
 
+std::string prefixed_argument(const std::string& message, const std::string& prefix) {
+  for (const char* name : {"points", "faces"})
+    if (message.rfind(std::string(name) + ":", 0) == 0) return prefix + "_" + message;
+  return message;
+}
+
 }  // namespace deformkit_py

@@ -207,6 +207,22 @@ Faces parse_faces(const py::object& faces);
 // `points` (n, 3) and `faces` (as parse_faces) as one checked PolygonMesh: the one way every
 // binding that takes a mesh reads it.
 PolygonMesh parse_polygon_mesh(const py::object& points, const py::object& faces);
+// The core names a mesh's arrays `points` and `faces`; a binding taking a named mesh (a cage, a
+// source, a target) runs its reading in `read` and gets those errors as `<prefix>_points: ...`,
+// `<prefix>_faces: ...` (the type kept; std::invalid_argument becomes ValueError).
+std::string prefixed_argument(const std::string& message, const std::string& prefix);
+template <class F>
+auto with_mesh_prefix(const std::string& prefix, F&& read) -> decltype(read()) {
+  try {
+    return read();
+  } catch (const py::type_error& e) {
+    throw py::type_error(prefixed_argument(e.what(), prefix));
+  } catch (const py::value_error& e) {
+    throw py::value_error(prefixed_argument(e.what(), prefix));
+  } catch (const std::invalid_argument& e) {
+    throw py::value_error(prefixed_argument(e.what(), prefix));
+  }
+}
 // `faces` as an (m, k) C-contiguous array of Index when it is one that parse_faces accepts as it is
 // (m >= 1, 3 <= k), without a copy where its layout allows; nullopt for anything else.
 template <class Index>

@@ -17,22 +17,9 @@ std::vector<std::vector<int>> polygons(const PolygonMesh& m) {
   return out;
 }
 
-// The core names a mesh's arrays `points` and `faces`; here there are two meshes.
 PolygonMesh parse_mesh(const py::object& points, const py::object& faces, const std::string& which) {
-  auto renamed = [&](const std::string& message) {
-    for (const char* name : {"points", "faces"})
-      if (message.rfind(std::string(name) + ":", 0) == 0) return which + "_" + message;
-    return message;
-  };
-  try {
-    return parse_polygon_mesh(points_array(points, (which + "_points").c_str()), faces);
-  } catch (const py::type_error& e) {
-    throw py::type_error(renamed(e.what()));
-  } catch (const py::value_error& e) {
-    throw py::value_error(renamed(e.what()));
-  } catch (const std::invalid_argument& e) {
-    throw py::value_error(renamed(e.what()));
-  }
+  const py::array p = points_array(points, (which + "_points").c_str());
+  return with_mesh_prefix(which, [&] { return parse_polygon_mesh(p, faces); });
 }
 
 }  // namespace

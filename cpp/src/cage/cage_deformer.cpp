@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -332,37 +333,35 @@ bool CageDeformer::multiply(const CageBinding& b, T* out) const {
   const ControlColumns cc = control_columns(*this);
   const std::size_t m = b.columns, n = b.size();
   std::atomic<bool> finite{true};
+  // Each chunk's rows, y = W c, by the storage's kernel.
+  std::optional<PaddedControlRows> c4;
   if (b.storage == WeightStorage::Sparse) {
     std::vector<double> control(3 * m);
     for (std::size_t j = 0; j < m; ++j)
       for (int a = 0; a < 3; ++a) control[3 * j + a] = cc.c[a][j];
-    const PaddedControlRows c4(control.data(), m);
-    parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-      constexpr std::size_t kRows = 256;  // rows per kernel call: results stay in the L1 cache
-      double y[3 * kRows];
-      bool ok = true;
-      for (std::size_t lo = begin; lo < end; lo += kRows) {
-        const std::size_t count = std::min(kRows, end - lo);
-        const std::int64_t* indptr = b.sparse.indptr.data() + lo;
-        if (b.single_precision)
-          sparse_rows_product(indptr, b.sparse.indices.data(), b.sparse_values_f32.data(), count, c4.rows(), y);
-        else
-          sparse_rows_product(indptr, b.sparse.indices.data(), b.sparse.values.data(), count, c4.rows(), y);
-        ok = store_rows(y, count, out + 3 * lo) && ok;
-      }
-      if (!ok) finite = false;
-    });
-    return finite;
+    c4.emplace(control.data(), m);
   }
   const double* c[3] = {cc.c[0].data(), cc.c[1].data(), cc.c[2].data()};
+  auto rows = [&](std::size_t lo, std::size_t count, double* y) {
+    if (b.storage == WeightStorage::Sparse) {
+      const std::int64_t* indptr = b.sparse.indptr.data() + lo;
+      if (b.single_precision)
+        sparse_rows_product(indptr, b.sparse.indices.data(), b.sparse_values_f32.data(), count, c4->rows(), y);
+      else
+        sparse_rows_product(indptr, b.sparse.indices.data(), b.sparse.values.data(), count, c4->rows(), y);
+    } else if (b.storage == WeightStorage::Float64) {
+      weight_rows_product(b.weights_f64.data() + lo * m, count, m, c, y);
+    } else {
+      weight_rows_product(b.weights_f32.data() + lo * m, count, m, c, y);
+    }
+  };
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     constexpr std::size_t kRows = 256;  // rows per kernel call: results stay in the L1 cache
     double y[3 * kRows];
     bool ok = true;
     for (std::size_t lo = begin; lo < end; lo += kRows) {
       const std::size_t count = std::min(kRows, end - lo);
-      if (b.storage == WeightStorage::Float64) weight_rows_product(b.weights_f64.data() + lo * m, count, m, c, y);
-      else weight_rows_product(b.weights_f32.data() + lo * m, count, m, c, y);
+      rows(lo, count, y);
       ok = store_rows(y, count, out + 3 * lo) && ok;
     }
     if (!ok) finite = false;

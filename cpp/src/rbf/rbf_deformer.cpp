@@ -16,17 +16,6 @@ namespace deformkit {
 
 namespace {
 
-const char* kernel_label(RbfKernel k) {
-  switch (k) {
-    case RbfKernel::ThinPlateSpline: return "thin_plate_spline";
-    case RbfKernel::Cubic: return "cubic";
-    case RbfKernel::Quintic: return "quintic";
-    case RbfKernel::Linear: return "linear";
-    case RbfKernel::Multiquadric: return "multiquadric";
-    default: return "chosen";
-  }
-}
-
 void require_positive(double v, const char* name) {
   if (!(std::isfinite(v) && v > 0.0))
     throw std::invalid_argument(std::string(name) + ": expected a positive finite number, got " + std::to_string(v));
@@ -39,7 +28,7 @@ void check_options(const RbfOptions& o) {
     throw std::invalid_argument("degree: expected -1 (no polynomial), 0, 1 or 2, got " + std::to_string(o.degree));
   const int least = rbf_minimum_degree(o.kernel.kind);
   if (o.degree < least)
-    throw std::invalid_argument("degree: the " + std::string(kernel_label(o.kernel.kind)) + " kernel needs degree >= " +
+    throw std::invalid_argument("degree: the " + std::string(rbf_kernel_name(o.kernel.kind)) + " kernel needs degree >= " +
                                 std::to_string(least) + ", got " + std::to_string(o.degree) +
                                 " (below it the system can be singular: the kernel is only conditionally "
                                 "positive definite)");

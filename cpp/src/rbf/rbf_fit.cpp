@@ -25,24 +25,6 @@ std::string number(double v) {
   return buf;
 }
 
-const char* kernel_name(RbfKernel k) {
-  switch (k) {
-    case RbfKernel::ThinPlateSpline: return "thin_plate_spline";
-    case RbfKernel::Cubic: return "cubic";
-    case RbfKernel::Quintic: return "quintic";
-    case RbfKernel::Linear: return "linear";
-    case RbfKernel::Gaussian: return "gaussian";
-    case RbfKernel::Multiquadric: return "multiquadric";
-    case RbfKernel::InverseMultiquadric: return "inverse_multiquadric";
-    case RbfKernel::InverseQuadratic: return "inverse_quadratic";
-    case RbfKernel::WendlandC0: return "wendland_c0";
-    case RbfKernel::WendlandC2: return "wendland_c2";
-    case RbfKernel::WendlandC4: return "wendland_c4";
-    case RbfKernel::Clip: return "clip";
-  }
-  return "?";
-}
-
 double kernel_value(const RbfKernelShape& k, double r) {
   double v, s;
   rbf_kernel(k, r, &v, &s);
@@ -104,7 +86,7 @@ std::string span_problem(int degree, Eigen::Index rank, Eigen::Index terms) {
   if (o.kernel.kind == RbfKernel::Gaussian || o.kernel.kind == RbfKernel::Multiquadric ||
       o.kernel.kind == RbfKernel::InverseMultiquadric || o.kernel.kind == RbfKernel::InverseQuadratic)
     hint = "a larger epsilon (a narrower kernel), " + hint;
-  throw std::invalid_argument("control_points: the " + std::string(kernel_name(o.kernel.kind)) +
+  throw std::invalid_argument("control_points: the " + std::string(rbf_kernel_name(o.kernel.kind)) +
                               " RBF system is singular or ill-conditioned (condition estimate " + number(condition) +
                               ", the limit is " + number(kMaxCondition) + "); try " + hint +
                               ", or remove controls that nearly coincide");

@@ -5,6 +5,24 @@
 
 namespace deformkit {
 
+const char* rbf_kernel_name(RbfKernel k) {
+  switch (k) {
+    case RbfKernel::ThinPlateSpline: return "thin_plate_spline";
+    case RbfKernel::Cubic: return "cubic";
+    case RbfKernel::Quintic: return "quintic";
+    case RbfKernel::Linear: return "linear";
+    case RbfKernel::Gaussian: return "gaussian";
+    case RbfKernel::Multiquadric: return "multiquadric";
+    case RbfKernel::InverseMultiquadric: return "inverse_multiquadric";
+    case RbfKernel::InverseQuadratic: return "inverse_quadratic";
+    case RbfKernel::WendlandC0: return "wendland_c0";
+    case RbfKernel::WendlandC2: return "wendland_c2";
+    case RbfKernel::WendlandC4: return "wendland_c4";
+    case RbfKernel::Clip: return "clip";
+  }
+  return "?";
+}
+
 bool rbf_compact(RbfKernel kind) {
   return kind == RbfKernel::WendlandC0 || kind == RbfKernel::WendlandC2 || kind == RbfKernel::WendlandC4 ||
          kind == RbfKernel::Clip;

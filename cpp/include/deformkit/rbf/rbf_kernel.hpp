@@ -26,6 +26,8 @@ struct RbfKernelShape {
   double radius = 1.0;   // the compact kernels' support R: phi = 0 for r >= R
 };
 
+// scipy's name of the kernel ('thin_plate_spline', ...; the compact ones 'wendland_c2', 'clip').
+const char* rbf_kernel_name(RbfKernel kind);
 // Compactly supported: zero at and beyond the radius.
 bool rbf_compact(RbfKernel kind);
 // Positive definite (any distinct points give a positive definite kernel matrix), or else
