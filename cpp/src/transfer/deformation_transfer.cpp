@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -201,8 +202,7 @@ std::vector<int> DeformationTransfer::unmatched_target_triangles() const {
 // coordinate P_t mean(S_j)^T e_c over its partners (the tangential part: Botsch et al. 2006,
 // eq. 6), one least-squares solve.
 void DeformationTransfer::transfer(const double* poses, std::size_t k, double* out, const double* fixed_positions) const {
-  const std::size_t ns = vertex_count(), nt = target_vertex_count(), ts = triangle_count(), tt = target_triangle_count();
-  const std::size_t nf = fixed_vertices_.size();
+  const std::size_t ns = vertex_count(), nt = target_vertex_count(), nf = fixed_vertices_.size();
   for (std::size_t i = 0; i < 3 * ns * k; ++i)
     if (!std::isfinite(poses[i]))
       throw std::invalid_argument("source_pose: pose " + std::to_string(i / (3 * ns)) + ", row " +
@@ -212,6 +212,15 @@ void DeformationTransfer::transfer(const double* poses, std::size_t k, double* o
       if (!std::isfinite(fixed_positions[i]))
         throw std::invalid_argument("fixed_positions: pose " + std::to_string(i / (3 * nf)) + ", row " +
                                     std::to_string((i % (3 * nf)) / 3) + " is not finite");
+  // Four poses (12 columns, the solver's widest block) at a time bound the right-hand side's size.
+  for (std::size_t first = 0; first < k; first += 4)
+    transfer_block(poses + 3 * ns * first, std::min<std::size_t>(4, k - first), out + 3 * nt * first,
+                   fixed_positions ? fixed_positions + 3 * nf * first : nullptr);
+}
+
+void DeformationTransfer::transfer_block(const double* poses, std::size_t k, double* out, const double* fixed_positions) const {
+  const std::size_t ns = vertex_count(), nt = target_vertex_count(), ts = triangle_count(), tt = target_triangle_count();
+  const std::size_t nf = fixed_vertices_.size();
   // S^T per source triangle and pose; a triangle the pose collapses has no frame (its fourth
   // vertex is n / sqrt(0)).
   std::vector<Eigen::Matrix3d> gradient(ts * k);
