@@ -223,6 +223,11 @@ def test_bad_input_is_refused_by_name():
         dt.transfer(s, fixed_positions=[[0, 0, 0], [np.nan, 0, 0]])
     with pytest.raises(TypeError, match="^fixed_positions: expected float32 or float64, got int64"):
         dt.transfer(s, fixed_positions=np.zeros((2, 3), np.int64))
+    lone = np.vstack([t, [[5.0, 5.0, 5.0]]])  # a vertex in no face
+    with pytest.raises(ValueError, match=f"^markers: target vertex {len(t)} is in no face and has no marker or fixed vertex"):
+        dk.DeformationTransfer(s, sf, lone, tf, markers=markers)
+    held = dk.DeformationTransfer(s, sf, lone, tf, markers=markers, fixed_vertices=[len(t)])
+    assert np.array_equal(held.transfer(s)[len(t)], lone[-1])
     flat = t.copy()
     flat[tf[0, 1]] = flat[tf[0, 0]]
     with pytest.raises(ValueError, match="^target_faces: triangle 0 .* has zero area"):

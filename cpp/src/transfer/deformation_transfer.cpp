@@ -32,6 +32,47 @@ std::string zero_area(const char* which, std::size_t j, const int* v) {
          std::to_string(v[1]) + ", " + std::to_string(v[2]) + ") has zero area";
 }
 
+// For each target triangle, its source partners (CSR: offset has t + 1 entries).
+void partners_by_target(const std::vector<int>& pairs, std::size_t target_triangles, std::vector<int>& offset,
+                        std::vector<int>& partner) {
+  offset.assign(target_triangles + 1, 0);
+  for (std::size_t p = 0; p < pairs.size() / 2; ++p) ++offset[std::size_t(pairs[2 * p + 1]) + 1];
+  for (std::size_t j = 0; j < target_triangles; ++j) offset[j + 1] += offset[j];
+  partner.resize(pairs.size() / 2);
+  std::vector<int> next(offset.begin(), offset.end() - 1);
+  for (std::size_t p = 0; p < pairs.size() / 2; ++p) partner[std::size_t(next[std::size_t(pairs[2 * p + 1])]++)] = pairs[2 * p];
+}
+
+// The target's gradient operator, sqrt(area x partners)-weighted: rows 3j..3j+2 give the gradient
+// of a piecewise-linear function on triangle j (hat gradients n x (p_k+2 - p_k+1) / (2 area)).
+// tangent[j]: I - n n^T times sqrt(area / partners), which turns the partners' summed gradients
+// into the weighted mean's rows.
+SparseMatrix weighted_gradient_operator(const std::vector<double>& points, const std::vector<int>& triangles,
+                                        const std::vector<int>& partner_offset, std::vector<Eigen::Matrix3d>& tangent) {
+  const std::size_t t = triangles.size() / 3;
+  tangent.resize(t);
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(9 * t);
+  for (std::size_t j = 0; j < t; ++j) {
+    const int* v = triangles.data() + 3 * j;
+    const Vec3 p[3] = {point(points, v[0]), point(points, v[1]), point(points, v[2])};
+    const Vec3 nn = (p[1] - p[0]).cross(p[2] - p[0]);
+    const double twice_area = nn.norm();
+    if (!(twice_area > 0)) throw std::invalid_argument(zero_area("target_faces", j, v));
+    const double m = std::max(1, partner_offset[j + 1] - partner_offset[j]);
+    const Vec3 unit = nn / twice_area;
+    const double w = std::sqrt(0.5 * twice_area * m);
+    tangent[j] = (w / m) * (Eigen::Matrix3d::Identity() - unit * unit.transpose());
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 g = w * unit.cross(p[(k + 2) % 3] - p[(k + 1) % 3]) / twice_area;
+      for (int c = 0; c < 3; ++c) entries.emplace_back(Eigen::Index(3 * j + c), v[k], g[c]);
+    }
+  }
+  SparseMatrix m(Eigen::Index(3 * t), Eigen::Index(points.size() / 3));
+  m.setFromTriplets(entries.begin(), entries.end());
+  return m;
+}
+
 }  // namespace
 
 DeformationTransfer::DeformationTransfer(const PolygonMesh& source, const std::vector<double>& target_points,
@@ -99,37 +140,8 @@ void DeformationTransfer::build(const PolygonMesh& source, const PolygonMesh& ta
     if (!(s.col(0).cross(s.col(1)).norm() > 0)) throw std::invalid_argument(zero_area("source_faces", j, v));
     frame_inverse_[j] = s.inverse();
   }
-  partner_offset_.assign(tt + 1, 0);
-  for (std::size_t p = 0; p < pairs_.size() / 2; ++p) ++partner_offset_[std::size_t(pairs_[2 * p + 1]) + 1];
-  for (std::size_t j = 0; j < tt; ++j) partner_offset_[j + 1] += partner_offset_[j];
-  partner_.resize(pairs_.size() / 2);
-  {
-    std::vector<int> next(partner_offset_.begin(), partner_offset_.end() - 1);
-    for (std::size_t p = 0; p < pairs_.size() / 2; ++p) partner_[std::size_t(next[std::size_t(pairs_[2 * p + 1])]++)] = pairs_[2 * p];
-  }
-
-  // The target's gradient operator, sqrt(area x partners)-weighted: rows 3j..3j+2 give the gradient
-  // of a piecewise-linear function on triangle j (hat gradients n x (p_k+2 - p_k+1) / (2 area)).
-  tangent_.resize(tt);
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(9 * tt);
-  for (std::size_t j = 0; j < tt; ++j) {
-    const int* v = target_triangles_.data() + 3 * j;
-    const Vec3 p[3] = {point(target_, v[0]), point(target_, v[1]), point(target_, v[2])};
-    const Vec3 nn = (p[1] - p[0]).cross(p[2] - p[0]);
-    const double twice_area = nn.norm();
-    if (!(twice_area > 0)) throw std::invalid_argument(zero_area("target_faces", j, v));
-    const double m = std::max(1, partner_offset_[j + 1] - partner_offset_[j]);
-    const Vec3 unit = nn / twice_area;
-    const double w = std::sqrt(0.5 * twice_area * m);
-    tangent_[j] = (w / m) * (Eigen::Matrix3d::Identity() - unit * unit.transpose());
-    for (int k = 0; k < 3; ++k) {
-      const Vec3 g = w * unit.cross(p[(k + 2) % 3] - p[(k + 1) % 3]) / twice_area;
-      for (int c = 0; c < 3; ++c) entries.emplace_back(Eigen::Index(3 * j + c), v[k], g[c]);
-    }
-  }
-  SparseMatrix m(Eigen::Index(3 * tt), Eigen::Index(nt));
-  m.setFromTriplets(entries.begin(), entries.end());
+  partners_by_target(pairs_, tt, partner_offset_, partner_);
+  const SparseMatrix m = weighted_gradient_operator(target_, target_triangles_, partner_offset_, tangent_);
 
   // Gradients fix a shape up to a translation per connected part: fixed vertices where the part
   // has some, else its first vertex held and the part moved by its reference translation.
@@ -175,10 +187,14 @@ void DeformationTransfer::build(const PolygonMesh& source, const PolygonMesh& ta
     const std::size_t p = std::size_t(part_[i]);
     if (seen[p] || part_fixed_[p]) continue;
     seen[p] = 1;
-    if (by_part[p].empty())
+    if (by_part[p].empty()) {
+      if (std::find(target_triangles_.begin(), target_triangles_.end(), int(i)) == target_triangles_.end())
+        throw std::invalid_argument("markers: target vertex " + std::to_string(i) + " is in no face and has no marker or "
+                                    "fixed vertex, so nothing places it: give it a marker or a fixed position, or remove it");
       throw std::invalid_argument("markers: the target's connected part of vertex " + std::to_string(i) +
                                   " has no marker (or triangle pair) and no fixed vertex, so nothing fixes its "
                                   "translation: give a marker or a fixed vertex in it");
+    }
     fixed[i] = 1;
     anchors_.push_back(int(i));
   }
