@@ -191,8 +191,8 @@ class SurfaceDeformer:
                  method: Literal["arap", "rotation_invariant", "laplacian"] = "arap",
                  weights: Literal["cotangent", "uniform"] = "cotangent", iterations: int = 10,
                  tolerance: float = 0.0, constraint_weight: float | None = None) -> None: ...
-    def deform(self, handle_targets: npt.ArrayLike) -> npt.NDArray[np.float64]:
-        """(n, 3) positions with the handles at handle_targets (len(handles), 3)."""
+    def deform(self, handle_targets: npt.ArrayLike, initial: npt.NDArray[np.floating] | None = None) -> npt.NDArray[np.float64]:
+        """(n, 3) positions with the handles at handle_targets (len(handles), 3); ARAP warm-starts from initial (n, 3)."""
     def __len__(self) -> int: ...
     @property
     def free_count(self) -> int: ...
