@@ -136,4 +136,25 @@ void SimpleDeform::jacobian_impl(const double* in, double* jac, std::size_t n) c
   identity_jacobians(jac, n);
 }
 
+// Rows that are not finite are left to the generic path, which names the argument in its order.
+template <class T>
+bool SimpleDeform::normals_any(const T* points, const T* normals, T* out, std::size_t n) const {
+  if (!all_finite(points, n, 3) || !all_finite(normals, n, 3)) return false;
+  transform_normals(*bind(points, n), points, normals, out, n);
+  return true;
+}
+
+bool SimpleDeform::normals_impl(const double* points, const double* normals, double* out, std::size_t n) const {
+  return normals_any(points, normals, out, n);
+}
+bool SimpleDeform::normals_impl(const float* points, const float* normals, float* out, std::size_t n) const {
+  return normals_any(points, normals, out, n);
+}
+
+bool SimpleDeform::volume_ratio_impl(const double* points, double* out, std::size_t n) const {
+  if (!all_finite(points, n, 3)) return false;
+  volume_ratio(*bind(points, n), points, out, n);
+  return true;
+}
+
 }  // namespace deformkit

@@ -7,6 +7,7 @@
 
 #include "core/scale_free.hpp"
 #include "deformkit/barr/barr_deformer.hpp"
+#include "deformkit/barr/simple_deform.hpp"
 
 #include <gtest/gtest.h>
 
@@ -142,6 +143,34 @@ TEST(BarrDerivatives, NonFiniteRowsAreStillNamed) {
       ADD_FAILURE() << "an infinite point was accepted";
     } catch (const std::invalid_argument& e) {
       EXPECT_EQ(std::string(e.what()).rfind("points: row 6", 0), 0u) << e.what();
+    }
+  }
+}
+
+TEST(BarrDerivatives, SimpleDeformGoesThroughItsBoundOperatorsLanes) {
+  for (const SimpleDeformMode mode : {SimpleDeformMode::Twist, SimpleDeformMode::Bend, SimpleDeformMode::Taper, SimpleDeformMode::Stretch}) {
+    SimpleDeformSettings s;
+    s.mode = mode;
+    s.factor = 0.7;
+    s.deform_axis = 1;
+    s.lock = {true, false, false};
+    s.limit_lo = 0.1;
+    s.limit_hi = 0.8;
+    SimpleDeform d(s);
+    const std::size_t n = 777;
+    const auto pts = random_points(n, -1.5, 1.5, 71), nrm = random_points(n, -1.0, 1.0, 72);
+    std::vector<double> w(n);
+    for (std::size_t i = 0; i < n; ++i) w[i] = double(i % 5) / 4.0;
+    d.set_weights(w);
+    std::vector<double> jac(9 * n), normals(3 * n), det(n);
+    d.jacobian(pts.data(), jac.data(), n);
+    transform_normals(d, pts.data(), nrm.data(), normals.data(), n);
+    volume_ratio(d, pts.data(), det.data(), n);
+    for (std::size_t i = 0; i < n; ++i) {
+      Mat3 j;
+      for (int e = 0; e < 9; ++e) j(e / 3, e % 3) = jac[9 * i + e];
+      ASSERT_LT((at(normals, i) - normal_direction(j, at(nrm, i))).norm(), 1e-13) << int(mode) << " row " << i;
+      ASSERT_NEAR(det[i], scaled_determinant(j), 1e-13) << int(mode) << " row " << i;
     }
   }
 }
