@@ -5,13 +5,16 @@ exactly"); Blender's own Transfer Shape Key on the same meshes (agrees on a tran
 offsets in the wrong direction on a turned one); the source key's own settings; the base mesh and
 undo as Blender keeps them; the stored correspondence's fingerprint; and, for unlike meshes, a
 similarity of the source applied to the target."""
+import json
 import math
+import subprocess
+import sys
 import types
 
 import numpy as np
 import pytest
 
-from addon_helpers import CheckingLayout, positions
+from addon_helpers import IN_BLENDER_BINARY, REPO, CheckingLayout, positions
 
 # A 90-degree turn about z and a shift: Blender's plain offsets stay unturned under it.
 TURN = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
@@ -503,3 +506,126 @@ def test_the_operator_needs_an_active_mesh_in_object_mode(scene):
     with bpy.context.temp_override(object=obj, active_object=obj):
         assert not bpy.ops.deformkit.transfer_deformation.poll()
     bpy.ops.object.mode_set(mode="OBJECT")
+
+
+# ---------------------------------------------------------------------------------------------
+# The batch: a recipe's transfers
+
+not_in_blender = pytest.mark.skipif(IN_BLENDER_BINARY, reason="the batch tests start Blender themselves")
+PAIR_SCRIPT = """
+import sys
+sys.path.insert(0, {tests!r})
+import bpy
+from test_transfer_addon import SHIFT, TURN, make_source, moved_copy
+bpy.ops.wm.read_factory_settings(use_empty=True)
+source = make_source(bpy)
+moved_copy(bpy, source, "Target", TURN, SHIFT)
+bpy.ops.wm.save_as_mainfile(filepath={path!r})
+"""
+
+
+def saved_pair(tmp_path):
+    """A .blend saved by Blender 3.4 (the batch's Blender) holding make_source's "Source" and its
+    turned copy "Target"."""
+    path = tmp_path / "in" / "pair.blend"
+    path.parent.mkdir()
+    script = PAIR_SCRIPT.format(tests=str(REPO / "tests/addon"), path=str(path))
+    proc = subprocess.run(["/usr/bin/blender", "-b", "--factory-startup", "--python-exit-code", "1",
+                           "--python-expr", script], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0 and path.exists(), proc.stdout[-3000:] + proc.stderr[-3000:]
+    return path
+
+
+def run_batch(*args):
+    return subprocess.run([sys.executable, "-m", "deformkit.batch", "--addon", str(REPO / "python_addon"),
+                           "--blender", "/usr/bin/blender", *map(str, args)], capture_output=True, text=True,
+                          timeout=600)
+
+
+@not_in_blender
+def test_a_recipe_transfers_the_keys_into_the_output(scene, tmp_path):
+    import bpy
+    pair = saved_pair(tmp_path)
+    before = pair.read_bytes()
+    recipe = tmp_path / "recipe.json"
+    recipe.write_text(json.dumps({"objects": ["Target"], "transfers": [{"source": "Source", "target": "Target"}],
+                                  "deformers": [{"type": "TWIST", "angle": 0.5, "deform_axis": "Z"}]}))
+    proc = run_batch(pair, tmp_path / "in" / "missing.blend", "--recipe", recipe, "--out", tmp_path / "out")
+    assert proc.returncode == 1, proc.stdout + proc.stderr  # the missing file fails alone
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    row = next(f for f in report["files"] if f["file"].endswith("pair.blend"))
+    assert row["status"] == "ok", row
+    assert row["transfers"][0]["keys"] == ["Push", "Lift", "Twist"] and row["transfers"][0]["direct"]
+    assert pair.read_bytes() == before  # the input untouched
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "out" / "pair.blend"))
+    source, target = bpy.data.objects["Source"], bpy.data.objects["Target"]
+    assert [e.type for e in target.deformkit.entries] == ["TWIST"]  # the deformers still apply after
+    for name in ("Push", "Lift", "Twist"):
+        truth = moved(key_points(source.data.shape_keys.key_blocks[name]), TURN, SHIFT)
+        assert np.abs(key_points(target.data.shape_keys.key_blocks[name]) - truth).max() < 4e-6 * size(truth)
+
+
+@not_in_blender
+def test_a_transfer_naming_a_missing_object_fails_that_file(tmp_path):
+    pair = saved_pair(tmp_path)
+    recipe = tmp_path / "recipe.json"
+    recipe.write_text(json.dumps({"transfers": [{"source": "Nope", "target": "Target"}]}))
+    proc = run_batch(pair, "--recipe", recipe, "--out", tmp_path / "out")
+    assert proc.returncode == 1
+    row = json.loads((tmp_path / "out" / "report.json").read_text())["files"][0]
+    assert row["status"] == "failed" and "transfers[0].source: object 'Nope' not found in the file" in row["error"]
+    assert not (tmp_path / "out" / "pair.blend").exists()
+
+
+def schema():
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("recipe_schema", REPO / "python_addon/recipe_schema.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+BAD_TRANSFERS = [
+    ({"transfers": [{"sorce": "A", "target": "B"}]}, "transfers[0].sorce: not a key here (did you mean 'source'?)"),
+    ({"transfers": [{"source": "A", "target": "B"}, {"source": "A"}]}, "transfers[1].target: missing"),
+    ({"transfers": [{"source": 3, "target": "B"}]}, "transfers[0].source: expected an object name, got int 3"),
+    ({"transfers": [{"source": "A", "target": "B", "mode": "FRAMES"}]},
+     "transfers[0].mode: expected one of SHAPE_KEYS, ANIMATION"),
+    ({"transfers": [{"source": "A", "target": "B", "frame_start": 3}]},
+     'transfers[0].frame_start: only with "mode": "ANIMATION"'),
+    ({"transfers": [{"source": "A", "target": "B", "mode": "ANIMATION", "frame_start": 9, "frame_end": 3}]},
+     "transfers[0].frame_end: 3 is before frame_start 9"),
+    ({"transfers": [{"source": "A", "target": "B", "mode": "ANIMATION", "frame_end": 1.5}]},
+     "transfers[0].frame_end: expected an integer"),
+    ({"transfers": [{"source": "A", "target": "B", "replace": "yes"}]}, "transfers[0].replace: expected true or false"),
+    ({"transfers": [{"source": "A", "target": "B", "marker_prefix": ""}]}, "transfers[0].marker_prefix: expected a non-empty"),
+    ({"transfers": [{"source": "A", "target": "A"}]}, "transfers[0].target: the same object as the source"),
+    ({"transfers": []}, "transfers: expected a non-empty list of tables"),
+    ({"transfers": ["A->B"]}, "transfers[0]: expected a table with a 'source' and a 'target'"),
+    ({}, "deformers: expected a non-empty list of tables, got nothing"),
+]
+
+
+@pytest.mark.parametrize("recipe, message", BAD_TRANSFERS)
+def test_bad_transfer_steps_are_refused_naming_the_key(recipe, message):
+    problems = schema().recipe_problems(recipe)
+    assert any(message in p for p in problems), problems
+
+
+def test_good_transfer_steps_pass():
+    check = schema()
+    assert check.recipe_problems({"transfers": [{"source": "A", "target": "B"}]}) == []
+    assert check.recipe_problems({"transfers": [
+        {"source": "A", "target": "B", "mode": "ANIMATION", "frame_start": -5, "frame_end": 20, "replace": True,
+         "marker_prefix": "mk_"}], "deformers": [{"type": "TWIST"}]}) == []
+    recipe = {"transfers": [{"source": "A", "target": "B"}]}
+    assert check.validate(check.validate(recipe)) == {**recipe, "objects": ["*"]}  # the worker checks it again
+
+
+@not_in_blender
+def test_the_command_line_refuses_a_bad_transfer_before_blender(tmp_path):
+    recipe = tmp_path / "recipe.toml"
+    recipe.write_text('[[transfers]]\nsource = "A"\ntarget = "B"\nmode = "FRAMES"\n')
+    proc = run_batch(tmp_path / "none.blend", "--recipe", recipe, "--out", tmp_path / "out")
+    assert proc.returncode == 2 and "transfers[0].mode: expected one of SHAPE_KEYS, ANIMATION" in proc.stderr
+    assert "Traceback" not in proc.stderr and not (tmp_path / "out").exists()
