@@ -272,9 +272,12 @@ def _fcurves(anim_data):
         return None
     if hasattr(action, "fcurves"):
         return action.fcurves
-    from bpy_extras import anim_utils
-    bag = anim_utils.action_get_channelbag_for_slot(action, anim_data.action_slot)
-    return None if bag is None else bag.fcurves
+    for layer in action.layers:  # as bpy_extras.anim_utils.action_get_channelbag_for_slot
+        for strip in layer.strips:
+            bag = strip.channelbag(anim_data.action_slot)
+            if bag is not None:
+                return bag.fcurves
+    return None
 
 
 def block_path(name):
@@ -329,7 +332,7 @@ def copy_driver(source, target, source_name, target_name):
             id_, path = retargeted(t.id, t.data_path, source, target)
             out.id = id_
             out.data_path = path
-            for attr in ("bone_target", "transform_type", "transform_space", "rotation_mode"):
+            for attr in ("bone_target", "transform_type", "transform_space", "rotation_mode", "context_property"):
                 if hasattr(t, attr):
                     setattr(out, attr, getattr(t, attr))
     for mod in list(copy.modifiers):

@@ -1,7 +1,7 @@
 """Transfer Deformation (issue 17, "In Blender"): shape keys and a baked animation carried onto
 another mesh. Truths: a rigidly moved copy of the source gets every key moved by the same motion
-(deformation transfer of a similarity is that similarity, docs/math/transfer.md, "What transfers
-exactly"); Blender's own Transfer Shape Key on the same meshes (agrees on a translated copy, puts
+(deformation transfer of a similarity is that similarity,
+docs/math/transfer.md, "What transfers exactly"); Blender's own Transfer Shape Key on the same meshes (agrees on a translated copy, puts
 offsets in the wrong direction on a turned one); the source key's own settings; the base mesh and
 undo as Blender keeps them; the stored correspondence's fingerprint; and, for unlike meshes, a
 similarity of the source applied to the target."""
