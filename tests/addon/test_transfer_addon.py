@@ -294,6 +294,26 @@ def test_an_animation_is_baked_one_key_per_frame_and_plays_back(scene):
     np.testing.assert_allclose(evaluated(target), (shown[2] + shown[3]) / 2, atol=4e-6 * size(shown[2]))
 
 
+def test_the_operator_bakes_a_frame_range_and_replaces_on_request(scene):
+    import bpy
+    source = make_source(bpy)
+    target = moved_copy(bpy, source, "Target", TURN, SHIFT)
+    scene.frame_start, scene.frame_end = 3, 5
+    assert run_operator(bpy, source, target, mode="ANIMATION") == {"FINISHED"}  # the scene's range
+    target = bpy.data.objects["Target"]
+    assert [b.name for b in target.data.shape_keys.key_blocks] == ["Basis", "Transfer 0003", "Transfer 0004",
+                                                                   "Transfer 0005"]
+    assert run_operator(bpy, source, target, mode="ANIMATION", use_scene_range=False, frame_start=4,
+                        frame_end=6, replace=True) == {"FINISHED"}
+    target = bpy.data.objects["Target"]
+    assert [b.name for b in target.data.shape_keys.key_blocks] == ["Basis", "Transfer 0003", "Transfer 0004",
+                                                                   "Transfer 0005", "Transfer 0006"]
+    from addon_helpers import evaluated
+    truth = moved(evaluated(source), TURN, SHIFT)  # not animated: every frame is the source's shape-key mix
+    for block in target.data.shape_keys.key_blocks[1:]:
+        assert np.abs(key_points(block) - truth).max() < 4e-6 * size(truth), block.name
+
+
 # ---------------------------------------------------------------------------------------------
 # Bad input: messages, not tracebacks, and the target as it was
 
