@@ -17,6 +17,7 @@ declare -A APT_PINS=(
   [libgtest-dev]=1.12.1
   [blender]=3.4.1
   [libsuitesparse-dev]=5.12.0
+  [libnanoflann-dev]=1.4.3
   [libopenblas0-serial]=0.3.21
   [xvfb]=21.1.7
   [xauth]=1.1.2

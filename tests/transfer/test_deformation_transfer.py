@@ -1,27 +1,11 @@
 """dk.DeformationTransfer (same connectivity) on Sumner's horse: the rest pose transfers to the
 target rest, a source equal to the target reproduces all ten poses, the poses transfer onto another
 horse without folding its triangles, several poses at once equal one at a time, bad input refused."""
-import pathlib
-
 import numpy as np
 import pytest
 
 import deformkit as dk
-
-TRANSFER = pathlib.Path(__file__).resolve().parents[2].parent / "shared" / "transfer"
-
-
-def load(name):
-    if not TRANSFER.is_dir():
-        pytest.skip(f"{TRANSFER} not found: the shared transfer data is not beside this checkout")
-    import trimesh
-    mesh = trimesh.load(TRANSFER / f"{name}.obj", process=False, force="mesh")
-    return np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
-
-
-def normals(points, faces):
-    n = np.cross(points[faces[:, 1]] - points[faces[:, 0]], points[faces[:, 2]] - points[faces[:, 0]])
-    return n / np.linalg.norm(n, axis=1, keepdims=True)
+from transfer_files import frames, load, normals
 
 
 @pytest.fixture(scope="module")
@@ -56,13 +40,6 @@ def test_a_source_equal_to_the_target_reproduces_every_pose(horse):
     assert np.abs(out - poses).max() < 1e-8 * np.abs(rest).max()
 
 
-def frames(points, faces):
-    """Sumner's per-triangle frames: the edges and the normal over the square root of its length."""
-    e1, e2 = points[faces[:, 1]] - points[faces[:, 0]], points[faces[:, 2]] - points[faces[:, 0]]
-    n = np.cross(e1, e2)
-    return np.stack([e1, e2, n / np.sqrt(np.linalg.norm(n, axis=1, keepdims=True))], 2)
-
-
 def test_poses_transfer_onto_another_horse_nearly_without_folds(horse):
     """A folded triangle faces against its target-rest normal turned by its source partner's
     rotation (the polar factor of the source's deformation gradient): an independent truth of
@@ -93,9 +70,9 @@ def test_bad_input_is_refused_by_name():
     quads = np.array([[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6], [4, 5, 8, 7]])
     with pytest.raises(ValueError, match="^target_points: expected 9 points"):
         dk.DeformationTransfer(grid, quads, grid[:5])
-    with pytest.raises(ValueError, match="^target_faces: differ from source_faces; transfer between unlike meshes"):
+    with pytest.raises(ValueError, match="^markers: the meshes differ .target_faces is not source_faces., so the transfer needs"):
         dk.DeformationTransfer(grid, quads, grid, quads[:, ::-1])
-    with pytest.raises(ValueError, match="^markers: only same-connectivity transfer is built yet"):
+    with pytest.raises(ValueError, match="^markers: the meshes share their faces .same connectivity"):
         dk.DeformationTransfer(grid, quads, grid, markers=([0], [0]))
     dt = dk.DeformationTransfer(grid, quads, grid * 2)
     with pytest.raises(ValueError, match=r"^source_pose: expected shape \(9, 3\) or \(k, 9, 3\)"):

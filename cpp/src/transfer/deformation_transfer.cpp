@@ -26,12 +26,17 @@ Eigen::Matrix3d frame(const Vec3& a, const Vec3& b, const Vec3& c) {
   return v;
 }
 
+std::string zero_area(const char* which, std::size_t j, const int* v) {
+  return std::string(which) + ": triangle " + std::to_string(j) + " (vertices " + std::to_string(v[0]) + ", " +
+         std::to_string(v[1]) + ", " + std::to_string(v[2]) + ") has zero area";
+}
+
 }  // namespace
 
-DeformationTransfer::DeformationTransfer(const PolygonMesh& source, const std::vector<double>& target_points)
-    : source_(source.points()), target_(target_points) {
+DeformationTransfer::DeformationTransfer(const PolygonMesh& source, const std::vector<double>& target_points,
+                                         const std::vector<int>& fixed_vertices) {
   const std::size_t n = source.vertex_count();
-  if (target_points.size() != source_.size())
+  if (target_points.size() != source.points().size())
     throw std::invalid_argument("target_points: expected " + std::to_string(n) +
                                 " points (the source's; the faces are shared), got " +
                                 std::to_string(target_points.size() / 3));
@@ -39,88 +44,234 @@ DeformationTransfer::DeformationTransfer(const PolygonMesh& source, const std::v
     if (!std::isfinite(target_points[i]))
       throw std::invalid_argument("target_points: row " + std::to_string(i / 3) + " is not finite");
   const PolygonMesh tri = source.triangulate();
-  triangles_ = tri.corners();
-  const std::size_t t = triangle_count();
-  frame_inverse_.resize(t);
-  tangent_.resize(t);
-  // The target's gradient operator, sqrt(area)-weighted: rows 3j..3j+2 give the gradient of a
-  // piecewise-linear function on triangle j (hat gradients n x (p_k+2 - p_k+1) / (2 area)).
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(9 * t);
-  for (std::size_t j = 0; j < t; ++j) {
-    const int* v = triangles_.data() + 3 * j;
+  const PolygonMesh target(target_points.data(), n, tri.corners().data(), tri.face_count(), 3);
+  TransferPairing pairing;
+  pairing.fixed_vertices = fixed_vertices;
+  for (std::size_t j = 0; j < tri.face_count(); ++j) pairing.pairs.insert(pairing.pairs.end(), {int(j), int(j)});
+  int parts = 0;
+  const std::vector<int> part = connected_components(tri, &parts);
+  std::vector<char> seen(std::size_t(parts), 0);
+  for (std::size_t i = 0; i < n; ++i)
+    if (!seen[std::size_t(part[i])]) {
+      seen[std::size_t(part[i])] = 1;
+      pairing.reference.insert(pairing.reference.end(), {int(i), int(i)});
+    }
+  build(tri, target, pairing);
+}
+
+DeformationTransfer::DeformationTransfer(const PolygonMesh& source, const PolygonMesh& target,
+                                         const TransferPairing& pairing) {
+  build(source.triangulate(), target.triangulate(), pairing);
+}
+
+DeformationTransfer::DeformationTransfer(const PolygonMesh& source, const PolygonMesh& target,
+                                         const std::vector<int>& source_markers, const std::vector<int>& target_markers,
+                                         const std::vector<int>& fixed_vertices, const CorrespondenceOptions& options) {
+  const PolygonMesh s = source.triangulate(), t = target.triangulate();
+  fit_ = triangle_correspondence(s, t, source_markers, target_markers, options);
+  fitted_ = true;
+  TransferPairing pairing;
+  pairing.pairs = std::move(fit_.pairs);
+  fit_.pairs.clear();
+  pairing.fixed_vertices = fixed_vertices;
+  for (std::size_t i = 0; i < source_markers.size(); ++i)
+    pairing.reference.insert(pairing.reference.end(), {source_markers[i], target_markers[i]});
+  build(s, t, pairing);
+}
+
+void DeformationTransfer::build(const PolygonMesh& source, const PolygonMesh& target, const TransferPairing& pairing) {
+  source_ = source.points();
+  target_ = target.points();
+  source_triangles_ = source.corners();
+  target_triangles_ = target.corners();
+  pairs_ = pairing.pairs;
+  const std::size_t ns = vertex_count(), nt = target_vertex_count(), ts = triangle_count(), tt = target_triangle_count();
+  for (std::size_t p = 0; p < pairs_.size() / 2; ++p)
+    if (pairs_[2 * p] < 0 || std::size_t(pairs_[2 * p]) >= ts || pairs_[2 * p + 1] < 0 || std::size_t(pairs_[2 * p + 1]) >= tt)
+      throw std::invalid_argument("correspondence: pair " + std::to_string(p) + " is (" + std::to_string(pairs_[2 * p]) + ", " +
+                                  std::to_string(pairs_[2 * p + 1]) + "); expected a source triangle in 0.." +
+                                  std::to_string(ts - 1) + " and a target triangle in 0.." + std::to_string(tt - 1));
+  frame_inverse_.resize(ts);
+  for (std::size_t j = 0; j < ts; ++j) {
+    const int* v = source_triangles_.data() + 3 * j;
     const Eigen::Matrix3d s = frame(point(source_, v[0]), point(source_, v[1]), point(source_, v[2]));
-    const double s_area = 0.5 * s.col(0).cross(s.col(1)).norm();
+    if (!(s.col(0).cross(s.col(1)).norm() > 0)) throw std::invalid_argument(zero_area("source_faces", j, v));
+    frame_inverse_[j] = s.inverse();
+  }
+  partner_offset_.assign(tt + 1, 0);
+  for (std::size_t p = 0; p < pairs_.size() / 2; ++p) ++partner_offset_[std::size_t(pairs_[2 * p + 1]) + 1];
+  for (std::size_t j = 0; j < tt; ++j) partner_offset_[j + 1] += partner_offset_[j];
+  partner_.resize(pairs_.size() / 2);
+  {
+    std::vector<int> next(partner_offset_.begin(), partner_offset_.end() - 1);
+    for (std::size_t p = 0; p < pairs_.size() / 2; ++p) partner_[std::size_t(next[std::size_t(pairs_[2 * p + 1])]++)] = pairs_[2 * p];
+  }
+
+  // The target's gradient operator, sqrt(area x partners)-weighted: rows 3j..3j+2 give the gradient
+  // of a piecewise-linear function on triangle j (hat gradients n x (p_k+2 - p_k+1) / (2 area)).
+  tangent_.resize(tt);
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(9 * tt);
+  for (std::size_t j = 0; j < tt; ++j) {
+    const int* v = target_triangles_.data() + 3 * j;
     const Vec3 p[3] = {point(target_, v[0]), point(target_, v[1]), point(target_, v[2])};
     const Vec3 nn = (p[1] - p[0]).cross(p[2] - p[0]);
     const double twice_area = nn.norm();
-    if (!(s_area > 0) || !(twice_area > 0))
-      throw std::invalid_argument(std::string(s_area > 0 ? "target_faces" : "source_faces") + ": triangle " +
-                                  std::to_string(j) + " (vertices " + std::to_string(v[0]) + ", " + std::to_string(v[1]) +
-                                  ", " + std::to_string(v[2]) + ") has zero area");
-    frame_inverse_[j] = s.inverse();
+    if (!(twice_area > 0)) throw std::invalid_argument(zero_area("target_faces", j, v));
+    const double m = std::max(1, partner_offset_[j + 1] - partner_offset_[j]);
     const Vec3 unit = nn / twice_area;
-    const double w = std::sqrt(0.5 * twice_area);
-    tangent_[j] = w * (Eigen::Matrix3d::Identity() - unit * unit.transpose());
+    const double w = std::sqrt(0.5 * twice_area * m);
+    tangent_[j] = (w / m) * (Eigen::Matrix3d::Identity() - unit * unit.transpose());
     for (int k = 0; k < 3; ++k) {
       const Vec3 g = w * unit.cross(p[(k + 2) % 3] - p[(k + 1) % 3]) / twice_area;
       for (int c = 0; c < 3; ++c) entries.emplace_back(Eigen::Index(3 * j + c), v[k], g[c]);
     }
   }
-  SparseMatrix m(Eigen::Index(3 * t), Eigen::Index(n));
+  SparseMatrix m(Eigen::Index(3 * tt), Eigen::Index(nt));
   m.setFromTriplets(entries.begin(), entries.end());
-  // Gradients fix a shape up to a translation per connected part: its first vertex is anchored.
+
+  // Gradients fix a shape up to a translation per connected part: fixed vertices where the part
+  // has some, else its first vertex held and the part moved by its reference translation.
+  std::vector<char> fixed(nt, 0);
+  fixed_vertices_ = pairing.fixed_vertices;
+  for (std::size_t f = 0; f < fixed_vertices_.size(); ++f) {
+    const int v = fixed_vertices_[f];
+    if (v < 0 || std::size_t(v) >= nt)
+      throw std::invalid_argument("fixed_vertices: entry " + std::to_string(f) + " is " + std::to_string(v) +
+                                  ", outside the target's vertices 0.." + std::to_string(nt - 1));
+    if (fixed[std::size_t(v)])
+      throw std::invalid_argument("fixed_vertices: vertex " + std::to_string(v) + " is given twice");
+    fixed[std::size_t(v)] = 1;
+  }
   int parts = 0;
-  const std::vector<int> part = connected_components(tri, &parts);
-  std::vector<char> fixed(n, 0), seen(std::size_t(parts), 0);
-  for (std::size_t i = 0; i < n; ++i)
-    if (!seen[std::size_t(part[i])]) {
-      seen[std::size_t(part[i])] = 1;
-      fixed[i] = 1;
-      anchors_.push_back(int(i));
-    }
+  part_ = connected_components(target, &parts);
+  part_fixed_.assign(std::size_t(parts), 0);
+  for (int v : fixed_vertices_) part_fixed_[std::size_t(part_[std::size_t(v)])] = 1;
+  std::vector<std::vector<int>> by_part(part_fixed_.size());
+  const std::vector<int>& reference = pairing.reference;
+  for (std::size_t r = 0; r < reference.size() / 2; ++r) {
+    const int s = reference[2 * r], g = reference[2 * r + 1];
+    if (s < 0 || std::size_t(s) >= ns || g < 0 || std::size_t(g) >= nt)
+      throw std::invalid_argument("markers: pair " + std::to_string(r) + " is (" + std::to_string(s) + ", " + std::to_string(g) +
+                                  "), outside the source's or the target's vertices");
+    by_part[std::size_t(part_[std::size_t(g)])].insert(by_part[std::size_t(part_[std::size_t(g)])].end(), {s, g});
+  }
+  // A part without reference vertices: the corners of its paired triangles (their centroids).
+  std::vector<std::vector<int>> by_pairs(part_fixed_.size());
+  for (std::size_t p = 0; p < pairs_.size() / 2; ++p) {
+    const int* s = source_triangles_.data() + 3 * pairs_[2 * p];
+    const int* g = target_triangles_.data() + 3 * pairs_[2 * p + 1];
+    std::vector<int>& list = by_pairs[std::size_t(part_[std::size_t(g[0])])];
+    for (int c = 0; c < 3; ++c) list.insert(list.end(), {s[c], g[c]});
+  }
+  for (std::size_t p = 0; p < by_part.size(); ++p)
+    if (by_part[p].empty()) by_part[p] = std::move(by_pairs[p]);
+  part_reference_offset_.assign(std::size_t(parts) + 1, 0);
+  reference_.clear();
+  std::vector<char> seen(std::size_t(parts), 0);
+  anchors_.clear();
+  for (std::size_t i = 0; i < nt; ++i) {
+    const std::size_t p = std::size_t(part_[i]);
+    if (seen[p] || part_fixed_[p]) continue;
+    seen[p] = 1;
+    if (by_part[p].empty())
+      throw std::invalid_argument("markers: the target's connected part of vertex " + std::to_string(i) +
+                                  " has no marker (or triangle pair) and no fixed vertex, so nothing fixes its "
+                                  "translation: give a marker or a fixed vertex in it");
+    fixed[i] = 1;
+    anchors_.push_back(int(i));
+  }
+  for (std::size_t p = 0; p < std::size_t(parts); ++p) {
+    if (!part_fixed_[p]) reference_.insert(reference_.end(), by_part[p].begin(), by_part[p].end());
+    part_reference_offset_[p + 1] = int(reference_.size());
+  }
   system_ = ConstrainedQuadratic::least_squares(m, UnknownSplit(fixed), SoftConstraints{});
   if (!system_.factorised())
     throw std::invalid_argument("target_points: the target's gradient system could not be factorised (degenerate geometry)");
 }
 
+std::vector<int> DeformationTransfer::unmatched_target_triangles() const {
+  std::vector<int> out;
+  for (std::size_t j = 0; j + 1 < partner_offset_.size(); ++j)
+    if (partner_offset_[j + 1] == partner_offset_[j]) out.push_back(int(j));
+  return out;
+}
+
 // Per pose: the source's gradients S_j = V'_j V_j^-1, the target's wanted gradients of each
-// coordinate P_j S_j^T e_c (the tangential part: Botsch et al. 2006, eq. 6), one least-squares solve.
-void DeformationTransfer::transfer(const double* poses, std::size_t k, double* out) const {
-  const std::size_t n = vertex_count(), t = triangle_count();
-  for (std::size_t i = 0; i < 3 * n * k; ++i)
+// coordinate P_t mean(S_j)^T e_c over its partners (the tangential part: Botsch et al. 2006,
+// eq. 6), one least-squares solve.
+void DeformationTransfer::transfer(const double* poses, std::size_t k, double* out, const double* fixed_positions) const {
+  const std::size_t ns = vertex_count(), nt = target_vertex_count(), ts = triangle_count(), tt = target_triangle_count();
+  const std::size_t nf = fixed_vertices_.size();
+  for (std::size_t i = 0; i < 3 * ns * k; ++i)
     if (!std::isfinite(poses[i]))
-      throw std::invalid_argument("source_pose: pose " + std::to_string(i / (3 * n)) + ", row " +
-                                  std::to_string((i % (3 * n)) / 3) + " is not finite");
-  Eigen::MatrixXd r(Eigen::Index(3 * t), Eigen::Index(3 * k));
-  parallel_blocks(t, [&](std::size_t begin, std::size_t end) {
+      throw std::invalid_argument("source_pose: pose " + std::to_string(i / (3 * ns)) + ", row " +
+                                  std::to_string((i % (3 * ns)) / 3) + " is not finite");
+  if (fixed_positions)
+    for (std::size_t i = 0; i < 3 * nf * k; ++i)
+      if (!std::isfinite(fixed_positions[i]))
+        throw std::invalid_argument("fixed_positions: pose " + std::to_string(i / (3 * nf)) + ", row " +
+                                    std::to_string((i % (3 * nf)) / 3) + " is not finite");
+  // S^T per source triangle and pose; a triangle the pose collapses has no frame (its fourth
+  // vertex is n / sqrt(0)).
+  std::vector<Eigen::Matrix3d> gradient(ts * k);
+  parallel_blocks(ts, [&](std::size_t begin, std::size_t end) {
     for (std::size_t j = begin; j < end; ++j) {
-      const int* v = triangles_.data() + 3 * j;
+      const int* v = source_triangles_.data() + 3 * j;
       for (std::size_t q = 0; q < k; ++q) {
-        const double* pose = poses + 3 * n * q;
+        const double* pose = poses + 3 * ns * q;
         const Eigen::Matrix3d moved = frame(point(pose, v[0]), point(pose, v[1]), point(pose, v[2]));
-        const Eigen::Matrix3d wanted = tangent_[j] * (moved * frame_inverse_[j]).transpose();
-        r.block<3, 3>(Eigen::Index(3 * j), Eigen::Index(3 * q)) = wanted;
+        gradient[j * k + q] = (moved * frame_inverse_[j]).transpose();
       }
     }
   });
-  // A triangle the pose collapses has no frame (its fourth vertex is n / sqrt(0)).
-  for (std::size_t q = 0; q < k; ++q)
-    for (std::size_t j = 0; j < t; ++j)
-      if (!r.block<3, 3>(Eigen::Index(3 * j), Eigen::Index(3 * q)).allFinite())
-        throw std::invalid_argument("source_pose: pose " + std::to_string(q) + " collapses triangle " + std::to_string(j) +
-                                    " to zero area: it has no deformation gradient");
-  Eigen::MatrixXd fixed(Eigen::Index(anchors_.size()), Eigen::Index(3 * k));
-  for (std::size_t a = 0; a < anchors_.size(); ++a)
+  for (std::size_t p = 0; p < partner_.size(); ++p)
     for (std::size_t q = 0; q < k; ++q)
-      for (int c = 0; c < 3; ++c) {
-        const std::size_t i = std::size_t(anchors_[a]);
-        fixed(Eigen::Index(a), Eigen::Index(3 * q + c)) = target_[3 * i + c] + poses[3 * n * q + 3 * i + c] - source_[3 * i + c];
+      if (!gradient[std::size_t(partner_[p]) * k + q].allFinite())
+        throw std::invalid_argument("source_pose: pose " + std::to_string(q) + " collapses triangle " +
+                                    std::to_string(partner_[p]) + " to zero area: it has no deformation gradient");
+  Eigen::MatrixXd r(Eigen::Index(3 * tt), Eigen::Index(3 * k));
+  parallel_blocks(tt, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t j = begin; j < end; ++j)
+      for (std::size_t q = 0; q < k; ++q) {
+        Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+        for (int p = partner_offset_[j]; p < partner_offset_[j + 1]; ++p) sum += gradient[std::size_t(partner_[std::size_t(p)]) * k + q];
+        if (partner_offset_[j + 1] == partner_offset_[j]) sum.setIdentity();
+        r.block<3, 3>(Eigen::Index(3 * j), Eigen::Index(3 * q)) = tangent_[j] * sum;
       }
-  const Eigen::MatrixXd all = system_.assemble(system_.solve_free(r, fixed, Eigen::MatrixXd()), fixed);
+  });
+  // The held values, in the split's (index) order: fixed vertices as given, anchors at rest.
+  const std::vector<int>& held = system_.split().fixed();
+  std::vector<int> slot(nt, -1);
+  for (std::size_t f = 0; f < nf; ++f) slot[std::size_t(fixed_vertices_[f])] = int(f);
+  Eigen::MatrixXd values(Eigen::Index(held.size()), Eigen::Index(3 * k));
+  for (std::size_t a = 0; a < held.size(); ++a) {
+    const int i = held[a], f = slot[std::size_t(i)];
+    for (std::size_t q = 0; q < k; ++q)
+      for (int c = 0; c < 3; ++c)
+        values(Eigen::Index(a), Eigen::Index(3 * q + c)) =
+            f >= 0 && fixed_positions ? fixed_positions[3 * nf * q + 3 * std::size_t(f) + std::size_t(c)] : target_[3 * std::size_t(i) + std::size_t(c)];
+  }
+  Eigen::MatrixXd all = system_.assemble(system_.solve_free(r, values, Eigen::MatrixXd()), values);
+  // Each part without fixed vertices: its reference targets' mean moves as their sources' does.
+  const std::size_t parts = part_fixed_.size();
+  Eigen::MatrixXd shift = Eigen::MatrixXd::Zero(Eigen::Index(parts), Eigen::Index(3 * k));
+  for (std::size_t p = 0; p < parts; ++p) {
+    const int begin = part_reference_offset_[p], end = part_reference_offset_[p + 1];
+    if (begin == end) continue;
+    for (int e = begin; e < end; e += 2) {
+      const std::size_t s = std::size_t(reference_[std::size_t(e)]), g = std::size_t(reference_[std::size_t(e) + 1]);
+      for (std::size_t q = 0; q < k; ++q)
+        for (std::size_t c = 0; c < 3; ++c)
+          shift(Eigen::Index(p), Eigen::Index(3 * q + c)) +=
+              (poses[3 * ns * q + 3 * s + c] - source_[3 * s + c]) - (all(Eigen::Index(g), Eigen::Index(3 * q + c)) - target_[3 * g + c]);
+    }
+    shift.row(Eigen::Index(p)) /= double(end - begin) / 2.0;
+  }
   for (std::size_t q = 0; q < k; ++q)
-    for (std::size_t i = 0; i < n; ++i)
-      for (int c = 0; c < 3; ++c) out[3 * n * q + 3 * i + c] = all(Eigen::Index(i), Eigen::Index(3 * q + c));
+    for (std::size_t i = 0; i < nt; ++i)
+      for (std::size_t c = 0; c < 3; ++c)
+        out[3 * nt * q + 3 * i + c] = all(Eigen::Index(i), Eigen::Index(3 * q + c)) + shift(part_[i], Eigen::Index(3 * q + c));
 }
 
 }  // namespace deformkit
