@@ -177,7 +177,12 @@ def store_correspondence(target, source, dt, print_):
                      "source_vertices": int(source.topology.vertices), "source_faces": int(source.topology.faces),
                      "pairs": np.ascontiguousarray(dt.correspondence, np.int32).ravel(),
                      "unmatched": np.ascontiguousarray(dt.unmatched_target_triangles, np.int32),
-                     "distance": float(dt.correspondence_distance)}
+                     "distance": mean_distance(dt.correspondence_distance)}
+
+
+def mean_distance(distance):
+    """The correspondence phase's mean distance: dk gives (mean, max)."""
+    return float(np.ravel(distance)[0]) if distance is not None else float("nan")
 
 
 def transfer_system(source_obj, target_obj, marker_prefix=DEFAULT_PREFIX):
@@ -202,9 +207,9 @@ def transfer_system(source_obj, target_obj, marker_prefix=DEFAULT_PREFIX):
     print_ = fingerprint(source, target, markers)
     pairs = stored_correspondence(target_obj, source_obj.name, print_)
     aligned = applied(align, source.rest)
-    if pairs is not None:
+    if pairs is not None:  # the markers too: they fix the translation as on the first run
         dt = _built(lambda: dk.DeformationTransfer(aligned, source.polygons, target.rest, target.polygons,
-                                                   correspondence=pairs))
+                                                   markers=(markers.source, markers.target), correspondence=pairs))
     else:
         dt = _built(lambda: dk.DeformationTransfer(aligned, source.polygons, target.rest, target.polygons,
                                                    markers=(markers.source, markers.target)))

@@ -435,7 +435,7 @@ class RecordingTransfer:
         m = sum(len(f) - 2 for f in target_faces)
         self.correspondence = np.stack([np.arange(m) % 7, np.arange(m)], 1).astype(np.int32)
         self.unmatched_target_triangles = np.array([2, 5], np.int32)
-        self.correspondence_distance = 0.01
+        self.correspondence_distance = (0.01, 0.03) if correspondence is None else None
 
     def transfer(self, poses):
         shift = (np.asarray(poses) - self.source).mean(1)
@@ -456,10 +456,12 @@ def test_the_correspondence_is_stored_reused_and_recomputed_when_stale(scene, mo
     stored = target[transfer.STORE]
     pairs = np.asarray(stored["pairs"])
     assert stored["source"] == "Sphere" and stored["pairs"].typecode == "i"  # int32, compact
+    assert stored["distance"] == pytest.approx(0.01) and list(stored["unmatched"]) == [2, 5]
     second = transfer.transfer_shape_keys(source, target)
     assert second.reused_correspondence
     np.testing.assert_array_equal(RecordingTransfer.calls[-1]["correspondence"].ravel(), pairs)
-    assert RecordingTransfer.calls[-1]["markers"] is None
+    for given, first_given in zip(RecordingTransfer.calls[-1]["markers"], RecordingTransfer.calls[0]["markers"]):
+        np.testing.assert_array_equal(given, first_given)  # they fix the translation as the first time
     moved_vertex = target.data.shape_keys.reference_key.data[0]  # the target's rest edited: stale
     moved_vertex.co.x += 0.05
     third = transfer.transfer_shape_keys(source, target)
@@ -478,9 +480,26 @@ def test_the_correspondence_is_stored_reused_and_recomputed_when_stale(scene, mo
 # ---------------------------------------------------------------------------------------------
 # Unlike meshes, with the module's correspondence
 
-def test_a_similarity_of_the_sphere_transfers_to_the_icosphere(scene):
-    """The source key: the sphere turned 0.5 rad and scaled 1.2; the icosphere's key should be the
-    same similarity of the icosphere, up to the translation the transfer fixes by its anchor."""
+def dome(points):
+    """A smooth, uneven key: the upper half raised by 0.4 z^2 (gradients vary from triangle to
+    triangle, so the correspondence's pairing matters)."""
+    out = np.array(points, np.float64)
+    out[:, 2] += 0.4 * np.maximum(out[:, 2], 0.0) ** 2
+    return out
+
+
+@pytest.mark.parametrize("frame", ["aligned", "turned"])
+def test_a_similarity_of_the_sphere_transfers_to_the_icosphere(scene, frame, capsys):
+    """The source key: the UV sphere turned 0.5 rad and scaled 1.2 about its centre; the icosphere
+    (the same radius, or turned by T in its mesh data and 1.5 times larger) should get the same
+    motion in its own frame, T M T^-1 about its centre. Markers: the vertices nearest the six axis
+    points (on the turned one, the axis points turned alike). A similarity gives every source
+    triangle the same gradient, so it transfers exactly whatever the pairing: measured 1.7e-7 of
+    the size (float32), allowed 1e-5. "Dome" (the upper half raised by up to 0.4) depends on the
+    pairing: measured 0.004 (aligned) and 0.003 (turned) of the size off the same dome on the
+    icosphere, allowed 0.01 (its 320 triangles, edges about 0.3 long, fit the dome's varying
+    gradients piecewise). A second run reuses the stored correspondence and gives the same keys."""
+    import time
     import bpy
     from deformkit_addon import transfer
     require_unlike()
@@ -488,15 +507,34 @@ def test_a_similarity_of_the_sphere_transfers_to_the_icosphere(scene):
     motion = 1.2 * rotation((0, 1, 1), 0.5)
     block = source.data.shape_keys.key_blocks["Turn"]
     block.data.foreach_set("co", (positions(source.data) @ motion.T.astype(np.float32)).ravel())
+    source.shape_key_add(name="Dome", from_mix=False).data.foreach_set(
+        "co", dome(positions(source.data).astype(np.float64)).astype(np.float32).ravel())
     add_markers(source, AXES)
-    add_markers(target, AXES)
-    result = transfer.transfer_shape_keys(source, target)
+    turn = np.eye(3) if frame == "aligned" else 1.5 * rotation((1, -2, 0.5), 2.0)
+    target.data.vertices.foreach_set("co", (positions(target.data) @ turn.T).astype(np.float32).ravel())
+    for name, axis in AXES.items():
+        target.vertex_groups.new(name=name).add([nearest(target, turn @ np.array(axis, float))], 1.0, "REPLACE")
+    t0 = time.perf_counter()
+    first = transfer.transfer_shape_keys(source, target)
+    seconds = time.perf_counter() - t0
+    rest = positions(target.data).astype(np.float64)
+    truth = rest @ (turn @ motion @ np.linalg.inv(turn)).T
     got = key_points(target.data.shape_keys.key_blocks["Turn"]).astype(np.float64)
-    truth = positions(target.data) @ motion.T
-    got -= (got - truth).mean(0)
-    error = np.abs(got - truth).max()
-    print(f"\nsphere -> icosphere: similarity error {error:.3g} (radius 1.2), {result.unmatched} unmatched")
-    assert error < 0.05
+    radius = size(truth)
+    error, shape_error = np.abs(got - truth).max(), np.abs(got - truth - (got - truth).mean(0)).max()
+    dome_truth = dome(rest @ np.linalg.inv(turn).T) @ turn.T
+    dome_error = np.abs(key_points(target.data.shape_keys.key_blocks["Dome"]) - dome_truth).max()
+    t0 = time.perf_counter()
+    again = transfer.transfer_shape_keys(source, target, replace=True)
+    reused_seconds = time.perf_counter() - t0
+    with capsys.disabled():
+        print(f"\nsphere -> icosphere ({frame}): error {error / radius:.3g} of the radius ({shape_error / radius:.3g} "
+              f"without the mean shift), {first.unmatched} of {len(target.data.polygons)} triangles unmatched, "
+              f"distance {first.distance:.3g}; {seconds:.3f} s, reused {reused_seconds:.3f} s; "
+              f"dome {dome_error / radius:.3g} of the radius")
+    assert not first.direct and not first.reused_correspondence and again.reused_correspondence
+    np.testing.assert_allclose(key_points(target.data.shape_keys.key_blocks["Turn"]), got, atol=1e-6 * radius)
+    assert error < 1e-5 * radius and dome_error < 0.01 * radius
 
 
 def test_the_menus_hold_the_operator(scene):
