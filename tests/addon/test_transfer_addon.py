@@ -537,6 +537,100 @@ def test_a_similarity_of_the_sphere_transfers_to_the_icosphere(scene, frame, cap
     assert error < 1e-5 * radius and dome_error < 0.01 * radius
 
 
+SHARED = REPO.parent / "shared" / "transfer"
+
+
+def read_obj(path):
+    """The vertices and triangles of an OBJ file (v and f lines; f's "i//n" corners), float64 and
+    0-based int: Blender 3.4's Python has no trimesh."""
+    points, faces = [], []
+    with open(path) as fh:
+        for line in fh:
+            if line.startswith("v "):
+                points.append([float(x) for x in line.split()[1:4]])
+            elif line.startswith("f "):
+                faces.append([int(c.split("/")[0]) - 1 for c in line.split()[1:]])
+    return np.array(points), np.array(faces)
+
+
+def mesh_object(bpy, name, points, faces):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(points.tolist(), [], faces.tolist())
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def horn_similarity(points, onto):
+    """The best similarity p -> s R p + t, by Horn's unit quaternion (1987, "Closed-form solution
+    of absolute orientation using unit quaternions", section 4): an implementation independent of
+    the add-on's SVD one."""
+    mp, mq = points.mean(0), onto.mean(0)
+    a, b = points - mp, onto - mq
+    m = a.T @ b
+    sxx, sxy, sxz, syx, syy, syz, szx, szy, szz = m.ravel()
+    n = np.array([[sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
+                  [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
+                  [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
+                  [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz]])
+    w, x, y, z = np.linalg.eigh(n)[1][:, -1]
+    r = np.array([[w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                  [2 * (x * y + w * z), w * w - x * x + y * y - z * z, 2 * (y * z - w * x)],
+                  [2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z]])
+    scale = np.trace(r @ m) / (a ** 2).sum()  # the least-squares scale given R
+    return lambda p: scale * (p - mp) @ r.T + mq
+
+
+def test_the_horse_poses_onto_the_camel(scene, capsys):
+    """Sumner's horse -> camel (../shared/transfer): ten horse poses as shape keys, the 107 marker
+    pairs as vertex groups. The camel keys equal the module's own transfer of the poses placed on
+    the camel by the markers' best similarity (computed here by Horn's method); the second run
+    reuses the stored correspondence."""
+    import time
+    import bpy
+    import deformkit as dk
+    from deformkit_addon import transfer
+    require_unlike()
+    if not SHARED.is_dir():
+        pytest.skip(f"{SHARED} not found: the shared transfer data is not beside this checkout")
+    horse_rest, horse_faces = read_obj(SHARED / "horse_ref.obj")
+    camel_rest, camel_faces = read_obj(SHARED / "camel_ref.obj")
+    pairs = np.loadtxt(SHARED / "horse_camel.cons", delimiter=",", skiprows=1, dtype=np.int64)
+    poses = [read_obj(SHARED / f"horse-{i:02d}.obj")[0] for i in range(1, 11)]
+    horse = mesh_object(bpy, "Horse", horse_rest, horse_faces)
+    camel = mesh_object(bpy, "Camel", camel_rest, camel_faces)
+    horse.shape_key_add(name="Basis")
+    for i, pose in enumerate(poses):
+        horse.shape_key_add(name=f"horse-{i + 1:02d}", from_mix=False).data.foreach_set(
+            "co", pose.astype(np.float32).ravel())
+    for k, (h, c) in enumerate(pairs):
+        horse.vertex_groups.new(name=f"dt_{k:03d}").add([int(h)], 1.0, "REPLACE")
+        camel.vertex_groups.new(name=f"dt_{k:03d}").add([int(c)], 1.0, "REPLACE")
+    t0 = time.perf_counter()
+    first = transfer.transfer_shape_keys(horse, camel)
+    seconds = time.perf_counter() - t0
+    # The module on the same float32 points Blender holds.
+    horse32, camel32 = positions(horse.data).astype(np.float64), positions(camel.data).astype(np.float64)
+    place = horn_similarity(horse32[pairs[:, 0]], camel32[pairs[:, 1]])
+    module = dk.DeformationTransfer(place(horse32), horse_faces, camel32, camel_faces,
+                                    markers=(pairs[:, 0], pairs[:, 1]))
+    expected = module.transfer(np.stack([place(p.astype(np.float32).astype(np.float64)) for p in poses]))
+    got = np.stack([key_points(camel.data.shape_keys.key_blocks[f"horse-{i:02d}"]) for i in range(1, 11)])
+    scale = size(camel32)
+    error = np.abs(got - expected).max()
+    t0 = time.perf_counter()
+    again = transfer.transfer_shape_keys(horse, camel, replace=True)
+    reused_seconds = time.perf_counter() - t0
+    with capsys.disabled():
+        print(f"\nhorse -> camel in Blender: {seconds:.2f} s with the correspondence, {reused_seconds:.2f} s reusing it; "
+              f"{first.unmatched} of {len(camel_faces)} camel triangles unmatched; off the module by "
+              f"{error / scale:.2g} of the camel's size")
+    assert first.keys == [f"horse-{i:02d}" for i in range(1, 11)] and not first.reused_correspondence
+    assert again.reused_correspondence and reused_seconds < seconds
+    assert first.unmatched == len(module.unmatched_target_triangles)
+    assert error < 1e-5 * scale  # float32 keys; the two similarity fits agree to rounding
+
+
 def test_the_menus_hold_the_operator(scene):
     """Beside Blender's own Transfer Shape Key, in the shape-key specials, and in the Add menu of
     the deformkit panel."""
