@@ -159,21 +159,21 @@ def fingerprint(source, target, markers):
     return h.hexdigest()
 
 
-def stored_correspondence(target, source_name, print_):
+def stored_correspondence(target, source_name, digest):
     """The (m, 2) int32 pairs stored on the target for this source and fingerprint, else None."""
     stored = target.get(STORE)
-    if stored is None or stored.get("source") != source_name or stored.get("fingerprint") != print_:
+    if stored is None or stored.get("source") != source_name or stored.get("fingerprint") != digest:
         return None
     pairs = np.asarray(stored.get("pairs", ()), np.int32)
     return pairs.reshape(-1, 2) if pairs.size % 2 == 0 and pairs.size else None
 
 
-def store_correspondence(target, source, dt, print_):
+def store_correspondence(target, source, dt, digest):
     """Keep the correspondence on the target as int32 arrays (see entries/common.py store_array:
     the old group goes first)."""
     if STORE in target:
         del target[STORE]
-    target[STORE] = {"source": source.name, "fingerprint": print_,
+    target[STORE] = {"source": source.name, "fingerprint": digest,
                      "source_vertices": int(source.topology.vertices), "source_faces": int(source.topology.faces),
                      "pairs": np.ascontiguousarray(dt.correspondence, np.int32).ravel(),
                      "unmatched": np.ascontiguousarray(dt.unmatched_target_triangles, np.int32),
@@ -185,9 +185,14 @@ def mean_distance(distance):
     return float(np.ravel(distance)[0]) if distance is not None else float("nan")
 
 
+# dt: dk.DeformationTransfer from the aligned source; align: the Similarity placing the source on the
+# target; direct: same connectivity; reused: from a stored correspondence; store(): keeps a newly
+# computed correspondence on the target (None when direct or reused).
+System = namedtuple("System", "dt align direct reused store")
+
+
 def transfer_system(source_obj, target_obj, marker_prefix=DEFAULT_PREFIX):
-    """(dk.DeformationTransfer on the aligned source, the alignment, direct, reused, a function
-    that stores the correspondence on the target (None when direct)). Writes nothing."""
+    """The transfer from source_obj onto target_obj, ready for poses. Writes nothing."""
     if native.dk is None:
         raise EntryError(native.IMPORT_ERROR)
     if source_obj == target_obj:
@@ -197,23 +202,23 @@ def transfer_system(source_obj, target_obj, marker_prefix=DEFAULT_PREFIX):
     if same_connectivity(source, target):
         align = fitted_similarity(source.rest, target.rest)
         dt = _built(lambda: dk.DeformationTransfer(applied(align, source.rest), source.polygons, target.rest))
-        return dt, align, True, False, None
+        return System(dt, align, True, False, None)
     markers = marker_pairs(source_obj, target_obj, marker_prefix)
     marked = source.rest[markers.source]
-    if np.linalg.svd(marked - marked.mean(0), compute_uv=False)[1] <= 1e-9 * max(np.abs(marked).max(), 1.0):
+    spread = np.linalg.svd(marked - marked.mean(0), compute_uv=False)
+    if spread[1] <= 1e-6 * spread[0]:
         raise EntryError(f"the marker vertices on '{source_obj.name}' lie on one line ({', '.join(markers.names)}): "
                          "place at least one off it")
     align = fitted_similarity(marked, target.rest[markers.target])
-    print_ = fingerprint(source, target, markers)
-    pairs = stored_correspondence(target_obj, source_obj.name, print_)
-    aligned = applied(align, source.rest)
-    if pairs is not None:  # the markers too: they fix the translation as on the first run
-        dt = _built(lambda: dk.DeformationTransfer(aligned, source.polygons, target.rest, target.polygons,
-                                                   markers=(markers.source, markers.target), correspondence=pairs))
-    else:
-        dt = _built(lambda: dk.DeformationTransfer(aligned, source.polygons, target.rest, target.polygons,
-                                                   markers=(markers.source, markers.target)))
-    return dt, align, False, pairs is not None, lambda: store_correspondence(target_obj, source, dt, print_)
+    digest = fingerprint(source, target, markers)
+    pairs = stored_correspondence(target_obj, source_obj.name, digest)
+    # With stored pairs the markers still go along: they fix the translation as on the first run.
+    dt = _built(lambda: dk.DeformationTransfer(applied(align, source.rest), source.polygons, target.rest,
+                                               target.polygons, markers=(markers.source, markers.target),
+                                               correspondence=pairs))
+    if pairs is not None:
+        return System(dt, align, False, True, None)
+    return System(dt, align, False, False, lambda: store_correspondence(target_obj, source, dt, digest))
 
 
 def _built(make):
@@ -376,13 +381,13 @@ def transfer_shape_keys(source, target, replace=False, marker_prefix=DEFAULT_PRE
     require_mesh(target, "target")
     key, blocks = source_key_blocks(source)
     total = len(blocks) + 2
-    dt, align, direct, reused, store = transfer_system(source, target, marker_prefix)
+    system = transfer_system(source, target, marker_prefix)
     _report(progress, 1, total)
     count = len(source.data.vertices)
-    poses = np.stack([applied(align, block_points_of(b, count)) for b in blocks])
-    out = transferred(dt, poses, [f"shape key '{b.name}'" for b in blocks], progress, 1, total)
-    if store is not None and not reused:
-        store()
+    poses = np.stack([applied(system.align, block_points_of(b, count)) for b in blocks])
+    out = transferred(system.dt, poses, [f"shape key '{b.name}'" for b in blocks], progress, 1, total)
+    if system.store is not None:
+        system.store()
     ensure_basis(target)
     names = {}
     for block, points in zip(blocks, out):
@@ -400,7 +405,7 @@ def transfer_shape_keys(source, target, replace=False, marker_prefix=DEFAULT_PRE
         copy_driver(source, target, block.name, names[block.name])
     target.data.update()
     _report(progress, total, total)
-    return _result(target, list(names.values()), direct, reused, store is not None, t0)
+    return _result(target, list(names.values()), system, t0)
 
 
 def block_points_of(block, count):
@@ -408,11 +413,12 @@ def block_points_of(block, count):
     return block_points(block, count).astype(np.float64)
 
 
-def _result(target, keys, direct, reused, stored, t0):
-    group = target.get(STORE) if stored else None
+def _result(target, keys, system, t0):
+    """The run's Result; the correspondence's quality as stored on the target (unlike meshes)."""
+    group = None if system.direct else target.get(STORE)
     unmatched = None if group is None else len(group.get("unmatched", ()))
     distance = None if group is None else float(group.get("distance", 0.0))
-    return Result(keys, direct, reused, unmatched, distance, time.perf_counter() - t0)
+    return Result(keys, system.direct, system.reused, unmatched, distance, time.perf_counter() - t0)
 
 
 def evaluated_poses(source, scene, frames, progress=None, total=1):
@@ -468,12 +474,12 @@ def transfer_animation(source, target, frame_start, frame_end, scene=None, repla
         raise EntryError(f"frame_end: {frame_end} is before frame_start {frame_start}")
     frames = list(range(frame_start, frame_end + 1))
     total = 2 * len(frames) + 1
-    dt, align, direct, reused, store = transfer_system(source, target, marker_prefix)
-    poses = applied(align, evaluated_poses(source, scene, frames, progress, total).reshape(-1, 3)).reshape(
+    system = transfer_system(source, target, marker_prefix)
+    poses = applied(system.align, evaluated_poses(source, scene, frames, progress, total).reshape(-1, 3)).reshape(
         len(frames), -1, 3)
-    out = transferred(dt, poses, [f"frame {f}" for f in frames], progress, len(frames), total)
-    if store is not None and not reused:
-        store()
+    out = transferred(system.dt, poses, [f"frame {f}" for f in frames], progress, len(frames), total)
+    if system.store is not None:
+        system.store()
     ensure_basis(target)
     names = []
     for frame, points in zip(frames, out):
@@ -484,7 +490,7 @@ def transfer_animation(source, target, frame_start, frame_end, scene=None, repla
         names.append(block.name)
     target.data.update()
     _report(progress, total, total)
-    return _result(target, names, direct, reused, store is not None, t0)
+    return _result(target, names, system, t0)
 
 
 MODES = [("SHAPE_KEYS", "Shape Keys", "Each shape key of the source (its points) becomes a shape key of the target"),

@@ -388,6 +388,8 @@ def test_bad_input_is_a_message_and_changes_nothing(scene):
     assert "needs at least 3 marker pairs" in message and "found 2 (dt_px, dt_py)" in message
     add_markers(target, ("dt_pz",))
     assert "marker vertex group 'dt_pz' of 'Ico' is missing on 'Sphere'" in report_of(bpy, source, target)
+    source.vertex_groups.new(name="dt_pz").add([nearest(source, AXES["dt_py"])], 1.0, "REPLACE")  # on dt_py's
+    assert "the marker vertices on 'Sphere' lie on one line (dt_px, dt_py, dt_pz)" in report_of(bpy, source, target)
     assert untouched(bpy, "Ico", before)
 
 
