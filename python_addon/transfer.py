@@ -34,7 +34,7 @@ MIN_MARKERS = 3
 CHUNK = 32  # poses per dk.DeformationTransfer.transfer call: (k, n, 3) float64 arrays stay bounded
 FRAME_KEY = "Transfer {:04d}"
 
-MeshData = namedtuple("MeshData", "name rest polygons topology")  # rest: float64 (n, 3), object space
+MeshData = namedtuple("MeshData", "rest polygons topology")  # rest: float64 (n, 3), object space
 Markers = namedtuple("Markers", "names source target")  # group names, source and target vertex indices
 Similarity = namedtuple("Similarity", "scale rotation translation")
 # keys: the target's shape-key names written, in source order; direct: same connectivity;
@@ -72,7 +72,7 @@ def rest_points(obj):
 
 def mesh_data(obj):
     topo = meshdata.topology(obj.data)
-    return MeshData(obj.name, rest_points(obj), meshdata.polygons(topo), topo)
+    return MeshData(rest_points(obj), meshdata.polygons(topo), topo)
 
 
 def ordered_corners(topo):
@@ -197,6 +197,10 @@ def transfer_system(source_obj, target_obj, marker_prefix=DEFAULT_PREFIX):
         raise EntryError(native.IMPORT_ERROR)
     if source_obj == target_obj:
         raise EntryError(f"the source and the target are one object, '{source_obj.name}': pick two meshes")
+    if source_obj.data == target_obj.data:  # linked duplicates: the keys would land on the source too
+        raise EntryError(f"'{source_obj.name}' and '{target_obj.name}' share one mesh ('{source_obj.data.name}'), "
+                         "so they share their shape keys: give the target its own mesh (Object > Relations > "
+                         "Make Single User)")
     source, target = mesh_data(source_obj), mesh_data(target_obj)
     dk = native.dk
     if same_connectivity(source, target):
@@ -266,8 +270,8 @@ def output_block(target, name, replace):
     key = target.data.shape_keys
     existing = key.key_blocks.get(name)
     if existing is not None and replace and existing != key.reference_key:
-        return existing, True
-    return target.shape_key_add(name=name, from_mix=False), False
+        return existing
+    return target.shape_key_add(name=name, from_mix=False)
 
 
 def write_points(block, points):
@@ -391,7 +395,7 @@ def transfer_shape_keys(source, target, replace=False, marker_prefix=DEFAULT_PRE
     ensure_basis(target)
     names = {}
     for block, points in zip(blocks, out):
-        written, _replaced = output_block(target, block.name, replace)
+        written = output_block(target, block.name, replace)
         write_points(written, points)
         copy_key_settings(block, written, target)
         names[block.name] = written.name
@@ -483,7 +487,7 @@ def transfer_animation(source, target, frame_start, frame_end, scene=None, repla
     ensure_basis(target)
     names = []
     for frame, points in zip(frames, out):
-        block, _replaced = output_block(target, FRAME_KEY.format(frame), replace)
+        block = output_block(target, FRAME_KEY.format(frame), replace)
         write_points(block, points)
         block.relative_key = target.data.shape_keys.reference_key
         keyed_to_its_frame(target, block, frame)

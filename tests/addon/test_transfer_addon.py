@@ -376,6 +376,10 @@ def test_bad_input_is_a_message_and_changes_nothing(scene):
     bpy.context.scene.collection.objects.link(bare)
     bare.data.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
     assert "the source 'Bare' has no shape keys to transfer" in report_of(bpy, bare, target)
+    linked = bpy.data.objects.new("Linked", source.data)
+    bpy.context.scene.collection.objects.link(linked)
+    assert "'Sphere' and 'Linked' share one mesh" in report_of(bpy, source, linked)
+    assert len(source.data.shape_keys.key_blocks) == 2
     message = report_of(bpy, source, target)  # unlike meshes, no markers
     assert "needs at least 3 marker pairs" in message and "found 0" in message and "'dt_'" in message
     add_markers(source, ("dt_px", "dt_py"))
