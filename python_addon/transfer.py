@@ -168,12 +168,12 @@ def stored_correspondence(target, source_name, digest):
     return pairs.reshape(-1, 2) if pairs.size % 2 == 0 and pairs.size else None
 
 
-def store_correspondence(target, source, dt, digest):
+def store_correspondence(target, source_name, source, dt, digest):
     """Keep the correspondence on the target as int32 arrays (see entries/common.py store_array:
     the old group goes first)."""
     if STORE in target:
         del target[STORE]
-    target[STORE] = {"source": source.name, "fingerprint": digest,
+    target[STORE] = {"source": source_name, "fingerprint": digest,
                      "source_vertices": int(source.topology.vertices), "source_faces": int(source.topology.faces),
                      "pairs": np.ascontiguousarray(dt.correspondence, np.int32).ravel(),
                      "unmatched": np.ascontiguousarray(dt.unmatched_target_triangles, np.int32),
@@ -222,7 +222,7 @@ def transfer_system(source_obj, target_obj, marker_prefix=DEFAULT_PREFIX):
                                                correspondence=pairs))
     if pairs is not None:
         return System(dt, align, False, True, None)
-    return System(dt, align, False, False, lambda: store_correspondence(target_obj, source, dt, digest))
+    return System(dt, align, False, False, lambda: store_correspondence(target_obj, source_obj.name, source, dt, digest))
 
 
 def _built(make):
