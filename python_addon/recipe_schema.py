@@ -3,7 +3,8 @@
 The accepted values of each entry parameter come from the add-on's own property definitions: this
 module reads DEFORMKIT_PG_entry in properties.py (its source, so the launcher needs no Blender) and
 takes each property's kind, hard min/max, vector size and enum identifiers from there. Only which
-parameters each entry type uses is written here. A value Blender would clamp, round to zero or
+parameters each entry type uses is written here, and the keys of a transfer step (TRANSFER_KEYS:
+the arguments of transfer.py's functions, which have no entry property). A value Blender would clamp, round to zero or
 reinterpret is refused, with the key path (`deformers[2].limits`) and what the key accepts.
 """
 import ast
