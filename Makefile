@@ -17,7 +17,7 @@ FIXTURES := blend_fixtures/.fixtures-made
 # the outputs, report.json and a before/after PNG per file in demo_out/batch; the saved lattice and
 # Laplacian (ARAP) entries re-evaluated; the core library on a real mesh (OBJ + PNG in
 # demo_out/core); and a twisted cage subdivided with OpenSubdiv and checked for smoothness
-# (demo_out/subdivision).
+# (demo_out/subdivision); Sumner's horse poses transferred onto the camel (demo_out/transfer).
 demo: build $(FIXTURES)
 	scripts/deformkit-batch 'blend_fixtures/*.blend' --recipe blend_fixtures/demo_recipe.json \
 	    --out demo_out/batch --jobs $(JOBS) --preview
@@ -25,6 +25,7 @@ demo: build $(FIXTURES)
 	scripts/deformkit-batch blend_fixtures/laplacian_arm.blend --evaluate-saved --out demo_out/laplacian --preview
 	$(PY) scripts/demo.py --out demo_out/core
 	$(PY) scripts/demo_subdivision.py --out demo_out/subdivision
+	$(PY) scripts/demo_transfer.py --out demo_out/transfer
 
 $(FIXTURES): blend_fixtures/make_fixtures.py $(VENV)/.deformkit-installed
 	@mkdir -p build

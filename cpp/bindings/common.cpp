@@ -341,8 +341,17 @@ py::array py_normals(const Deformer& d, const py::object& points, const py::obje
   if (nrm.shape(0) != pts.shape(0))
     throw py::value_error("normals: has " + std::to_string(nrm.shape(0)) + " rows but points has " +
                           std::to_string(pts.shape(0)));
-  const auto p = as_double(pts), q = as_double(nrm, "normals");
   const auto n = static_cast<std::size_t>(pts.shape(0));
+  if (is_float32(pts) && is_float32(nrm)) {  // a viewport's normals: computed in float where the deformer can
+    const auto p = c_array<float>(pts, "points"), q = c_array<float>(nrm, "normals");
+    auto out = new_array<float>({pts.shape(0), py::ssize_t(3)}, "the normals");
+    const float *in = p.data(), *nin = q.data();
+    float* dst = out.mutable_data();
+    without_gil("the Jacobians behind the normals (" + working_size(n, 72.0) + ")",
+                [&] { transform_normals(d, in, nin, dst, n); });
+    return std::move(out);
+  }
+  const auto p = as_double(pts), q = as_double(nrm, "normals");
   auto out = new_array<double>({pts.shape(0), py::ssize_t(3)}, "the normals");
   const double *in = p.data(), *nin = q.data();
   double* dst = out.mutable_data();

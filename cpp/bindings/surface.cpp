@@ -4,6 +4,7 @@
 #include "deformkit/surface/surface_deformer.hpp"
 
 #include <memory>
+#include <optional>
 
 namespace deformkit_py {
 
@@ -92,7 +93,7 @@ so that they are met only approximately, more closely as w grows.)")
            "points"_a, "faces"_a, py::kw_only(), "anchors"_a = py::tuple(), "handles"_a = py::tuple(),
            "roi"_a = py::none(), "method"_a = "arap", "weights"_a = "cotangent", "iterations"_a = 10,
            "tolerance"_a = 0.0, "constraint_weight"_a = py::none())
-      .def("deform", [](SurfaceDeformer& d, const py::object& targets) {
+      .def("deform", [](SurfaceDeformer& d, const py::object& targets, const py::object& initial) {
         const auto k = py::ssize_t(d.handle_count());
         py::array t = py::array::ensure(targets);
         if (!t || t.ndim() != 2 || t.shape(0) != k || t.shape(1) != 3)
@@ -101,15 +102,24 @@ so that they are met only approximately, more closely as w grows.)")
         if (t.dtype().kind() != 'f' && t.dtype().kind() != 'i' && t.dtype().kind() != 'u')
           throw py::type_error("handle_targets: expected real numbers");
         const auto td = as_double(t, "handle_targets");
-        std::vector<double> out;
-        {
-          py::gil_scoped_release release;
-          out = d.deform(td.data());
+        std::optional<py::array_t<double, py::array::c_style>> guess;
+        if (!initial.is_none()) {
+          const py::array g = points_array(initial, "initial");
+          if (g.ndim() != 2 || g.shape(0) != py::ssize_t(d.vertex_count()))
+            throw py::value_error("initial: expected shape (" + std::to_string(d.vertex_count()) +
+                                  ", 3), a position per vertex (e.g. the previous deform's result), got " + shape_of(g));
+          guess = as_double(g, "initial");
         }
+        const double* gp = guess ? guess->data() : nullptr;
+        std::vector<double> out;
+        without_gil("the deformed points", [&] { out = d.deform(td.data(), gp); });
         auto result = new_array<double>({py::ssize_t(d.vertex_count()), py::ssize_t(3)}, "the deformed points");
         std::copy(out.begin(), out.end(), result.mutable_data());
         return result;
-      }, "handle_targets"_a, "Deformed points (n, 3) with the handles at handle_targets (len(handles), 3).")
+      }, "handle_targets"_a, "initial"_a = py::none(),
+         "Deformed points (n, 3) with the handles at handle_targets (len(handles), 3). initial (n, 3): "
+         "ARAP starts from the rotations fitting these positions (e.g. the previous result) instead of "
+         "R = I, converging in fewer iterations for a small handle move; the linear methods ignore it.")
       .def("__len__", &SurfaceDeformer::vertex_count)
       .def_property_readonly("free_count", &SurfaceDeformer::free_count)
       .def_property_readonly("warnings", &SurfaceDeformer::warnings)

@@ -39,7 +39,7 @@ std::vector<int> index_pairs(const py::object& obj, const char* name, const char
   }
   const auto v = parse_index_array(pairs, name, what, [&](const py::array& a) {
     if (a.ndim() != 2 || a.shape(1) != 2)
-      throw py::value_error(std::string(name) + ": expected " + what + ", got " + shape_of(a));
+      throw py::value_error(std::string(name) + ": expected " + what + ", got shape " + shape_of(a));
   });
   std::vector<int> out(v.size());
   for (std::size_t i = 0; i < v.size(); ++i) {
@@ -53,7 +53,7 @@ std::vector<int> index_pairs(const py::object& obj, const char* name, const char
 
 std::vector<int> vertex_list(const py::object& obj, const char* name) {
   const auto v = parse_index_array(obj, name, "a sequence of target vertex indices", [&](const py::array& a) {
-    if (a.ndim() != 1) throw py::value_error(std::string(name) + ": expected a 1-d sequence of target vertex indices, got " + shape_of(a));
+    if (a.ndim() != 1) throw py::value_error(std::string(name) + ": expected a 1-d sequence of target vertex indices, got shape " + shape_of(a));
   });
   std::vector<int> out(v.size());
   for (std::size_t i = 0; i < v.size(); ++i) {
@@ -93,7 +93,8 @@ target_faces the target at rest. Polygons are fanned into triangles from their f
 
 - Same connectivity (target_faces None or equal to source_faces): vertex i of one is vertex i of
   the other, triangle j pairs with triangle j.
-- Unlike meshes: markers=(source_vertices, target_vertices) (or an (m, 2) array) runs Sumner's
+- Unlike meshes: markers=(source_vertices, target_vertices) (a tuple or list of two sequences;
+  an (m, 2) numpy array is read as m pairs) runs Sumner's
   correspondence phase: the source deformed towards the target under the markers, then triangles
   paired by close centroids and agreeing normals, from both sides. correspondence=pairs (an
   (m, 2) array of (source triangle, target triangle), e.g. an earlier .correspondence) skips it.
@@ -186,7 +187,7 @@ triangles' centroids) as the source's partners do.)")
                if (!ok)
                  throw py::value_error("fixed_positions: expected shape " +
                                        (one ? "(" + std::to_string(f) + ", 3)" : "(" + std::to_string(k) + ", " + std::to_string(f) + ", 3)") +
-                                       ", one row per fixed vertex" + (one ? "" : " for each pose") + ", got " + shape_of(*fp));
+                                       ", one row per fixed vertex" + (one ? "" : " for each pose") + ", got shape " + shape_of(*fp));
              }
              py::array_t<double> out = one ? new_array<double>({nt, 3}, "the transferred pose")
                                            : new_array<double>({py::ssize_t(k), nt, 3}, "the transferred poses");

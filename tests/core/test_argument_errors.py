@@ -66,6 +66,8 @@ ENTRY_POINTS = {
     "RBF.bind": (lambda *a, **k: rbf().bind(*a, **k), "bind", (PTS,), {}),
     "RBF.deform_bound": (lambda *a, **k: rbf().deform_bound(*a, **k), "deform_bound", (rbf().bind(PTS),), {}),
     "DeformationTransfer": (dk.DeformationTransfer, "__init__", (GRID, QUADS, GRID * 1.5), {}),
+    "DeformationTransfer.unlike": (dk.DeformationTransfer, "__init__", (GRID, QUADS, CUBE, CUBE_FACES),
+                                   {"markers": ([0], [7]), "fixed_vertices": [1]}),
     "DeformationTransfer.transfer": (lambda *a, **k: dk.DeformationTransfer(GRID, QUADS, GRID).transfer(*a, **k),
                                      "transfer", (GRID,), {}),
     "SurfaceDeformer": (dk.SurfaceDeformer, "__init__", (GRID, QUADS), {"anchors": [0, 1, 2], "handles": [8]}),

@@ -2,6 +2,7 @@
 
 #include "barr/barr_kernels.hpp"
 #include "core/parallel.hpp"
+#include "core/scale_free.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -146,12 +147,16 @@ static bool fits_float(const BarrKernelParams& p) {
   return true;
 }
 
+// Linear laws only (a spline profile has no SIMD form), and for float32 coefficients that fit.
+bool BarrDeformer::simd_eligible(bool single) const {
+  return op_.profile.is_linear() && !op_.is_identity_bend() && (!single || fits_float(kernel_params(op_, placement_)));
+}
+
 template <class T>
 bool BarrDeformer::deform_any(const T* in, T* out, std::size_t n) const {
   std::atomic<bool> finite{true};
   const BarrKernelParams params = kernel_params(op_, placement_);
-  const bool simd = op_.profile.is_linear() && !op_.is_identity_bend() &&
-                    (sizeof(T) == sizeof(double) || fits_float(params));
+  const bool simd = simd_eligible(sizeof(T) == sizeof(float));
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     bool ok = true;
     if (simd) {
@@ -176,18 +181,95 @@ bool BarrDeformer::deform_any(const T* in, T* out, std::size_t n) const {
 bool BarrDeformer::deform_impl(const float* in, float* out, std::size_t n) const { return deform_any(in, out, n); }
 bool BarrDeformer::deform_impl(const double* in, double* out, std::size_t n) const { return deform_any(in, out, n); }
 
+// One point's Jacobian through the scalar formulas: I + B (J_canon - I) M, the identity itself at
+// rest, where B M is only close to it.
+static void scalar_jacobian(const BarrOp& op, const Placement& placement, const double* in, double* jac) {
+  Vec3 offset;
+  Mat3 jc;
+  barr_offset_with_jacobian(op, placement.canonical(Vec3(in[0], in[1], in[2])), offset, jc);
+  const Mat3 j = Mat3::Identity() + placement.to_object * (jc - Mat3::Identity()) * placement.to_canonical;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) jac[3 * r + c] = j(r, c);
+}
+
 void BarrDeformer::jacobian_impl(const double* in, double* jac, std::size_t n) const {
+  const BarrKernelParams params = kernel_params(op_, placement_);
+  const bool simd = simd_eligible(false);
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    // A block the lanes cannot finish (a non-finite row) goes through the scalar formulas, whose
+    // results the caller checks.
+    if (simd && barr_jacobian_kernel(params, nullptr, in + 3 * begin, jac + 9 * begin, end - begin)) return;
+    for (std::size_t i = begin; i < end; ++i) scalar_jacobian(op_, placement_, in + 3 * i, jac + 9 * i);
+  });
+}
+
+// A row the lanes left to the scalar path: J blended by its weight, as Deformer::jacobian does.
+static Mat3 scalar_blended_jacobian(const BarrOp& op, const Placement& placement, const std::vector<double>& w,
+                                    const Vec3& p, std::size_t i) {
+  double j[9];
+  scalar_jacobian(op, placement, p.data(), j);
+  Mat3 m;
+  for (int e = 0; e < 9; ++e) m(e / 3, e % 3) = j[e];
+  return w.empty() ? m : Mat3((1.0 - w[i]) * Mat3::Identity() + w[i] * m);
+}
+
+template <class T>
+bool BarrDeformer::normals_any(const T* points, const T* normals, T* out, std::size_t n) const {
+  if (!simd_eligible(sizeof(T) == sizeof(float))) return false;
+  const BarrKernelParams params = kernel_params(op_, placement_);
+  const std::vector<double>& w = weights();
+  std::atomic<bool> ok{true};
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    std::vector<unsigned char> flags(end - begin, 0);
+    if (!ok || barr_normals_kernel(params, w.empty() ? nullptr : w.data() + begin, points + 3 * begin, normals + 3 * begin,
+                                   out + 3 * begin, flags.data(), end - begin))
+      return;
     for (std::size_t i = begin; i < end; ++i) {
-      Vec3 offset;
-      Mat3 jc;
-      barr_offset_with_jacobian(op_, placement_.canonical(Vec3(in[3 * i], in[3 * i + 1], in[3 * i + 2])), offset, jc);
-      // I + B (J_canon - I) M: the identity itself at rest, where B M is only close to it.
-      const Mat3 j = Mat3::Identity() + placement_.to_object * (jc - Mat3::Identity()) * placement_.to_canonical;
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) jac[9 * i + 3 * r + c] = j(r, c);
+      if (!flags[i - begin]) continue;
+      const Vec3 p(points[3 * i], points[3 * i + 1], points[3 * i + 2]), q(normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]);
+      if (!p.allFinite() || !q.allFinite()) {
+        ok = false;  // the generic path names the argument
+        return;
+      }
+      const Vec3 m = normal_direction(scalar_blended_jacobian(op_, placement_, w, p, i), q);
+      if (!m.allFinite()) {
+        ok = false;
+        return;
+      }
+      for (int a = 0; a < 3; ++a) out[3 * i + a] = static_cast<T>(m[a]);
     }
   });
+  return ok;
+}
+
+bool BarrDeformer::normals_impl(const double* points, const double* normals, double* out, std::size_t n) const {
+  return normals_any(points, normals, out, n);
+}
+bool BarrDeformer::normals_impl(const float* points, const float* normals, float* out, std::size_t n) const {
+  return normals_any(points, normals, out, n);
+}
+
+bool BarrDeformer::volume_ratio_impl(const double* points, double* out, std::size_t n) const {
+  if (!simd_eligible(false)) return false;
+  const BarrKernelParams params = kernel_params(op_, placement_);
+  const std::vector<double>& w = weights();
+  std::atomic<bool> ok{true};
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    std::vector<unsigned char> flags(end - begin, 0);
+    if (!ok || barr_determinant_kernel(params, w.empty() ? nullptr : w.data() + begin, points + 3 * begin, out + begin,
+                                       flags.data(), end - begin))
+      return;
+    for (std::size_t i = begin; i < end; ++i) {
+      if (!flags[i - begin]) continue;
+      const Vec3 p(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
+      if (!p.allFinite()) {
+        ok = false;
+        return;
+      }
+      out[i] = scaled_determinant(scalar_blended_jacobian(op_, placement_, w, p, i));
+    }
+  });
+  return ok;
 }
 
 static BarrOp twist_op(BarrKind kind, const Profile& profile) {

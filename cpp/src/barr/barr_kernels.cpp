@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "barr/barr_kernels.cpp"
@@ -133,6 +134,232 @@ HWY_INLINE bool Dispatch(const BarrKernelParams& p, const T* in, T* out, size_t 
   }
 }
 
+// The canonical Jacobian's entries that differ from the identity, e[r][c] = Jc - I, per lane
+// (barr_offset_with_jacobian's, term by term), for the derivative paths.
+template <int kKind, class D, class V>
+HWY_INLINE void CanonicalJacobianMinusI(D d, const BarrKernelParams& p, V x, V y, V z, V e[3][3]) {
+  using T = hn::TFromD<D>;
+  auto set = [&](double v) { return hn::Set(d, static_cast<T>(v)); };
+  const V zero = hn::Zero(d), one = set(1.0), two = set(2.0), minus_two = set(-2.0), half = set(0.5);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) e[r][c] = zero;
+  const V lo = set(p.lo), hi = set(p.hi);
+  if (kKind == 3) {  // bend: [1 0 0; 0 C a -S; 0 S a C], a = 1 - k z inside the region
+    const V yc = hn::Min(hn::Max(y, lo), hi);
+    const auto inside = hn::And(hn::Ge(y, lo), hn::Le(y, hi));
+    V h, c2;
+    SinCos(d, hn::Mul(set(0.5 * p.k), hn::Sub(yc, set(p.center))), h, c2);
+    const V s = hn::Mul(two, hn::Mul(h, c2));
+    const V cm1 = hn::Mul(minus_two, hn::Mul(h, h));
+    const V a = hn::IfThenElse(inside, hn::NegMulAdd(set(p.k), z, one), one);
+    e[1][1] = hn::MulAdd(cm1, a, hn::Sub(a, one));  // C a - 1 = (C - 1) a + (a - 1)
+    e[1][2] = hn::Neg(s);
+    e[2][1] = hn::Mul(s, a);
+    e[2][2] = cm1;
+    return;
+  }
+  const V ux = set(p.unlocked[0]), uy = set(p.unlocked[1]);
+  const V qx = hn::Mul(ux, x), qy = hn::Mul(uy, y);
+  const V zc = hn::Min(hn::Max(z, lo), hi);
+  const auto inside = hn::And(hn::Ge(z, lo), hn::Le(z, hi));
+  if (kKind == 0) {  // twist
+    V h, c2;
+    SinCos(d, hn::Mul(half, hn::MulAdd(set(p.slope), zc, set(p.offset))), h, c2);
+    const V s = hn::Mul(two, hn::Mul(h, c2));
+    const V cm1 = hn::Mul(minus_two, hn::Mul(h, h));
+    const V cs = hn::Add(one, cm1);
+    const V dtheta = hn::IfThenElse(inside, set(p.slope), zero);
+    e[0][0] = hn::Mul(ux, cm1);
+    e[0][1] = hn::Neg(hn::Mul(uy, s));
+    e[0][2] = hn::Mul(hn::Neg(hn::MulAdd(qx, s, hn::Mul(qy, cs))), dtheta);
+    e[1][0] = hn::Mul(ux, s);
+    e[1][1] = hn::Mul(uy, cm1);
+    e[1][2] = hn::Mul(hn::MulSub(qx, cs, hn::Mul(qy, s)), dtheta);
+  } else if (kKind == 1) {  // taper
+    const V rm1 = hn::MulAdd(set(p.slope), zc, set(p.offset - 1.0));
+    const V dr = hn::IfThenElse(inside, set(p.slope), zero);
+    e[0][0] = hn::Mul(ux, rm1);
+    e[0][2] = hn::Mul(qx, dr);
+    e[1][1] = hn::Mul(uy, rm1);
+    e[1][2] = hn::Mul(qy, dr);
+  } else {  // stretch
+    const V sm1 = hn::Mul(set(p.k), hn::MulSub(zc, zc, one));
+    const V ds = hn::IfThenElse(inside, hn::Mul(set(2.0 * p.k), zc), zero);
+    e[0][0] = hn::Mul(ux, sm1);
+    e[0][2] = hn::Mul(qx, ds);
+    e[1][1] = hn::Mul(uy, sm1);
+    e[1][2] = hn::Mul(qy, ds);
+    e[2][2] = hn::IfThenElse(inside, set(p.k), zero);
+  }
+}
+
+// kWhat: 0 the Jacobian, 1 the carried normal, 2 det(J).
+template <int kKind, bool kIdentity, int kWhat, class T>
+HWY_INLINE bool RunDerivative(const BarrKernelParams& p, const double* weights, const T* in, const T* normals, T* out,
+                              unsigned char* flags, size_t n) {
+  const hn::ScalableTag<T> d;
+  using V = hn::Vec<decltype(d)>;
+  const size_t N = hn::Lanes(d);
+  auto set = [&](double v) { return hn::Set(d, static_cast<T>(v)); };
+  V M[9], B[9];
+  for (int i = 0; i < 9; ++i) {
+    M[i] = set(p.M[i]);
+    B[i] = set(p.B[i]);
+  }
+  const V m0 = set(p.m[0]), m1 = set(p.m[1]), m2 = set(p.m[2]), one = set(1.0), zero = hn::Zero(d);
+  const V tiny = set(sizeof(T) == 4 ? 0x1p-100 : 0x1p-900);  // below: the scalar path decides
+  bool all_good = true;
+
+  auto step = [&](const T* src, const T* nsrc, const double* w, T* dst, unsigned char* flag, size_t lanes) HWY_ATTR {
+    // Per lane: some input or result not finite (0 v is NaN then), or a magnitude below `tiny`.
+    auto bad = hn::Ne(zero, zero);
+    auto mark = [&](V v) HWY_ATTR { bad = hn::Or(bad, hn::Not(hn::Eq(hn::Mul(zero, v), zero))); };
+    auto mark_small = [&](V magnitude) HWY_ATTR { bad = hn::Or(bad, hn::Not(hn::Ge(magnitude, tiny))); };
+    auto finish = [&]() HWY_ATTR {  // the padding lanes of a partial vector do not count
+      if (HWY_LIKELY(hn::AllFalse(d, bad))) return;
+      HWY_ALIGN T lane_bad[HWY_MAX_BYTES / sizeof(T)] = {};
+      hn::Store(hn::IfThenElseZero(bad, one), d, lane_bad);
+      for (size_t i = 0; i < lanes; ++i)
+        if (lane_bad[i] != T(0)) {
+          all_good = false;
+          if (flag) flag[i] = 1;
+        }
+    };
+    V px, py, pz;
+    hn::LoadInterleaved3(d, src, px, py, pz);
+    mark(px), mark(py), mark(pz);
+    V x = px, y = py, z = pz;
+    if (!kIdentity) {
+      x = hn::MulAdd(M[0], px, hn::MulAdd(M[1], py, hn::MulAdd(M[2], pz, m0)));
+      y = hn::MulAdd(M[3], px, hn::MulAdd(M[4], py, hn::MulAdd(M[5], pz, m1)));
+      z = hn::MulAdd(M[6], px, hn::MulAdd(M[7], py, hn::MulAdd(M[8], pz, m2)));
+    }
+    V e[3][3];
+    CanonicalJacobianMinusI<kKind>(d, p, x, y, z, e);
+    // Object space: J - I = B (Jc - I) M (the identity exactly at rest), times the weight.
+    V j[3][3];
+    if (kIdentity) {
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) j[r][c] = e[r][c];
+    } else {
+      V be[3][3];
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c)
+          be[r][c] = hn::MulAdd(B[3 * r], e[0][c], hn::MulAdd(B[3 * r + 1], e[1][c], hn::Mul(B[3 * r + 2], e[2][c])));
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c)
+          j[r][c] = hn::MulAdd(be[r][0], M[c], hn::MulAdd(be[r][1], M[3 + c], hn::Mul(be[r][2], M[6 + c])));
+    }
+    if (w) {
+      HWY_ALIGN T wl[HWY_MAX_BYTES / sizeof(T)] = {};
+      for (size_t i = 0; i < lanes; ++i) wl[i] = static_cast<T>(w[i]);
+      const V wv = hn::Load(d, wl);
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) j[r][c] = hn::Mul(wv, j[r][c]);
+    }
+    for (int r = 0; r < 3; ++r) j[r][r] = hn::Add(j[r][r], one);
+    if (kWhat == 0) {
+      HWY_ALIGN T lanes_out[9][HWY_MAX_BYTES / sizeof(T)];
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) {
+          mark(j[r][c]);
+          hn::Store(j[r][c], d, lanes_out[3 * r + c]);
+        }
+      for (size_t i = 0; i < lanes; ++i)
+        for (int k = 0; k < 9; ++k) dst[9 * i + size_t(k)] = lanes_out[k][i];
+      return finish();
+    }
+    // cof(J)'s rows: the cross products of J's columns (cofactor() in deformer.cpp).
+    auto cross = [&](int a, int b, V out3[3]) HWY_ATTR {
+      out3[0] = hn::MulSub(j[1][a], j[2][b], hn::Mul(j[2][a], j[1][b]));
+      out3[1] = hn::MulSub(j[2][a], j[0][b], hn::Mul(j[0][a], j[2][b]));
+      out3[2] = hn::MulSub(j[0][a], j[1][b], hn::Mul(j[1][a], j[0][b]));
+    };
+    V c0[3], c1[3], c2[3];  // J2 x J3, J3 x J1, J1 x J2
+    cross(1, 2, c0);
+    cross(2, 0, c1);
+    cross(0, 1, c2);
+    if (kWhat == 2) {
+      const V det = hn::MulAdd(j[0][0], c0[0], hn::MulAdd(j[1][0], c0[1], hn::Mul(j[2][0], c0[2])));
+      mark(det);
+      mark_small(hn::Abs(det));
+      HWY_ALIGN T lane_det[HWY_MAX_BYTES / sizeof(T)];
+      hn::Store(det, d, lane_det);
+      std::memcpy(dst, lane_det, lanes * sizeof(T));
+      return finish();
+    }
+    V nx, ny, nz;
+    hn::LoadInterleaved3(d, nsrc, nx, ny, nz);
+    mark(nx), mark(ny), mark(nz);
+    // The input normal made unit the scale-free way: divided by its largest component first.
+    const V big = hn::Max(hn::Abs(nx), hn::Max(hn::Abs(ny), hn::Abs(nz)));
+    mark_small(big);
+    const V inv_big = hn::Div(one, big);
+    nx = hn::Mul(nx, inv_big), ny = hn::Mul(ny, inv_big), nz = hn::Mul(nz, inv_big);
+    const V inv_len = hn::Div(one, hn::Sqrt(hn::MulAdd(nx, nx, hn::MulAdd(ny, ny, hn::Mul(nz, nz)))));
+    nx = hn::Mul(nx, inv_len), ny = hn::Mul(ny, inv_len), nz = hn::Mul(nz, inv_len);
+    // cof(J) n: rows c0, c1, c2 are the rows of det(J) J^-1, so cof(J) = [c0 c1 c2] as columns.
+    V ox = hn::MulAdd(c0[0], nx, hn::MulAdd(c1[0], ny, hn::Mul(c2[0], nz)));
+    V oy = hn::MulAdd(c0[1], nx, hn::MulAdd(c1[1], ny, hn::Mul(c2[1], nz)));
+    V oz = hn::MulAdd(c0[2], nx, hn::MulAdd(c1[2], ny, hn::Mul(c2[2], nz)));
+    const V top = hn::Max(hn::Abs(ox), hn::Max(hn::Abs(oy), hn::Abs(oz)));
+    mark(top);
+    mark_small(top);
+    const V inv_top = hn::Div(one, top);
+    ox = hn::Mul(ox, inv_top), oy = hn::Mul(oy, inv_top), oz = hn::Mul(oz, inv_top);
+    const V inv = hn::Div(one, hn::Sqrt(hn::MulAdd(ox, ox, hn::MulAdd(oy, oy, hn::Mul(oz, oz)))));
+    hn::StoreInterleaved3(hn::Mul(ox, inv), hn::Mul(oy, inv), hn::Mul(oz, inv), d, dst);
+    finish();
+  };
+
+  const size_t width = kWhat == 0 ? 9 : kWhat == 1 ? 3 : 1;
+  size_t i = 0;
+  for (; i + N <= n; i += N)
+    step(in + 3 * i, normals ? normals + 3 * i : nullptr, weights ? weights + i : nullptr, out + width * i,
+         flags ? flags + i : nullptr, N);
+  if (i < n) {  // the last partial vector through zero-padded buffers (padding: unit normals at the origin)
+    HWY_ALIGN T buf[3 * HWY_MAX_BYTES / sizeof(T)] = {}, nbuf[3 * HWY_MAX_BYTES / sizeof(T)] = {},
+                obuf[9 * HWY_MAX_BYTES / sizeof(T)] = {};
+    std::memcpy(buf, in + 3 * i, 3 * (n - i) * sizeof(T));
+    for (size_t k = 0; k < N; ++k) nbuf[3 * k] = T(1);
+    if (normals) std::memcpy(nbuf, normals + 3 * i, 3 * (n - i) * sizeof(T));
+    HWY_ALIGN double wbuf[HWY_MAX_BYTES / sizeof(T)] = {};
+    for (size_t k = 0; k < N; ++k) wbuf[k] = 1.0;
+    if (weights) std::memcpy(wbuf, weights + i, (n - i) * sizeof(double));
+    step(buf, nbuf, weights ? wbuf : nullptr, obuf, flags ? flags + i : nullptr, n - i);
+    std::memcpy(out + width * i, obuf, width * (n - i) * sizeof(T));
+  }
+  return all_good;
+}
+
+template <int kWhat, class T>
+HWY_INLINE bool DispatchDerivative(const BarrKernelParams& p, const double* w, const T* in, const T* nrm, T* out,
+                                   unsigned char* f, size_t n) {
+  const bool id = p.identity_placement;
+  switch (p.kind) {
+    case 0: return id ? RunDerivative<0, true, kWhat>(p, w, in, nrm, out, f, n) : RunDerivative<0, false, kWhat>(p, w, in, nrm, out, f, n);
+    case 1: return id ? RunDerivative<1, true, kWhat>(p, w, in, nrm, out, f, n) : RunDerivative<1, false, kWhat>(p, w, in, nrm, out, f, n);
+    case 2: return id ? RunDerivative<2, true, kWhat>(p, w, in, nrm, out, f, n) : RunDerivative<2, false, kWhat>(p, w, in, nrm, out, f, n);
+    default: return id ? RunDerivative<3, true, kWhat>(p, w, in, nrm, out, f, n) : RunDerivative<3, false, kWhat>(p, w, in, nrm, out, f, n);
+  }
+}
+
+bool JacobianF64(const BarrKernelParams& p, const double* w, const double* in, double* jac, size_t n) {
+  return DispatchDerivative<0>(p, w, in, static_cast<const double*>(nullptr), jac, nullptr, n);
+}
+bool NormalsF64(const BarrKernelParams& p, const double* w, const double* in, const double* nrm, double* out,
+                unsigned char* flags, size_t n) {
+  return DispatchDerivative<1>(p, w, in, nrm, out, flags, n);
+}
+bool NormalsF32(const BarrKernelParams& p, const double* w, const float* in, const float* nrm, float* out,
+                unsigned char* flags, size_t n) {
+  return DispatchDerivative<1>(p, w, in, nrm, out, flags, n);
+}
+bool DeterminantF64(const BarrKernelParams& p, const double* w, const double* in, double* out, unsigned char* flags,
+                    size_t n) {
+  return DispatchDerivative<2>(p, w, in, static_cast<const double*>(nullptr), out, flags, n);
+}
+
 bool KernelF32(const BarrKernelParams& p, const float* in, float* out, size_t n) {
   return Dispatch(p, in, out, n);
 }
@@ -151,6 +378,10 @@ namespace deformkit {
 HWY_EXPORT(KernelF32);
 HWY_EXPORT(KernelF64);
 HWY_EXPORT(TargetName);
+HWY_EXPORT(JacobianF64);
+HWY_EXPORT(NormalsF64);
+HWY_EXPORT(NormalsF32);
+HWY_EXPORT(DeterminantF64);
 
 bool barr_kernel(const BarrKernelParams& p, const float* in, float* out, std::size_t n) {
   return HWY_DYNAMIC_DISPATCH(KernelF32)(p, in, out, n);
@@ -159,6 +390,22 @@ bool barr_kernel(const BarrKernelParams& p, const double* in, double* out, std::
   return HWY_DYNAMIC_DISPATCH(KernelF64)(p, in, out, n);
 }
 const char* simd_target() { return HWY_DYNAMIC_DISPATCH(TargetName)(); }
+
+bool barr_jacobian_kernel(const BarrKernelParams& p, const double* w, const double* in, double* jac, std::size_t n) {
+  return HWY_DYNAMIC_DISPATCH(JacobianF64)(p, w, in, jac, n);
+}
+bool barr_normals_kernel(const BarrKernelParams& p, const double* w, const double* in, const double* normals, double* out,
+                         unsigned char* flags, std::size_t n) {
+  return HWY_DYNAMIC_DISPATCH(NormalsF64)(p, w, in, normals, out, flags, n);
+}
+bool barr_normals_kernel(const BarrKernelParams& p, const double* w, const float* in, const float* normals, float* out,
+                         unsigned char* flags, std::size_t n) {
+  return HWY_DYNAMIC_DISPATCH(NormalsF32)(p, w, in, normals, out, flags, n);
+}
+bool barr_determinant_kernel(const BarrKernelParams& p, const double* w, const double* in, double* out,
+                             unsigned char* flags, std::size_t n) {
+  return HWY_DYNAMIC_DISPATCH(DeterminantF64)(p, w, in, out, flags, n);
+}
 
 }  // namespace deformkit
 #endif  // HWY_ONCE

@@ -19,6 +19,21 @@ struct BarrKernelParams {
 bool barr_kernel(const BarrKernelParams& p, const float* in, float* out, std::size_t n);
 bool barr_kernel(const BarrKernelParams& p, const double* in, double* out, std::size_t n);
 
+// The derivative paths, rows [0, n): object-space Jacobians (9 per row, row-major), unit normals
+// carried by cof(J) (Deformer's transform_normals), or det(J). weights: null, or one per row,
+// blending J to I + w (J - I) as Deformer::jacobian does. They return false when some row needs
+// the scalar path: an input or result not finite, a zero normal, or a magnitude so small (below
+// 2^-900, float: 2^-100) that the scale-free scalar arithmetic must decide it; flags (one per
+// row, or null) then mark those rows 1, leaving the others as they are (docs/math/barr.md,
+// "Derivatives in SIMD lanes").
+bool barr_jacobian_kernel(const BarrKernelParams& p, const double* weights, const double* in, double* jac, std::size_t n);
+bool barr_normals_kernel(const BarrKernelParams& p, const double* weights, const double* in, const double* normals,
+                         double* out, unsigned char* flags, std::size_t n);
+bool barr_normals_kernel(const BarrKernelParams& p, const double* weights, const float* in, const float* normals,
+                         float* out, unsigned char* flags, std::size_t n);
+bool barr_determinant_kernel(const BarrKernelParams& p, const double* weights, const double* in, double* out,
+                             unsigned char* flags, std::size_t n);
+
 // Name of the instruction set the kernels dispatch to on this CPU (e.g. "AVX2").
 const char* simd_target();
 

@@ -80,61 +80,40 @@ void CholeskyFactor::schedule(int threads) {
 
 namespace {
 
-// The k right-hand sides sit side by side (y[i * K + c]) so that each entry of L is read once.
+// K right-hand sides sit side by side (y[i * K + c]) so that each entry of L is read once.
 template <int K>
 struct Solver {
   const CholeskyFactor& f;
-  int k;
-  int width() const { return K > 0 ? K : k; }
+  static constexpr int width() { return K; }
 
   // Column j of the forward substitution L y = b; rows outside [.., last] go to `shared`.
   void forward(std::int32_t j, std::int32_t last, double* y, double* shared) const {
-    const int w = width();
-    double* yj = y + std::int64_t(j) * w;
+    double* yj = y + std::int64_t(j) * K;
     if (!f.unit_diagonal)
-      for (int c = 0; c < w; ++c) yj[c] /= f.value[f.start[j]];
-    if constexpr (K > 0) {
-      double v[K];  // in registers: the stores below could alias yj as far as the compiler knows
-      for (int c = 0; c < K; ++c) v[c] = yj[c];
-      for (std::int64_t e = f.start[j] + 1; e < f.start[j + 1]; ++e) {
-        const std::int32_t i = f.row[e];
-        const double l = f.value[e];
-        double* yi = i <= last ? y + std::int64_t(i) * K : shared + std::int64_t(f.top_position[i]) * K;
-        for (int c = 0; c < K; ++c) yi[c] -= l * v[c];
-      }
-    } else {
-      for (std::int64_t e = f.start[j] + 1; e < f.start[j + 1]; ++e) {
-        const std::int32_t i = f.row[e];
-        const double l = f.value[e];
-        double* yi = i <= last ? y + std::int64_t(i) * w : shared + std::int64_t(f.top_position[i]) * w;
-        for (int c = 0; c < w; ++c) yi[c] -= l * yj[c];
-      }
+      for (int c = 0; c < K; ++c) yj[c] /= f.value[f.start[j]];
+    double v[K];  // in registers: the stores below could alias yj as far as the compiler knows
+    for (int c = 0; c < K; ++c) v[c] = yj[c];
+    for (std::int64_t e = f.start[j] + 1; e < f.start[j + 1]; ++e) {
+      const std::int32_t i = f.row[e];
+      const double l = f.value[e];
+      double* yi = i <= last ? y + std::int64_t(i) * K : shared + std::int64_t(f.top_position[i]) * K;
+      for (int c = 0; c < K; ++c) yi[c] -= l * v[c];
     }
   }
   // Column j of the backward substitution L^T x = y (after the diagonal).
   void backward(std::int32_t j, double* x) const {
-    const int w = width();
-    double acc[K > 0 ? K : 1];
-    double* xj = x + std::int64_t(j) * w;
-    if constexpr (K > 0) {
-      for (int c = 0; c < K; ++c) acc[c] = xj[c];
-      for (std::int64_t e = f.start[j] + 1; e < f.start[j + 1]; ++e) {
-        const double* xi = x + std::int64_t(f.row[e]) * K;
-        for (int c = 0; c < K; ++c) acc[c] -= f.value[e] * xi[c];
-      }
-      for (int c = 0; c < K; ++c) xj[c] = f.unit_diagonal ? acc[c] : acc[c] / f.value[f.start[j]];
-    } else {
-      for (std::int64_t e = f.start[j] + 1; e < f.start[j + 1]; ++e) {
-        const double* xi = x + std::int64_t(f.row[e]) * w;
-        for (int c = 0; c < w; ++c) xj[c] -= f.value[e] * xi[c];
-      }
-      if (!f.unit_diagonal)
-        for (int c = 0; c < w; ++c) xj[c] /= f.value[f.start[j]];
+    double acc[K];
+    double* xj = x + std::int64_t(j) * K;
+    for (int c = 0; c < K; ++c) acc[c] = xj[c];
+    for (std::int64_t e = f.start[j] + 1; e < f.start[j + 1]; ++e) {
+      const double* xi = x + std::int64_t(f.row[e]) * K;
+      for (int c = 0; c < K; ++c) acc[c] -= f.value[e] * xi[c];
     }
+    for (int c = 0; c < K; ++c) xj[c] = f.unit_diagonal ? acc[c] : acc[c] / f.value[f.start[j]];
   }
 
   void run(double* y) const {
-    const int w = width();
+    constexpr int w = K;
     // The ranges' subtrees are independent: one task each, on the caller and the pool's workers,
     // so a busy core does not stall the solve (core/parallel.hpp).
     const std::int32_t n = std::int32_t(f.size());
@@ -161,16 +140,29 @@ struct Solver {
 
 }  // namespace
 
+// Columns go through in blocks of a width known at compile time (12, 6, 3 or 1), whose values the
+// inner loops keep in registers; one pass over L per block.
 void CholeskyFactor::solve(const double* b, double* x, int k) const {
   const std::size_t n = size();
-  std::vector<double> y(n * std::size_t(k));
-  for (std::size_t i = 0; i < n; ++i)
-    for (int c = 0; c < k; ++c) y[i * std::size_t(k) + std::size_t(c)] = b[std::size_t(perm[i]) + std::size_t(c) * n];
-  if (k == 3) Solver<3>{*this, k}.run(y.data());
-  else if (k == 1) Solver<1>{*this, k}.run(y.data());
-  else Solver<0>{*this, k}.run(y.data());
-  for (std::size_t i = 0; i < n; ++i)
-    for (int c = 0; c < k; ++c) x[std::size_t(perm[i]) + std::size_t(c) * n] = y[i * std::size_t(k) + std::size_t(c)];
+  std::vector<double> y;
+  for (int first = 0; first < k;) {
+    const int left = k - first;
+    const int w = left >= 12 ? 12 : left >= 6 ? 6 : left >= 3 ? 3 : 1;
+    y.assign(n * std::size_t(w), 0.0);
+    const double* bb = b + std::size_t(first) * n;
+    for (std::size_t i = 0; i < n; ++i)
+      for (int c = 0; c < w; ++c) y[i * std::size_t(w) + std::size_t(c)] = bb[std::size_t(perm[i]) + std::size_t(c) * n];
+    switch (w) {
+      case 12: Solver<12>{*this}.run(y.data()); break;
+      case 6: Solver<6>{*this}.run(y.data()); break;
+      case 3: Solver<3>{*this}.run(y.data()); break;
+      default: Solver<1>{*this}.run(y.data()); break;
+    }
+    double* xx = x + std::size_t(first) * n;
+    for (std::size_t i = 0; i < n; ++i)
+      for (int c = 0; c < w; ++c) xx[std::size_t(perm[i]) + std::size_t(c) * n] = y[i * std::size_t(w) + std::size_t(c)];
+    first += w;
+  }
 }
 
 }  // namespace deformkit

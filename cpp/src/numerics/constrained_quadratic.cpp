@@ -1,11 +1,34 @@
 #include "deformkit/numerics/constrained_quadratic.hpp"
 
+#include "core/parallel.hpp"
+
 #include <stdexcept>
 #include <string>
 #include <tuple>
 #include <utility>
 
 namespace deformkit {
+
+namespace {
+
+// M^T R, one row per column of M on the pool's threads: Eigen's own product of a transposed
+// (row-major) sparse matrix runs an OpenMP region, which stalls while a core is busy elsewhere.
+Eigen::MatrixXd transpose_times(const SparseMatrix& m, const Eigen::MatrixXd& r) {
+  Eigen::MatrixXd out(m.cols(), r.cols());
+  parallel_blocks(std::size_t(m.cols()), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const Eigen::Index col = Eigen::Index(i);
+      for (Eigen::Index c = 0; c < r.cols(); ++c) {
+        double acc = 0;
+        for (SparseMatrix::InnerIterator e(m, col); e; ++e) acc += e.value() * r(e.row(), c);
+        out(col, c) = acc;
+      }
+    }
+  });
+  return out;
+}
+
+}  // namespace
 
 UnknownSplit::UnknownSplit(const std::vector<char>& fixed) {
   const std::size_t n = fixed.size();
@@ -141,8 +164,7 @@ ConstrainedQuadratic::Matrix ConstrainedQuadratic::solve_free(const Matrix& b, c
     const Matrix term = constraint_term(fixed_values, soft_targets);
     rhs = b.size() ? Matrix(b - term) : Matrix(-term);
   } else {
-    rhs = b.size() ? Matrix(free_part_.transpose() * Matrix(b - fixed_part_ * fixed_values))
-                   : Matrix(-(free_part_.transpose() * (fixed_part_ * fixed_values)));
+    rhs = transpose_times(free_part_, b.size() ? Matrix(b - fixed_part_ * fixed_values) : Matrix(-(fixed_part_ * fixed_values)));
     for (std::size_t s = 0; s < soft_free_.size(); ++s)
       rhs.row(soft_free_[s]) += soft_.weights[s] * soft_targets.row(Eigen::Index(s));
   }

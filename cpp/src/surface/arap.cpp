@@ -62,14 +62,18 @@ double SurfaceDeformer::arap_energy(const Matrix& x, const std::vector<Mat3>& ro
   return total;
 }
 
-SurfaceDeformer::Matrix SurfaceDeformer::deform_arap(const Matrix& fixed, const Matrix& pulls) {
+SurfaceDeformer::Matrix SurfaceDeformer::deform_arap(const Matrix& fixed, const Matrix& pulls, const double* initial) {
   if (split_.free().empty()) return with_fixed(fixed);
   const std::vector<int>& soft = laplacian_system_.soft().unknowns;
   const std::vector<double>& w2 = laplacian_system_.soft().weights;
   std::vector<Mat3> rotations(rest_.rows(), Mat3::Identity());
   const Eigen::MatrixXd held = laplacian_system_.constraint_term(fixed, pulls);
   auto global_step = [&] { return Matrix(laplacian_system_.assemble(laplacian_system_.solve_free_with(arap_rhs(rotations), held), fixed)); };
-  Matrix x = global_step();  // the first, from R = I
+  // A warm start: the rotations of the given positions (Sorkine and Alexa 2007 start from the
+  // previous frame the same way), else R = I.
+  if (initial)
+    fit_rotations(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(initial, rest_.rows(), 3), rotations);
+  Matrix x = global_step();
   for (int it = 0; it < settings_.iterations; ++it) {
     fit_rotations(x, rotations);
     x = global_step();

@@ -200,14 +200,15 @@ SurfaceDeformer::Matrix SurfaceDeformer::with_fixed(const Matrix& fixed) const {
   return x;
 }
 
-std::vector<double> SurfaceDeformer::deform(const double* targets) {
+std::vector<double> SurfaceDeformer::deform(const double* targets, const double* initial) {
   require_finite_rows(targets, handles_.size(), "handle_targets");
+  if (initial) require_finite_rows(initial, vertex_count(), "initial");
   const std::lock_guard<std::mutex> lock(deforming_);
   const Matrix fixed = fixed_positions(targets), pulls = soft_targets(targets);
   energy_.clear();
   const Matrix x = settings_.method == SurfaceMethod::Laplacian         ? deform_laplacian(fixed, pulls)
                    : settings_.method == SurfaceMethod::RotationInvariant ? deform_rotation_invariant(fixed, pulls)
-                                                                          : deform_arap(fixed, pulls);
+                                                                          : deform_arap(fixed, pulls, initial);
   if (!x.allFinite())
     throw std::invalid_argument("handle_targets: the solve overflowed (targets too far from the mesh)");
   std::vector<double> out(3 * rest_.rows());

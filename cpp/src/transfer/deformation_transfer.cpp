@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -29,6 +30,47 @@ Eigen::Matrix3d frame(const Vec3& a, const Vec3& b, const Vec3& c) {
 std::string zero_area(const char* which, std::size_t j, const int* v) {
   return std::string(which) + ": triangle " + std::to_string(j) + " (vertices " + std::to_string(v[0]) + ", " +
          std::to_string(v[1]) + ", " + std::to_string(v[2]) + ") has zero area";
+}
+
+// For each target triangle, its source partners (CSR: offset has t + 1 entries).
+void partners_by_target(const std::vector<int>& pairs, std::size_t target_triangles, std::vector<int>& offset,
+                        std::vector<int>& partner) {
+  offset.assign(target_triangles + 1, 0);
+  for (std::size_t p = 0; p < pairs.size() / 2; ++p) ++offset[std::size_t(pairs[2 * p + 1]) + 1];
+  for (std::size_t j = 0; j < target_triangles; ++j) offset[j + 1] += offset[j];
+  partner.resize(pairs.size() / 2);
+  std::vector<int> next(offset.begin(), offset.end() - 1);
+  for (std::size_t p = 0; p < pairs.size() / 2; ++p) partner[std::size_t(next[std::size_t(pairs[2 * p + 1])]++)] = pairs[2 * p];
+}
+
+// The target's gradient operator, sqrt(area x partners)-weighted: rows 3j..3j+2 give the gradient
+// of a piecewise-linear function on triangle j (hat gradients n x (p_k+2 - p_k+1) / (2 area)).
+// tangent[j]: I - n n^T times sqrt(area / partners), which turns the partners' summed gradients
+// into the weighted mean's rows.
+SparseMatrix weighted_gradient_operator(const std::vector<double>& points, const std::vector<int>& triangles,
+                                        const std::vector<int>& partner_offset, std::vector<Eigen::Matrix3d>& tangent) {
+  const std::size_t t = triangles.size() / 3;
+  tangent.resize(t);
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(9 * t);
+  for (std::size_t j = 0; j < t; ++j) {
+    const int* v = triangles.data() + 3 * j;
+    const Vec3 p[3] = {point(points, v[0]), point(points, v[1]), point(points, v[2])};
+    const Vec3 nn = (p[1] - p[0]).cross(p[2] - p[0]);
+    const double twice_area = nn.norm();
+    if (!(twice_area > 0)) throw std::invalid_argument(zero_area("target_faces", j, v));
+    const double m = std::max(1, partner_offset[j + 1] - partner_offset[j]);
+    const Vec3 unit = nn / twice_area;
+    const double w = std::sqrt(0.5 * twice_area * m);
+    tangent[j] = (w / m) * (Eigen::Matrix3d::Identity() - unit * unit.transpose());
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 g = w * unit.cross(p[(k + 2) % 3] - p[(k + 1) % 3]) / twice_area;
+      for (int c = 0; c < 3; ++c) entries.emplace_back(Eigen::Index(3 * j + c), v[k], g[c]);
+    }
+  }
+  SparseMatrix m(Eigen::Index(3 * t), Eigen::Index(points.size() / 3));
+  m.setFromTriplets(entries.begin(), entries.end());
+  return m;
 }
 
 }  // namespace
@@ -98,37 +140,8 @@ void DeformationTransfer::build(const PolygonMesh& source, const PolygonMesh& ta
     if (!(s.col(0).cross(s.col(1)).norm() > 0)) throw std::invalid_argument(zero_area("source_faces", j, v));
     frame_inverse_[j] = s.inverse();
   }
-  partner_offset_.assign(tt + 1, 0);
-  for (std::size_t p = 0; p < pairs_.size() / 2; ++p) ++partner_offset_[std::size_t(pairs_[2 * p + 1]) + 1];
-  for (std::size_t j = 0; j < tt; ++j) partner_offset_[j + 1] += partner_offset_[j];
-  partner_.resize(pairs_.size() / 2);
-  {
-    std::vector<int> next(partner_offset_.begin(), partner_offset_.end() - 1);
-    for (std::size_t p = 0; p < pairs_.size() / 2; ++p) partner_[std::size_t(next[std::size_t(pairs_[2 * p + 1])]++)] = pairs_[2 * p];
-  }
-
-  // The target's gradient operator, sqrt(area x partners)-weighted: rows 3j..3j+2 give the gradient
-  // of a piecewise-linear function on triangle j (hat gradients n x (p_k+2 - p_k+1) / (2 area)).
-  tangent_.resize(tt);
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(9 * tt);
-  for (std::size_t j = 0; j < tt; ++j) {
-    const int* v = target_triangles_.data() + 3 * j;
-    const Vec3 p[3] = {point(target_, v[0]), point(target_, v[1]), point(target_, v[2])};
-    const Vec3 nn = (p[1] - p[0]).cross(p[2] - p[0]);
-    const double twice_area = nn.norm();
-    if (!(twice_area > 0)) throw std::invalid_argument(zero_area("target_faces", j, v));
-    const double m = std::max(1, partner_offset_[j + 1] - partner_offset_[j]);
-    const Vec3 unit = nn / twice_area;
-    const double w = std::sqrt(0.5 * twice_area * m);
-    tangent_[j] = (w / m) * (Eigen::Matrix3d::Identity() - unit * unit.transpose());
-    for (int k = 0; k < 3; ++k) {
-      const Vec3 g = w * unit.cross(p[(k + 2) % 3] - p[(k + 1) % 3]) / twice_area;
-      for (int c = 0; c < 3; ++c) entries.emplace_back(Eigen::Index(3 * j + c), v[k], g[c]);
-    }
-  }
-  SparseMatrix m(Eigen::Index(3 * tt), Eigen::Index(nt));
-  m.setFromTriplets(entries.begin(), entries.end());
+  partners_by_target(pairs_, tt, partner_offset_, partner_);
+  const SparseMatrix m = weighted_gradient_operator(target_, target_triangles_, partner_offset_, tangent_);
 
   // Gradients fix a shape up to a translation per connected part: fixed vertices where the part
   // has some, else its first vertex held and the part moved by its reference translation.
@@ -174,10 +187,14 @@ void DeformationTransfer::build(const PolygonMesh& source, const PolygonMesh& ta
     const std::size_t p = std::size_t(part_[i]);
     if (seen[p] || part_fixed_[p]) continue;
     seen[p] = 1;
-    if (by_part[p].empty())
+    if (by_part[p].empty()) {
+      if (std::find(target_triangles_.begin(), target_triangles_.end(), int(i)) == target_triangles_.end())
+        throw std::invalid_argument("markers: target vertex " + std::to_string(i) + " is in no face and has no marker or "
+                                    "fixed vertex, so nothing places it: give it a marker or a fixed position, or remove it");
       throw std::invalid_argument("markers: the target's connected part of vertex " + std::to_string(i) +
                                   " has no marker (or triangle pair) and no fixed vertex, so nothing fixes its "
                                   "translation: give a marker or a fixed vertex in it");
+    }
     fixed[i] = 1;
     anchors_.push_back(int(i));
   }
@@ -201,8 +218,7 @@ std::vector<int> DeformationTransfer::unmatched_target_triangles() const {
 // coordinate P_t mean(S_j)^T e_c over its partners (the tangential part: Botsch et al. 2006,
 // eq. 6), one least-squares solve.
 void DeformationTransfer::transfer(const double* poses, std::size_t k, double* out, const double* fixed_positions) const {
-  const std::size_t ns = vertex_count(), nt = target_vertex_count(), ts = triangle_count(), tt = target_triangle_count();
-  const std::size_t nf = fixed_vertices_.size();
+  const std::size_t ns = vertex_count(), nt = target_vertex_count(), nf = fixed_vertices_.size();
   for (std::size_t i = 0; i < 3 * ns * k; ++i)
     if (!std::isfinite(poses[i]))
       throw std::invalid_argument("source_pose: pose " + std::to_string(i / (3 * ns)) + ", row " +
@@ -212,6 +228,15 @@ void DeformationTransfer::transfer(const double* poses, std::size_t k, double* o
       if (!std::isfinite(fixed_positions[i]))
         throw std::invalid_argument("fixed_positions: pose " + std::to_string(i / (3 * nf)) + ", row " +
                                     std::to_string((i % (3 * nf)) / 3) + " is not finite");
+  // Four poses (12 columns, the solver's widest block) at a time bound the right-hand side's size.
+  for (std::size_t first = 0; first < k; first += 4)
+    transfer_block(poses + 3 * ns * first, std::min<std::size_t>(4, k - first), out + 3 * nt * first,
+                   fixed_positions ? fixed_positions + 3 * nf * first : nullptr);
+}
+
+void DeformationTransfer::transfer_block(const double* poses, std::size_t k, double* out, const double* fixed_positions) const {
+  const std::size_t ns = vertex_count(), nt = target_vertex_count(), ts = triangle_count(), tt = target_triangle_count();
+  const std::size_t nf = fixed_vertices_.size();
   // S^T per source triangle and pose; a triangle the pose collapses has no frame (its fourth
   // vertex is n / sqrt(0)).
   std::vector<Eigen::Matrix3d> gradient(ts * k);

@@ -17,9 +17,14 @@ class BarrDeformer : public Deformer {
   bool deform_impl(const float* in, float* out, std::size_t n) const override;
   bool deform_impl(const double* in, double* out, std::size_t n) const override;
   void jacobian_impl(const double* in, double* jac, std::size_t n) const override;
+  bool normals_impl(const double* points, const double* normals, double* out, std::size_t n) const override;
+  bool normals_impl(const float* points, const float* normals, float* out, std::size_t n) const override;
+  bool volume_ratio_impl(const double* points, double* out, std::size_t n) const override;
 
  private:
   template <class T> bool deform_any(const T* in, T* out, std::size_t n) const;
+  template <class T> bool normals_any(const T* points, const T* normals, T* out, std::size_t n) const;
+  bool simd_eligible(bool single) const;
   BarrOp op_;
   Placement placement_;
 };

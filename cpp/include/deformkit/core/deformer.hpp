@@ -44,6 +44,15 @@ class Deformer {
   virtual bool deform_impl(const float* in, float* out, std::size_t n) const = 0;
   virtual bool deform_impl(const double* in, double* out, std::size_t n) const = 0;
   virtual void jacobian_impl(const double* in, double* jac, std::size_t n) const = 0;
+  // Fast paths of transform_normals and volume_ratio for all n rows, the weights applied as
+  // jacobian() applies them. Return false to leave the work (and any error) to the generic path
+  // through jacobian(), which then recomputes every row.
+  virtual bool normals_impl(const double*, const double*, double*, std::size_t) const { return false; }
+  virtual bool normals_impl(const float*, const float*, float*, std::size_t) const { return false; }
+  virtual bool volume_ratio_impl(const double*, double*, std::size_t) const { return false; }
+  friend void transform_normals(const Deformer&, const double*, const double*, double*, std::size_t);
+  friend void transform_normals(const Deformer&, const float*, const float*, float*, std::size_t);
+  friend void volume_ratio(const Deformer&, const double*, double*, std::size_t, bool);
 
  private:
   template <class T>
@@ -57,6 +66,9 @@ using DeformerPtr = std::shared_ptr<const Deformer>;
 // any non-zero length. A zero normal, or one whose plane the map collapses (cof(J) N = 0), gives 0.
 void transform_normals(const Deformer& d, const double* points, const double* normals,
                        double* out, std::size_t n);
+// The same in float32 (what a viewport draws): computed in float where the deformer has a float
+// path, else in double and rounded once.
+void transform_normals(const Deformer& d, const float* points, const float* normals, float* out, std::size_t n);
 // Local volume ratio det(J). Throws as deform does where det(J) overflows (a double, or a float
 // with float32_result).
 void volume_ratio(const Deformer& d, const double* points, double* out, std::size_t n,

@@ -42,8 +42,12 @@ class SurfaceDeformer {
                   const std::optional<std::vector<int>>& roi, SurfaceSettings settings);
 
   // New positions (3n) with the handles at targets (3 per handle). Records energy() for ARAP.
-  // Calls on one deformer from several threads run one after the other.
-  std::vector<double> deform(const double* targets);
+  // initial (3n, or null): ARAP starts from the rotations that best fit these positions (e.g. the
+  // previous frame's result) instead of R = I, so that a handle moved a little converges in a few
+  // iterations; the linear methods have nothing to start from and ignore it. Throws
+  // std::invalid_argument naming initial for a non-finite row. Calls on one deformer from several
+  // threads run one after the other.
+  std::vector<double> deform(const double* targets, const double* initial = nullptr);
 
   std::size_t vertex_count() const { return mesh_.vertex_count(); }
   std::size_t handle_count() const { return handles_.size(); }
@@ -71,7 +75,7 @@ class SurfaceDeformer {
   void add_to_free(Matrix& x, const Eigen::MatrixXd& free_displacement) const;
   Matrix deform_laplacian(const Matrix& fixed, const Matrix& pulls) const;
   Matrix deform_rotation_invariant(const Matrix& fixed, const Matrix& pulls) const;
-  Matrix deform_arap(const Matrix& fixed, const Matrix& pulls);
+  Matrix deform_arap(const Matrix& fixed, const Matrix& pulls, const double* initial);
   void fit_rotations(const Matrix& x, std::vector<Mat3>& rotations) const;
   Matrix arap_rhs(const std::vector<Mat3>& rotations) const;
   double arap_energy(const Matrix& x, const std::vector<Mat3>& rotations) const;

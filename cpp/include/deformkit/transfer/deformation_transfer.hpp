@@ -74,6 +74,7 @@ class DeformationTransfer {
 
  private:
   void build(const PolygonMesh& source_triangles, const PolygonMesh& target_triangles, const TransferPairing& pairing);
+  void transfer_block(const double* poses, std::size_t k, double* out, const double* fixed_positions) const;
 
   std::vector<double> source_, target_;
   std::vector<int> source_triangles_, target_triangles_;  // t x 3 each
