@@ -1,5 +1,6 @@
 """deformkit for Blender: Barr deformers, lattices, Laplacian surface editing and OpenSubdiv
-subdivision as non-destructive entries beside the modifier stack, plus headless batch processing."""
+subdivision as non-destructive entries beside the modifier stack, deformation transfer of shape
+keys and animation between meshes (transfer.py), plus headless batch processing."""
 
 bl_info = {
     "name": "deformkit",
@@ -18,11 +19,11 @@ if "bpy" in locals():  # F8 / script reload
     import importlib
     for _m in (native, cache, properties, outputs, meshdata, entries.common, entries.barr,  # noqa: F821
                entries.lattice, entries.laplacian, entries.subdivide, entries, evaluation,  # noqa: F821
-               api, operators, ui, handlers):  # noqa: F821
+               api, operators, transfer, ui, handlers):  # noqa: F821
         importlib.reload(_m)
 else:
     from . import (api, cache, entries, evaluation, handlers, meshdata, native, operators, outputs, properties,
-                   ui)
+                   transfer, ui)
 
 import sys  # noqa: E402
 
@@ -33,7 +34,7 @@ lattices, surface, subdivision = entries.lattice, entries.laplacian, entries.sub
 for _name, _module in (("lattices", lattices), ("surface", surface), ("subdivision", subdivision)):
     sys.modules[f"{__name__}.{_name}"] = _module
 
-classes = properties.classes + operators.classes + entries.classes + ui.classes
+classes = properties.classes + operators.classes + entries.classes + transfer.classes + ui.classes
 
 
 def register():
@@ -42,9 +43,11 @@ def register():
     properties.register()
     handlers.register()
     operators.register_keymaps()
+    transfer.register_menus()
 
 
 def unregister():
+    transfer.unregister_menus()
     operators.unregister_keymaps()
     handlers.unregister()
     properties.unregister()

@@ -16,7 +16,7 @@ import numpy as np
 from deformkit.batch import job as batch_job
 from deformkit.batch import shared as batch_io
 
-from . import api, batch_checks, evaluation, recipe_schema, subdivision
+from . import api, batch_checks, evaluation, recipe_schema, subdivision, transfer
 from .entries import common
 
 
@@ -57,7 +57,7 @@ def apply_recipe(recipe, objects=None, where=None):
         where["object"] = obj.name
         if recipe.get("replace", False):
             obj.deformkit.entries.clear()
-        for i, spec in enumerate(recipe["deformers"]):
+        for i, spec in enumerate(recipe.get("deformers", [])):
             where["entry"] = f"deformers[{i}]"
             spec = dict(spec)
             kind = spec.pop("type")
@@ -78,6 +78,39 @@ def apply_recipe(recipe, objects=None, where=None):
                 api.BINDS[kind](obj, index)
         where["entry"] = None
     return objects
+
+
+def transfer_object(spec, key, i):
+    name = spec[key]
+    obj = bpy.data.objects.get(name)
+    if obj is None:
+        raise BatchError(f"recipe: transfers[{i}].{key}: object '{name}' not found in the file")
+    return obj
+
+
+def run_transfers(recipe, where=None):
+    """The recipe's transfers, in order, through the operator's own functions (transfer.py): each
+    table's source shape keys (or, with "mode": "ANIMATION", its frames) onto its target. Returns
+    one report line per transfer. `where` (a dict) follows the transfer being worked on."""
+    where = {} if where is None else where
+    done = []
+    for i, spec in enumerate(checked_recipe(recipe).get("transfers", [])):
+        where["entry"] = f"transfers[{i}]"
+        source, target = transfer_object(spec, "source", i), transfer_object(spec, "target", i)
+        where["object"] = target.name
+        options = dict(replace=spec.get("replace", False),
+                       marker_prefix=spec.get("marker_prefix", transfer.DEFAULT_PREFIX))
+        if spec.get("mode", "SHAPE_KEYS") == "ANIMATION":
+            scene = bpy.context.scene
+            result = transfer.transfer_animation(source, target, spec.get("frame_start", scene.frame_start),
+                                                 spec.get("frame_end", scene.frame_end), scene, **options)
+        else:
+            result = transfer.transfer_shape_keys(source, target, **options)
+        done.append({"source": source.name, "target": target.name, "keys": result.keys, "direct": result.direct,
+                     "reused_correspondence": result.reused_correspondence,
+                     "unmatched_target_triangles": result.unmatched, "seconds": round(result.seconds, 4)})
+    where["entry"] = where["object"] = None
+    return done
 
 
 def failing_entry(obj, recipe_entries):
@@ -215,6 +248,10 @@ def process(input_path, output_path, recipe=None, preview_path=None, smoothness=
         else:
             objects = evaluate_saved()
         result["warnings"] += batch_checks.damage_warnings(objects)
+        if recipe and recipe.get("transfers"):
+            stage("transfer")  # on the file as it was saved, before the recipe's deformers are added
+            result["transfers"] = run_transfers(recipe, where)
+            stage("recipe")
         if recipe:
             apply_recipe(recipe, objects, where)
         smoothness = smoothness or bool(recipe and recipe.get("smoothness", False))

@@ -3,7 +3,8 @@
 The accepted values of each entry parameter come from the add-on's own property definitions: this
 module reads DEFORMKIT_PG_entry in properties.py (its source, so the launcher needs no Blender) and
 takes each property's kind, hard min/max, vector size and enum identifiers from there. Only which
-parameters each entry type uses is written here. A value Blender would clamp, round to zero or
+parameters each entry type uses is written here, and the keys of a transfer step (TRANSFER_KEYS:
+the arguments of transfer.py's functions, which have no entry property). A value Blender would clamp, round to zero or
 reinterpret is refused, with the key path (`deformers[2].limits`) and what the key accepts.
 """
 import ast
@@ -38,7 +39,17 @@ TYPE_KEYS = {
 BATCH_ONLY = {"bind": {"kind": "bool"}}  # Laplacian, Cage and RBF entries: bound as they are added
 TOP_LEVEL = {"objects": "a list of object names (\"*\": every mesh)", "deformers": "a non-empty list of tables",
              "replace": "true or false (clear the objects' stacks first)",
-             "smoothness": "true or false (smoothness figures in the report)"}
+             "smoothness": "true or false (smoothness figures in the report)",
+             "transfers": "a non-empty list of tables with a source and a target (shape keys from one object "
+                          "onto another, before the deformers)"}
+# A transfers[i] table: the arguments of transfer.transfer_shape_keys / transfer_animation (the
+# operator's properties). Frames: Blender's scene frame range (MINAFRAME, MAXAFRAME).
+FRAME_RANGE = {"kind": "int", "min": -1048574, "max": 1048574}
+TRANSFER_KEYS = {"source": {"kind": "object"}, "target": {"kind": "object"},
+                 "mode": {"kind": "enum", "items": ("SHAPE_KEYS", "ANIMATION")},
+                 "frame_start": FRAME_RANGE, "frame_end": FRAME_RANGE, "replace": {"kind": "bool"},
+                 "marker_prefix": {"kind": "string"}}
+TRANSFER_REQUIRED = ("source", "target")
 
 
 class RecipeError(ValueError):
@@ -194,11 +205,44 @@ def entry_problems(spec, path):
     return problems
 
 
+def transfer_problems(spec, path):
+    """Problems of one transfers table at key path `path` (e.g. "transfers[0]")."""
+    if not isinstance(spec, dict):
+        return [f"{path}: expected a table with a 'source' and a 'target', got {_got(spec)}"]
+    accepted = tuple(TRANSFER_KEYS)
+    problems = [f"{path}.{key}: missing (the object's name)" for key in TRANSFER_REQUIRED if key not in spec]
+    for key, value in spec.items():
+        if key not in TRANSFER_KEYS:
+            problems.append(_unknown_key(key, accepted, f"{path}.") + " (for a transfer)")
+            continue
+        problem = value_problem(value, TRANSFER_KEYS[key])
+        if not problem and key == "marker_prefix" and not value:
+            problem = "expected a non-empty prefix (the marker vertex groups' common start, e.g. 'dt_')"
+        if problem:
+            problems.append(f"{path}.{key}: {problem}")
+    if spec.get("mode", "SHAPE_KEYS") != "ANIMATION":
+        problems += [f"{path}.{key}: only with \"mode\": \"ANIMATION\" (a frame range to bake)"
+                     for key in ("frame_start", "frame_end") if key in spec]
+    start, end = spec.get("frame_start"), spec.get("frame_end")
+    if isinstance(start, int) and isinstance(end, int) and start > end:
+        problems.append(f"{path}.frame_end: {end} is before frame_start {start}")
+    if isinstance(spec.get("source"), str) and spec.get("source") == spec.get("target"):
+        problems.append(f"{path}.target: the same object as the source ('{spec['source']}'): expected another")
+    return problems
+
+
 def recipe_problems(recipe):
     """Every problem of a parsed recipe, each naming its key path; [] for a good recipe."""
     if not isinstance(recipe, dict):
         return [f"recipe: expected a table with 'deformers', got {_got(recipe)}"]
     problems = [_unknown_key(key, tuple(TOP_LEVEL), "") for key in recipe if key not in TOP_LEVEL]
+    transfers = recipe.get("transfers")
+    if "transfers" in recipe:
+        if not isinstance(transfers, list) or not transfers:
+            problems.append(f"transfers: expected {TOP_LEVEL['transfers']}, got {_got(transfers)}")
+        else:
+            for i, spec in enumerate(transfers):
+                problems += transfer_problems(spec, f"transfers[{i}]")
     for key in ("replace", "smoothness"):
         if key in recipe and not isinstance(recipe[key], bool):
             problems.append(f"{key}: expected true or false, got {_got(recipe[key])}")
@@ -209,6 +253,8 @@ def recipe_problems(recipe):
         problems += [f"objects[{i}]: expected an object name, got {_got(o)}"
                      for i, o in enumerate(objects) if not isinstance(o, str) or not o or "\x00" in o]
     deformers = recipe.get("deformers")
+    if "deformers" not in recipe and "transfers" in recipe:
+        return problems  # transfers only
     if not isinstance(deformers, list) or not deformers:
         problems.append(f"deformers: expected {TOP_LEVEL['deformers']}, got "
                         + (_got(deformers) if "deformers" in recipe else "nothing"))

@@ -19,6 +19,8 @@ class DEFORMKIT_MT_add(bpy.types.Menu):
         for kind in entries.KINDS:
             for operator, icon in kind.MENU:
                 self.layout.operator(operator, icon=icon)
+        self.layout.separator()  # shape keys onto this mesh from another (transfer.py)
+        self.layout.operator("deformkit.transfer_deformation", icon="MOD_DATA_TRANSFER")
 
 
 class DEFORMKIT_MT_entry_specials(bpy.types.Menu):
