@@ -27,7 +27,8 @@ import time
 
 import numpy as np
 
-from bench_common import OtherLoad, cage_model, cpu_busy, mesh_deform_bind, set_positions, shared_cages_dir
+from bench_common import OtherLoad, blender_mesh, cage_model, cpu_busy, mesh_deform_bind, set_positions, \
+    shared_cages_dir
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--model", default="Ogre")
@@ -53,22 +54,6 @@ def available_bytes():
     with open("/proc/meminfo") as f:
         info = dict(line.split(":", 1) for line in f)
     return int(info["MemAvailable"].split()[0]) * 1024
-
-
-def blender_mesh(name, points, triangles):
-    """A mesh object of (n, 3) points and (f, 3) triangles, written by foreach_set (from_pydata
-    goes through Python lists: minutes at this size)."""
-    mesh = bpy.data.meshes.new(name)
-    mesh.vertices.add(len(points))
-    mesh.loops.add(3 * len(triangles))
-    mesh.polygons.add(len(triangles))
-    mesh.attributes["position"].data.foreach_set("vector", points.astype(np.float32).ravel())
-    mesh.loops.foreach_set("vertex_index", triangles.astype(np.int32).ravel())
-    mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(triangles), 3, dtype=np.int32))
-    mesh.update()
-    obj = bpy.data.objects.new(name, mesh)
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
 
 
 def positions_of(obj, buf):
