@@ -1,0 +1,56 @@
+"""The derivative paths beside deform, at 1M points: Jacobians, carried normals and volume ratios.
+
+    .venv/bin/python benchmarks/bench_derivatives.py [--points N] [--repeats R]
+
+For Barr's twist, bend and taper and the FFD and Blender lattices: deform (the anchor, float64
+and float32), jacobian, transform_normals (float64, and float32 points and normals) and
+volume_ratio, medians of R calls on N random points in [-1, 1]^3, with a numpy copy of the
+points as the memory-bandwidth yardstick, all in one run. Issue 19's targets: Barr
+transform_normals >= 200 M points/s (<= 5 ms at 1M), jacobian <= 5 ms, volume_ratio <= 3 ms; the
+lattices' derivative paths within 2x of their deform.
+"""
+import argparse
+import pathlib
+import sys
+
+import numpy as np
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from bench_common import OtherLoad, timings  # noqa: E402
+
+import deformkit as dk  # noqa: E402
+
+ap = argparse.ArgumentParser()
+ap.add_argument("--points", type=int, default=1_000_000)
+ap.add_argument("--repeats", type=int, default=11)
+args = ap.parse_args()
+
+rng = np.random.default_rng(0)
+p64 = rng.uniform(-1, 1, (args.points, 3))
+n64 = rng.normal(size=p64.shape)
+p32, n32 = p64.astype(np.float32), n64.astype(np.float32)
+
+
+def median_ms(fn):
+    return 1e3 * float(np.median(timings(fn, args.repeats)))
+
+
+lattice = dk.FFD(3)
+lattice.control_points = lattice.rest_control_points + 0.05 * rng.normal(size=lattice.rest_control_points.shape)
+blender = dk.BlenderLattice((4, 4, 4))
+blender.control_points = blender.rest_control_points + 0.05 * rng.normal(size=blender.rest_control_points.shape)
+deformers = [("Twist", dk.Twist(rate=2.0)), ("Bend", dk.Bend(curvature=0.8)), ("Taper", dk.Taper(rate=0.5)),
+             ("FFD (cubic)", lattice), ("BlenderLattice 4^3", blender)]
+print(f"deformkit {dk.build_info()}  |  {args.points:,} points, medians of {args.repeats}")
+with OtherLoad() as load:
+    copy = median_ms(lambda: p64.copy())
+    print(f"numpy copy of the float64 points: {copy:.2f} ms (the memory yardstick)")
+    head = f"{'deformer':20} {'deform f64':>10} {'deform f32':>10} {'jacobian':>9} {'normals f64':>11} {'normals f32':>11} {'volume':>7}   (ms)"
+    print(head)
+    for name, d in deformers:
+        row = [median_ms(lambda: d.deform(p64)), median_ms(lambda: d.deform(p32)), median_ms(lambda: d.jacobian(p64)),
+               median_ms(lambda: d.transform_normals(p64, n64)), median_ms(lambda: d.transform_normals(p32, n32)),
+               median_ms(lambda: d.volume_ratio(p64))]
+        print(f"{name:20} " + " ".join(f"{v:{w}.2f}" for v, w in zip(row, (10, 10, 9, 11, 11, 7)))
+              + f"   normals f64 {args.points / row[3] / 1e3:.0f} M points/s")
+print(load.report())
