@@ -205,7 +205,7 @@ def surface_setup(obj, entry, reuse_weights=False):
 def deform(key, prepared, points):
     """The entry's result for the incoming points; a failure is the entry's (EntryError)."""
     try:
-        return surface_deform(prepared.data, points)
+        return surface_deform(prepared.data, points, warm_key=key)
     except EntryError:
         raise
     except ValueError as exc:
@@ -216,8 +216,18 @@ def apply(obj, entry, prepared, base):
     write_base(obj, surface_deform(prepared.data, base))  # the handles come from the base mesh (INCOMING)
 
 
-def surface_deform(entry_setup, points):
-    """The entry's result for the incoming points (float32, like every other entry's)."""
+def warm_starts(solver, key):
+    """ARAP in the viewport starts from the previous evaluation's rotations while the frame stays
+    the same (a handle dragged a little converges in a few iterations). Playback, a render and a
+    background run (the batch) start from R = I, so that a frame's result never depends on what
+    was evaluated before it (docs/blender_addon.md, the Laplacian entries)."""
+    return key is not None and key[2] == "viewport" and solver.method == "arap" and not bpy.app.background
+
+
+def surface_deform(entry_setup, points, warm_key=None):
+    """The entry's result for the incoming points (float32, like every other entry's). warm_key:
+    the evaluation's (object, entry, kind) key, under which a viewport ARAP entry keeps its last
+    result and frame to start the next evaluation of the same frame from."""
     if entry_setup.solver is None:
         return points
     targets = entry_setup.targets
@@ -225,7 +235,17 @@ def surface_deform(entry_setup, points):
         targets = points[entry_setup.handles].astype(np.float64)
         if not np.isfinite(targets).all():
             raise EntryError("the handles' incoming positions are not finite")
-    return entry_setup.solver.deform(targets).astype(np.float32)
+    solver = entry_setup.solver
+    if not warm_starts(solver, warm_key):
+        return solver.deform(targets).astype(np.float32)
+    scene = getattr(bpy.context, "scene", None)
+    frame = scene.frame_current_final if scene is not None else None
+    last = cache.get("laplacian_previous", warm_key)
+    # Only this very solver's result (a rebind makes a new one), and only at the same frame.
+    initial = last[2] if last is not None and last[0] is solver and last[1] == frame else None
+    result = solver.deform(targets, initial=initial)
+    cache.put("laplacian_previous", warm_key, (solver, frame, result))
+    return result.astype(np.float32)
 
 
 def bind(obj, entry, incoming):

@@ -674,3 +674,41 @@ def test_moving_the_object_follows_blenders_hook(scene):
     obj2.rotation_euler = (0.3, 0.0, -0.4)
     update()
     assert close(evaluated(obj2), base2, size(base2))  # moved together: no deformation
+
+
+def test_a_viewport_arap_entry_warm_starts_while_the_frame_stays(scene, monkeypatch):
+    """A handle dragged at one frame: each evaluation starts from the last one's rotations, so with
+    the entry's few iterations it comes out nearer the converged ARAP solution than a start from
+    R = I does. A frame change (playback) starts from R = I again, bit for bit the cold result.
+    (Background runs, as these tests, never warm-start: warm_starts is made to say yes here.)"""
+    import bpy
+    from deformkit_addon import cache
+    from deformkit_addon.entries import laplacian
+    assert not laplacian.warm_starts(type("S", (), {"method": "arap"})(), ("o", 0, "viewport"))  # background
+    monkeypatch.setattr(laplacian, "warm_starts", lambda solver, key: key is not None and key[2] == "viewport")
+    obj, entry, empty = bound_tube(bpy, method="ARAP", iterations=2)
+    at_bind = np.array(empty.matrix_world)
+    base = positions(obj.data).copy()
+    top = group_members(obj, "Top")
+    converged = dk().SurfaceDeformer(base.astype(np.float64), polygons(obj.data), anchors=group_members(obj, "Bottom"),
+                                     handles=top, iterations=400, tolerance=1e-12)
+    cold = dk().SurfaceDeformer(base.astype(np.float64), polygons(obj.data), anchors=group_members(obj, "Bottom"),
+                                handles=top, iterations=2)
+    warm_error = cold_error = 0.0
+    for step in range(1, 16):  # the empty dragged in small steps
+        empty.location.x, empty.rotation_euler.y = 0.4 + 0.05 * step, 0.04 * step
+        update()
+        ours = evaluated(obj).astype(np.float64)
+        targets = moved(base[top], motion(obj, empty, at_bind))
+        truth = converged.deform(targets)
+        warm_error = max(warm_error, np.abs(ours - truth).max())
+        cold_error = max(cold_error, np.abs(cold.deform(targets) - truth).max())
+    assert len(cache.items("laplacian_previous")) == 1
+    assert warm_error < 0.5 * cold_error, (warm_error, cold_error)
+    scene.frame_set(scene.frame_current + 1)  # at another frame (playback), the handle moved: from R = I
+    empty.location.x += 0.05
+    update()
+    targets = moved(base[top], motion(obj, empty, at_bind))
+    # The cold result to float32 rounding (the add-on's targets come from float32 matrices), far
+    # nearer than the warm starts above came to it.
+    assert np.abs(evaluated(obj) - cold.deform(targets)).max() < 1e-5 * size(base)
