@@ -213,33 +213,39 @@ static Mat3 scalar_blended_jacobian(const BarrOp& op, const Placement& placement
   return w.empty() ? m : Mat3((1.0 - w[i]) * Mat3::Identity() + w[i] * m);
 }
 
+// Rows [0, n) through the lanes, block by block on both cores: lanes(begin, end, flags) is the
+// kernel, row(i) the scalar path for a row it flagged, false where the generic path must take
+// over (an input not finite: it names the argument).
+template <class Lanes, class Row>
+static bool lanes_then_flagged_rows(std::size_t n, Lanes&& lanes, Row&& row) {
+  std::atomic<bool> ok{true};
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    std::vector<unsigned char> flags(end - begin, 0);
+    if (!ok || lanes(begin, end, flags.data())) return;
+    for (std::size_t i = begin; i < end && ok; ++i)
+      if (flags[i - begin] && !row(i)) ok = false;
+  });
+  return ok;
+}
+
 template <class T>
 bool BarrDeformer::normals_any(const T* points, const T* normals, T* out, std::size_t n) const {
   if (!simd_eligible(sizeof(T) == sizeof(float))) return false;
   const BarrKernelParams params = kernel_params(op_, placement_);
   const std::vector<double>& w = weights();
-  std::atomic<bool> ok{true};
-  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    std::vector<unsigned char> flags(end - begin, 0);
-    if (!ok || barr_normals_kernel(params, w.empty() ? nullptr : w.data() + begin, points + 3 * begin, normals + 3 * begin,
-                                   out + 3 * begin, flags.data(), end - begin))
-      return;
-    for (std::size_t i = begin; i < end; ++i) {
-      if (!flags[i - begin]) continue;
-      const Vec3 p(points[3 * i], points[3 * i + 1], points[3 * i + 2]), q(normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]);
-      if (!p.allFinite() || !q.allFinite()) {
-        ok = false;  // the generic path names the argument
-        return;
-      }
-      const Vec3 m = normal_direction(scalar_blended_jacobian(op_, placement_, w, p, i), q);
-      if (!m.allFinite()) {
-        ok = false;
-        return;
-      }
-      for (int a = 0; a < 3; ++a) out[3 * i + a] = static_cast<T>(m[a]);
-    }
-  });
-  return ok;
+  return lanes_then_flagged_rows(
+      n,
+      [&](std::size_t begin, std::size_t end, unsigned char* flags) {
+        return barr_normals_kernel(params, w.empty() ? nullptr : w.data() + begin, points + 3 * begin,
+                                   normals + 3 * begin, out + 3 * begin, flags, end - begin);
+      },
+      [&](std::size_t i) {
+        const Vec3 p(points[3 * i], points[3 * i + 1], points[3 * i + 2]), q(normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]);
+        if (!p.allFinite() || !q.allFinite()) return false;
+        const Vec3 m = normal_direction(scalar_blended_jacobian(op_, placement_, w, p, i), q);
+        for (int a = 0; a < 3; ++a) out[3 * i + a] = static_cast<T>(m[a]);
+        return m.allFinite();
+      });
 }
 
 bool BarrDeformer::normals_impl(const double* points, const double* normals, double* out, std::size_t n) const {
@@ -253,23 +259,18 @@ bool BarrDeformer::volume_ratio_impl(const double* points, double* out, std::siz
   if (!simd_eligible(false)) return false;
   const BarrKernelParams params = kernel_params(op_, placement_);
   const std::vector<double>& w = weights();
-  std::atomic<bool> ok{true};
-  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    std::vector<unsigned char> flags(end - begin, 0);
-    if (!ok || barr_determinant_kernel(params, w.empty() ? nullptr : w.data() + begin, points + 3 * begin, out + begin,
-                                       flags.data(), end - begin))
-      return;
-    for (std::size_t i = begin; i < end; ++i) {
-      if (!flags[i - begin]) continue;
-      const Vec3 p(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
-      if (!p.allFinite()) {
-        ok = false;
-        return;
-      }
-      out[i] = scaled_determinant(scalar_blended_jacobian(op_, placement_, w, p, i));
-    }
-  });
-  return ok;
+  return lanes_then_flagged_rows(
+      n,
+      [&](std::size_t begin, std::size_t end, unsigned char* flags) {
+        return barr_determinant_kernel(params, w.empty() ? nullptr : w.data() + begin, points + 3 * begin, out + begin,
+                                       flags, end - begin);
+      },
+      [&](std::size_t i) {
+        const Vec3 p(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
+        if (!p.allFinite()) return false;
+        out[i] = scaled_determinant(scalar_blended_jacobian(op_, placement_, w, p, i));
+        return true;
+      });
 }
 
 static BarrOp twist_op(BarrKind kind, const Profile& profile) {
