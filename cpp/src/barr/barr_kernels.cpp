@@ -11,6 +11,7 @@
 #include "hwy/foreach_target.h"  // IWYU pragma: keep
 #include "hwy/highway.h"
 #include "hwy/contrib/math/math-inl.h"
+#include "core/derivative_lanes-inl.hpp"
 
 HWY_BEFORE_NAMESPACE();
 namespace deformkit {
@@ -206,28 +207,17 @@ HWY_INLINE bool RunDerivative(const BarrKernelParams& p, const double* weights, 
     M[i] = set(p.M[i]);
     B[i] = set(p.B[i]);
   }
-  const V m0 = set(p.m[0]), m1 = set(p.m[1]), m2 = set(p.m[2]), one = set(1.0), zero = hn::Zero(d);
-  const V tiny = set(sizeof(T) == 4 ? 0x1p-100 : 0x1p-900);  // below: the scalar path decides
+  const V m0 = set(p.m[0]), m1 = set(p.m[1]), m2 = set(p.m[2]), one = set(1.0);
   bool all_good = true;
 
   auto step = [&](const T* src, const T* nsrc, const double* w, T* dst, unsigned char* flag, size_t lanes) HWY_ATTR {
-    // Per lane: some input or result not finite (0 v is NaN then), or a magnitude below `tiny`.
-    auto bad = hn::Ne(zero, zero);
-    auto mark = [&](V v) HWY_ATTR { bad = hn::Or(bad, hn::Not(hn::Eq(hn::Mul(zero, v), zero))); };
-    auto mark_small = [&](V magnitude) HWY_ATTR { bad = hn::Or(bad, hn::Not(hn::Ge(magnitude, tiny))); };
-    auto finish = [&]() HWY_ATTR {  // the padding lanes of a partial vector do not count
-      if (HWY_LIKELY(hn::AllFalse(d, bad))) return;
-      HWY_ALIGN T lane_bad[HWY_MAX_BYTES / sizeof(T)] = {};
-      hn::Store(hn::IfThenElseZero(bad, one), d, lane_bad);
-      for (size_t i = 0; i < lanes; ++i)
-        if (lane_bad[i] != T(0)) {
-          all_good = false;
-          if (flag) flag[i] = 1;
-        }
+    LaneTrouble<hn::ScalableTag<T>> trouble(d);
+    auto finish = [&]() HWY_ATTR {
+      if (!trouble.report(lanes, [&](size_t l) HWY_ATTR { if (flag) flag[l] = 1; })) all_good = false;
     };
     V px, py, pz;
     hn::LoadInterleaved3(d, src, px, py, pz);
-    mark(px), mark(py), mark(pz);
+    trouble.mark(px), trouble.mark(py), trouble.mark(pz);
     V x = px, y = py, z = pz;
     if (!kIdentity) {
       x = hn::MulAdd(M[0], px, hn::MulAdd(M[1], py, hn::MulAdd(M[2], pz, m0)));
@@ -262,53 +252,23 @@ HWY_INLINE bool RunDerivative(const BarrKernelParams& p, const double* weights, 
       HWY_ALIGN T lanes_out[9][HWY_MAX_BYTES / sizeof(T)];
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) {
-          mark(j[r][c]);
+          trouble.mark(j[r][c]);
           hn::Store(j[r][c], d, lanes_out[3 * r + c]);
         }
       for (size_t i = 0; i < lanes; ++i)
         for (int k = 0; k < 9; ++k) dst[9 * i + size_t(k)] = lanes_out[k][i];
       return finish();
     }
-    // cof(J)'s rows: the cross products of J's columns (cofactor() in deformer.cpp).
-    auto cross = [&](int a, int b, V out3[3]) HWY_ATTR {
-      out3[0] = hn::MulSub(j[1][a], j[2][b], hn::Mul(j[2][a], j[1][b]));
-      out3[1] = hn::MulSub(j[2][a], j[0][b], hn::Mul(j[0][a], j[2][b]));
-      out3[2] = hn::MulSub(j[0][a], j[1][b], hn::Mul(j[1][a], j[0][b]));
-    };
-    V c0[3], c1[3], c2[3];  // J2 x J3, J3 x J1, J1 x J2
-    cross(1, 2, c0);
-    cross(2, 0, c1);
-    cross(0, 1, c2);
     if (kWhat == 2) {
-      const V det = hn::MulAdd(j[0][0], c0[0], hn::MulAdd(j[1][0], c0[1], hn::Mul(j[2][0], c0[2])));
-      mark(det);
-      mark_small(hn::Abs(det));
       HWY_ALIGN T lane_det[HWY_MAX_BYTES / sizeof(T)];
-      hn::Store(det, d, lane_det);
+      hn::Store(DeterminantLanes(j, trouble), d, lane_det);
       std::memcpy(dst, lane_det, lanes * sizeof(T));
       return finish();
     }
-    V nx, ny, nz;
-    hn::LoadInterleaved3(d, nsrc, nx, ny, nz);
-    mark(nx), mark(ny), mark(nz);
-    // The input normal made unit the scale-free way: divided by its largest component first.
-    const V big = hn::Max(hn::Abs(nx), hn::Max(hn::Abs(ny), hn::Abs(nz)));
-    mark_small(big);
-    const V inv_big = hn::Div(one, big);
-    nx = hn::Mul(nx, inv_big), ny = hn::Mul(ny, inv_big), nz = hn::Mul(nz, inv_big);
-    const V inv_len = hn::Div(one, hn::Sqrt(hn::MulAdd(nx, nx, hn::MulAdd(ny, ny, hn::Mul(nz, nz)))));
-    nx = hn::Mul(nx, inv_len), ny = hn::Mul(ny, inv_len), nz = hn::Mul(nz, inv_len);
-    // cof(J) n: rows c0, c1, c2 are the rows of det(J) J^-1, so cof(J) = [c0 c1 c2] as columns.
-    V ox = hn::MulAdd(c0[0], nx, hn::MulAdd(c1[0], ny, hn::Mul(c2[0], nz)));
-    V oy = hn::MulAdd(c0[1], nx, hn::MulAdd(c1[1], ny, hn::Mul(c2[1], nz)));
-    V oz = hn::MulAdd(c0[2], nx, hn::MulAdd(c1[2], ny, hn::Mul(c2[2], nz)));
-    const V top = hn::Max(hn::Abs(ox), hn::Max(hn::Abs(oy), hn::Abs(oz)));
-    mark(top);
-    mark_small(top);
-    const V inv_top = hn::Div(one, top);
-    ox = hn::Mul(ox, inv_top), oy = hn::Mul(oy, inv_top), oz = hn::Mul(oz, inv_top);
-    const V inv = hn::Div(one, hn::Sqrt(hn::MulAdd(ox, ox, hn::MulAdd(oy, oy, hn::Mul(oz, oz)))));
-    hn::StoreInterleaved3(hn::Mul(ox, inv), hn::Mul(oy, inv), hn::Mul(oz, inv), d, dst);
+    V nv[3];
+    hn::LoadInterleaved3(d, nsrc, nv[0], nv[1], nv[2]);
+    NormalLanes(j, nv, trouble);
+    hn::StoreInterleaved3(nv[0], nv[1], nv[2], d, dst);
     finish();
   };
 

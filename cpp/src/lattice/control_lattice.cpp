@@ -1,5 +1,6 @@
 #include "deformkit/lattice/control_lattice.hpp"
 
+#include "lattice/cell_runs.hpp"
 #include "lattice/lattice_kernel.hpp"
 #include "core/parallel.hpp"
 
@@ -17,51 +18,10 @@ namespace deformkit {
 
 namespace {
 
-// A finite point far enough from the lattice overflows its lattice coordinates (M^-1 (x - X0)).
-// Exceptions must not leave an OpenMP region, so rows are noted there and reported after it.
-class OverflowRows {
- public:
-  void note(std::size_t i) {
-    std::size_t cur = first_.load();
-    while (i < cur && !first_.compare_exchange_weak(cur, i)) {
-    }
-  }
-  void raise() const {
-    if (first_.load() != kNone)
-      throw std::invalid_argument("points: row " + std::to_string(first_.load()) +
-                                  " lies so far from the lattice that its lattice coordinates overflow");
-  }
-
- private:
-  static constexpr std::size_t kNone = ~std::size_t(0);
-  std::atomic<std::size_t> first_{kNone};
-};
-
 struct AxisWeights {
   double w[kMaxAxisWidth], dw[kMaxAxisWidth];
   int index[kMaxAxisWidth];
   int width;
-};
-
-// Keys below this many are sorted by counting, chunk by chunk (the counts fit in the L1 cache).
-constexpr std::uint64_t kCountingSortKeys = std::uint64_t(1) << 14;
-
-// Stable counting sort of one chunk of keys in three steps, so that the counting can share the
-// loop that computes the keys: count() each key, prefix(), then slot(key) hands each point its
-// sorted position in input order; afterwards run_end(key) is where key's run ends.
-class CountingSort {
- public:
-  explicit CountingSort(std::uint64_t keys) : start_(keys + 1) {}
-  void clear() { std::fill(start_.begin(), start_.end(), 0u); }
-  void count(std::uint64_t key) { ++start_[key + 1]; }
-  void prefix() {
-    for (std::size_t k = 1; k < start_.size(); ++k) start_[k] += start_[k - 1];
-  }
-  std::uint32_t slot(std::uint64_t key) { return start_[key]++; }
-  std::uint32_t run_end(std::uint64_t key) const { return start_[key]; }
-
- private:
-  std::vector<std::uint32_t> start_;
 };
 
 // The sorted copies of the points of the binding's dtype.
@@ -221,50 +181,9 @@ Vec3 ControlLattice::rest_map(const Vec3& parameters, Mat3* derivative) const {
   return contract(rest_, parameters, derivative);
 }
 
-void ControlLattice::jacobian_impl(const double* in, double* jac, std::size_t n) const {
-  OverflowRows overflow;
-  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) {
-      const Vec3 x(in[3 * i], in[3 * i + 1], in[3 * i + 2]);
-      Vec3 p;
-      Mat3 j = Mat3::Identity();
-      const PointStatus status = locate(x, p);
-      if (!p.allFinite()) {
-        overflow.note(i);
-        continue;
-      }
-      if (displaces(status)) {
-        Mat3 d;
-        displacement_at(p, &d);
-        j += strength_ * d * parameter_jacobian(p);
-      }
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) jac[9 * i + 3 * r + c] = j(r, c);
-    }
-  });
-  overflow.raise();
-}
-
 namespace {
 
-// The kernel's view of an axis, and the control points a piece touches in that view.
-KernelAxis kernel_axis(const AxisBasis& a) {
-  switch (a.kind) {
-    case BasisKind::Bernstein: return {KernelBasis::Bernstein, a.count, 0.0};
-    case BasisKind::BezierBlocks: return {KernelBasis::Bernstein, 4, 0.0};
-    case BasisKind::UniformBSpline:
-    case BasisKind::BlenderBSpline: return {a.count == 1 ? KernelBasis::Constant : KernelBasis::CubicBSpline,
-                                            a.count == 1 ? 1 : 4, 0.0};
-    case BasisKind::BlenderLinear: return {a.count == 1 ? KernelBasis::Constant : KernelBasis::Linear,
-                                           a.count == 1 ? 1 : 2, 0.0};
-    case BasisKind::BlenderCardinal: return {a.count == 1 ? KernelBasis::Constant : KernelBasis::Cardinal,
-                                             a.count == 1 ? 1 : 4, 0.71};
-    case BasisKind::BlenderCatmullRom: return {a.count == 1 ? KernelBasis::Constant : KernelBasis::Cardinal,
-                                               a.count == 1 ? 1 : 4, 0.5};
-  }
-  return {};
-}
-
+// The control points a piece touches in the kernel's view of an axis.
 void kernel_indices(const AxisBasis& a, int piece, int* index) {
   double w[kMaxAxisWidth];
   int all[kMaxAxisWidth];
@@ -321,11 +240,12 @@ std::array<std::int32_t, 3> ControlLattice::cell_of_key(std::uint64_t k) const {
   return {int(k / (r1 * r2) % r0) - 2, int(k / r2 % r1) - 2, int(k % r2) - 2};
 }
 
-std::uint64_t ControlLattice::cell_key(const Vec3& p, double* t) const {
+std::uint64_t ControlLattice::cell_key(const Vec3& p, double* t, double* ds) const {
   std::uint64_t k = 0;
   for (int a = 0; a < 3; ++a) {
     const AxisSpan span = axes_[a].locate(p[a], outside_);
     if (t) t[a] = span.t;
+    if (ds) ds[a] = span.frozen ? 0.0 : axes_[a].scale();
     k = k * std::uint64_t(axes_[a].count + 4) + std::uint64_t(span.piece + 2);
   }
   return k;
@@ -556,6 +476,9 @@ bool ControlLattice::deform_impl(const float* in, float* out, std::size_t n) con
 bool ControlLattice::deform_impl(const double* in, double* out, std::size_t n) const {
   return deform_points(in, out, n);
 }
+
+template void ControlLattice::cell_block<float>(const std::array<std::int32_t, 3>&, float*) const;
+template void ControlLattice::cell_block<double>(const std::array<std::int32_t, 3>&, double*) const;
 
 WeightTable ControlLattice::weights_matrix(const LatticeBinding& b) const {
   if (b.layout != layout())

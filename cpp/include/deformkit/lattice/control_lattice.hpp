@@ -70,6 +70,11 @@ class ControlLattice : public BoundDeformer {
   // index clamping) merged.
   WeightTable weights_matrix(const LatticeBinding& binding) const;
 
+  // The Jacobians through the per-point formulas, with no SIMD lanes: what jacobian(),
+  // transform_normals() and volume_ratio() are tested against (weights not applied). Throws as
+  // jacobian() does for a row whose lattice coordinates overflow.
+  void reference_jacobian(const double* points, double* jac, std::size_t n) const;
+
  protected:
   ControlLattice(const LatticeAxes& axes, std::vector<double> rest, Outside outside, double strength);
   void merge_coincident_control_points(double tolerance);
@@ -80,6 +85,9 @@ class ControlLattice : public BoundDeformer {
   virtual PointStatus locate(const Vec3& x, Vec3& parameters) const = 0;
   // d(parameters)/dx at a placed point.
   virtual Mat3 parameter_jacobian(const Vec3& parameters) const = 0;
+  // True, with it, when d(parameters)/dx is the same everywhere (a box): the derivatives then go
+  // through the SIMD lanes.
+  virtual bool constant_parameter_jacobian(Mat3&) const { return false; }
 
   bool displaces(PointStatus s) const {
     return s == PointStatus::Inside || (s == PointStatus::Outside && outside_ != Outside::Unchanged);
@@ -93,6 +101,12 @@ class ControlLattice : public BoundDeformer {
   bool deform_impl(const float* in, float* out, std::size_t n) const override;
   bool deform_impl(const double* in, double* out, std::size_t n) const override;
   void jacobian_impl(const double* in, double* jac, std::size_t n) const override;
+  bool normals_impl(const double* points, const double* normals, double* out, std::size_t n) const override;
+  bool normals_impl(const float* points, const float* normals, float* out, std::size_t n) const override;
+  bool volume_ratio_impl(const double* points, double* out, std::size_t n) const override;
+  template <class T>
+  bool derivative_lanes(int what, const T* in, const T* normals, T* out, std::size_t n) const;
+  Mat3 jacobian_at(const Vec3& x, bool& overflow) const;
   template <class T>
   bool deform_points(const T* in, T* out, std::size_t n) const;
   template <class T>
@@ -106,7 +120,9 @@ class ControlLattice : public BoundDeformer {
   bool deform_sorted(const LatticeBinding& b, T* out) const;
   template <class T>
   void sort_by_cell(LatticeBinding& b, const T* in, const std::uint64_t* key) const;
-  std::uint64_t cell_key(const Vec3& parameters, double* local) const;
+  // local and ds (optional): per axis the coordinate within the cell and d(local)/d(parameter),
+  // 0 where the axis is clamped.
+  std::uint64_t cell_key(const Vec3& parameters, double* local, double* ds = nullptr) const;
   std::uint64_t still_key() const;
   std::array<std::int32_t, 3> cell_of_key(std::uint64_t key) const;
   template <class T>
