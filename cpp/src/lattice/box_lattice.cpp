@@ -43,7 +43,9 @@ const LatticeAxes& checked(const LatticeAxes& axes, Outside outside, const char*
 
 BoxLattice::BoxLattice(const LatticeBox& box, const LatticeAxes& axes, Outside outside, double strength,
                        const char* counts_name)
-    : ControlLattice(axes, rest_grid(box, checked(axes, outside, counts_name)), outside, strength), box_(box) {}
+    : ControlLattice(axes, rest_grid(box, checked(axes, outside, counts_name)), outside, strength), box_(box) {
+  set_affine_placement(box.to_box, box.origin);
+}
 
 PointStatus BoxLattice::locate(const Vec3& x, Vec3& parameters) const {
   parameters = box_.coordinates(x);

@@ -2,6 +2,7 @@
 
 #include "lattice/cell_runs.hpp"
 #include "lattice/lattice_kernel.hpp"
+#include "lattice/placement_kernel.hpp"
 #include "core/parallel.hpp"
 
 #include <algorithm>
@@ -29,6 +30,34 @@ template <class T>
 const Buffer<T>& sorted_points(const LatticeBinding& b) {
   if constexpr (std::is_same<T, float>::value) return b.sorted_f;
   else return b.sorted_d;
+}
+
+Buffer<float>& sorted_points_of(LatticeBinding& b, float*) { return b.sorted_f; }
+Buffer<double>& sorted_points_of(LatticeBinding& b, double*) { return b.sorted_d; }
+
+// A cell key's index into the binding's distinct cells: a table while the keys are few enough.
+class CellIds {
+ public:
+  explicit CellIds(std::uint64_t still) : dense_(still + 1 <= (std::uint64_t(1) << 22) ? still + 1 : 0, -1) {}
+  std::int32_t& operator[](std::uint64_t k) { return dense_.empty() ? sparse_.try_emplace(k, -1).first->second : dense_[k]; }
+
+ private:
+  std::vector<std::int32_t> dense_;
+  std::unordered_map<std::uint64_t, std::int32_t> sparse_;
+};
+
+// Run r of the binding starts at `begin` in cell `key`; the cell joins the distinct cells when
+// first seen.
+void add_run(LatticeBinding& b, CellIds& ids, std::uint32_t begin, std::uint64_t key, bool moves,
+             const std::array<std::int32_t, 3>& cell) {
+  b.run_begin.push_back(begin);
+  std::int32_t& id = ids[key];
+  if (id < 0) {
+    id = static_cast<std::int32_t>(b.cells.size());
+    b.cells.push_back(cell);
+    b.cell_moves.push_back(moves);
+  }
+  b.run_cell.push_back(id);
 }
 
 std::string grid_index(int flat, const std::array<int, 3>& res) {
@@ -208,26 +237,112 @@ LatticeBinding ControlLattice::bind_points(const T* in, std::size_t n) const {
   b.single_precision = std::is_same<T, float>::value;
   b.parameters.resize(3 * n);
   b.status.resize(n);
-  Buffer<std::uint64_t> key(n);
   const std::uint64_t still = still_key();
   OverflowRows overflow;
-  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+  // Rows [begin, end) placed; a row whose coordinates overflow is noted and left unplaced.
+  auto place_block = [&](std::size_t begin, std::size_t end, std::uint64_t* key, double* local) {
+    if (place_rows(in + 3 * begin, end - begin, &b.parameters[3 * begin], &b.status[begin], key, local, nullptr))
+      return;
     for (std::size_t i = begin; i < end; ++i) {
-      Vec3 p;
-      PointStatus s = locate(Vec3(in[3 * i], in[3 * i + 1], in[3 * i + 2]), p);
-      if (!p.allFinite()) {
-        overflow.note(i);
-        s = PointStatus::NotPlaced, p = Vec3::Zero();
+      double* p = &b.parameters[3 * i];
+      if (std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])) continue;
+      overflow.note(i);
+      b.status[i] = static_cast<std::uint8_t>(PointStatus::NotPlaced);
+      p[0] = p[1] = p[2] = 0.0;
+      key[i - begin] = still;
+    }
+  };
+  if (still + 1 > kCountingSortKeys) {
+    Buffer<std::uint64_t> key(n);
+    parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+      std::vector<double> local(3 * (end - begin));
+      place_block(begin, end, &key[begin], local.data());
+    });
+    overflow.raise();
+    sort_by_cell(b, in, key.data());
+    return b;
+  }
+  // Placed, sorted and copied chunk by chunk in one pass (a counting sort, linear and stable,
+  // inside chunks that fit the L2 cache with everything they write), each chunk's runs noted
+  // under its number so that they join in order afterwards.
+  constexpr std::size_t kChunk = 32768;
+  b.order.resize(n);
+  Buffer<T>& sorted = sorted_points_of(b, static_cast<T*>(nullptr));
+  sorted.resize(6 * n);
+  std::vector<std::vector<std::pair<std::uint32_t, std::uint64_t>>> chunk_runs((n + kChunk - 1) / kChunk);
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    CountingSort sort(still + 1);
+    std::vector<std::uint64_t> key(kChunk);
+    std::vector<double> local(3 * kChunk);
+    for (std::size_t c = (begin + kChunk - 1) / kChunk * kChunk; c < end; c += kChunk) {
+      const std::size_t stop = std::min(n, c + kChunk);
+      sort.clear();
+      place_block(c, stop, key.data(), local.data());
+      for (std::size_t i = c; i < stop; ++i) sort.count(key[i - c]);
+      sort.prefix();
+      for (std::size_t i = c; i < stop; ++i) {
+        const std::uint64_t k = key[i - c];
+        const std::size_t to = c + sort.slot(k);
+        b.order[to] = static_cast<std::uint32_t>(i);
+        for (int a = 0; a < 3; ++a) {
+          sorted[a * n + to] = k == still ? T(0) : static_cast<T>(local[3 * (i - c) + a]);
+          sorted[(3 + a) * n + to] = in[3 * i + a];
+        }
       }
-      b.status[i] = static_cast<std::uint8_t>(s);
-      for (int a = 0; a < 3; ++a) b.parameters[3 * i + a] = p[a];
-      key[i] = displaces(s) ? cell_key(p, nullptr) : still;
+      auto& runs = chunk_runs[c / kChunk];
+      for (std::size_t lo = c; lo < stop;) {
+        const std::uint64_t k = key[b.order[lo] - c];
+        runs.emplace_back(static_cast<std::uint32_t>(lo), k);
+        lo = c + sort.run_end(k);
+      }
     }
   });
   overflow.raise();
-  sort_by_cell(b, in, key.data());
+  CellIds ids(still);
+  for (const auto& runs : chunk_runs)
+    for (const auto& [begin, k] : runs) add_run(b, ids, begin, k, k != still, cell_of_key(k));
+  b.run_begin.push_back(static_cast<std::uint32_t>(n));
   return b;
 }
+
+void ControlLattice::set_affine_placement(const Mat3& to_parameters, const Vec3& origin) {
+  affine_ = true;
+  to_parameters_ = to_parameters;
+  origin_ = origin;
+}
+
+template <class T>
+bool ControlLattice::place_rows(const T* in, std::size_t n, double* parameters, std::uint8_t* status,
+                                std::uint64_t* key, double* local, double* ds) const {
+  if (affine_) {
+    Placement3 box;
+    for (int e = 0; e < 9; ++e) box.to_parameters[e] = to_parameters_(e / 3, e % 3);
+    for (int a = 0; a < 3; ++a) {
+      box.origin[a] = origin_[a];
+      box.axes[a] = {is_blender(axes_[a].kind), axes_[a].count, axes_[a].pieces(), axes_[a].domain_lo(),
+                     axes_[a].domain_hi(), axes_[a].scale()};
+    }
+    box.outside = outside_ == Outside::Clamp ? 0 : outside_ == Outside::Unchanged ? 1 : 2;
+    box.still = still_key();
+    return place_in_box(box, in, n, parameters, status, key, local, ds);
+  }
+  bool finite = true;
+  const std::uint64_t still = still_key();
+  for (std::size_t i = 0; i < n; ++i) {
+    Vec3 p;
+    const PointStatus s = locate(Vec3(in[3 * i], in[3 * i + 1], in[3 * i + 2]), p);
+    for (int a = 0; a < 3; ++a) parameters[3 * i + a] = p[a];
+    if (status) status[i] = static_cast<std::uint8_t>(s);
+    const bool ok = p.allFinite();
+    finite = finite && ok;
+    key[i] = ok && displaces(s) ? cell_key(p, local + 3 * i, ds ? ds + 3 * i : nullptr) : still;
+  }
+  return finite;
+}
+template bool ControlLattice::place_rows(const float*, std::size_t, double*, std::uint8_t*, std::uint64_t*, double*,
+                                         double*) const;
+template bool ControlLattice::place_rows(const double*, std::size_t, double*, std::uint8_t*, std::uint64_t*, double*,
+                                         double*) const;
 
 // Cell key: pieces offset by 2 (Blender's run from -2 to count), in a box of count + 4 per axis;
 // one more key for points left where they are.
@@ -254,6 +369,7 @@ std::uint64_t ControlLattice::cell_key(const Vec3& p, double* t, double* ds) con
 LatticeBinding ControlLattice::bind(const double* points, std::size_t n) const { return bind_points(points, n); }
 LatticeBinding ControlLattice::bind(const float* points, std::size_t n) const { return bind_points(points, n); }
 
+// Lattices with too many cells to sort by counting in chunks: one stable sort of all the points.
 template <class T>
 void ControlLattice::sort_by_cell(LatticeBinding& b, const T* in, const std::uint64_t* key) const {
   const std::size_t n = b.size();
@@ -261,49 +377,16 @@ void ControlLattice::sort_by_cell(LatticeBinding& b, const T* in, const std::uin
   auto span = [&](std::size_t i, int a) { return axes_[a].locate(b.parameters[3 * i + a], outside_); };
   Buffer<std::uint64_t> sorted_key(n);
   b.order.resize(n);
-  if (still + 1 <= kCountingSortKeys) {
-    // Counting sort (linear, stable) within chunks of points: the kernel's scattered writes then
-    // stay inside one chunk's output, which fits in the L2 cache, whatever the point order.
-    constexpr std::size_t kChunk = 32768;
-    parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-      CountingSort sort(still + 1);
-      for (std::size_t c = (begin + kChunk - 1) / kChunk * kChunk; c < end; c += kChunk) {
-        const std::size_t stop = std::min(n, c + kChunk);
-        sort.clear();
-        for (std::size_t i = c; i < stop; ++i) sort.count(key[i]);
-        sort.prefix();
-        for (std::size_t i = c; i < stop; ++i) {
-          const std::size_t to = c + sort.slot(key[i]);
-          b.order[to] = static_cast<std::uint32_t>(i);
-          sorted_key[to] = key[i];
-        }
-      }
-    });
-  } else {
-    for (std::size_t i = 0; i < n; ++i) b.order[i] = static_cast<std::uint32_t>(i);
-    std::stable_sort(b.order.begin(), b.order.end(), [key](std::uint32_t x, std::uint32_t y) { return key[x] < key[y]; });
-    for (std::size_t i = 0; i < n; ++i) sorted_key[i] = key[b.order[i]];
-  }
-  // Runs of one cell, and the distinct cells they use (a cell recurs in every chunk).
-  std::vector<std::int32_t> dense(still + 1 <= (std::uint64_t(1) << 22) ? still + 1 : 0, -1);
-  std::unordered_map<std::uint64_t, std::int32_t> sparse;
+  for (std::size_t i = 0; i < n; ++i) b.order[i] = static_cast<std::uint32_t>(i);
+  std::stable_sort(b.order.begin(), b.order.end(), [key](std::uint32_t x, std::uint32_t y) { return key[x] < key[y]; });
+  for (std::size_t i = 0; i < n; ++i) sorted_key[i] = key[b.order[i]];
+  CellIds ids(still);
   for (std::size_t i = 0; i < n; ++i) {
     const std::uint64_t k = sorted_key[i];
-    if (i > 0 && k == sorted_key[i - 1]) continue;
-    b.run_begin.push_back(static_cast<std::uint32_t>(i));
-    std::int32_t& id = dense.empty() ? sparse.try_emplace(k, -1).first->second : dense[k];
-    if (id < 0) {
-      id = static_cast<std::int32_t>(b.cells.size());
-      b.cells.push_back(cell_of_key(k));
-      b.cell_moves.push_back(k != still);
-    }
-    b.run_cell.push_back(id);
+    if (i == 0 || k != sorted_key[i - 1]) add_run(b, ids, static_cast<std::uint32_t>(i), k, k != still, cell_of_key(k));
   }
   b.run_begin.push_back(static_cast<std::uint32_t>(n));
-  Buffer<T>& sorted = [&]() -> Buffer<T>& {
-    if constexpr (std::is_same<T, float>::value) return b.sorted_f;
-    else return b.sorted_d;
-  }();
+  Buffer<T>& sorted = sorted_points_of(b, static_cast<T*>(nullptr));
   sorted.resize(6 * n);
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
@@ -418,28 +501,23 @@ bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
     std::vector<std::uint64_t> key(kChunk);
     std::vector<std::uint32_t> order(kChunk);
     CountingSort sort(still + 1);
-    std::vector<double> local(3 * kChunk);
+    std::vector<double> local(3 * kChunk), params(3 * kChunk);
     std::vector<T> soa(6 * kChunk), block(block_size);
     bool ok = true, results_finite = true;  // input rows, and the kernel's results
     for (std::size_t c = begin; c < end && ok; c += kChunk) {
       const std::size_t m = std::min(kChunk, end - c);
       sort.clear();
-      for (std::size_t i = 0; i < m; ++i) {
-        const Vec3 x(in[3 * (c + i)], in[3 * (c + i) + 1], in[3 * (c + i) + 2]);
-        if (!x.allFinite()) {
+      if (!place_rows(in + 3 * c, m, params.data(), nullptr, key.data(), local.data(), nullptr)) {
+        // A row not finite is the generic path's to name; a finite one that overflows is noted.
+        for (std::size_t i = 0; i < m && ok; ++i) {
+          if (std::isfinite(params[3 * i]) && std::isfinite(params[3 * i + 1]) && std::isfinite(params[3 * i + 2]))
+            continue;
+          const T* x = in + 3 * (c + i);
+          if (std::isfinite(x[0]) && std::isfinite(x[1]) && std::isfinite(x[2])) overflow.note(c + i);
           ok = false;
-          break;
         }
-        Vec3 p;
-        const PointStatus status = locate(x, p);
-        if (!p.allFinite()) {
-          overflow.note(c + i);
-          ok = false;
-          break;
-        }
-        key[i] = displaces(status) ? cell_key(p, &local[3 * i]) : still;
-        sort.count(key[i]);
       }
+      for (std::size_t i = 0; i < m && ok; ++i) sort.count(key[i]);
       if (!ok) break;
       sort.prefix();
       for (std::size_t i = 0; i < m; ++i) {

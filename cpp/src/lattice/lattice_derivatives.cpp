@@ -55,12 +55,11 @@ constexpr int kDeterminant = static_cast<int>(CellDerivative::Determinant);
 // input not finite or one whose lattice coordinates overflow (the generic path names it).
 template <class T>
 bool ControlLattice::derivative_lanes(int what, const T* in, const T* normals, T* out, std::size_t n) const {
-  Mat3 to_parameters;
   const std::uint64_t still = still_key();
-  if (!constant_parameter_jacobian(to_parameters) || still + 1 > kCountingSortKeys) return false;
+  if (!affine_ || still + 1 > kCountingSortKeys) return false;
   const CellDerivative kind = static_cast<CellDerivative>(what);
   double P[9];
-  for (int e = 0; e < 9; ++e) P[e] = to_parameters(e / 3, e % 3);
+  for (int e = 0; e < 9; ++e) P[e] = to_parameters_(e / 3, e % 3);
   const KernelAxis kaxes[3] = {kernel_axis(axes_[0]), kernel_axis(axes_[1]), kernel_axis(axes_[2])};
   const std::size_t block_size = 3 * std::size_t(kaxes[0].width) * kaxes[1].width * kaxes[2].width;
   const std::vector<double>& w = weights();
@@ -72,31 +71,24 @@ bool ControlLattice::derivative_lanes(int what, const T* in, const T* normals, T
     std::vector<std::uint64_t> key(kChunk);
     std::vector<std::uint32_t> order(kChunk);
     CountingSort sort(still + 1);
-    std::vector<double> local(6 * kChunk);
+    std::vector<double> local(6 * kChunk), params(3 * kChunk);  // local: t then ds, 3 per row each
     std::vector<T> soa(6 * kChunk), block(block_size);
     for (std::size_t c = begin; c < end && usable; c += kChunk) {
       const std::size_t m = std::min(kChunk, end - c);
       sort.clear();
-      for (std::size_t i = 0; i < m; ++i) {
-        const Vec3 x(in[3 * (c + i)], in[3 * (c + i) + 1], in[3 * (c + i) + 2]);
-        Vec3 p;
-        if (!x.allFinite()) {
-          usable = false;
-          return;
-        }
-        const PointStatus status = locate(x, p);
-        if (!p.allFinite()) {
-          usable = false;
-          return;
-        }
-        key[i] = displaces(status) ? cell_key(p, &local[6 * i], &local[6 * i + 3]) : still;
-        sort.count(key[i]);
+      if (!place_rows(in + 3 * c, m, params.data(), nullptr, key.data(), local.data(), &local[3 * kChunk])) {
+        usable = false;  // an input not finite, or one whose coordinates overflow: the generic path names it
+        return;
       }
+      for (std::size_t i = 0; i < m; ++i) sort.count(key[i]);
       sort.prefix();
       for (std::size_t i = 0; i < m; ++i) {
         const std::size_t to = sort.slot(key[i]);
         order[to] = static_cast<std::uint32_t>(c + i);
-        for (int a = 0; a < 6; ++a) soa[a * kChunk + to] = key[i] == still ? T(0) : static_cast<T>(local[6 * i + a]);
+        for (int a = 0; a < 3; ++a) {
+          soa[a * kChunk + to] = key[i] == still ? T(0) : static_cast<T>(local[3 * i + a]);
+          soa[(3 + a) * kChunk + to] = key[i] == still ? T(0) : static_cast<T>(local[3 * kChunk + 3 * i + a]);
+        }
       }
       for (std::size_t lo = 0; lo < m;) {
         const std::uint64_t k = key[order[lo] - c];

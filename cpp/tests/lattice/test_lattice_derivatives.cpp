@@ -208,3 +208,37 @@ TEST(LatticeDerivatives, BadRowsAreStillNamed) {
     }
   }
 }
+
+// The SIMD placement (parameters, status, cell, local coordinate) is the per-point formulas bit
+// for bit: LatticeBox::coordinates and AxisBasis::locate, on points that include the faces and
+// the piece boundaries exactly.
+TEST(LatticePlacement, LanesAreThePerPointFormulasBitForBit) {
+  const LatticeBox box = skewed_box();
+  for (const auto& c : cases())
+    for (Outside outside : {Outside::Clamp, Outside::Unchanged, Outside::Extrapolate}) {
+      if (outside == Outside::Extrapolate && !c.extrapolates) continue;
+      auto lat = c.make(outside);
+      const std::size_t n = 3000;
+      auto pts = around_box(n, 17);
+      for (std::size_t i = 0; i < 600; ++i) {  // box coordinates on the grid of sixths and eighths
+        const Vec3 s(double(i % 9) / 8.0 - 0.125, double((i / 9) % 7) / 6.0, double((i / 63) % 9) / 8.0);
+        const Vec3 x = box.point(s);
+        for (int a = 0; a < 3; ++a) pts[3 * i + a] = x[a];
+      }
+      const LatticeBinding b = lat->bind(pts.data(), n);
+      std::vector<std::size_t> slot(n);
+      for (std::size_t i = 0; i < n; ++i) slot[b.order[i]] = i;
+      for (std::size_t i = 0; i < n; ++i) {
+        const Vec3 s = box.coordinates(at(pts, i));
+        bool inside = true;
+        for (int a = 0; a < 3; ++a) {
+          ASSERT_EQ(b.parameters[3 * i + a], s[a]) << c.name << " row " << i;
+          const AxisSpan span = lat->axes()[a].locate(s[a], outside);
+          inside = inside && span.inside;
+          const bool moves = b.status[i] == 0 || outside != Outside::Unchanged;
+          ASSERT_EQ(b.sorted_d[a * n + slot[i]], moves ? span.t : 0.0) << c.name << " row " << i << " axis " << a;
+        }
+        ASSERT_EQ(b.status[i], inside ? 0 : 1) << c.name << " row " << i;
+      }
+    }
+}

@@ -18,10 +18,6 @@ class BoxLattice : public ControlLattice {
  protected:
   PointStatus locate(const Vec3& x, Vec3& parameters) const override;
   Mat3 parameter_jacobian(const Vec3&) const override { return box_.to_box; }
-  bool constant_parameter_jacobian(Mat3& j) const override {
-    j = box_.to_box;
-    return true;
-  }
 
  private:
   LatticeBox box_;

@@ -85,9 +85,10 @@ class ControlLattice : public BoundDeformer {
   virtual PointStatus locate(const Vec3& x, Vec3& parameters) const = 0;
   // d(parameters)/dx at a placed point.
   virtual Mat3 parameter_jacobian(const Vec3& parameters) const = 0;
-  // True, with it, when d(parameters)/dx is the same everywhere (a box): the derivatives then go
-  // through the SIMD lanes.
-  virtual bool constant_parameter_jacobian(Mat3&) const { return false; }
+  // A box lattice's parameters are to_parameters (x - origin): said once by its constructor, so
+  // that points are placed in SIMD lanes, and the derivatives, whose d(parameters)/dx is then
+  // constant, run in them too.
+  void set_affine_placement(const Mat3& to_parameters, const Vec3& origin);
 
   bool displaces(PointStatus s) const {
     return s == PointStatus::Inside || (s == PointStatus::Outside && outside_ != Outside::Unchanged);
@@ -107,6 +108,12 @@ class ControlLattice : public BoundDeformer {
   template <class T>
   bool derivative_lanes(int what, const T* in, const T* normals, T* out, std::size_t n) const;
   Mat3 jacobian_at(const Vec3& x, bool& overflow) const;
+  // Rows [0, n): parameters, status (or null), cell key (still's for a point left unchanged),
+  // local and ds (or null) as cell_key's. False when some row's parameters are not finite (its
+  // input, or an overflow): the caller decides; the other rows are complete.
+  template <class T>
+  bool place_rows(const T* in, std::size_t n, double* parameters, std::uint8_t* status, std::uint64_t* key,
+                  double* local, double* ds) const;
   template <class T>
   bool deform_points(const T* in, T* out, std::size_t n) const;
   template <class T>
@@ -119,7 +126,7 @@ class ControlLattice : public BoundDeformer {
   template <class T>
   bool deform_sorted(const LatticeBinding& b, T* out) const;
   template <class T>
-  void sort_by_cell(LatticeBinding& b, const T* in, const std::uint64_t* key) const;
+  void sort_by_cell(LatticeBinding& b, const T* in, const std::uint64_t* key) const;  // many cells
   // local and ds (optional): per axis the coordinate within the cell and d(local)/d(parameter),
   // 0 where the axis is clamped.
   std::uint64_t cell_key(const Vec3& parameters, double* local, double* ds = nullptr) const;
@@ -136,6 +143,9 @@ class ControlLattice : public BoundDeformer {
   double strength_;
   std::vector<int> handle_of_;
   int handle_count_ = 0;
+  bool affine_ = false;
+  Mat3 to_parameters_ = Mat3::Identity();
+  Vec3 origin_ = Vec3::Zero();
 };
 
 }  // namespace deformkit

@@ -15,7 +15,13 @@ struct LatticeBox {
   static LatticeBox from_matrix(const Mat4& m, const char* argument = "frame");
 
   // The lecture's cross-product formulas: s = (T x U).(X - X0) / ((T x U).S), and so on.
-  Vec3 coordinates(const Vec3& x) const { return to_box * (x - origin); }
+  // Written term by term: the SIMD placement (lattice/placement_kernel.cpp) gives the same bits.
+  Vec3 coordinates(const Vec3& x) const {
+    const Vec3 d = x - origin;
+    const Mat3& a = to_box;
+    return Vec3(a(0, 0) * d[0] + a(0, 1) * d[1] + a(0, 2) * d[2], a(1, 0) * d[0] + a(1, 1) * d[1] + a(1, 2) * d[2],
+                a(2, 0) * d[0] + a(2, 1) * d[1] + a(2, 2) * d[2]);
+  }
   Vec3 point(const Vec3& stu) const { return origin + edges * stu; }
 };
 
