@@ -5,9 +5,10 @@
 For Barr's twist, bend and taper and the FFD and Blender lattices: deform (the anchor, float64
 and float32), jacobian, transform_normals (float64, and float32 points and normals) and
 volume_ratio, medians of R calls on N random points in [-1, 1]^3, with a numpy copy of the
-points as the memory-bandwidth yardstick, all in one run. Issue 19's targets: Barr
-transform_normals >= 200 M points/s (<= 5 ms at 1M), jacobian <= 5 ms, volume_ratio <= 3 ms; the
-lattices' derivative paths within 2x of their deform.
+points as the memory-bandwidth yardstick, all in one run; for the lattices also bind (float64 and
+float32). Issue 19's targets: Barr transform_normals >= 200 M points/s (<= 5 ms at 1M), jacobian
+<= 5 ms, volume_ratio <= 3 ms; the lattices' derivative paths within 2x of their deform (float32
+normals against float32 deform), and their bind <= 10 ms at 1M.
 """
 import argparse
 import pathlib
@@ -53,4 +54,10 @@ with OtherLoad() as load:
                median_ms(lambda: d.volume_ratio(p64))]
         print(f"{name:20} " + " ".join(f"{v:{w}.2f}" for v, w in zip(row, (10, 10, 9, 11, 11, 7)))
               + f"   normals f64 {args.points / row[3] / 1e3:.0f} M points/s")
+        if hasattr(d, "bind"):
+            ratios = [row[2] / row[0], row[3] / row[0], row[4] / row[1], row[5] / row[0]]
+            bind = [median_ms(lambda: d.bind(p64)), median_ms(lambda: d.bind(p32))]
+            print(f"{'':20} / deform: jacobian {ratios[0]:.2f}x, normals f64 {ratios[1]:.2f}x, f32 {ratios[2]:.2f}x, "
+                  f"volume {ratios[3]:.2f}x (<= 2x: {'met' if max(ratios) <= 2 else 'missed'});  bind f64 "
+                  f"{bind[0]:.2f} ms, f32 {bind[1]:.2f} ms (<= 10 ms: {'met' if max(bind) <= 10 else 'missed'})")
 print(load.report())
