@@ -318,59 +318,94 @@ py::array py_displacement(const Deformer& d, const py::object& points, const py:
   return deform_or_displace(d, points, out, Output::Displacement);
 }
 
-py::array cast_like(py::array result, const py::array& like) {
-  if (is_float32(like)) return result.attr("astype")(py::dtype::of<float>());
-  return std::move(result);
+// A derivative call's out=: the result's own shape and dtype (float32 exactly when the call would
+// return float32), writeable, C-contiguous, native and aligned, sharing no memory with an input.
+static py::array derivative_out(const py::object& out, const std::vector<py::ssize_t>& shape, bool single,
+                                std::initializer_list<py::array> inputs) {
+  if (!py::isinstance<py::array>(out)) throw py::type_error("out: expected a numpy array or None");
+  auto o = py::reinterpret_borrow<py::array>(out);
+  const char* want = single ? "float32" : "float64";
+  const bool dtype_ok = single ? holds<float>(o) : holds<double>(o);
+  if (!dtype_ok)
+    throw py::type_error(std::string("out: expected a native-order aligned ") + want + " array (the result's dtype), got " +
+                         std::string(py::str(o.dtype())) + (o.dtype().byteorder() == '>' ? " (byte-swapped)" : ""));
+  std::string expected = "(";
+  for (std::size_t i = 0; i < shape.size(); ++i) expected += (i ? ", " : "") + std::to_string(shape[i]);
+  expected += shape.size() == 1 ? ",)" : ")";
+  if (o.ndim() != py::ssize_t(shape.size()) || !std::equal(shape.begin(), shape.end(), o.shape()))
+    throw py::value_error("out: expected shape " + expected + ", got " + shape_of(o));
+  if (!(o.flags() & py::array::c_style) || !o.writeable())
+    throw py::value_error("out: must be a writeable C-contiguous array");
+  for (const py::array& in : inputs)
+    if (overlaps(in, o)) throw py::value_error("out: overlaps an input (this result cannot be written over it)");
+  return o;
 }
 
-py::array py_jacobian(const Deformer& d, const py::object& points) {
+// The double result computed into `out` directly, or through a double array when out is float32.
+template <class F>
+static py::array into_out(const py::object& out, const std::vector<py::ssize_t>& shape, bool single,
+                          std::initializer_list<py::array> inputs, const char* what, F&& compute) {
+  if (out.is_none()) {
+    auto result = new_array<double>(shape, what);
+    compute(result.mutable_data());
+    return single ? py::array(result.attr("astype")(py::dtype::of<float>())) : py::array(std::move(result));
+  }
+  py::array o = derivative_out(out, shape, single, inputs);
+  if (!single) {
+    compute(static_cast<double*>(o.mutable_data()));
+    return o;
+  }
+  auto tmp = new_array<double>(shape, what);
+  compute(tmp.mutable_data());
+  std::copy(tmp.data(), tmp.data() + tmp.size(), static_cast<float*>(o.mutable_data()));
+  return o;
+}
+
+py::array py_jacobian(const Deformer& d, const py::object& points, const py::object& out) {
   const py::array pts = points_array(points, "points");
   const auto p = as_double(pts);
   const auto n = static_cast<std::size_t>(pts.shape(0));
-  auto jac = new_array<double>({pts.shape(0), py::ssize_t(3), py::ssize_t(3)}, "the Jacobians");
-  const double* in = p.data();
-  double* dst = jac.mutable_data();
-  const bool single = is_float32(pts);  // as cast_like: the core checks the float range
-  without_gil("the Jacobians' working arrays (" + working_size(n, 72.0) + ")", [&] { d.jacobian(in, dst, n, single); });
-  return cast_like(jac, pts);
+  const bool single = is_float32(pts);  // the core checks the float range of a float32 result
+  return into_out(out, {pts.shape(0), py::ssize_t(3), py::ssize_t(3)}, single, {pts}, "the Jacobians", [&](double* dst) {
+    const double* in = p.data();
+    without_gil("the Jacobians' working arrays (" + working_size(n, 72.0) + ")", [&] { d.jacobian(in, dst, n, single); });
+  });
 }
 
-py::array py_normals(const Deformer& d, const py::object& points, const py::object& normals) {
+py::array py_normals(const Deformer& d, const py::object& points, const py::object& normals, const py::object& out) {
   const py::array pts = points_array(points, "points");
   const py::array nrm = points_array(normals, "normals");
   if (nrm.shape(0) != pts.shape(0))
     throw py::value_error("normals: has " + std::to_string(nrm.shape(0)) + " rows but points has " +
                           std::to_string(pts.shape(0)));
   const auto n = static_cast<std::size_t>(pts.shape(0));
+  const std::string working = "the Jacobians behind the normals (" + working_size(n, 72.0) + ")";
   if (is_float32(pts) && is_float32(nrm)) {  // a viewport's normals: computed in float where the deformer can
     const auto p = c_array<float>(pts, "points"), q = c_array<float>(nrm, "normals");
-    auto out = new_array<float>({pts.shape(0), py::ssize_t(3)}, "the normals");
+    py::array result = out.is_none() ? py::array(new_array<float>({pts.shape(0), py::ssize_t(3)}, "the normals"))
+                                     : derivative_out(out, {pts.shape(0), py::ssize_t(3)}, true, {pts, nrm});
     const float *in = p.data(), *nin = q.data();
-    float* dst = out.mutable_data();
-    without_gil("the Jacobians behind the normals (" + working_size(n, 72.0) + ")",
-                [&] { transform_normals(d, in, nin, dst, n); });
-    return std::move(out);
+    float* dst = static_cast<float*>(result.mutable_data());
+    without_gil(working, [&] { transform_normals(d, in, nin, dst, n); });
+    return result;
   }
   const auto p = as_double(pts), q = as_double(nrm, "normals");
-  auto out = new_array<double>({pts.shape(0), py::ssize_t(3)}, "the normals");
-  const double *in = p.data(), *nin = q.data();
-  double* dst = out.mutable_data();
-  without_gil("the Jacobians behind the normals (" + working_size(n, 72.0) + ")",
-              [&] { transform_normals(d, in, nin, dst, n); });
-  return cast_like(out, nrm);
+  return into_out(out, {pts.shape(0), py::ssize_t(3)}, is_float32(nrm), {pts, nrm}, "the normals", [&](double* dst) {
+    const double *in = p.data(), *nin = q.data();
+    without_gil(working, [&] { transform_normals(d, in, nin, dst, n); });
+  });
 }
 
-py::array py_volume_ratio(const Deformer& d, const py::object& points) {
+py::array py_volume_ratio(const Deformer& d, const py::object& points, const py::object& out) {
   const py::array pts = points_array(points, "points");
   const auto p = as_double(pts);
   const auto n = static_cast<std::size_t>(pts.shape(0));
-  auto out = new_array<double>({pts.shape(0)}, "the volume ratios");
-  const double* in = p.data();
-  double* dst = out.mutable_data();
-  const bool single = is_float32(pts);  // as cast_like: the core checks the float range
-  without_gil("the Jacobians behind the volume ratios (" + working_size(n, 72.0) + ")",
-              [&] { volume_ratio(d, in, dst, n, single); });
-  return cast_like(out, pts);
+  const bool single = is_float32(pts);  // the core checks the float range of a float32 result
+  return into_out(out, {pts.shape(0)}, single, {pts}, "the volume ratios", [&](double* dst) {
+    const double* in = p.data();
+    without_gil("the Jacobians behind the volume ratios (" + working_size(n, 72.0) + ")",
+                [&] { volume_ratio(d, in, dst, n, single); });
+  });
 }
 
 py::object weights_of(const Deformer& d) {

@@ -117,13 +117,11 @@ py::array py_deform(const Deformer& d, const py::object& points, const py::objec
 
 py::array py_displacement(const Deformer& d, const py::object& points, const py::object& out);
 
-py::array cast_like(py::array result, const py::array& like);
+py::array py_jacobian(const Deformer& d, const py::object& points, const py::object& out);
 
-py::array py_jacobian(const Deformer& d, const py::object& points);
+py::array py_normals(const Deformer& d, const py::object& points, const py::object& normals, const py::object& out);
 
-py::array py_normals(const Deformer& d, const py::object& points, const py::object& normals);
-
-py::array py_volume_ratio(const Deformer& d, const py::object& points);
+py::array py_volume_ratio(const Deformer& d, const py::object& points, const py::object& out);
 
 py::object weights_of(const Deformer& d);
 

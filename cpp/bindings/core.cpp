@@ -19,9 +19,18 @@ x + w (F(x) - x).)";
 const char* kDisplacementDoc = R"(Displacement F(x) - x for each row of `points`, as `deform` returns positions.
 
 Same dtype rules and `out=` as `deform`, except that `out` may not be `points` itself.)";
-const char* kJacobianDoc = R"(Jacobian J = dF/dx at each point, shape (n, 3, 3), J[i, r, c] = dF_r/dx_c (Barr 1984, eq. for J(X)).)";
-const char* kNormalsDoc = R"(Carry unit normals through the map: N' = det(J) J^-T N (the cofactor matrix), renormalised.)";
-const char* kVolumeDoc = R"(Local volume ratio det(J) at each point.)";
+const char* kJacobianDoc = R"(Jacobian J = dF/dx at each point, shape (n, 3, 3), J[i, r, c] = dF_r/dx_c (Barr 1984, eq. for J(X)).
+
+float32 for float32 points, else float64. out: an array of that shape and dtype to write into
+and return (a viewport's buffer, reused call after call), sharing no memory with points.)";
+const char* kNormalsDoc = R"(Carry unit normals through the map: N' = det(J) J^-T N (the cofactor matrix), renormalised.
+
+float32 for float32 normals, else float64. out: an (n, 3) array of that dtype to write into and
+return, sharing no memory with points or normals.)";
+const char* kVolumeDoc = R"(Local volume ratio det(J) at each point, shape (n,).
+
+float32 for float32 points, else float64. out: an (n,) array of that dtype to write into and
+return, sharing no memory with points.)";
 
 // An int32 (m, k) face array is read where it is (a volume is one pass: a copy of the mesh would
 // cost as much again); any other faces are read into a PolygonMesh, through the same checks.
@@ -45,9 +54,9 @@ void bind_core(py::module_& m) {
                                                   "Interface shared by every spatial deformer.")
       .def("deform", &py_deform, "points"_a, py::kw_only(), "out"_a = py::none(), kDeformDoc)
       .def("displacement", &py_displacement, "points"_a, py::kw_only(), "out"_a = py::none(), kDisplacementDoc)
-      .def("jacobian", &py_jacobian, "points"_a, kJacobianDoc)
-      .def("transform_normals", &py_normals, "points"_a, "normals"_a, kNormalsDoc)
-      .def("volume_ratio", &py_volume_ratio, "points"_a, kVolumeDoc)
+      .def("jacobian", &py_jacobian, "points"_a, py::kw_only(), "out"_a = py::none(), kJacobianDoc)
+      .def("transform_normals", &py_normals, "points"_a, "normals"_a, py::kw_only(), "out"_a = py::none(), kNormalsDoc)
+      .def("volume_ratio", &py_volume_ratio, "points"_a, py::kw_only(), "out"_a = py::none(), kVolumeDoc)
       .def_property_readonly("weights", &weights_of, "Per-point blend weights, or None.");
 
   py::class_<Stack, Deformer, std::shared_ptr<Stack>>(m, "Stack", R"(Composition of deformers, applied in order.

@@ -17,12 +17,15 @@ class Deformer:
     def displacement(self, points: np.ndarray[tuple[int, int], np.dtype[_F]], *,
                      out: np.ndarray[tuple[int, int], np.dtype[_F]] | None = None) -> np.ndarray[tuple[int, int], np.dtype[_F]]:
         """F(x) - x per row (what an offset attribute adds); out may not be points."""
-    def jacobian(self, points: np.ndarray[tuple[int, int], np.dtype[_F]]) -> np.ndarray[tuple[int, int, int], np.dtype[_F]]:
+    def jacobian(self, points: np.ndarray[tuple[int, int], np.dtype[_F]], *,
+                 out: np.ndarray[tuple[int, int, int], np.dtype[_F]] | None = None) -> np.ndarray[tuple[int, int, int], np.dtype[_F]]:
         """J = dF/dx, shape (n, 3, 3), J[i, r, c] = dF_r/dx_c (Barr 1984)."""
     def transform_normals(self, points: np.ndarray[tuple[int, int], np.dtype[np.floating]],
-                          normals: np.ndarray[tuple[int, int], np.dtype[_F]]) -> np.ndarray[tuple[int, int], np.dtype[_F]]:
+                          normals: np.ndarray[tuple[int, int], np.dtype[_F]], *,
+                          out: np.ndarray[tuple[int, int], np.dtype[_F]] | None = None) -> np.ndarray[tuple[int, int], np.dtype[_F]]:
         """Unit normals N' = det(J) J^-T N, renormalised."""
-    def volume_ratio(self, points: np.ndarray[tuple[int, int], np.dtype[_F]]) -> np.ndarray[tuple[int], np.dtype[_F]]:
+    def volume_ratio(self, points: np.ndarray[tuple[int, int], np.dtype[_F]], *,
+                     out: np.ndarray[tuple[int], np.dtype[_F]] | None = None) -> np.ndarray[tuple[int], np.dtype[_F]]:
         """det(J) per point."""
     @property
     def weights(self) -> np.ndarray[tuple[int], np.dtype[np.float64]] | None: ...

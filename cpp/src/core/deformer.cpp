@@ -148,15 +148,17 @@ static Mat3 read_mat(const double* p) {
 // A deformer's fast path serves a call the generic path would not refuse for its weights' count,
 // and one whose output does not overlap its inputs (a fast path that gives up part way leaves the
 // generic path to read the inputs again).
+// out_width: the output's values per row (3 for normals, 1 for volume ratios); inputs have 3.
 template <class T>
-static bool fast_path_applies(const Deformer& d, const T* points, const T* normals, const T* out, std::size_t n) {
-  auto apart = [n](const T* a, const T* b) { return !a || a + 3 * n <= b || b + 3 * n <= a; };
-  return !d.is_identity() && (d.weights().empty() || d.weights().size() == n) && apart(out, points) && apart(out, normals);
+static bool fast_path_applies(const Deformer& d, const T* points, const T* normals, const T* out, std::size_t n,
+                              std::size_t out_width) {
+  auto apart = [n, out, out_width](const T* input) { return !input || out + out_width * n <= input || input + 3 * n <= out; };
+  return !d.is_identity() && (d.weights().empty() || d.weights().size() == n) && apart(points) && apart(normals);
 }
 
 void transform_normals(const Deformer& d, const double* points, const double* normals, double* out,
                        std::size_t n) {
-  if (fast_path_applies(d, points, normals, out, n) && d.normals_impl(points, normals, out, n)) return;
+  if (fast_path_applies(d, points, normals, out, n, 3) && d.normals_impl(points, normals, out, n)) return;
   require_finite_rows(normals, n, "normals");
   std::vector<double> jac(9 * n);
   d.jacobian(points, jac.data(), n);
@@ -169,7 +171,7 @@ void transform_normals(const Deformer& d, const double* points, const double* no
 }
 
 void transform_normals(const Deformer& d, const float* points, const float* normals, float* out, std::size_t n) {
-  if (fast_path_applies(d, points, normals, out, n) && d.normals_impl(points, normals, out, n)) return;
+  if (fast_path_applies(d, points, normals, out, n, 3) && d.normals_impl(points, normals, out, n)) return;
   const std::vector<double> p(points, points + 3 * n), q(normals, normals + 3 * n);
   std::vector<double> r(3 * n);
   transform_normals(d, p.data(), q.data(), r.data(), n);
@@ -178,7 +180,7 @@ void transform_normals(const Deformer& d, const float* points, const float* norm
 
 void volume_ratio(const Deformer& d, const double* points, double* out, std::size_t n, bool float32_result) {
   const double limit = float32_result ? double(std::numeric_limits<float>::max()) : kDoubleMax;
-  if (fast_path_applies(d, points, static_cast<const double*>(nullptr), out, n) && d.volume_ratio_impl(points, out, n)) {
+  if (fast_path_applies(d, points, static_cast<const double*>(nullptr), out, n, 1) && d.volume_ratio_impl(points, out, n)) {
     if (all_finite(out, n, 1, limit)) return;
   }
   std::vector<double> jac(9 * n);

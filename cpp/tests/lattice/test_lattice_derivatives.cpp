@@ -242,3 +242,17 @@ TEST(LatticePlacement, LanesAreThePerPointFormulasBitForBit) {
       }
     }
 }
+
+// Found by the out= tests: volume ratios written just before the points (n values, then 3n) do not
+// overlap them, and must come from the same path, bit for bit, as into a separate array.
+TEST(LatticeDerivatives, AnOutputBesideTheInputsTakesTheSamePath) {
+  FFD ffd(skewed_box(), {3, 3, 3}, Outside::Clamp);
+  perturb(ffd, 18, 0.1);
+  const std::size_t n = 1001;
+  const auto pts = around_box(n, 19);
+  std::vector<double> apart(n), together(4 * n);
+  std::copy(pts.begin(), pts.end(), together.begin() + n);
+  volume_ratio(ffd, pts.data(), apart.data(), n);
+  volume_ratio(ffd, together.data() + n, together.data(), n);
+  for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(together[i], apart[i]) << "row " << i;
+}
