@@ -4,7 +4,8 @@
 
 For Barr's twist, bend and taper and the FFD and Blender lattices: deform (the anchor, float64
 and float32), jacobian, transform_normals (float64, and float32 points and normals) and
-volume_ratio, medians of R calls on N random points in [-1, 1]^3, with a numpy copy of the
+volume_ratio, and jacobian into a reused out= array (no page faults: what the kernels cost),
+medians of R calls on N random points in [-1, 1]^3, with a numpy copy of the
 points as the memory-bandwidth yardstick, all in one run; for the lattices also bind (float64 and
 float32). Issue 19's targets: Barr transform_normals >= 200 M points/s (<= 5 ms at 1M), jacobian
 <= 5 ms, volume_ratio <= 3 ms; the lattices' derivative paths within 2x of their deform (float32
@@ -46,13 +47,15 @@ print(f"deformkit {dk.build_info()}  |  {args.points:,} points, medians of {args
 with OtherLoad() as load:
     copy = median_ms(lambda: p64.copy())
     print(f"numpy copy of the float64 points: {copy:.2f} ms (the memory yardstick)")
-    head = f"{'deformer':20} {'deform f64':>10} {'deform f32':>10} {'jacobian':>9} {'normals f64':>11} {'normals f32':>11} {'volume':>7}   (ms)"
+    head = (f"{'deformer':20} {'deform f64':>10} {'deform f32':>10} {'jacobian':>9} {'normals f64':>11} {'normals f32':>11}"
+            f" {'volume':>7} {'jac out=':>9}   (ms)")
+    jac_out = np.empty((args.points, 3, 3))
     print(head)
     for name, d in deformers:
         row = [median_ms(lambda: d.deform(p64)), median_ms(lambda: d.deform(p32)), median_ms(lambda: d.jacobian(p64)),
                median_ms(lambda: d.transform_normals(p64, n64)), median_ms(lambda: d.transform_normals(p32, n32)),
-               median_ms(lambda: d.volume_ratio(p64))]
-        print(f"{name:20} " + " ".join(f"{v:{w}.2f}" for v, w in zip(row, (10, 10, 9, 11, 11, 7)))
+               median_ms(lambda: d.volume_ratio(p64)), median_ms(lambda: d.jacobian(p64, out=jac_out))]
+        print(f"{name:20} " + " ".join(f"{v:{w}.2f}" for v, w in zip(row, (10, 10, 9, 11, 11, 7, 9)))
               + f"   normals f64 {args.points / row[3] / 1e3:.0f} M points/s")
         if hasattr(d, "bind"):
             ratios = [row[2] / row[0], row[3] / row[0], row[4] / row[1], row[5] / row[0]]
