@@ -54,6 +54,44 @@ class CountingSort {
   std::vector<std::uint32_t> start_;
 };
 
+// One chunk of points sorted by cell with a counting sort: the caller fills key[0, m) for the
+// chunk's rows first + 0 .. first + m - 1; sort() hands each row its sorted slot and leaves order[slot]
+// = its point index, and runs() walks the runs of one cell in key order.
+class ChunkByCell {
+ public:
+  ChunkByCell(std::uint64_t keys, std::size_t chunk) : key(chunk), order(chunk), sort_(keys) {}
+  std::vector<std::uint64_t> key;
+  std::vector<std::uint32_t> order;
+
+  // place(row, slot) for each row of the chunk, in row order.
+  template <class F>
+  void sort(std::size_t first, std::size_t m, F&& place) {
+    first_ = first;
+    sort_.clear();
+    for (std::size_t i = 0; i < m; ++i) sort_.count(key[i]);
+    sort_.prefix();
+    for (std::size_t i = 0; i < m; ++i) {
+      const std::size_t to = sort_.slot(key[i]);
+      order[to] = static_cast<std::uint32_t>(first + i);
+      place(i, to);
+    }
+  }
+  // run(key, lo, hi) for the slots [lo, hi) of each cell.
+  template <class F>
+  void runs(std::size_t m, F&& run) const {
+    for (std::size_t lo = 0; lo < m;) {
+      const std::uint64_t k = key[order[lo] - first_];
+      const std::size_t hi = sort_.run_end(k);
+      run(k, lo, hi);
+      lo = hi;
+    }
+  }
+
+ private:
+  CountingSort sort_;
+  std::size_t first_ = 0;
+};
+
 // The kernel's view of an axis.
 inline KernelAxis kernel_axis(const AxisBasis& a) {
   switch (a.kind) {

@@ -271,30 +271,24 @@ LatticeBinding ControlLattice::bind_points(const T* in, std::size_t n) const {
   sorted.resize(6 * n);
   std::vector<std::vector<std::pair<std::uint32_t, std::uint64_t>>> chunk_runs((n + kChunk - 1) / kChunk);
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    CountingSort sort(still + 1);
-    std::vector<std::uint64_t> key(kChunk);
+    ChunkByCell chunk(still + 1, kChunk);
     std::vector<double> local(3 * kChunk);
     for (std::size_t c = (begin + kChunk - 1) / kChunk * kChunk; c < end; c += kChunk) {
       const std::size_t stop = std::min(n, c + kChunk);
-      sort.clear();
-      place_block(c, stop, key.data(), local.data());
-      for (std::size_t i = c; i < stop; ++i) sort.count(key[i - c]);
-      sort.prefix();
-      for (std::size_t i = c; i < stop; ++i) {
-        const std::uint64_t k = key[i - c];
-        const std::size_t to = c + sort.slot(k);
-        b.order[to] = static_cast<std::uint32_t>(i);
+      place_block(c, stop, chunk.key.data(), local.data());
+      chunk.sort(c, stop - c, [&](std::size_t i, std::size_t slot) {
+        const std::uint64_t k = chunk.key[i];
+        const std::size_t to = c + slot;
+        b.order[to] = static_cast<std::uint32_t>(c + i);
         for (int a = 0; a < 3; ++a) {
-          sorted[a * n + to] = k == still ? T(0) : static_cast<T>(local[3 * (i - c) + a]);
-          sorted[(3 + a) * n + to] = in[3 * i + a];
+          sorted[a * n + to] = k == still ? T(0) : static_cast<T>(local[3 * i + a]);
+          sorted[(3 + a) * n + to] = in[3 * (c + i) + a];
         }
-      }
+      });
       auto& runs = chunk_runs[c / kChunk];
-      for (std::size_t lo = c; lo < stop;) {
-        const std::uint64_t k = key[b.order[lo] - c];
-        runs.emplace_back(static_cast<std::uint32_t>(lo), k);
-        lo = c + sort.run_end(k);
-      }
+      chunk.runs(stop - c, [&](std::uint64_t k, std::size_t lo, std::size_t) {
+        runs.emplace_back(static_cast<std::uint32_t>(c + lo), k);
+      });
     }
   });
   overflow.raise();
@@ -498,16 +492,13 @@ bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
   OverflowRows overflow;
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     constexpr std::size_t kChunk = 8192;
-    std::vector<std::uint64_t> key(kChunk);
-    std::vector<std::uint32_t> order(kChunk);
-    CountingSort sort(still + 1);
+    ChunkByCell chunk(still + 1, kChunk);
     std::vector<double> local(3 * kChunk), params(3 * kChunk);
     std::vector<T> soa(6 * kChunk), block(block_size);
     bool ok = true, results_finite = true;  // input rows, and the kernel's results
     for (std::size_t c = begin; c < end && ok; c += kChunk) {
       const std::size_t m = std::min(kChunk, end - c);
-      sort.clear();
-      if (!place_rows(in + 3 * c, m, params.data(), nullptr, key.data(), local.data(), nullptr)) {
+      if (!place_rows(in + 3 * c, m, params.data(), nullptr, chunk.key.data(), local.data(), nullptr)) {
         // A row not finite is the generic path's to name; a finite one that overflows is noted.
         for (std::size_t i = 0; i < m && ok; ++i) {
           if (std::isfinite(params[3 * i]) && std::isfinite(params[3 * i + 1]) && std::isfinite(params[3 * i + 2]))
@@ -516,33 +507,27 @@ bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
           if (std::isfinite(x[0]) && std::isfinite(x[1]) && std::isfinite(x[2])) overflow.note(c + i);
           ok = false;
         }
+        if (!ok) break;
       }
-      for (std::size_t i = 0; i < m && ok; ++i) sort.count(key[i]);
-      if (!ok) break;
-      sort.prefix();
-      for (std::size_t i = 0; i < m; ++i) {
-        const std::size_t to = sort.slot(key[i]);
-        order[to] = static_cast<std::uint32_t>(c + i);
+      chunk.sort(c, m, [&](std::size_t i, std::size_t to) {
+        const bool still_row = chunk.key[i] == still;
         for (int a = 0; a < 3; ++a) {
-          soa[a * kChunk + to] = key[i] == still ? T(0) : static_cast<T>(local[3 * i + a]);
+          soa[a * kChunk + to] = still_row ? T(0) : static_cast<T>(local[3 * i + a]);
           soa[(3 + a) * kChunk + to] = in[3 * (c + i) + a];
         }
-      }
-      // Walk the runs in key order.
-      for (std::size_t lo = 0; lo < m;) {
-        const std::uint64_t k = key[order[lo] - c];
-        const std::size_t hi = sort.run_end(k);
+      });
+      const std::uint32_t* order = chunk.order.data();
+      chunk.runs(m, [&](std::uint64_t k, std::size_t lo, std::size_t hi) {
         if (k == still) {
           for (std::size_t i = lo; i < hi; ++i)
             for (int a = 0; a < 3; ++a) out[3 * std::size_t(order[i]) + a] = soa[(3 + a) * kChunk + i];
-        } else {
-          cell_block(cell_of_key(k), block.data());
-          const T* t[3] = {&soa[lo], &soa[kChunk + lo], &soa[2 * kChunk + lo]};
-          const T* x[3] = {&soa[3 * kChunk + lo], &soa[4 * kChunk + lo], &soa[5 * kChunk + lo]};
-          results_finite = lattice_cell_kernel(kaxes, block.data(), t, x, &order[lo], hi - lo, out) && results_finite;
+          return;
         }
-        lo = hi;
-      }
+        cell_block(cell_of_key(k), block.data());
+        const T* t[3] = {&soa[lo], &soa[kChunk + lo], &soa[2 * kChunk + lo]};
+        const T* x[3] = {&soa[3 * kChunk + lo], &soa[4 * kChunk + lo], &soa[5 * kChunk + lo]};
+        results_finite = lattice_cell_kernel(kaxes, block.data(), t, x, &order[lo], hi - lo, out) && results_finite;
+      });
     }
     if (!ok || !results_finite) finite = false;
   });

@@ -68,31 +68,23 @@ bool ControlLattice::derivative_lanes(int what, const T* in, const T* normals, T
   std::atomic<bool> usable{true}, flagged{false};
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     constexpr std::size_t kChunk = 8192;
-    std::vector<std::uint64_t> key(kChunk);
-    std::vector<std::uint32_t> order(kChunk);
-    CountingSort sort(still + 1);
+    ChunkByCell chunk(still + 1, kChunk);
     std::vector<double> local(6 * kChunk), params(3 * kChunk);  // local: t then ds, 3 per row each
     std::vector<T> soa(6 * kChunk), block(block_size);
     for (std::size_t c = begin; c < end && usable; c += kChunk) {
       const std::size_t m = std::min(kChunk, end - c);
-      sort.clear();
-      if (!place_rows(in + 3 * c, m, params.data(), nullptr, key.data(), local.data(), &local[3 * kChunk])) {
+      if (!place_rows(in + 3 * c, m, params.data(), nullptr, chunk.key.data(), local.data(), &local[3 * kChunk])) {
         usable = false;  // an input not finite, or one whose coordinates overflow: the generic path names it
         return;
       }
-      for (std::size_t i = 0; i < m; ++i) sort.count(key[i]);
-      sort.prefix();
-      for (std::size_t i = 0; i < m; ++i) {
-        const std::size_t to = sort.slot(key[i]);
-        order[to] = static_cast<std::uint32_t>(c + i);
+      chunk.sort(c, m, [&](std::size_t i, std::size_t to) {
+        const bool still_row = chunk.key[i] == still;
         for (int a = 0; a < 3; ++a) {
-          soa[a * kChunk + to] = key[i] == still ? T(0) : static_cast<T>(local[3 * i + a]);
-          soa[(3 + a) * kChunk + to] = key[i] == still ? T(0) : static_cast<T>(local[3 * kChunk + 3 * i + a]);
+          soa[a * kChunk + to] = still_row ? T(0) : static_cast<T>(local[3 * i + a]);
+          soa[(3 + a) * kChunk + to] = still_row ? T(0) : static_cast<T>(local[3 * kChunk + 3 * i + a]);
         }
-      }
-      for (std::size_t lo = 0; lo < m;) {
-        const std::uint64_t k = key[order[lo] - c];
-        const std::size_t hi = sort.run_end(k);
+      });
+      chunk.runs(m, [&](std::uint64_t k, std::size_t lo, std::size_t hi) {
         CellRun<T> run;
         if (k != still) {
           cell_block(cell_of_key(k), block.data());
@@ -102,11 +94,10 @@ bool ControlLattice::derivative_lanes(int what, const T* in, const T* normals, T
           run.t[a] = &soa[a * kChunk + lo];
           run.ds[a] = &soa[(3 + a) * kChunk + lo];
         }
-        run.order = &order[lo];
+        run.order = &chunk.order[lo];
         run.count = hi - lo;
         if (!lattice_cell_derivatives(kind, kaxes, P, weight, run, normals, out, flags.data())) flagged = true;
-        lo = hi;
-      }
+      });
     }
   });
   if (!usable) return false;

@@ -1,4 +1,4 @@
-#include "test_util.hpp"
+#include "lattice/lattice_fixtures.hpp"
 
 #include <gtest/gtest.h>
 
@@ -14,22 +14,6 @@ const BasisKind kAllKinds[] = {BasisKind::Bernstein,     BasisKind::BezierBlocks
                                BasisKind::BlenderBSpline};
 
 int count_for(BasisKind k) { return k == BasisKind::Bernstein ? 6 : k == BasisKind::BezierBlocks ? 7 : 5; }
-
-void perturb(ControlLattice& lat, unsigned seed, double amount) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> n(0.0, amount);
-  auto grid = lat.control_points();
-  for (auto& v : grid) v += n(rng);
-  lat.set_control_points(grid);
-}
-
-LatticeBox skewed_box() {
-  Mat3 e;
-  e << 1.2, 0.1, 0.0,  //
-      0.2, 0.9, 0.3,   //
-      -0.1, 0.0, 1.1;
-  return LatticeBox::from_edges(Vec3(-0.3, 0.2, 0.1), e);
-}
 
 }  // namespace
 

@@ -2,7 +2,7 @@
 // the per-point formulas (reference_jacobian, normal_direction, scaled_determinant), which are
 // themselves checked against finite differences of deform: every basis, outside policy, weight
 // and vector tail; rows the lanes hand back; float32 normals against float64.
-#include "test_util.hpp"
+#include "lattice/lattice_fixtures.hpp"
 
 #include "core/scale_free.hpp"
 
@@ -16,22 +16,6 @@ using namespace deformkit;
 using namespace deformkit::test;
 
 namespace {
-
-LatticeBox skewed_box() {
-  Mat3 e;
-  e << 1.2, 0.1, 0.0,  //
-      0.2, 0.9, 0.3,   //
-      -0.1, 0.0, 1.1;
-  return LatticeBox::from_edges(Vec3(-0.3, 0.2, 0.1), e);
-}
-
-void perturb(ControlLattice& lat, unsigned seed, double amount) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> n(0.0, amount);
-  auto grid = lat.control_points();
-  for (auto& v : grid) v += n(rng);
-  lat.set_control_points(grid);
-}
 
 struct Case {
   std::string name;
