@@ -32,6 +32,7 @@ import importlib.util
 import json
 import math
 import os
+import re
 import shutil
 import sys
 import tempfile
@@ -39,8 +40,8 @@ import tempfile
 from . import shared, staging
 from .executors import LocalProcessExecutor, run_all
 from .job import BatchJob
-from .report import Report, console_line
-from .run import blender_environment, same_file
+from .report import Progress, Report, console_line
+from .run import blender_environment, input_problem, same_file
 
 # A source checkout: python/deformkit/batch/cli.py, beside python_addon/.
 CHECKOUT_ADDON = os.path.join(os.path.dirname(os.path.abspath(__file__)), *[os.pardir] * 3, "python_addon")
@@ -60,6 +61,24 @@ def seconds_per_file(text):
     if not math.isfinite(value) or value <= 0:
         raise argparse.ArgumentTypeError(f"expected a finite number of seconds above 0, got {text!r}")
     return value
+
+
+def scheduler_address(text):
+    if not re.fullmatch(r"(tcp|tls)://[^\s/:]+:\d{1,5}", text):
+        raise argparse.ArgumentTypeError(f"expected a scheduler address tcp://HOST:PORT, got {text!r}")
+    return text
+
+
+def count_of(what, least, most):
+    def parse(text):
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number of {what}, got {text!r}") from None
+        if not least <= value <= most:
+            raise argparse.ArgumentTypeError(f"expected {least}..{most} {what}, got {text!r}")
+        return value
+    return parse
 
 
 def job_count(text):
@@ -198,7 +217,7 @@ def arguments(argv):
     how = ap.add_mutually_exclusive_group(required=True)
     how.add_argument("--recipe", help="JSON or TOML recipe: objects and deformers to add")
     how.add_argument("--evaluate-saved", action="store_true", help="re-evaluate the stacks saved in the files")
-    ap.add_argument("--jobs", type=job_count, default=1, help="files processed in parallel (default 1)")
+    ap.add_argument("--jobs", type=job_count, help="files processed in parallel on this machine (default 1)")
     ap.add_argument("--blender", default=os.environ.get("DEFORMKIT_BLENDER", "blender"))
     ap.add_argument("--addon", default=os.environ.get("DEFORMKIT_ADDON"),
                     help="the deformkit add-on's folder (python_addon/ in the repository)")
@@ -207,14 +226,112 @@ def arguments(argv):
     ap.add_argument("--smoothness", action="store_true",
                     help="add each object's smoothness figures (dk.smoothness_report of its cage) to the report")
     ap.add_argument("--timeout", type=seconds_per_file, default=600.0, help="seconds per file (finite, above 0)")
+    dask = ap.add_argument_group("on a Dask cluster (docs/batch.md)")
+    dask.add_argument("--scheduler", type=scheduler_address,
+                      help="run every file as a task on the Dask scheduler at tcp://HOST:PORT")
+    dask.add_argument("--executor", choices=("local", "dask-local"),
+                      help="local: processes of this machine (the default); dask-local: a Dask LocalCluster")
+    dask.add_argument("--workers", type=count_of("workers", 1, 256), help="dask-local: worker processes (default 2)")
+    dask.add_argument("--blender-per-worker", type=count_of("Blenders per worker", 1, 64),
+                      help="dask-local: files each worker runs at a time (threads and blender resource; default 1)")
+    dask.add_argument("--retries", type=count_of("retries", 0, 100),
+                      help="times a file is sent again when the worker running it dies (default 2)")
+    dask.add_argument("--redo-complete", action="store_true",
+                      help="redo a file an earlier attempt of this run had completed before its worker died")
+    dask.add_argument("--connect-timeout", type=seconds_per_file,
+                      help="seconds to reach the scheduler and for a worker to join (default 30)")
     return ap, ap.parse_args(argv)
 
 
-def main(argv=None):
+DASK_ONLY = ("retries", "redo_complete")
+LOCAL_CLUSTER_ONLY = ("workers", "blender_per_worker")
+
+
+def option(name):
+    return "--" + name.replace("_", "-")
+
+
+def executor_kind(ap, args, client):
+    """"local", "dask-local" or "dask" (a scheduler: --scheduler, or the client or address of the
+    Python API), or a one-line error naming the argument that does not fit."""
+    if client is not None and (args.scheduler or args.executor):
+        ap.error(f"{'--scheduler' if args.scheduler else '--executor'}: the run already has a Dask client "
+                 "(main(..., client=...)); give one or the other")
+    if args.scheduler and args.executor:
+        ap.error(f"--executor: {args.executor} cannot be combined with --scheduler (a scheduler's cluster runs "
+                 "the files)")
+    kind = "dask" if args.scheduler or client is not None else args.executor or "local"
+    if kind != "local" and args.jobs is not None:
+        ap.error("--jobs: for local processes only; on Dask each worker runs as many files as it has units of "
+                 "the blender resource (--blender-per-worker with dask-local)")
+    wrong = [n for n in DASK_ONLY if getattr(args, n) not in (None, False)] if kind == "local" else []
+    wrong += [n for n in LOCAL_CLUSTER_ONLY if getattr(args, n) is not None] if kind != "dask-local" else []
+    if wrong:
+        where = "--executor dask-local" if wrong[0] in LOCAL_CLUSTER_ONLY else "--scheduler or --executor dask-local"
+        ap.error(f"{option(wrong[0])}: only with {where}")
+    if kind != "dask" and args.connect_timeout is not None:
+        ap.error("--connect-timeout: only with --scheduler (a LocalCluster is started here)")
+    if kind != "local":
+        from .dask_executor import PINS, dask_installed
+        if not dask_installed():
+            ap.error(f"{'--executor dask-local' if kind == 'dask-local' else '--scheduler'}: needs dask and "
+                     f"distributed, which are not installed here; install {PINS}")
+    return kind
+
+
+def find_blender(ap, given, kind):
+    found = shutil.which(given) or (given if os.path.isfile(given) else None)
+    if found is None and kind != "dask":  # on a scheduler's cluster, each worker must find it (checked there)
+        ap.error(f"--blender: '{given}' not found (install Blender or pass its path)")
+    return found or given
+
+
+def open_cluster(ap, args, kind, client):
+    """The Dask cluster of the run (dask_executor.Cluster), or a one-line error."""
+    from . import dask_executor
+    timeout = args.connect_timeout or 30.0
+    try:
+        if kind == "dask-local":
+            return dask_executor.Cluster.start_local(args.workers or 2, args.blender_per_worker or 1)
+        if client is None or isinstance(client, str):
+            return dask_executor.Cluster.connect(args.scheduler or client, timeout)
+        return dask_executor.Cluster(client, wait=timeout)
+    except dask_executor.ClusterError as exc:
+        ap.error(str(exc))
+
+
+def run_on_cluster(ap, cluster, args, jobs, report, on_row, launcher_inputs):
+    """The jobs on the Dask cluster: the workers' check first (exit 2 naming the worker and the
+    path), then the tasks, with the live progress line."""
+    from . import attempts, dask_executor
+    work = jobs[0].work if jobs else None
+    readable = [j.input for j in jobs if not input_problem(j.input)] if jobs else []
+    try:
+        dask_executor.check_workers(cluster.client, cluster.workers, readable, os.path.dirname(jobs[0].output),
+                                    work, jobs[0].blender)
+    except dask_executor.ClusterError as exc:
+        ap.error(str(exc))
+    plan = attempts.AttemptPlan(staging=work, token=jobs[0].token, max_attempts=(2 if args.retries is None
+                                                                              else args.retries) + 1,
+                                redo_complete=args.redo_complete)
+    progress = Progress(len(jobs))
+    topic = f"deformkit-batch-{plan.token}"
+    cluster.client.subscribe_topic(topic, lambda event: progress.event(event[1]))
+    try:
+        with dask_executor.DaskExecutor(cluster.client, plan) as executor:
+            run_all(executor, jobs, lambda job, row: on_row(job, row, progress))
+    finally:
+        cluster.client.unsubscribe_topic(topic)
+        progress.close()
+
+
+def main(argv=None, client=None):
+    """The command; 0 when every file went well, 1 if any failed, 2 for a bad command line.
+    `client` (Python only): a distributed.Client, or a scheduler's address, for code that drives
+    its own Dask cluster; the run goes there as with --scheduler, and the client stays open."""
     ap, args = arguments(argv)
-    blender = shutil.which(args.blender) or (args.blender if os.path.isfile(args.blender) else None)
-    if blender is None:
-        ap.error(f"--blender: '{args.blender}' not found (install Blender or pass its path)")
+    kind = executor_kind(ap, args, client)
+    blender = find_blender(ap, args.blender, kind)
     addon = addon_folder(ap, args.addon)
     recipe = load_recipe(ap, args.recipe, load_recipe_schema(addon)) if args.recipe else None
     inputs = expand_inputs(args.inputs)
@@ -223,44 +340,78 @@ def main(argv=None):
     outputs = output_names(inputs, out_dir)
     report_path = os.path.abspath(args.report or os.path.join(out_dir, "report.json"))
     check_report_path(ap, report_path, inputs, outputs, args.recipe)
+    cluster = open_cluster(ap, args, kind, client) if kind != "local" else None
 
     token = shared.new_run_token()
     _, dropped = blender_environment(blender)
     header = {"started": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
               "blender": blender, "recipe": recipe, "evaluate_saved": args.evaluate_saved,
-              "smoothness": args.smoothness, "path_left_out_for_blender": dropped}
-    with staging.runs_locked():
-        staging.clean_stale_staging()
-        for folder, other in staging.live_runs().items():
-            if other == os.path.realpath(report_path):
-                ap.error(f"--report: {report_path} is the report of a run in progress ({folder}); "
-                         "give this run its own --report")
-        work, paths = staging.make_staging(token, report_path, addon)
+              "smoothness": args.smoothness, "path_left_out_for_blender": dropped,
+              "executor": describe_executor(kind, args, cluster)}
+    work = None
     try:
+        with staging.runs_locked():
+            staging.clean_stale_staging()
+            for folder, other in staging.live_runs().items():
+                if other == os.path.realpath(report_path):
+                    ap.error(f"--report: {report_path} is the report of a run in progress ({folder}); "
+                             "give this run its own --report")
+            if cluster is None:
+                work, paths = staging.make_staging(token, report_path, addon)
+            else:  # on storage the workers share: OUT/.deformkit-batch-<token>
+                staging.clean_stale_shared_staging(out_dir)
+                work, paths = staging.make_shared_staging(token, report_path, addon, out_dir)
+        jobs = build_jobs(inputs, outputs, work, blender, paths, token, recipe, args)
+        if cluster is not None:
+            where = f"the Dask scheduler {cluster.address}" if kind == "dask" else "a Dask LocalCluster"
+            print(f"deformkit-batch: {len(jobs)} files on {where}: {len(cluster.workers)} workers, "
+                  f"{cluster.slots} files at a time; dashboard: {cluster.dashboard or 'none (needs bokeh beside the scheduler)'}",
+                  flush=True)
         try:
             report = Report(report_path, token, header, inputs, outputs)
         except OSError as exc:
             ap.error(f"--report: cannot write {report_path}: {exc.strerror or exc}")
         done = [0]
 
-        def on_row(job, row):
+        def on_row(job, row, progress=None):
             done[0] += 1
-            print(console_line(done[0], len(inputs), row), flush=True)
+            line = console_line(done[0], len(inputs), row)
+            if progress is None:
+                print(line, flush=True)
+            else:
+                tried = len(row.get("attempts") or [])
+                progress.finished(job.index, line + (f" on {row.get('worker')}" if row.get("worker") else "")
+                                  + (f", {tried} attempts" if tried > 1 else ""), row)
             report.record(job.index, row)
 
-        jobs = build_jobs(inputs, outputs, work, blender, paths, token, recipe, args)
-        with LocalProcessExecutor(args.jobs) as executor:
-            run_all(executor, jobs, on_row, window=args.jobs)
+        if cluster is None:
+            with LocalProcessExecutor(args.jobs or 1) as executor:
+                run_all(executor, jobs, on_row, window=args.jobs or 1)
+        else:
+            run_on_cluster(ap, cluster, args, jobs, report, on_row, inputs)
         report.header["finished"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
         report.record(0, None, complete=True)
     finally:
-        shutil.rmtree(work, ignore_errors=True)
+        if work is not None:
+            shutil.rmtree(work, ignore_errors=True)
+        if cluster is not None:
+            for output in outputs:  # a lost attempt's half file, should a worker have left one after all
+                for leftover in glob.glob(glob.escape(output + shared.TEMP_MARK + token) + "-f*"):
+                    os.unlink(leftover)
+            cluster.close()
     failed = sum(r["status"] != "ok" for r in report.rows)
     if report.problem:
         print(f"deformkit-batch: {report.problem}", file=sys.stderr)
         return 1
     print(f"deformkit-batch: {len(inputs) - failed} ok, {failed} failed; report: {report_path}")
     return 1 if failed else 0
+
+
+def describe_executor(kind, args, cluster):
+    if cluster is None:
+        return {"kind": "local", "jobs": args.jobs or 1}
+    return {"kind": kind, "scheduler": cluster.address, "workers": cluster.workers, "dashboard": cluster.dashboard,
+            "retries": 2 if args.retries is None else args.retries, "redo_complete": args.redo_complete}
 
 
 if __name__ == "__main__":

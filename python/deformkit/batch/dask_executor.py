@@ -1,0 +1,296 @@
+"""The batch on a Dask cluster: each file one task (`run_job` in one `blender -b`, on the worker
+that picked it), through `distributed`'s scheduler and workers; inputs and outputs by path on
+storage every worker shares. Dask is imported here only, when a run asks for it: the package and
+the local executor need none.
+
+- `connect(address, timeout)` / `local_cluster(workers, blender_per_worker)`: a Client on an
+  existing scheduler (bounded connect) or on a LocalCluster of this machine;
+- `check_workers(client, ...)`: every worker reads the inputs, writes the output folder, sees the
+  staging folder and finds Blender, or the run stops before any file with the worker and path;
+- `DaskExecutor`: concurrent.futures' submit/shutdown for run_all. Tasks ask for the resource
+  `blender=1`; each runs as attempts.run_attempt, and a task whose worker died (KilledWorker) is
+  sent again while attempts are left (attempts.py: nothing lost, nothing doubled).
+"""
+import concurrent.futures
+import dataclasses
+import importlib.metadata
+import importlib.util
+import logging
+import os
+import signal
+import tempfile
+import threading
+import time
+
+from . import attempts
+from .run import input_problem
+
+RESOURCE = "blender"
+# What a task whose worker died (or whose result died with it) raises on the client.
+WORKER_LOST = ("KilledWorker", "CommClosedError", "CommError", "StreamClosedError")
+PINS = "dask==2025.12.0 and distributed==2025.12.0 (requirements-dev.txt)"
+
+
+class DaskMissing(ImportError):
+    pass
+
+
+class ClusterError(RuntimeError):
+    """The cluster cannot run this batch: the message names the argument, the worker and the path."""
+
+
+def distributed_module():
+    try:
+        import distributed
+    except ImportError as exc:
+        raise DaskMissing(f"dask and distributed are not installed ({exc}); install {PINS}") from None
+    return distributed
+
+
+def _ignore_ctrl_c():
+    """A worker plugin: Ctrl+C in the terminal reaches a LocalCluster's worker processes (they are
+    in the launcher's process group); they let it pass, as the local pool's processes do, through
+    a handler that Blender's exec resets, so that the Blenders still get it. The launcher decides.
+    (Made here, as distributed is imported only here; cloudpickle sends the class by value.)"""
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    class IgnoreCtrlC(WorkerPlugin):
+        name = "deformkit-batch-ignore-ctrl-c"
+
+        def setup(self, worker):
+            signal.signal(signal.SIGINT, lambda signum, frame: None)
+
+    return IgnoreCtrlC()
+
+
+class Cluster:
+    """The Dask client a run uses, what it was opened on, and the workers that can run a file
+    ({address: units of the blender resource}). close() closes what was opened here only."""
+
+    def __init__(self, client, local=None, owns_client=False, wait=30.0):
+        self.client, self.local, self.owns_client = client, local, owns_client
+        try:
+            self.address = client.scheduler.address
+            self.workers = blender_workers(client, wait)
+            self.dashboard = dashboard(client)
+        except BaseException:
+            self.close()
+            raise
+
+    @classmethod
+    def connect(cls, address, timeout):
+        """On the scheduler at `address`: ClusterError within about `timeout` seconds when it
+        cannot be reached, or when no worker with the blender resource joins in that time."""
+        distributed = distributed_module()
+        try:
+            client = distributed.Client(address, timeout=timeout, set_as_default=False)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ClusterError(f"--scheduler: cannot reach the Dask scheduler {address} within {timeout:g} s "
+                               f"({exc})") from None
+        return cls(client, owns_client=True, wait=timeout)
+
+    @classmethod
+    def start_local(cls, workers, blender_per_worker):
+        """A LocalCluster: `workers` processes of this machine on 127.0.0.1, each with
+        `blender_per_worker` threads and as many units of the blender resource."""
+        distributed = distributed_module()
+        local = distributed.LocalCluster(
+            n_workers=workers, threads_per_worker=blender_per_worker, processes=True, host="127.0.0.1",
+            resources={RESOURCE: blender_per_worker}, dashboard_address=":0", silence_logs=logging.ERROR)
+        try:
+            client = distributed.Client(local, set_as_default=False)
+            client.register_plugin(_ignore_ctrl_c())
+        except BaseException:
+            local.close()
+            raise
+        return cls(client, local=local, owns_client=True)
+
+    @property
+    def slots(self):
+        return int(sum(self.workers.values()))
+
+    def close(self):
+        if self.owns_client:
+            self.client.close()
+        if self.local is not None:
+            self.local.close()
+
+
+def dashboard(client):
+    """The dashboard's address, or None: the scheduler serves one when bokeh is installed beside it."""
+    if "dashboard" not in client.scheduler_info().get("services", {}):
+        return None
+    try:
+        client.run_on_scheduler(importlib.metadata.version, "bokeh")
+    except Exception:  # bokeh missing there (PackageNotFoundError), or run_on_scheduler refused
+        return None
+    return client.dashboard_link
+
+
+def blender_workers(client, timeout):
+    """{address: units of the blender resource} of the workers that can run a file; waits up to
+    `timeout` seconds for the first one to join."""
+    deadline = time.monotonic() + timeout
+    address = client.scheduler.address
+    while True:
+        joined = client.scheduler_info()["workers"]
+        found = {a: w.get("resources", {}).get(RESOURCE, 0) for a, w in joined.items()}
+        found = {a: n for a, n in found.items() if n > 0}
+        if found:
+            return found
+        if time.monotonic() > deadline:
+            seen = f"{len(joined)} worker(s) joined, none with it" if joined else "no worker joined"
+            raise ClusterError(f"--scheduler: no worker of {address} offers the resource '{RESOURCE}' after "
+                               f"{timeout:g} s ({seen}); start workers with "
+                               f"`dask worker {address} --resources {RESOURCE}=1 --nthreads 1`")
+        time.sleep(0.2)
+
+
+def worker_problems(inputs, out_dir, staging, blender):
+    """Runs on each worker (client.run): what it cannot do of what the run needs, as
+    (argument, path, problem) triples."""
+    import shutil
+    problems = [("inputs", path, problem) for path in inputs for problem in [input_problem(path)] if problem]
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".deformkit-probe-", dir=out_dir)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        problems.append(("--out", out_dir, f"cannot write in it: {exc.strerror or exc}"))
+    for name in ("addons/deformkit_addon/__init__.py", "lib/deformkit/batch/job.py"):
+        if not os.path.isfile(os.path.join(staging, name)):
+            problems.append(("--out", os.path.join(staging, name), "cannot see the run's staging folder"))
+    found = shutil.which(blender) or (blender if os.path.isfile(blender) else None)
+    if found is None or not os.access(found, os.X_OK):
+        problems.append(("--blender", blender, "not found or not executable on this worker"))
+    return problems
+
+
+def check_workers(client, workers, inputs, out_dir, staging, blender):
+    """ClusterError naming the first worker and path that fails the run's needs (shared storage,
+    Blender). `inputs` are those the launcher itself can read: a worker must read them too."""
+    answers = client.run(worker_problems, inputs, out_dir, staging, blender, workers=list(workers),
+                         on_error="return")
+    for worker, found in sorted(answers.items()):
+        if isinstance(found, BaseException):
+            raise ClusterError(f"--scheduler: worker {worker} could not check the run's files: "
+                               f"{type(found).__name__}: {found}")
+        for argument, path, problem in found[:1]:
+            more = f" (and {len(found) - 1} more problems)" if len(found) > 1 else ""
+            raise ClusterError(f"{argument}: worker {worker}: {path}: {problem}{more}; every worker must see the "
+                               "inputs and the output folder at the same paths (shared storage)")
+
+
+def interrupt_run(staging, grace=5.0):
+    """Runs on each worker (client.run): SIGINT, as the terminal would send, to the Blenders this
+    worker started for the run (their job files are under `staging`), SIGKILL to those still
+    there after `grace` seconds. Returns their pids."""
+    import psutil
+    mine = []
+    for child in psutil.Process().children(recursive=True):
+        try:
+            if any(staging in part for part in child.cmdline()):
+                child.send_signal(signal.SIGINT)
+                mine.append(child)
+        except psutil.Error:
+            pass
+    _, alive = psutil.wait_procs(mine, timeout=grace)
+    for child in alive:
+        try:
+            child.kill()
+        except psutil.Error:
+            pass
+    return [c.pid for c in mine]
+
+
+class DaskExecutor(concurrent.futures.Executor):
+    """A concurrent.futures-style executor on a Dask client: submit(fn, job) runs fn(job) as one
+    task asking for `blender=1`, wrapped in attempts.run_attempt under `plan` (staging folder on
+    shared storage, run token, retries). The future it returns gets the row of the attempt that
+    finished the file; a task whose worker died is sent again while attempts are left, and gets
+    a "WorkerLost" row after the last. Cancelling futures (run_all does on Ctrl+C) and then
+    shutdown() cancels the tasks on the cluster and interrupts the run's running Blenders."""
+
+    def __init__(self, client, plan):
+        self.client, self.plan = client, plan
+        self._tasks, self._lock, self._cancelled, self._sent = {}, threading.Lock(), False, 0
+
+    def submit(self, fn, job, /):
+        future = concurrent.futures.Future()
+        future.add_done_callback(self._on_done)
+        self._send(future, fn, job)
+        return future
+
+    def _send(self, future, fn, job):
+        with self._lock:
+            self._sent += 1
+            key = f"deformkit-batch-{self.plan.token}-{job.index}-{self._sent}"
+        plan = dataclasses.replace(self.plan, submitted=time.time())
+        task = self.client.submit(attempts.run_attempt, fn, job, plan, key=key, pure=False,
+                                  resources={RESOURCE: 1})
+        with self._lock:
+            self._tasks[future] = task
+        task.add_done_callback(lambda t: self._landed(future, fn, job, t))
+
+    def _landed(self, future, fn, job, task):
+        """In Dask's callback thread: the task's row to the future, or the task sent again when
+        its worker was lost and attempts are left."""
+        if future.done():
+            return
+        try:
+            if task.status == "cancelled":
+                if not self._cancelled:  # not ours: the scheduler restarted, or our connection to it broke
+                    _settle(future, attempts.lost_row(job, self.plan, "the scheduler dropped the task (cancelled)"))
+                return
+            try:
+                return _settle(future, task.result())
+            except Exception as exc:
+                if type(exc).__name__ not in WORKER_LOST:
+                    raise
+                lost = f"{type(exc).__name__}: {exc}"
+            attempts.note_lost(self.plan.staging, job.index, lost, self.plan.token)
+            made = len(attempts.attempt_numbers(self.plan.staging, job.index))
+            if made < self.plan.max_attempts and not self._cancelled:
+                return self._send(future, fn, job)
+            _settle(future, attempts.lost_row(job, self.plan, lost))
+        except Exception as exc:  # e.g. the job did not unpickle on the worker: run_all makes a row of it
+            if not future.done():
+                try:
+                    future.set_exception(exc)
+                except concurrent.futures.InvalidStateError:
+                    pass
+
+    def _on_done(self, future):
+        if future.cancelled():
+            self._cancelled = True
+
+    def cancel_all(self):
+        """Stop the run on the cluster: no attempt starts Blender any more (the staging folder's
+        mark), every task is cancelled, and the Blenders running for the run are interrupted."""
+        self._cancelled = True
+        attempts.mark_cancelled(self.plan.staging)
+        with self._lock:
+            tasks = list(self._tasks.values())
+        if tasks:
+            self.client.cancel(tasks, force=True)
+        return self.client.run(interrupt_run, self.plan.staging, on_error="return")
+
+    def shutdown(self, wait=True, *, cancel_futures=False):
+        """Cancel the run on the cluster when futures were cancelled (run_all does on Ctrl+C) or
+        with cancel_futures, else wait for the files. The client stays open: it is the caller's."""
+        if cancel_futures or self._cancelled:
+            self.cancel_all()
+        elif wait:
+            concurrent.futures.wait(list(self._tasks))
+
+
+def _settle(future, row):
+    if not future.done():
+        try:
+            future.set_result(row)
+        except concurrent.futures.InvalidStateError:  # cancelled meanwhile
+            pass
+
+
+def dask_installed():
+    return importlib.util.find_spec("distributed") is not None and importlib.util.find_spec("dask") is not None
