@@ -300,19 +300,23 @@ def open_cluster(ap, args, kind, client):
         ap.error(str(exc))
 
 
-def run_on_cluster(ap, cluster, args, jobs, report, on_row, launcher_inputs):
-    """The jobs on the Dask cluster: the workers' check first (exit 2 naming the worker and the
-    path), then the tasks, with the live progress line."""
-    from . import attempts, dask_executor
-    work = jobs[0].work if jobs else None
-    readable = [j.input for j in jobs if not input_problem(j.input)] if jobs else []
+def check_cluster(ap, cluster, jobs):
+    """Every worker must read the inputs the launcher reads, write the output folder, see the
+    staging folder and find Blender; else one line naming the worker and the path (exit 2)."""
+    from . import dask_executor
+    readable = [j.input for j in jobs if not input_problem(j.input)]
     try:
         dask_executor.check_workers(cluster.client, cluster.workers, readable, os.path.dirname(jobs[0].output),
-                                    work, jobs[0].blender)
+                                    jobs[0].work, jobs[0].blender)
     except dask_executor.ClusterError as exc:
         ap.error(str(exc))
-    plan = attempts.AttemptPlan(staging=work, token=jobs[0].token, max_attempts=(2 if args.retries is None
-                                                                              else args.retries) + 1,
+
+
+def run_on_cluster(cluster, args, jobs, on_row):
+    """The jobs as tasks on the Dask cluster, with the live progress line."""
+    from . import attempts, dask_executor
+    retries = 2 if args.retries is None else args.retries
+    plan = attempts.AttemptPlan(staging=jobs[0].work, token=jobs[0].token, max_attempts=retries + 1,
                                 redo_complete=args.redo_complete)
     progress = Progress(len(jobs))
     topic = f"deformkit-batch-{plan.token}"
@@ -362,7 +366,8 @@ def main(argv=None, client=None):
                 staging.clean_stale_shared_staging(out_dir)
                 work, paths = staging.make_shared_staging(token, report_path, addon, out_dir)
         jobs = build_jobs(inputs, outputs, work, blender, paths, token, recipe, args)
-        if cluster is not None:
+        if cluster is not None and jobs:
+            check_cluster(ap, cluster, jobs)
             where = f"the Dask scheduler {cluster.address}" if kind == "dask" else "a Dask LocalCluster"
             print(f"deformkit-batch: {len(jobs)} files on {where}: {len(cluster.workers)} workers, "
                   f"{cluster.slots} files at a time; dashboard: {cluster.dashboard or 'none (needs bokeh beside the scheduler)'}",
@@ -387,17 +392,15 @@ def main(argv=None, client=None):
         if cluster is None:
             with LocalProcessExecutor(args.jobs or 1) as executor:
                 run_all(executor, jobs, on_row, window=args.jobs or 1)
-        else:
-            run_on_cluster(ap, cluster, args, jobs, report, on_row, inputs)
+        elif jobs:
+            run_on_cluster(cluster, args, jobs, on_row)
         report.header["finished"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
         report.record(0, None, complete=True)
     finally:
         if work is not None:
             shutil.rmtree(work, ignore_errors=True)
         if cluster is not None:
-            for output in outputs:  # a lost attempt's half file, should a worker have left one after all
-                for leftover in glob.glob(glob.escape(output + shared.TEMP_MARK + token) + "-f*"):
-                    os.unlink(leftover)
+            remove_attempt_temporaries(outputs, token)
             cluster.close()
     failed = sum(r["status"] != "ok" for r in report.rows)
     if report.problem:
@@ -405,6 +408,17 @@ def main(argv=None, client=None):
         return 1
     print(f"deformkit-batch: {len(inputs) - failed} ok, {failed} failed; report: {report_path}")
     return 1 if failed else 0
+
+
+def remove_attempt_temporaries(outputs, token):
+    """A lost attempt's half file, should a worker have left one after all: its names carry the
+    run token (attempts.attempt_id)."""
+    for output in outputs:
+        for leftover in glob.glob(glob.escape(output + shared.TEMP_MARK + token) + "-f*"):
+            try:
+                os.unlink(leftover)
+            except FileNotFoundError:
+                pass
 
 
 def describe_executor(kind, args, cluster):

@@ -14,7 +14,6 @@ the local executor need none.
 import concurrent.futures
 import dataclasses
 import importlib.metadata
-import importlib.util
 import logging
 import os
 import signal
@@ -263,6 +262,7 @@ class DaskExecutor(concurrent.futures.Executor):
     def _on_done(self, future):
         if future.cancelled():
             self._cancelled = True
+            future.set_running_or_notify_cancel()  # as a pool's worker would: wait() and as_completed() see it done
 
     def cancel_all(self):
         """Stop the run on the cluster: no attempt starts Blender any more (the staging folder's
@@ -293,4 +293,9 @@ def _settle(future, row):
 
 
 def dask_installed():
-    return importlib.util.find_spec("distributed") is not None and importlib.util.find_spec("dask") is not None
+    try:
+        import dask  # noqa: F401
+        import distributed  # noqa: F401
+    except ImportError:
+        return False
+    return True
