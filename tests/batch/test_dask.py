@@ -4,6 +4,7 @@ gives; a worker SIGKILLed in the middle of a file, whose file another worker fin
 Blender dead with it and its half file never renamed; retries bounded; a complete earlier
 attempt not redone unless asked; workers that cannot write the output folder; a scheduler out of
 reach; Ctrl+C on the launcher; the local executor without Dask installed."""
+import contextlib
 import json
 import os
 import pathlib
@@ -261,41 +262,70 @@ def test_scheduler_out_of_reach_or_without_workers(tmp_path, fake_blender):
     assert "--resources blender=1 --nthreads 1" in proc.stderr and os.listdir(tmp_path / "out") == []
 
 
-def test_ctrl_c_on_the_launcher(cluster, fake_blender, tmp_path):
-    """SIGINT to the launcher (the workers are elsewhere): the tasks are cancelled on the
-    cluster, the run's Blenders stopped, the report says what finished and what did not, the
-    staging folder is removed; the launcher ends as the local executor's does (KeyboardInterrupt)."""
+@pytest.mark.parametrize("where", ["scheduler", "dask-local"])
+def test_ctrl_c_on_the_launcher(fake_blender, tmp_path, where):
+    """Ctrl+C: SIGINT to the launcher alone (its cluster's workers are elsewhere), or to its whole
+    process group as a terminal sends it (a LocalCluster's workers and their Blenders are in it):
+    the tasks are cancelled, the run's Blenders stopped, the report says what finished and what
+    did not, the staging folder is removed; the launcher ends as the local executor's does
+    (KeyboardInterrupt)."""
     paths = inputs(tmp_path / "in", ["ok", "sleep", "sleep", "ok", "ok", "ok"])
     out = tmp_path / "out"
-    launcher = start(fake_blender, paths, out, "--scheduler", cluster.address)
+    with contextlib.ExitStack() as stack:
+        if where == "scheduler":
+            cluster = stack.enter_context(DaskCluster(tmp_path / "cluster", workers=2))
+            options = ["--scheduler", cluster.address]
+        else:
+            options = ["--executor", "dask-local", "--workers", "2"]
+        launcher = start(fake_blender, paths, out, *options)
 
-    def one_done_one_hanging():
-        try:
-            return report_of(out)["ok"] >= 1 and list(out.glob(".deformkit-batch-*/attempts/*/1/*.started"))
-        except (OSError, ValueError):
-            return False
+        def one_done_one_hanging():
+            try:
+                return report_of(out)["ok"] >= 1 and list(out.glob(".deformkit-batch-*/attempts/*/1/*.started"))
+            except (OSError, ValueError):
+                return False
 
-    wait_for(one_done_one_hanging, what="a file done and one hanging")
-    os.killpg(launcher.pid, signal.SIGINT)
-    _, stderr = launcher.communicate(timeout=60)
-    assert launcher.returncode != 0 and "KeyboardInterrupt" in stderr, stderr
+        wait_for(one_done_one_hanging, what="a file done and one hanging")
+        os.killpg(launcher.pid, signal.SIGINT)
+        _, stderr = launcher.communicate(timeout=60)
+        assert launcher.returncode != 0 and "KeyboardInterrupt" in stderr, stderr
+        if where == "scheduler":
+            wait_for(lambda: cluster.tasks_on_scheduler() == 0, 30, "the scheduler to drop the run's tasks")
+        blenders = [int(line.split()[0]) for p in paths for line in runs(p)]
+        for pid in blenders:
+            wait_for(lambda: not alive(pid), 20, f"Blender {pid} to stop")
+        time.sleep(1.0)  # nothing left running: no file starts after the interrupt
     report = report_of(out)
     assert not report["complete"] and report["ok"] >= 1 and report["pending"] >= 2
     assert {r["status"] for r in report["files"]} == {"ok", "pending"}
+    assert all(report["files"][i]["status"] == "pending" for i in (1, 2))
+    assert any(runs(p) for p in paths[1:3]) and all(len(runs(p)) <= 1 for p in paths)
     for row, path in zip(report["files"], paths):
         output = out / path.name
         assert output.exists() == (row["status"] == "ok"), row
         if row["status"] == "ok":
             assert output.read_bytes() == f"BLENDER output of {path.name}".encode()
-    assert all(report["files"][i]["status"] == "pending" for i in (1, 2))
-    blenders = [int(line.split()[0]) for p in paths for line in runs(p)]
-    assert any(runs(p) for p in paths[1:3]) and all(len(runs(p)) <= 1 for p in paths)
-    for pid in blenders:
-        wait_for(lambda: not alive(pid), 20, f"Blender {pid} to stop")
-    wait_for(lambda: cluster.tasks_on_scheduler() == 0, 30, "the scheduler to drop the run's tasks")
-    time.sleep(1.0)  # nothing left running: no file starts after the interrupt
     names = sorted(p.name for p in out.iterdir())
     assert names == sorted(["report.json"] + [p.name for p, r in zip(paths, report["files"]) if r["status"] == "ok"])
+
+
+def test_a_killed_launcher_takes_its_local_cluster_along(fake_blender, tmp_path):
+    """SIGKILL of a dask-local launcher: its workers and their Blenders die with it; it leaves its
+    report, staging folder and a half file, which the next cluster run into that folder removes."""
+    paths = inputs(tmp_path / "in", ["hang-once", "ok"])
+    out = tmp_path / "out"
+    launcher = start(fake_blender, paths, out, "--executor", "dask-local", "--workers", "1")
+    _, record, progress = wait_for(lambda: started_attempt(out), what="file 0 to hang")
+    launcher.kill()
+    launcher.communicate(timeout=60)
+    for pid in (record["pid"], progress["pid"]):
+        wait_for(lambda: not alive(pid), 20, f"process {pid} (worker, then Blender) to die")
+    left = sorted(p.name for p in out.iterdir())
+    assert len([n for n in left if n.startswith(".deformkit-batch-")]) == 1 and "report.json" in left
+    assert any(".tmp.blend" in n for n in left), left
+    proc = batch(fake_blender, paths[1:], out, "--executor", "dask-local", "--workers", "1")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["1_ok.blend", "report.json"]
 
 
 BLOCK_DASK = """

@@ -146,6 +146,21 @@ def history(staging, index, before=None):
     return records
 
 
+def open_attempts(staging):
+    """The records of the run's attempts that have started and not ended (running, or lost)."""
+    found = []
+    try:
+        indices = os.listdir(os.path.join(staging, ATTEMPTS))
+    except FileNotFoundError:
+        return found
+    for index in filter(str.isdigit, indices):
+        for n in attempt_numbers(staging, int(index)):
+            record = _read(os.path.join(attempt_folder(staging, int(index), n), RECORD))
+            if record is not None and record.get("end") is None:
+                found.append(record)
+    return found
+
+
 def output_matches(output, stat):
     """True when `output` is the very file an attempt's result recorded (size and mtime)."""
     if not isinstance(stat, dict):

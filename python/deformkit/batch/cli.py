@@ -2,7 +2,8 @@
 
     deformkit-batch INPUT... --out DIR [--recipe FILE | --evaluate-saved] [--jobs N]
                     [--blender PATH] [--addon PATH] [--report PATH] [--preview] [--smoothness]
-                    [--timeout SECONDS]
+                    [--timeout SECONDS] [--scheduler tcp://HOST:PORT | --executor dask-local
+                    [--workers N] [--blender-per-worker N]] [--retries N] [--redo-complete]
 
 Each input runs in its own `blender -b --factory-startup` process with the add-on enabled. Outputs
 go to DIR/<name>.blend (written under a temporary name unique to the run, then renamed; an input
@@ -18,8 +19,13 @@ cage. Recipes are JSON or TOML, checked against the add-on's own property ranges
     {"objects": ["Suzanne"], "deformers": [{"type": "TWIST", "angle": 1.57, "deform_axis": "Z"},
                                            {"type": "SUBDIVIDE", "levels": 2}]}
 
+On a Dask cluster (`--scheduler tcp://HOST:PORT`, or `--executor dask-local --workers N` for a
+LocalCluster on this machine; options in cluster_cli.py) each input is one task on the worker that
+picks it, with inputs and outputs by path on storage all workers share, retries when a worker dies
+(`--retries`, attempts.py) and per file the worker, the attempts and the queue time in the report.
+
 This package needs no bpy: it only starts Blender, on one job file per input (BatchJob, run by
-run_job on an executor: local processes, --jobs at a time). Run it with the project's Python
+run_job on an executor: local processes, --jobs at a time, or Dask tasks). Run it with the project's Python
 (`scripts/deformkit-batch`, or `python -m deformkit.batch`), which also has matplotlib for the
 pictures. The add-on Blender runs is --addon (default: $DEFORMKIT_ADDON, else an importable
 deformkit_addon, else the python_addon/ folder of the checkout this package is in); the recipe is
@@ -32,16 +38,15 @@ import importlib.util
 import json
 import math
 import os
-import re
 import shutil
 import sys
 import tempfile
 
-from . import shared, staging
+from . import cluster_cli, shared, staging
 from .executors import LocalProcessExecutor, run_all
 from .job import BatchJob
-from .report import Progress, Report, console_line
-from .run import blender_environment, input_problem, same_file
+from .report import Report, console_line
+from .run import blender_environment, same_file
 
 # A source checkout: python/deformkit/batch/cli.py, beside python_addon/.
 CHECKOUT_ADDON = os.path.join(os.path.dirname(os.path.abspath(__file__)), *[os.pardir] * 3, "python_addon")
@@ -61,24 +66,6 @@ def seconds_per_file(text):
     if not math.isfinite(value) or value <= 0:
         raise argparse.ArgumentTypeError(f"expected a finite number of seconds above 0, got {text!r}")
     return value
-
-
-def scheduler_address(text):
-    if not re.fullmatch(r"(tcp|tls)://[^\s/:]+:\d{1,5}", text):
-        raise argparse.ArgumentTypeError(f"expected a scheduler address tcp://HOST:PORT, got {text!r}")
-    return text
-
-
-def count_of(what, least, most):
-    def parse(text):
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a whole number of {what}, got {text!r}") from None
-        if not least <= value <= most:
-            raise argparse.ArgumentTypeError(f"expected {least}..{most} {what}, got {text!r}")
-        return value
-    return parse
 
 
 def job_count(text):
@@ -226,57 +213,8 @@ def arguments(argv):
     ap.add_argument("--smoothness", action="store_true",
                     help="add each object's smoothness figures (dk.smoothness_report of its cage) to the report")
     ap.add_argument("--timeout", type=seconds_per_file, default=600.0, help="seconds per file (finite, above 0)")
-    dask = ap.add_argument_group("on a Dask cluster (docs/batch.md)")
-    dask.add_argument("--scheduler", type=scheduler_address,
-                      help="run every file as a task on the Dask scheduler at tcp://HOST:PORT")
-    dask.add_argument("--executor", choices=("local", "dask-local"),
-                      help="local: processes of this machine (the default); dask-local: a Dask LocalCluster")
-    dask.add_argument("--workers", type=count_of("workers", 1, 256), help="dask-local: worker processes (default 2)")
-    dask.add_argument("--blender-per-worker", type=count_of("Blenders per worker", 1, 64),
-                      help="dask-local: files each worker runs at a time (threads and blender resource; default 1)")
-    dask.add_argument("--retries", type=count_of("retries", 0, 100),
-                      help="times a file is sent again when the worker running it dies (default 2)")
-    dask.add_argument("--redo-complete", action="store_true",
-                      help="redo a file an earlier attempt of this run had completed before its worker died")
-    dask.add_argument("--connect-timeout", type=seconds_per_file,
-                      help="seconds to reach the scheduler and for a worker to join (default 30)")
+    cluster_cli.add_arguments(ap, seconds_per_file)
     return ap, ap.parse_args(argv)
-
-
-DASK_ONLY = ("retries", "redo_complete")
-LOCAL_CLUSTER_ONLY = ("workers", "blender_per_worker")
-
-
-def option(name):
-    return "--" + name.replace("_", "-")
-
-
-def executor_kind(ap, args, client):
-    """"local", "dask-local" or "dask" (a scheduler: --scheduler, or the client or address of the
-    Python API), or a one-line error naming the argument that does not fit."""
-    if client is not None and (args.scheduler or args.executor):
-        ap.error(f"{'--scheduler' if args.scheduler else '--executor'}: the run already has a Dask client "
-                 "(main(..., client=...)); give one or the other")
-    if args.scheduler and args.executor:
-        ap.error(f"--executor: {args.executor} cannot be combined with --scheduler (a scheduler's cluster runs "
-                 "the files)")
-    kind = "dask" if args.scheduler or client is not None else args.executor or "local"
-    if kind != "local" and args.jobs is not None:
-        ap.error("--jobs: for local processes only; on Dask each worker runs as many files as it has units of "
-                 "the blender resource (--blender-per-worker with dask-local)")
-    wrong = [n for n in DASK_ONLY if getattr(args, n) not in (None, False)] if kind == "local" else []
-    wrong += [n for n in LOCAL_CLUSTER_ONLY if getattr(args, n) is not None] if kind != "dask-local" else []
-    if wrong:
-        where = "--executor dask-local" if wrong[0] in LOCAL_CLUSTER_ONLY else "--scheduler or --executor dask-local"
-        ap.error(f"{option(wrong[0])}: only with {where}")
-    if kind != "dask" and args.connect_timeout is not None:
-        ap.error("--connect-timeout: only with --scheduler (a LocalCluster is started here)")
-    if kind != "local":
-        from .dask_executor import PINS, dask_installed
-        if not dask_installed():
-            ap.error(f"{'--executor dask-local' if kind == 'dask-local' else '--scheduler'}: needs dask and "
-                     f"distributed, which are not installed here; install {PINS}")
-    return kind
 
 
 def find_blender(ap, given, kind):
@@ -286,55 +224,12 @@ def find_blender(ap, given, kind):
     return found or given
 
 
-def open_cluster(ap, args, kind, client):
-    """The Dask cluster of the run (dask_executor.Cluster), or a one-line error."""
-    from . import dask_executor
-    timeout = args.connect_timeout or 30.0
-    try:
-        if kind == "dask-local":
-            return dask_executor.Cluster.start_local(args.workers or 2, args.blender_per_worker or 1)
-        if client is None or isinstance(client, str):
-            return dask_executor.Cluster.connect(args.scheduler or client, timeout)
-        return dask_executor.Cluster(client, wait=timeout)
-    except dask_executor.ClusterError as exc:
-        ap.error(str(exc))
-
-
-def check_cluster(ap, cluster, jobs):
-    """Every worker must read the inputs the launcher reads, write the output folder, see the
-    staging folder and find Blender; else one line naming the worker and the path (exit 2)."""
-    from . import dask_executor
-    readable = [j.input for j in jobs if not input_problem(j.input)]
-    try:
-        dask_executor.check_workers(cluster.client, cluster.workers, readable, os.path.dirname(jobs[0].output),
-                                    jobs[0].work, jobs[0].blender)
-    except dask_executor.ClusterError as exc:
-        ap.error(str(exc))
-
-
-def run_on_cluster(cluster, args, jobs, on_row):
-    """The jobs as tasks on the Dask cluster, with the live progress line."""
-    from . import attempts, dask_executor
-    retries = 2 if args.retries is None else args.retries
-    plan = attempts.AttemptPlan(staging=jobs[0].work, token=jobs[0].token, max_attempts=retries + 1,
-                                redo_complete=args.redo_complete)
-    progress = Progress(len(jobs))
-    topic = f"deformkit-batch-{plan.token}"
-    cluster.client.subscribe_topic(topic, lambda event: progress.event(event[1]))
-    try:
-        with dask_executor.DaskExecutor(cluster.client, plan) as executor:
-            run_all(executor, jobs, lambda job, row: on_row(job, row, progress))
-    finally:
-        cluster.client.unsubscribe_topic(topic)
-        progress.close()
-
-
 def main(argv=None, client=None):
     """The command; 0 when every file went well, 1 if any failed, 2 for a bad command line.
     `client` (Python only): a distributed.Client, or a scheduler's address, for code that drives
     its own Dask cluster; the run goes there as with --scheduler, and the client stays open."""
     ap, args = arguments(argv)
-    kind = executor_kind(ap, args, client)
+    kind = cluster_cli.executor_kind(ap, args, client)
     blender = find_blender(ap, args.blender, kind)
     addon = addon_folder(ap, args.addon)
     recipe = load_recipe(ap, args.recipe, load_recipe_schema(addon)) if args.recipe else None
@@ -344,16 +239,14 @@ def main(argv=None, client=None):
     outputs = output_names(inputs, out_dir)
     report_path = os.path.abspath(args.report or os.path.join(out_dir, "report.json"))
     check_report_path(ap, report_path, inputs, outputs, args.recipe)
-    cluster = open_cluster(ap, args, kind, client) if kind != "local" else None
-
-    token = shared.new_run_token()
-    _, dropped = blender_environment(blender)
-    header = {"started": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-              "blender": blender, "recipe": recipe, "evaluate_saved": args.evaluate_saved,
-              "smoothness": args.smoothness, "path_left_out_for_blender": dropped,
-              "executor": describe_executor(kind, args, cluster)}
-    work = None
+    cluster = cluster_cli.open_cluster(ap, args, kind, client) if kind != "local" else None
+    token, work = shared.new_run_token(), None
     try:
+        _, dropped = blender_environment(blender)
+        header = {"started": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+                  "blender": blender, "recipe": recipe, "evaluate_saved": args.evaluate_saved,
+                  "smoothness": args.smoothness, "path_left_out_for_blender": dropped,
+                  "executor": cluster_cli.describe_executor(kind, args, cluster)}
         with staging.runs_locked():
             staging.clean_stale_staging()
             for folder, other in staging.live_runs().items():
@@ -366,12 +259,9 @@ def main(argv=None, client=None):
                 staging.clean_stale_shared_staging(out_dir)
                 work, paths = staging.make_shared_staging(token, report_path, addon, out_dir)
         jobs = build_jobs(inputs, outputs, work, blender, paths, token, recipe, args)
-        if cluster is not None and jobs:
-            check_cluster(ap, cluster, jobs)
-            where = f"the Dask scheduler {cluster.address}" if kind == "dask" else "a Dask LocalCluster"
-            print(f"deformkit-batch: {len(jobs)} files on {where}: {len(cluster.workers)} workers, "
-                  f"{cluster.slots} files at a time; dashboard: {cluster.dashboard or 'none (needs bokeh beside the scheduler)'}",
-                  flush=True)
+        if cluster is not None:
+            cluster_cli.check_cluster(ap, cluster, jobs)
+            print(cluster_cli.opening_line(cluster, kind, len(jobs)), flush=True)
         try:
             report = Report(report_path, token, header, inputs, outputs)
         except OSError as exc:
@@ -392,40 +282,22 @@ def main(argv=None, client=None):
         if cluster is None:
             with LocalProcessExecutor(args.jobs or 1) as executor:
                 run_all(executor, jobs, on_row, window=args.jobs or 1)
-        elif jobs:
-            run_on_cluster(cluster, args, jobs, on_row)
+        else:
+            cluster_cli.run_on_cluster(cluster, args, jobs, on_row)
         report.header["finished"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
         report.record(0, None, complete=True)
     finally:
-        if work is not None:
-            shutil.rmtree(work, ignore_errors=True)
         if cluster is not None:
-            remove_attempt_temporaries(outputs, token)
-            cluster.close()
+            cluster.close()  # a LocalCluster's workers stop here: nothing writes in the staging folder after
+            cluster_cli.remove_attempt_temporaries(outputs, token)
+        if work is not None:
+            staging.remove_staging(work)
     failed = sum(r["status"] != "ok" for r in report.rows)
     if report.problem:
         print(f"deformkit-batch: {report.problem}", file=sys.stderr)
         return 1
     print(f"deformkit-batch: {len(inputs) - failed} ok, {failed} failed; report: {report_path}")
     return 1 if failed else 0
-
-
-def remove_attempt_temporaries(outputs, token):
-    """A lost attempt's half file, should a worker have left one after all: its names carry the
-    run token (attempts.attempt_id)."""
-    for output in outputs:
-        for leftover in glob.glob(glob.escape(output + shared.TEMP_MARK + token) + "-f*"):
-            try:
-                os.unlink(leftover)
-            except FileNotFoundError:
-                pass
-
-
-def describe_executor(kind, args, cluster):
-    if cluster is None:
-        return {"kind": "local", "jobs": args.jobs or 1}
-    return {"kind": kind, "scheduler": cluster.address, "workers": cluster.workers, "dashboard": cluster.dashboard,
-            "retries": 2 if args.retries is None else args.retries, "redo_complete": args.redo_complete}
 
 
 if __name__ == "__main__":

@@ -273,7 +273,19 @@ class DaskExecutor(concurrent.futures.Executor):
             tasks = list(self._tasks.values())
         if tasks:
             self.client.cancel(tasks, force=True)
-        return self.client.run(interrupt_run, self.plan.staging, on_error="return")
+        self.client.run(interrupt_run, self.plan.staging, on_error="return")
+        self.wait_for_attempts()
+
+    def wait_for_attempts(self, seconds=15.0):
+        """Until the attempts that live workers still run have ended (a cancelled task's thread
+        runs on until its Blender is gone), at most `seconds`: the staging folder is removed next."""
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            live = set(self.client.scheduler_info()["workers"])
+            if not any(r.get("worker") in live for r in attempts.open_attempts(self.plan.staging)):
+                return True
+            time.sleep(0.1)
+        return False
 
     def shutdown(self, wait=True, *, cancel_futures=False):
         """Cancel the run on the cluster when futures were cancelled (run_all does on Ctrl+C) or

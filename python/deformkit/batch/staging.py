@@ -3,12 +3,14 @@ start-ups share, which runs are alive, and the clean-up of those whose launcher 
 on a Dask cluster stages in the output folder instead (shared storage: workers may be on other
 machines), with copies of the add-on and the module rather than links into this machine."""
 import contextlib
+import glob
 import json
 import os
 import re
 import shutil
 import socket
 import tempfile
+import time
 
 from . import shared
 
@@ -117,7 +119,8 @@ def make_shared_staging(token, report_path, addon_dir, out_dir):
 
 def clean_stale_shared_staging(out_dir):
     """Remove the cluster staging folders in `out_dir` left by launchers of this machine that are
-    gone (killed); those of other machines' launchers, which cannot be checked, are left alone."""
+    gone (killed), and their attempts' temporary outputs; those of other machines' launchers,
+    which cannot be checked, are left alone."""
     removed = []
     for name in os.listdir(out_dir):
         if not SHARED.match(name):
@@ -129,6 +132,20 @@ def clean_stale_shared_staging(out_dir):
             continue
         pid = launcher.get("pid")
         if launcher.get("host") == socket.gethostname() and isinstance(pid, int) and pid > 0 and not pid_alive(pid):
+            token = name[len(SHARED_PREFIX):]  # its attempts' half files carry it (attempts.attempt_id)
+            for leftover in glob.glob(os.path.join(glob.escape(out_dir), f"*{shared.TEMP_MARK}{token}-f*")):
+                os.unlink(leftover)
             shutil.rmtree(os.path.join(out_dir, name), ignore_errors=True)
             removed.append(name)
     return removed
+
+
+def remove_staging(work, tries=5):
+    """Remove a run's staging folder, again if something still wrote in it meanwhile (a cluster's
+    cancelled attempt recording its end)."""
+    for _ in range(tries):
+        shutil.rmtree(work, ignore_errors=True)
+        if not os.path.exists(work):
+            return True
+        time.sleep(0.2)
+    return False
