@@ -90,12 +90,19 @@ class Cluster:
 
     @classmethod
     def start_local(cls, workers, blender_per_worker):
-        """A LocalCluster: `workers` processes of this machine on 127.0.0.1, each with
-        `blender_per_worker` threads and as many units of the blender resource."""
+        """A LocalCluster: `workers` processes of this machine on 127.0.0.1 (under nannies, which
+        restart a worker that dies), each with `blender_per_worker` threads and as many units of
+        the blender resource."""
         distributed = distributed_module()
-        local = distributed.LocalCluster(
-            n_workers=workers, threads_per_worker=blender_per_worker, processes=True, host="127.0.0.1",
-            resources={RESOURCE: blender_per_worker}, dashboard_address=":0", silence_logs=logging.ERROR)
+        import dask
+        # Dask's nanny caps OMP/MKL/OpenBLAS threads at 1 in its workers (for numpy tasks), which their
+        # Blenders would inherit; here they get the environment the local executor gives them.
+        spawn = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ", {}).items()
+                 if not k.endswith("_NUM_THREADS")}
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": spawn}):
+            local = distributed.LocalCluster(
+                n_workers=workers, threads_per_worker=blender_per_worker, processes=True, host="127.0.0.1",
+                resources={RESOURCE: blender_per_worker}, dashboard_address=":0", silence_logs=logging.ERROR)
         try:
             client = distributed.Client(local, set_as_default=False)
             client.register_plugin(_ignore_ctrl_c())
