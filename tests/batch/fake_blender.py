@@ -28,7 +28,8 @@ def main(argv):
         mode = fh.read()[len(b"BLENDER"):].decode().strip()
     row = {"file": job["input"], "output": job["output"], "status": "running", "error": "", "objects": [],
            "warnings": ["a warning seen while reading"], "job_seen": job, "pid": os.getpid(),
-           "parent": os.getppid()}
+           "parent": os.getppid(),
+           "environment": {k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "MALLOC_TRIM_THRESHOLD_")}}
 
     def progress(stage):
         shared.write_json_atomically(result_path, {**row, "stage": {"stage": stage, "object": "Fake", "entry": None}},

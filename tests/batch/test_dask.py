@@ -173,6 +173,30 @@ def test_a_worker_killed_mid_file(tmp_path, fake_blender, allowed_failures):
     assert f"[4/4]" in stdout and "2 attempts" in stdout and "file 0: attempt 2 on" in stdout
 
 
+def test_workers_under_nannies(tmp_path, fake_blender):
+    """Workers as `dask worker` starts them by default, under a nanny: the Blenders get the
+    environment the local executor gives them (not the nanny's one-thread settings for numpy
+    tasks), and a worker killed mid-file is replaced by its nanny while the file is done again."""
+    paths = inputs(tmp_path / "in", ["hang-once", "ok", "ok"])
+    with DaskCluster(tmp_path / "cluster", workers=2, nanny=True) as cluster:
+        nanny_env = cluster.client().run(lambda: os.environ.get("OMP_NUM_THREADS"))
+        out = tmp_path / "out"
+        launcher = start(fake_blender, paths, out, "--scheduler", cluster.address)
+        _, record, _ = wait_for(lambda: started_attempt(out), what="file 0 to hang")
+        os.kill(record["pid"], signal.SIGKILL)
+        stdout, stderr = launcher.communicate(timeout=RUN_SECONDS)
+        assert launcher.returncode == 0, stdout + stderr + cluster.logs()
+        wait_for(lambda: len(cluster.worker_pids()) == 2, 60, "the nanny to start a new worker")
+        assert record["pid"] not in cluster.worker_pids().values()
+    assert set(nanny_env.values()) == {"1"}  # what the nanny gives its workers
+    local = batch(fake_blender, paths[1:], tmp_path / "local")
+    assert local.returncode == 0, local.stdout + local.stderr
+    expected = report_of(tmp_path / "local")["files"][0]["environment"]
+    files = report_of(out)["files"]
+    assert [f["status"] for f in files] == ["ok"] * 3 and [len(f["attempts"]) for f in files] == [2, 1, 1]
+    assert all(f["environment"] == expected for f in files)
+
+
 def test_retries_are_bounded(cluster, fake_blender, tmp_path):
     """--retries 0: the file whose worker died is not run again (though the scheduler sends its
     task again), and its row says it was lost; the other files are done."""

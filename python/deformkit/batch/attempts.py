@@ -17,6 +17,7 @@ No Dask here: the task function runs on a Dask worker, but only asks it its own 
 """
 import dataclasses
 import datetime
+import inspect
 import json
 import os
 import shutil
@@ -201,6 +202,31 @@ def worker_identity():
     return found
 
 
+def blender_environ():
+    """This worker's environment without what Dask's nanny put in it for numpy tasks (one OpenMP
+    thread, a low malloc trim threshold: distributed.nanny.pre-spawn-environ): Blender gets the
+    environment it would get from the local executor on this machine."""
+    environ = dict(os.environ)
+    try:
+        import dask
+        injected = dask.config.get("distributed.nanny.pre-spawn-environ", {}) or {}
+    except ImportError:
+        return environ
+    for key, value in injected.items():
+        if environ.get(key) == str(value):
+            del environ[key]
+    return environ
+
+
+def _call(fn, job):
+    """fn(job), with the worker's environment for Blender when fn takes one (run_job does)."""
+    try:
+        takes = "environ" in inspect.signature(fn).parameters
+    except (TypeError, ValueError):
+        takes = False
+    return fn(job, environ=blender_environ()) if takes else fn(job)
+
+
 def announce(token, event, **data):
     """Tell the launcher (Dask's event topic of the run) that an attempt starts or ends: its live
     progress line. Best effort: the report does not depend on it."""
@@ -259,7 +285,7 @@ def run_attempt(fn, job, plan):
             record.update(outcome="cancelled", error=row["error"])
         else:
             here = dataclasses.replace(job, work=folder, token=aid, blender=shutil.which(job.blender) or job.blender)
-            row = fn(here)
+            row = _call(fn, here)
             record.update(outcome=row["status"], error=row.get("error", ""))
     except Exception as exc:  # our own trouble with the attempt: still a row, and a record
         row = failed_row(job.input, job.output, type(exc).__name__, str(exc) or repr(exc), "launch")

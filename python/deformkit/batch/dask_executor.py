@@ -95,11 +95,9 @@ class Cluster:
         the blender resource."""
         distributed = distributed_module()
         import dask
-        # Dask's nanny caps OMP/MKL/OpenBLAS threads at 1 in its workers (for numpy tasks), which their
-        # Blenders would inherit; here they get the environment the local executor gives them.
-        spawn = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ", {}).items()
-                 if not k.endswith("_NUM_THREADS")}
-        with dask.config.set({"distributed.nanny.pre-spawn-environ": spawn}):
+        # Dask's nanny sets OMP/MKL/OpenBLAS threads to 1 and a low malloc trim threshold in its
+        # workers (for numpy tasks); none here, so that the Blenders get the local executor's environment.
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": {}}):
             local = distributed.LocalCluster(
                 n_workers=workers, threads_per_worker=blender_per_worker, processes=True, host="127.0.0.1",
                 resources={RESOURCE: blender_per_worker}, dashboard_address=":0", silence_logs=logging.ERROR)
