@@ -6,9 +6,10 @@
 The .blend fixtures (blend_fixtures/make_fixtures.py, made by Blender 3.4 in the work folder)
 repeated by symbolic links to --files inputs, run by `scripts/deformkit-batch` three ways: the
 local executor (--jobs 2), a Dask LocalCluster of 2 workers and one of 1 worker (--executor
-dask-local), in that order, --rounds times, each way's wall time (the whole command: Python start,
+dask-local), --rounds times (each round starting with the next way), each way's wall time (the whole command: Python start,
 cluster start and stop included) and the same command on one missing file (what a run costs
-without any file: start-up and tear-down). Dask's overhead per file is
+without any file: start-up and tear-down), and the CPU seconds of the command and all it started
+(its waited-for children: workers and Blenders). Dask's overhead per file is
 ((dask 2 - its empty run) - (local 2 - its empty run)) / files. The twist recipe (TWIST + BEND on
 every mesh) keeps each file close to a Blender start, so the overhead shows; "demo" is make demo's
 recipe (Subdivide and smoothness figures too). Not in `make bench`: about 4 minutes with the
@@ -18,6 +19,7 @@ import argparse
 import json
 import os
 import pathlib
+import resource
 import statistics
 import subprocess
 import sys
@@ -60,15 +62,21 @@ def make_inputs(work):
     return sorted(inputs.glob("*.blend")), blends
 
 
+def children_cpu():
+    use = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return use.ru_utime + use.ru_stime
+
+
 def run(way, paths, out, recipe):
-    """(seconds, report) of one batch command."""
-    t0 = time.perf_counter()
+    """(wall seconds, CPU seconds of the command and everything it started, report) of one batch
+    command."""
+    t0, c0 = time.perf_counter(), children_cpu()
     proc = subprocess.run([str(BATCH), *map(str, paths), "--recipe", str(recipe), "--out", str(out), *WAYS[way]],
                           capture_output=True, text=True, timeout=3600)
-    seconds = time.perf_counter() - t0
+    seconds, cpu = time.perf_counter() - t0, children_cpu() - c0
     if proc.returncode not in (0, 1):
         raise SystemExit(f"{way}: exit {proc.returncode}\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
-    return seconds, json.loads((out / "report.json").read_text())
+    return seconds, cpu, json.loads((out / "report.json").read_text())
 
 
 def main():
@@ -79,31 +87,34 @@ def main():
     recipe.write_text(json.dumps(RECIPES[args.recipe]))
     print(f"{len(paths)} files ({len(blends)} fixtures repeated), recipe {args.recipe}, {os.cpu_count()} CPUs, "
           f"load average before {os.getloadavg()[0]:.2f}")
-    wall, empty, load, queue, process = {w: [] for w in WAYS}, {}, {}, {}, {}
+    wall, cpu, empty, load, queue, process = {w: [] for w in WAYS}, {w: [] for w in WAYS}, {}, {}, {}, {}
     for way in WAYS:
         empty[way] = run(way, [work / "missing.blend"], work / "out-empty", recipe)[0]
+    ways = list(WAYS)
     for r in range(args.rounds):
-        for way in WAYS:
+        for way in ways[r % 3:] + ways[:r % 3]:  # each round starts with the next way: drift spreads out
             out = work / f"out-{way.replace(' ', '_')}-{r}"
             with OtherLoad() as other:
-                seconds, report = run(way, paths, out, recipe)
+                seconds, used, report = run(way, paths, out, recipe)
             failed = [f["file"] for f in report["files"] if f["status"] != "ok"]
             if failed:
                 raise SystemExit(f"{way}: {len(failed)} files failed, e.g. {failed[0]}")
             wall[way].append(seconds)
+            cpu[way].append(used)
             load.setdefault(way, []).append(other.share)
             queue.setdefault(way, []).extend(f.get("queue_seconds") or 0.0 for f in report["files"])
             process.setdefault(way, []).extend(f.get("process_seconds", 0.0) for f in report["files"])
     t = {w: statistics.median(v) for w, v in wall.items()}
-    print(f"\n{'way':24} {'wall s':>8} {'empty s':>8} {'s/file':>7} {'Blender s/file':>15} {'queue s':>8} "
-          f"{'other load':>10}")
+    c = {w: statistics.median(v) for w, v in cpu.items()}
+    print(f"\n{'way':24} {'wall s':>8} {'empty s':>8} {'s/file':>7} {'CPU s/file':>10} {'Blender s/file':>15} "
+          f"{'queue s':>8} {'other load':>10}")
     for way in WAYS:
-        print(f"{way:24} {t[way]:8.2f} {empty[way]:8.2f} {t[way] / len(paths):7.3f} "
+        print(f"{way:24} {t[way]:8.2f} {empty[way]:8.2f} {t[way] / len(paths):7.3f} {c[way] / len(paths):10.3f} "
               f"{statistics.mean(process[way]):15.3f} {statistics.mean(queue[way]):8.3f} "
               f"{max(load[way]):10.0%}")
     local, dask2, dask1 = (t[w] for w in WAYS)
     overhead = ((dask2 - empty["dask-local 2 workers"]) - (local - empty["local --jobs 2"])) / len(paths)
-    figures = {"files": len(paths), "recipe": args.recipe, "wall": t, "empty": empty, "load": load,
+    figures = {"files": len(paths), "recipe": args.recipe, "wall": t, "cpu": c, "empty": empty, "load": load,
                "dask2_over_local2": dask2 / local, "dask1_over_dask2": dask1 / dask2,
                "dask_overhead_per_file": overhead,
                "blender_seconds_per_file": statistics.mean(process["local --jobs 2"])}
@@ -111,6 +122,8 @@ def main():
     print(f"dask-local 1 worker / 2 workers:       {dask1 / dask2:.3f} (2.0 would be perfect scaling)")
     print(f"Dask overhead per file (start-up and tear-down of each way left out): {overhead * 1000:+.0f} ms, "
           f"against {figures['blender_seconds_per_file']:.2f} s of Blender per file")
+    print(f"CPU per file, dask-local 2 workers minus local --jobs 2: "
+          f"{(c['dask-local 2 workers'] - c['local --jobs 2']) / len(paths) * 1000:+.0f} ms")
     print(f"cluster start + stop: {empty['dask-local 2 workers'] - empty['local --jobs 2']:+.2f} s beside the "
           "local executor's")
     if max(max(v) for v in load.values()) > 0.1:

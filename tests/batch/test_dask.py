@@ -352,6 +352,25 @@ def test_a_killed_launcher_takes_its_local_cluster_along(fake_blender, tmp_path)
     assert sorted(p.name for p in out.iterdir()) == ["1_ok.blend", "report.json"]
 
 
+def test_the_scheduler_dies_mid_run(tmp_path, fake_blender):
+    """The scheduler SIGKILLed while a file runs: the launcher does not hang; every file not done
+    gets a SchedulerLost row, the report is complete, exit status 1."""
+    paths = inputs(tmp_path / "in", ["ok", "sleep", "ok", "ok", "ok", "ok"])
+    out = tmp_path / "out"
+    with DaskCluster(tmp_path / "cluster", workers=2) as cluster:
+        launcher = start(fake_blender, paths, out, "--scheduler", cluster.address)
+        wait_for(lambda: started_attempt(out, 1), what="file 1 to hang")
+        os.killpg(cluster.processes[0].pid, signal.SIGKILL)  # the scheduler: the first process started
+        stdout, stderr = launcher.communicate(timeout=120)
+    assert launcher.returncode == 1, stdout + stderr
+    report = report_of(out)
+    assert report["complete"] and report["pending"] == 0 and report["files"][1]["status"] == "failed"
+    for row in report["files"]:
+        assert row["status"] == "ok" or row["error"].startswith(
+            "SchedulerLost: the connection to the Dask scheduler was lost before the file was done"), row
+        assert (out / os.path.basename(row["output"])).exists() == (row["status"] == "ok")
+
+
 BLOCK_DASK = """
 import importlib.abc, sys
 class NoDask(importlib.abc.MetaPathFinder):

@@ -237,9 +237,10 @@ def announce(token, event, **data):
         pass
 
 
-def lost_row(job, plan, reason=""):
+def lost_row(job, plan, reason="", scheduler_lost=False):
     """The row of a file that may have no attempt left: an earlier attempt's if one completed
-    it (and the plan does not redo it), else a failure saying every worker that ran it was lost."""
+    it (and the plan does not redo it), else a failure saying every worker that ran it was lost
+    (or the scheduler, with `scheduler_lost`)."""
     staging, max_attempts = plan.staging, plan.max_attempts
     done = None if plan.redo_complete else completed_earlier(staging, job.index, job.output, max_attempts + 1)
     if done:
@@ -249,6 +250,10 @@ def lost_row(job, plan, reason=""):
         worker = next((r.get("worker") for r in records if r["attempt"] == k), None)
         return {**row, "worker": worker, "attempts": records, "queue_seconds": None}
     records = history(staging, job.index)
+    if scheduler_lost:
+        row = failed_row(job.input, job.output, "SchedulerLost", "the connection to the Dask scheduler was lost "
+                         f"before the file was done ({reason}); a new run does it again")
+        return {**row, "worker": None, "attempts": records, "queue_seconds": None}
     last = next((r for r in reversed(records) if r["outcome"] == "lost"), None)
     stage = _stage_of(attempt_folder(staging, job.index, last["attempt"]), job.index) if last else None
     message = (f"the worker running it was lost in {sum(r['outcome'] == 'lost' for r in records)} of "

@@ -243,8 +243,8 @@ class DaskExecutor(concurrent.futures.Executor):
             return
         try:
             if task.status == "cancelled":
-                if not self._cancelled:  # not ours: the scheduler restarted, or our connection to it broke
-                    _settle(future, attempts.lost_row(job, self.plan, "the scheduler dropped the task (cancelled)"))
+                if not self._cancelled:  # not ours: the scheduler died or restarted, or our connection to it broke
+                    _settle(future, attempts.lost_row(job, self.plan, "the task was cancelled", scheduler_lost=True))
                 return
             try:
                 return _settle(future, task.result())
