@@ -170,7 +170,7 @@ def test_a_worker_killed_mid_file(tmp_path, fake_blender, allowed_failures):
     assert len(runs(paths[0])) == 2 and all(len(runs(p)) == 1 for p in paths[1:])
     assert (out / "0_hang-once.blend").read_bytes() == b"BLENDER output of 0_hang-once.blend"
     assert sorted(p.name for p in out.iterdir()) == sorted([p.name for p in paths] + ["report.json"])
-    assert f"[4/4]" in stdout and "2 attempts" in stdout and "file 0: attempt 2 on" in stdout
+    assert f"[4/4]" in stdout and "2 attempts" in stdout and "0_hang-once.blend: attempt 2 on" in stdout
 
 
 def test_workers_under_nannies(tmp_path, fake_blender):

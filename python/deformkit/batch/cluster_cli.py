@@ -115,7 +115,7 @@ def run_on_cluster(cluster, args, jobs, on_row):
     retries = 2 if args.retries is None else args.retries
     plan = attempts.AttemptPlan(staging=jobs[0].work, token=jobs[0].token, max_attempts=retries + 1,
                                 redo_complete=args.redo_complete)
-    progress = Progress(len(jobs))
+    progress = Progress([os.path.basename(j.input) for j in jobs])
     topic = f"deformkit-batch-{plan.token}"
     cluster.client.subscribe_topic(topic, lambda event: progress.event(event[1]))
     try:

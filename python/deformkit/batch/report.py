@@ -46,15 +46,22 @@ class Progress:
     topic of the run); rows come as files finish. On a terminal the line is redrawn in place,
     elsewhere it is printed when a file finishes."""
 
-    def __init__(self, total, stream=None):
-        self.total, self.stream, self.lock = total, stream or sys.stdout, threading.Lock()
+    SHOWN_WORKERS = 8  # the busiest; the line says how many more
+
+    def __init__(self, names, stream=None):
+        self.names, self.total = list(names), len(names)
+        self.stream, self.lock = stream or sys.stdout, threading.Lock()
         self.done, self.failed, self.running, self.per_worker = 0, 0, {}, {}
         self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
 
     def line(self):
-        workers = sorted(set(self.per_worker) | set(self.running.values()))
-        parts = [f"{w}: {self.per_worker.get(w, 0)} done, {sum(v == w for v in self.running.values())} running"
-                 for w in workers]
+        running = {w: sum(v == w for v in self.running.values()) for w in set(self.running.values())}
+        workers = sorted(set(self.per_worker) | set(running))
+        busiest = sorted(workers, key=lambda w: (-running.get(w, 0), -self.per_worker.get(w, 0), w))
+        shown = sorted(busiest[:self.SHOWN_WORKERS])
+        parts = [f"{w}: {self.per_worker.get(w, 0)} done, {running.get(w, 0)} running" for w in shown]
+        if len(workers) > len(shown):
+            parts.append(f"{len(workers) - len(shown)} more workers")
         head = f"progress: {self.done}/{self.total} done ({self.failed} failed), {len(self.running)} running"
         return "; ".join([head] + parts)
 
@@ -72,7 +79,8 @@ class Progress:
             if message.get("event") == "start":
                 self.running[key] = message.get("worker")
                 if self.tty or (message.get("attempt") or 1) > 1:
-                    self._show(f"file {key}: attempt {message.get('attempt')} on {message.get('worker')}"
+                    name = self.names[key] if isinstance(key, int) and 0 <= key < self.total else key
+                    self._show(f"{name}: attempt {message.get('attempt')} on {message.get('worker')}"
                                if (message.get("attempt") or 1) > 1 else None)
             elif message.get("event") == "end" and self.running.get(key) == message.get("worker"):
                 del self.running[key]
