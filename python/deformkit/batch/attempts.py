@@ -29,6 +29,7 @@ from .run import attach_preview, failed_row
 
 ATTEMPTS = "attempts"
 RECORD = "record.json"
+ROW = "row.json"  # an ended attempt's row, for a rerun of its task whose result never arrived
 CANCELLED = "cancelled"  # the launcher's mark: the run was stopped, start no Blender
 LOST = "lost.json"  # the launcher's word on an attempt whose worker died (KilledWorker's message)
 
@@ -250,6 +251,10 @@ def lost_row(job, plan, reason="", scheduler_lost=False):
         worker = next((r.get("worker") for r in records if r["attempt"] == k), None)
         return {**row, "worker": worker, "attempts": records, "queue_seconds": None}
     records = history(staging, job.index)
+    ended = next((r for r in reversed(records) if r.get("end") is not None), None)
+    row = _read(os.path.join(attempt_folder(staging, job.index, ended["attempt"]), ROW)) if ended else None
+    if row is not None:  # its task ended, and its result was lost on the way (the worker died just after)
+        return {**row, "attempts": records}
     if scheduler_lost:
         row = failed_row(job.input, job.output, "SchedulerLost", "the connection to the Dask scheduler was lost "
                          f"before the file was done ({reason}); a new run does it again")
@@ -296,10 +301,12 @@ def run_attempt(fn, job, plan):
         row = failed_row(job.input, job.output, type(exc).__name__, str(exc) or repr(exc), "launch")
         record.update(outcome="failed", error=row["error"])
     record["end"] = _iso(time.time())
+    row = {**row, "worker": me["worker"], "attempts": earlier + [record],
+           "queue_seconds": round(started - plan.submitted, 3) if plan.submitted else None}
     try:
+        shared.write_json_atomically(os.path.join(folder, ROW), row, aid)
         write_record(plan.staging, job.index, record)
     except OSError:
         pass  # the staging folder went away (the run was interrupted); the row still says it
     announce(plan.token, "end", index=job.index, attempt=n, worker=me["worker"], status=row["status"])
-    return {**row, "worker": me["worker"], "attempts": earlier + [record],
-            "queue_seconds": round(started - plan.submitted, 3) if plan.submitted else None}
+    return row

@@ -3,8 +3,9 @@ that picked it), through `distributed`'s scheduler and workers; inputs and outpu
 storage every worker shares. Dask is imported here only, when a run asks for it: the package and
 the local executor need none.
 
-- `connect(address, timeout)` / `local_cluster(workers, blender_per_worker)`: a Client on an
-  existing scheduler (bounded connect) or on a LocalCluster of this machine;
+- `Cluster.connect(address, timeout)` / `Cluster.start_local(workers, blender_per_worker)`: a
+  Client on an existing scheduler (bounded connect) or on a LocalCluster of this machine, and the
+  workers offering the blender resource;
 - `check_workers(client, ...)`: every worker reads the inputs, writes the output folder, sees the
   staging folder and finds Blender, or the run stops before any file with the worker and path;
 - `DaskExecutor`: concurrent.futures' submit/shutdown for run_all. Tasks ask for the resource
@@ -177,8 +178,9 @@ def check_workers(client, workers, inputs, out_dir, staging, blender):
                          on_error="return")
     for worker, found in sorted(answers.items()):
         if isinstance(found, BaseException):
+            hint = " (is deformkit installed in the workers' Python?)" if isinstance(found, ImportError) else ""
             raise ClusterError(f"--scheduler: worker {worker} could not check the run's files: "
-                               f"{type(found).__name__}: {found}")
+                               f"{type(found).__name__}: {found}{hint}")
         for argument, path, problem in found[:1]:
             more = f" (and {len(found) - 1} more problems)" if len(found) > 1 else ""
             raise ClusterError(f"{argument}: worker {worker}: {path}: {problem}{more}; every worker must see the "
@@ -218,6 +220,7 @@ class DaskExecutor(concurrent.futures.Executor):
     def __init__(self, client, plan):
         self.client, self.plan = client, plan
         self._tasks, self._lock, self._cancelled, self._sent = {}, threading.Lock(), False, 0
+        self._sends = {}  # per file index: tasks sent (a bound, should workers die before any attempt starts)
 
     def submit(self, fn, job, /):
         future = concurrent.futures.Future()
@@ -228,6 +231,7 @@ class DaskExecutor(concurrent.futures.Executor):
     def _send(self, future, fn, job):
         with self._lock:
             self._sent += 1
+            self._sends[job.index] = self._sends.get(job.index, 0) + 1
             key = f"deformkit-batch-{self.plan.token}-{job.index}-{self._sent}"
         plan = dataclasses.replace(self.plan, submitted=time.time())
         task = self.client.submit(attempts.run_attempt, fn, job, plan, key=key, pure=False,
@@ -254,7 +258,8 @@ class DaskExecutor(concurrent.futures.Executor):
                 lost = f"{type(exc).__name__}: {exc}"
             attempts.note_lost(self.plan.staging, job.index, lost, self.plan.token)
             made = len(attempts.attempt_numbers(self.plan.staging, job.index))
-            if made < self.plan.max_attempts and not self._cancelled:
+            sends = self._sends.get(job.index, 0)
+            if made < self.plan.max_attempts and sends < 3 * self.plan.max_attempts and not self._cancelled:
                 return self._send(future, fn, job)
             _settle(future, attempts.lost_row(job, self.plan, lost))
         except Exception as exc:  # e.g. the job did not unpickle on the worker: run_all makes a row of it
