@@ -6,10 +6,11 @@
 The .blend fixtures (blend_fixtures/make_fixtures.py, made by Blender 3.4 in the work folder)
 repeated by symbolic links to --files inputs, run by `scripts/deformkit-batch` three ways: the
 local executor (--jobs 2), a Dask LocalCluster of 2 workers and one of 1 worker (--executor
-dask-local), --rounds times (each round starting with the next way), each way's wall time (the whole command: Python start,
-cluster start and stop included) and the same command on one missing file (what a run costs
-without any file: start-up and tear-down), and the CPU seconds of the command and all it started
-(its waited-for children: workers and Blenders). Dask's overhead per file is
+dask-local), --rounds times (each round starting with the next way). Per way: the wall time of
+the whole command (Python start, cluster start and stop included), the same command on one
+missing file (what a run costs without any file: start-up and tear-down), the CPU seconds of the
+command and all it started (its waited-for children: workers and Blenders), Blender's seconds per
+file and the tasks' queue seconds from the report. Dask's overhead per file is
 ((dask 2 - its empty run) - (local 2 - its empty run)) / files. The twist recipe (TWIST + BEND on
 every mesh) keeps each file close to a Blender start, so the overhead shows; "demo" is make demo's
 recipe (Subdivide and smoothness figures too). Not in `make bench`: about 4 minutes with the

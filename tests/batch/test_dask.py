@@ -170,7 +170,7 @@ def test_a_worker_killed_mid_file(tmp_path, fake_blender, allowed_failures):
     assert len(runs(paths[0])) == 2 and all(len(runs(p)) == 1 for p in paths[1:])
     assert (out / "0_hang-once.blend").read_bytes() == b"BLENDER output of 0_hang-once.blend"
     assert sorted(p.name for p in out.iterdir()) == sorted([p.name for p in paths] + ["report.json"])
-    assert f"[4/4]" in stdout and "2 attempts" in stdout and "0_hang-once.blend: attempt 2 on" in stdout
+    assert "[4/4]" in stdout and "2 attempts" in stdout and "0_hang-once.blend: attempt 2 on" in stdout
 
 
 def test_workers_under_nannies(tmp_path, fake_blender):
@@ -412,7 +412,8 @@ def test_without_dask_the_local_executor_still_works(fake_blender, tmp_path):
     (["--retries", "1"], "--retries: only with --scheduler or --executor dask-local"),
     (["--redo-complete"], "--redo-complete: only with --scheduler or --executor dask-local"),
     (["--executor", "dask-local", "--connect-timeout", "5"], "--connect-timeout: only with --scheduler"),
-    (["--scheduler", "localhost"], "argument --scheduler: expected a scheduler address tcp://HOST:PORT, got 'localhost'"),
+    (["--scheduler", "localhost"],
+     "argument --scheduler: expected a scheduler address tcp://HOST:PORT, got 'localhost'"),
     (["--executor", "dask-local", "--workers", "0"], "argument --workers: expected 1..256 workers, got '0'"),
     (["--scheduler", "tcp://127.0.0.1:8786", "--retries", "-1"], "argument --retries: expected 0..100 retries"),
 ])
