@@ -1,5 +1,6 @@
 """The run's report file, console lines and (on a cluster) live progress line."""
 import os
+import shutil
 import sys
 import threading
 
@@ -66,8 +67,9 @@ class Progress:
         return "; ".join([head] + parts)
 
     def _show(self, text=None):
-        if self.tty:
-            self.stream.write("\r\033[K" + (text + "\n" if text else "") + self.line())
+        if self.tty:  # the line redrawn in place must fit the terminal's width, or it scrolls
+            width = shutil.get_terminal_size().columns - 1
+            self.stream.write("\r\033[K" + (text + "\n" if text else "") + self.line()[:width])
         else:
             self.stream.write((text + "\n" if text else "") + self.line() + "\n")
         self.stream.flush()
