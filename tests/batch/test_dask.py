@@ -320,9 +320,10 @@ def test_ctrl_c_on_the_launcher(fake_blender, tmp_path, where):
             wait_for(lambda: not alive(pid), 20, f"Blender {pid} to stop")
         time.sleep(1.0)  # nothing left running: no file starts after the interrupt
     report = report_of(out)
-    assert not report["complete"] and report["ok"] >= 1 and report["pending"] >= 2
-    assert {r["status"] for r in report["files"]} == {"ok", "pending"}
-    assert all(report["files"][i]["status"] == "pending" for i in (1, 2))
+    assert not report["complete"] and report["ok"] >= 1 and report["pending"] >= 1
+    for row in report["files"]:  # a Blender the terminal's Ctrl+C killed may have had its row reported first
+        assert row["status"] in ("ok", "pending") or "Blender was killed by SIGINT" in row["error"], row
+    assert all(report["files"][i]["status"] != "ok" for i in (1, 2))
     assert any(runs(p) for p in paths[1:3]) and all(len(runs(p)) <= 1 for p in paths)
     for row, path in zip(report["files"], paths):
         output = out / path.name

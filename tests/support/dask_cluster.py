@@ -47,11 +47,13 @@ class DaskCluster:
         scheduler = self._start([DASK, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
                                  "--scheduler-file", scheduler_file], "scheduler.log", env)
         deadline = time.monotonic() + START_SECONDS
-        while not scheduler_file.exists():
-            if scheduler.poll() is not None or time.monotonic() > deadline:
-                raise RuntimeError(f"dask scheduler did not start: {(self.folder / 'scheduler.log').read_text()}")
-            time.sleep(0.05)
-        self.address = json.loads(scheduler_file.read_text())["address"]
+        while self.address is None:
+            try:  # the scheduler writes the file in place: it may be there and not complete yet
+                self.address = json.loads(scheduler_file.read_text())["address"]
+            except (OSError, ValueError, KeyError):
+                if scheduler.poll() is not None or time.monotonic() > deadline:
+                    raise RuntimeError(f"dask scheduler did not start: {(self.folder / 'scheduler.log').read_text()}")
+                time.sleep(0.05)
         for i in range(self.n_workers):
             self.start_worker(f"w{i}")
         if self.n_workers:
