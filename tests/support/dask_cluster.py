@@ -41,6 +41,7 @@ class DaskCluster:
 
     def start(self):
         scheduler_file = self.folder / "scheduler.json"
+        scheduler_file.unlink(missing_ok=True)  # an earlier cluster's in this folder would name a dead one
         env = {}
         if self.allowed_failures is not None:
             env["DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES"] = str(self.allowed_failures)
@@ -62,7 +63,8 @@ class DaskCluster:
 
     def start_worker(self, name):
         args = [*self.worker_prefix, DASK, "worker", self.address, "--host", "127.0.0.1", "--nthreads", "1",
-                "--resources", "blender=1", "--no-dashboard", "--name", name, "--nanny" if self.nanny else "--no-nanny"]
+                "--resources", "blender=1", "--no-dashboard", "--name", name, "--nanny" if self.nanny else "--no-nanny",
+                "--local-directory", self.folder / name]
         return self._start(args, f"worker-{name}.log")
 
     def client(self):

@@ -116,13 +116,10 @@ def run_on_cluster(cluster, args, jobs, on_row):
     plan = attempts.AttemptPlan(staging=jobs[0].work, token=jobs[0].token, max_attempts=retries + 1,
                                 redo_complete=args.redo_complete)
     progress = Progress([os.path.basename(j.input) for j in jobs])
-    topic = f"deformkit-batch-{plan.token}"
-    cluster.client.subscribe_topic(topic, lambda event: progress.event(event[1]))
     try:
-        with dask_executor.DaskExecutor(cluster.client, plan) as executor:
+        with dask_executor.DaskExecutor(cluster.client, plan, on_event=progress.event) as executor:
             run_all(executor, jobs, lambda job, row: on_row(job, row, progress))
     finally:
-        cluster.client.unsubscribe_topic(topic)
         progress.close()
 
 

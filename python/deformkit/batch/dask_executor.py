@@ -23,7 +23,7 @@ import threading
 import time
 
 from . import attempts
-from .run import input_problem
+from .run import failed_row, input_problem
 
 RESOURCE = "blender"
 # What a task whose worker died (or whose result died with it) raises on the client.
@@ -200,7 +200,11 @@ def interrupt_run(staging, grace=5.0):
                 mine.append(child)
         except psutil.Error:
             pass
-    _, alive = psutil.wait_procs(mine, timeout=grace)
+    deadline = time.monotonic() + grace
+    alive = mine
+    while alive and time.monotonic() < deadline:  # no wait(): the thread that started it reaps it, and reads why
+        time.sleep(0.1)
+        alive = [c for c in alive if _running(c)]
     for child in alive:
         try:
             child.kill()
@@ -209,22 +213,37 @@ def interrupt_run(staging, grace=5.0):
     return [c.pid for c in mine]
 
 
+def _running(process):
+    import psutil
+    try:
+        return process.status() != psutil.STATUS_ZOMBIE
+    except psutil.Error:
+        return False
+
+
 class DaskExecutor(concurrent.futures.Executor):
     """A concurrent.futures-style executor on a Dask client: submit(fn, job) runs fn(job) as one
     task asking for `blender=1`, wrapped in attempts.run_attempt under `plan` (staging folder on
     shared storage, run token, retries). The future it returns gets the row of the attempt that
     finished the file; a task whose worker died is sent again while attempts are left, and gets
-    a "WorkerLost" row after the last. Cancelling futures (run_all does on Ctrl+C) and then
-    shutdown() cancels the tasks on the cluster and interrupts the run's running Blenders."""
+    a "WorkerLost" row after the last. A future is running from its attempt's start (the workers
+    announce it on the run's event topic, also passed to `on_event`). As with the local pool,
+    cancelling the futures (run_all does on Ctrl+C) drops the files not started, and the running
+    ones get their rows: the first cancel stops the run on the cluster (no Blender starts any
+    more, the tasks not started are cancelled, the running Blenders get SIGINT)."""
 
-    def __init__(self, client, plan):
-        self.client, self.plan = client, plan
+    def __init__(self, client, plan, on_event=None):
+        self.client, self.plan, self.on_event = client, plan, on_event
         self._tasks, self._lock, self._cancelled, self._sent = {}, threading.Lock(), False, 0
-        self._sends = {}  # per file index: tasks sent (a bound, should workers die before any attempt starts)
+        self._sends, self._by_index, self._stopping = {}, {}, None  # sends: a bound on resending a file
+        self.topic = f"deformkit-batch-{plan.token}"
+        client.subscribe_topic(self.topic, self._event)
 
     def submit(self, fn, job, /):
         future = concurrent.futures.Future()
         future.add_done_callback(self._on_done)
+        with self._lock:
+            self._by_index[job.index] = future
         self._send(future, fn, job)
         return future
 
@@ -240,6 +259,19 @@ class DaskExecutor(concurrent.futures.Executor):
             self._tasks[future] = task
         task.add_done_callback(lambda t: self._landed(future, fn, job, t))
 
+    def _event(self, event):
+        """In the client's event loop: an attempt starts (its future is running) or ends."""
+        message = event[1] if isinstance(event, (tuple, list)) and len(event) == 2 else event
+        future = self._by_index.get(message.get("index")) if isinstance(message, dict) else None
+        if future is not None and message.get("event") == "start":
+            try:
+                if not future.running() and not future.done():
+                    future.set_running_or_notify_cancel()
+            except RuntimeError:  # cancelled or finished meanwhile
+                pass
+        if self.on_event is not None and isinstance(message, dict):
+            self.on_event(message)
+
     def _landed(self, future, fn, job, task):
         """In Dask's callback thread: the task's row to the future, or the task sent again when
         its worker was lost and attempts are left."""
@@ -249,6 +281,9 @@ class DaskExecutor(concurrent.futures.Executor):
             if task.status == "cancelled":
                 if not self._cancelled:  # not ours: the scheduler died or restarted, or our connection to it broke
                     _settle(future, attempts.lost_row(job, self.plan, "the task was cancelled", scheduler_lost=True))
+                elif future.running():  # started just before the run was stopped: not to be waited for
+                    _settle(future, failed_row(job.input, job.output, "Cancelled",
+                                                        "the run was stopped as this file started"))
                 return
             try:
                 return _settle(future, task.result())
@@ -270,21 +305,43 @@ class DaskExecutor(concurrent.futures.Executor):
                     pass
 
     def _on_done(self, future):
-        if future.cancelled():
-            self._cancelled = True
-            future.set_running_or_notify_cancel()  # as a pool's worker would: wait() and as_completed() see it done
+        if not future.cancelled():
+            return
+        future.set_running_or_notify_cancel()  # as a pool's worker would: wait() and as_completed() see it done
+        with self._lock:
+            first, self._cancelled = not self._cancelled, True
+        if first:  # in a thread: cancel() returns at once, and run_all cancels the other futures meanwhile
+            self._stopping = threading.Thread(target=self._stop, name="deformkit-batch-stop", daemon=True)
+            self._stopping.start()
+
+    def _stop(self):
+        """Stop the run on the cluster: no attempt starts Blender any more (the staging folder's
+        mark), the tasks of the files not started are cancelled, the Blenders running for the
+        run are interrupted (their tasks then give their rows)."""
+        try:
+            attempts.mark_cancelled(self.plan.staging)
+        except OSError:
+            pass
+        with self._lock:
+            waiting = [t for f, t in self._tasks.items() if not f.running() and not f.done() or f.cancelled()]
+        if waiting:
+            self.client.cancel(waiting, force=True)
+        self.client.run(interrupt_run, self.plan.staging, on_error="return")
+        time.sleep(1.0)  # an attempt that read no mark just before it was made may start Blender now
+        self.client.run(interrupt_run, self.plan.staging, on_error="return")
 
     def cancel_all(self):
-        """Stop the run on the cluster: no attempt starts Blender any more (the staging folder's
-        mark), every task is cancelled, and the Blenders running for the run are interrupted."""
-        self._cancelled = True
-        attempts.mark_cancelled(self.plan.staging)
+        """Stop the run and drop every file not done: all futures not done are cancelled."""
         with self._lock:
-            tasks = list(self._tasks.values())
+            futures = list(self._tasks)
+        for future in futures:
+            future.cancel()
+        if self._stopping is not None:
+            self._stopping.join()
+        with self._lock:
+            tasks = [t for f, t in self._tasks.items() if not f.done() or f.cancelled()]
         if tasks:
             self.client.cancel(tasks, force=True)
-        self.client.run(interrupt_run, self.plan.staging, on_error="return")
-        self.wait_for_attempts()
 
     def wait_for_attempts(self, seconds=15.0):
         """Until the attempts that live workers still run have ended (a cancelled task's thread
@@ -298,12 +355,24 @@ class DaskExecutor(concurrent.futures.Executor):
         return False
 
     def shutdown(self, wait=True, *, cancel_futures=False):
-        """Cancel the run on the cluster when futures were cancelled (run_all does on Ctrl+C) or
-        with cancel_futures, else wait for the files. The client stays open: it is the caller's."""
-        if cancel_futures or self._cancelled:
-            self.cancel_all()
-        elif wait:
-            concurrent.futures.wait(list(self._tasks))
+        """After a cancel (run_all's on Ctrl+C) or with cancel_futures: the run stopped on the
+        cluster, its attempts waited for (at most 15 s); else wait for the files. The client stays
+        open: it is the caller's."""
+        try:
+            if cancel_futures:
+                self.cancel_all()
+            if self._cancelled:
+                if self._stopping is not None:
+                    self._stopping.join()
+                with self._lock:
+                    tasks = [t for f, t in self._tasks.items() if not f.done() or f.cancelled()]
+                if tasks:  # the running ones too: run_all has stopped waiting for them
+                    self.client.cancel(tasks, force=True)
+                self.wait_for_attempts()
+            elif wait:
+                concurrent.futures.wait(list(self._tasks))
+        finally:
+            self.client.unsubscribe_topic(self.topic)
 
 
 def _settle(future, row):
