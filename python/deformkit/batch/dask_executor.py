@@ -188,9 +188,10 @@ def check_workers(client, workers, inputs, out_dir, staging, blender):
 
 
 def interrupt_run(staging, grace=5.0):
-    """Runs on each worker (client.run): SIGINT, as the terminal would send, to the Blenders this
-    worker started for the run (their job files are under `staging`), SIGKILL to those still
-    there after `grace` seconds. Returns their pids."""
+    """Runs on each worker (client.run): Ctrl+C twice, as a user at a terminal would press it, to
+    the Blenders this worker started for the run (their job files are under `staging`; Blender
+    takes the first SIGINT as a break event, the second ends it), SIGKILL to those still there
+    after `grace` seconds. Returns their pids."""
     import psutil
     mine = []
     for child in psutil.Process().children(recursive=True):
@@ -198,6 +199,13 @@ def interrupt_run(staging, grace=5.0):
             if any(staging in part for part in child.cmdline()):
                 child.send_signal(signal.SIGINT)
                 mine.append(child)
+        except psutil.Error:
+            pass
+    time.sleep(0.3)
+    for child in mine:
+        try:
+            if _running(child):
+                child.send_signal(signal.SIGINT)
         except psutil.Error:
             pass
     deadline = time.monotonic() + grace
