@@ -244,24 +244,43 @@ def test_a_complete_attempt_is_not_redone(cluster, fake_blender, tmp_path, redo)
     assert (out / "0_done-then-hang-once.blend").read_bytes() == b"BLENDER output of 0_done-then-hang-once.blend"
 
 
-def test_workers_that_cannot_write_the_output_folder(tmp_path, fake_blender):
-    """The output folder mounted read-only for the workers (their own mount namespace, as a share
-    exported read-only to some machines), writable for the launcher: the run stops before any
-    file with one line naming --out, a worker and the folder, and leaves nothing behind."""
-    out = tmp_path / "out"
+@pytest.mark.parametrize("view", ["output-read-only", "inputs-hidden"])
+def test_workers_that_do_not_share_the_storage(tmp_path, fake_blender, view):
+    """The workers see the storage otherwise than the launcher (their own mount namespace): the
+    output folder mounted read-only for them (a share exported read-only to some machines), or
+    the inputs' folder hidden under an empty file system (a share not mounted there). The run
+    stops before any file with one line naming the argument, a worker and the path, and leaves
+    nothing behind."""
+    out, folder = tmp_path / "out", tmp_path / "in"
     out.mkdir()
-    read_only = ["unshare", "--mount", "--propagation", "private", "sh", "-c",
-                 'mount --bind "$0" "$0" && mount -o remount,bind,ro "$0" && exec "$@"', str(out)]
-    with DaskCluster(tmp_path / "cluster", workers=2, worker_prefix=read_only) as cluster:
-        paths = inputs(tmp_path / "in", ["ok", "ok"])
+    paths = inputs(folder, ["ok", "ok"])
+    mount = {"output-read-only": 'mount --bind "$0" "$0" && mount -o remount,bind,ro "$0"',
+             "inputs-hidden": 'mount -t tmpfs none "$0"'}[view]
+    prefix = ["unshare", "--mount", "--propagation", "private", "sh", "-c", mount + ' && exec "$@"',
+              str(out if view == "output-read-only" else folder)]
+    with DaskCluster(tmp_path / "cluster", workers=2, worker_prefix=prefix) as cluster:
         proc = batch(fake_blender, paths, out, "--scheduler", cluster.address)
         workers = set(cluster.worker_pids())
     assert proc.returncode == 2, proc.stdout + proc.stderr
-    assert proc.stderr.startswith("deformkit-batch: error: --out: worker tcp://127.0.0.1:"), proc.stderr
     assert proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr
-    assert f": {out}: cannot write in it: Read-only file system" in proc.stderr
-    assert any(w in proc.stderr for w in workers)
+    if view == "output-read-only":
+        assert proc.stderr.startswith("deformkit-batch: error: --out: worker tcp://127.0.0.1:"), proc.stderr
+        assert f": {out}: cannot write in it: Read-only file system" in proc.stderr
+    else:
+        assert proc.stderr.startswith("deformkit-batch: error: inputs: worker tcp://127.0.0.1:"), proc.stderr
+        assert f": {paths[0]}: file not found (and 1 more problems)" in proc.stderr
+    assert any(w in proc.stderr for w in workers) and "(shared storage)" in proc.stderr
     assert os.listdir(out) == [] and not any(runs(p) for p in paths)
+
+
+def test_blender_missing_on_the_workers(cluster, fake_blender, tmp_path):
+    """With --scheduler the launcher needs no Blender; the workers do, at the path given."""
+    paths = inputs(tmp_path / "in", ["ok"])
+    proc = batch(str(tmp_path / "nowhere" / "blender"), paths, tmp_path / "out", "--scheduler", cluster.address)
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
+    assert proc.stderr.startswith("deformkit-batch: error: --blender: worker tcp://127.0.0.1:"), proc.stderr
+    assert f": {tmp_path / 'nowhere' / 'blender'}: not found or not executable on this worker" in proc.stderr
+    assert os.listdir(tmp_path / "out") == []
 
 
 def free_port():
