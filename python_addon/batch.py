@@ -267,6 +267,8 @@ def process(input_path, output_path, recipe=None, preview_path=None, smoothness=
             result["objects"].append(describe(obj, time.perf_counter() - t, smoothness))
         stage("save")
         save_atomically(output_path, token)
+        saved = os.stat(output_path)  # what a retry checks to know this very file is in place
+        result["output_stat"] = {"bytes": saved.st_size, "mtime_ns": saved.st_mtime_ns}
         if preview_path:
             stage("preview")
             export_preview(objects, preview_path)

@@ -1,6 +1,8 @@
 """Stands in for `blender` in the batch tests: called exactly as run_job calls Blender, it reads the
 job file after `--` and does what the input file asks for after its BLENDER header, as a Blender
-worker would (or as one that hangs, crashes, or exits without a word)."""
+worker would (or as one that hangs, crashes, or exits without a word; "hang-once" and
+"done-then-hang-once" hang the first time only, before and after finishing the file, for the
+worker a test kills). Like the real one it dies with the process that started it."""
 import json
 import os
 import signal
@@ -18,18 +20,31 @@ def main(argv):
     assert argv[at - 2] == "--python" and argv[at - 1].endswith("in_blender.py"), argv
     with open(argv[at + 1], encoding="utf-8") as fh:
         job = json.load(fh)
+    shared.prepare_worker(job["parent_pid"])  # as in_blender.py does: die with the process that started it
+    with open(job["input"] + ".runs", "a") as fh:  # how many times this input was run, and where
+        fh.write(f"{os.getpid()} {job['work']}\n")
     result_path = os.path.join(job["work"], f"{job['index']}.json")
     with open(job["input"], "rb") as fh:
         mode = fh.read()[len(b"BLENDER"):].decode().strip()
     row = {"file": job["input"], "output": job["output"], "status": "running", "error": "", "objects": [],
            "warnings": ["a warning seen while reading"], "job_seen": job, "pid": os.getpid(),
-           "parent": os.getppid()}
+           "parent": os.getppid(),
+           "environment": {k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "MALLOC_TRIM_THRESHOLD_")}}
 
     def progress(stage):
         shared.write_json_atomically(result_path, {**row, "stage": {"stage": stage, "object": "Fake", "entry": None}},
                                      job["token"])
 
     progress("open")
+    first = not os.path.exists(job["input"] + ".hung")
+    if mode == "hang-once" and first:  # a worker killed in the middle of the save, the first time only
+        open(job["input"] + ".hung", "w").close()
+        progress("save")
+        with open(shared.output_temporary(job["output"], job["token"]), "wb") as fh:
+            fh.write(b"BLENDER half a file")
+        open(os.path.join(job["work"], f"{job['index']}.started"), "w").close()
+        time.sleep(120)
+        return 1
     if mode == "exit":
         return 1
     if mode in ("sleep", "wait-for-ctrl-c"):
@@ -50,6 +65,8 @@ def main(argv):
     with open(tmp, "wb") as fh:
         fh.write(b"BLENDER output of " + os.path.basename(job["input"]).encode())
     os.replace(tmp, job["output"])
+    saved = os.stat(job["output"])
+    row["output_stat"] = {"bytes": saved.st_size, "mtime_ns": saved.st_mtime_ns}
     if job["preview"]:
         tri = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
         np.savez(os.path.join(job["work"], f"{job['index']}.npz"), before=tri, after=tri + [0, 0, 0.5],
@@ -59,6 +76,10 @@ def main(argv):
         print(shared.RESULT_LINE + json.dumps(done), flush=True)
         return 0
     shared.write_json_atomically(result_path, done, job["token"])
+    if mode == "done-then-hang-once" and first:  # finished, then its worker dies before it can say so
+        open(job["input"] + ".hung", "w").close()
+        open(os.path.join(job["work"], f"{job['index']}.started"), "w").close()
+        time.sleep(120)
     return 0
 
 

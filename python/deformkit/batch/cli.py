@@ -2,7 +2,8 @@
 
     deformkit-batch INPUT... --out DIR [--recipe FILE | --evaluate-saved] [--jobs N]
                     [--blender PATH] [--addon PATH] [--report PATH] [--preview] [--smoothness]
-                    [--timeout SECONDS]
+                    [--timeout SECONDS] [--scheduler tcp://HOST:PORT | --executor dask-local
+                    [--workers N] [--blender-per-worker N]] [--retries N] [--redo-complete]
 
 Each input runs in its own `blender -b --factory-startup` process with the add-on enabled. Outputs
 go to DIR/<name>.blend (written under a temporary name unique to the run, then renamed; an input
@@ -18,8 +19,13 @@ cage. Recipes are JSON or TOML, checked against the add-on's own property ranges
     {"objects": ["Suzanne"], "deformers": [{"type": "TWIST", "angle": 1.57, "deform_axis": "Z"},
                                            {"type": "SUBDIVIDE", "levels": 2}]}
 
+On a Dask cluster (`--scheduler tcp://HOST:PORT`, or `--executor dask-local --workers N` for a
+LocalCluster on this machine; options in cluster_cli.py) each input is one task on the worker that
+picks it, with inputs and outputs by path on storage all workers share, retries when a worker dies
+(`--retries`, attempts.py) and per file the worker, the attempts and the queue time in the report.
+
 This package needs no bpy: it only starts Blender, on one job file per input (BatchJob, run by
-run_job on an executor: local processes, --jobs at a time). Run it with the project's Python
+run_job on an executor: local processes, --jobs at a time, or Dask tasks). Run it with the project's Python
 (`scripts/deformkit-batch`, or `python -m deformkit.batch`), which also has matplotlib for the
 pictures. The add-on Blender runs is --addon (default: $DEFORMKIT_ADDON, else an importable
 deformkit_addon, else the python_addon/ folder of the checkout this package is in); the recipe is
@@ -36,7 +42,7 @@ import shutil
 import sys
 import tempfile
 
-from . import shared, staging
+from . import cluster_cli, shared, staging
 from .executors import LocalProcessExecutor, run_all
 from .job import BatchJob
 from .report import Report, console_line
@@ -198,7 +204,7 @@ def arguments(argv):
     how = ap.add_mutually_exclusive_group(required=True)
     how.add_argument("--recipe", help="JSON or TOML recipe: objects and deformers to add")
     how.add_argument("--evaluate-saved", action="store_true", help="re-evaluate the stacks saved in the files")
-    ap.add_argument("--jobs", type=job_count, default=1, help="files processed in parallel (default 1)")
+    ap.add_argument("--jobs", type=job_count, help="files processed in parallel on this machine (default 1)")
     ap.add_argument("--blender", default=os.environ.get("DEFORMKIT_BLENDER", "blender"))
     ap.add_argument("--addon", default=os.environ.get("DEFORMKIT_ADDON"),
                     help="the deformkit add-on's folder (python_addon/ in the repository)")
@@ -207,14 +213,24 @@ def arguments(argv):
     ap.add_argument("--smoothness", action="store_true",
                     help="add each object's smoothness figures (dk.smoothness_report of its cage) to the report")
     ap.add_argument("--timeout", type=seconds_per_file, default=600.0, help="seconds per file (finite, above 0)")
+    cluster_cli.add_arguments(ap, seconds_per_file)
     return ap, ap.parse_args(argv)
 
 
-def main(argv=None):
+def find_blender(ap, given, kind):
+    found = shutil.which(given) or (given if os.path.isfile(given) else None)
+    if found is None and kind != "dask":  # on a scheduler's cluster, each worker must find it (checked there)
+        ap.error(f"--blender: '{given}' not found (install Blender or pass its path)")
+    return found or given
+
+
+def main(argv=None, client=None):
+    """The command; 0 when every file went well, 1 if any failed, 2 for a bad command line.
+    `client` (Python only): a distributed.Client, or a scheduler's address, for code that drives
+    its own Dask cluster; the run goes there as with --scheduler, and the client stays open."""
     ap, args = arguments(argv)
-    blender = shutil.which(args.blender) or (args.blender if os.path.isfile(args.blender) else None)
-    if blender is None:
-        ap.error(f"--blender: '{args.blender}' not found (install Blender or pass its path)")
+    kind = cluster_cli.executor_kind(ap, args, client)
+    blender = find_blender(ap, args.blender, kind)
     addon = addon_folder(ap, args.addon)
     recipe = load_recipe(ap, args.recipe, load_recipe_schema(addon)) if args.recipe else None
     inputs = expand_inputs(args.inputs)
@@ -223,38 +239,59 @@ def main(argv=None):
     outputs = output_names(inputs, out_dir)
     report_path = os.path.abspath(args.report or os.path.join(out_dir, "report.json"))
     check_report_path(ap, report_path, inputs, outputs, args.recipe)
-
-    token = shared.new_run_token()
-    _, dropped = blender_environment(blender)
-    header = {"started": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-              "blender": blender, "recipe": recipe, "evaluate_saved": args.evaluate_saved,
-              "smoothness": args.smoothness, "path_left_out_for_blender": dropped}
-    with staging.runs_locked():
-        staging.clean_stale_staging()
-        for folder, other in staging.live_runs().items():
-            if other == os.path.realpath(report_path):
-                ap.error(f"--report: {report_path} is the report of a run in progress ({folder}); "
-                         "give this run its own --report")
-        work, paths = staging.make_staging(token, report_path, addon)
+    cluster = cluster_cli.open_cluster(ap, args, kind, client) if kind != "local" else None
+    token, work = shared.new_run_token(), None
     try:
+        _, dropped = blender_environment(blender)
+        header = {"started": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+                  "blender": blender, "recipe": recipe, "evaluate_saved": args.evaluate_saved,
+                  "smoothness": args.smoothness, "path_left_out_for_blender": dropped,
+                  "executor": cluster_cli.describe_executor(kind, args, cluster)}
+        with staging.runs_locked():
+            staging.clean_stale_staging()
+            for folder, other in staging.live_runs().items():
+                if other == os.path.realpath(report_path):
+                    ap.error(f"--report: {report_path} is the report of a run in progress ({folder}); "
+                             "give this run its own --report")
+            if cluster is None:
+                work, paths = staging.make_staging(token, report_path, addon)
+            else:  # on storage the workers share: OUT/.deformkit-batch-<token>
+                staging.clean_stale_shared_staging(out_dir)
+                work, paths = staging.make_shared_staging(token, report_path, addon, out_dir)
+        jobs = build_jobs(inputs, outputs, work, blender, paths, token, recipe, args)
+        if cluster is not None:
+            cluster_cli.check_cluster(ap, cluster, jobs)
+            print(cluster_cli.opening_line(cluster, kind, len(jobs)), flush=True)
         try:
             report = Report(report_path, token, header, inputs, outputs)
         except OSError as exc:
             ap.error(f"--report: cannot write {report_path}: {exc.strerror or exc}")
         done = [0]
 
-        def on_row(job, row):
+        def on_row(job, row, progress=None):
             done[0] += 1
-            print(console_line(done[0], len(inputs), row), flush=True)
+            line = console_line(done[0], len(inputs), row)
+            if progress is None:
+                print(line, flush=True)
+            else:
+                tried = len(row.get("attempts") or [])
+                progress.finished(job.index, line + (f" on {row.get('worker')}" if row.get("worker") else "")
+                                  + (f", {tried} attempts" if tried > 1 else ""), row)
             report.record(job.index, row)
 
-        jobs = build_jobs(inputs, outputs, work, blender, paths, token, recipe, args)
-        with LocalProcessExecutor(args.jobs) as executor:
-            run_all(executor, jobs, on_row, window=args.jobs)
+        if cluster is None:
+            with LocalProcessExecutor(args.jobs or 1) as executor:
+                run_all(executor, jobs, on_row, window=args.jobs or 1)
+        else:
+            cluster_cli.run_on_cluster(cluster, args, jobs, on_row)
         report.header["finished"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
         report.record(0, None, complete=True)
     finally:
-        shutil.rmtree(work, ignore_errors=True)
+        if cluster is not None:
+            cluster.close()  # a LocalCluster's workers stop here: nothing writes in the staging folder after
+            cluster_cli.remove_attempt_temporaries(outputs, token)
+        if work is not None:
+            staging.remove_staging(work)
     failed = sum(r["status"] != "ok" for r in report.rows)
     if report.problem:
         print(f"deformkit-batch: {report.problem}", file=sys.stderr)

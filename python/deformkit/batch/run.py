@@ -169,6 +169,22 @@ def render_preview(npz_path, png_path, title):
     render_before_after(png_path, data["before"], data["after"], data["faces"], title, to_plot=Z_UP)
 
 
+def attach_preview(job, result):
+    """`result` with the before/after PNG beside the output, drawn from the positions the worker
+    left in the job's work folder (with --preview, for a file that went well)."""
+    preview = job.preview_path
+    if result["status"] == "ok" and preview and os.path.exists(preview) and "preview" not in result:
+        png = os.path.splitext(job.output)[0] + ".png"
+        try:
+            names = "; ".join(f"{o['name']} ({' then '.join(e.lower() for e in o['entries'])})"
+                              for o in result["objects"])
+            render_preview(preview, png, f"{os.path.basename(job.input)}: {names}")
+            result["preview"] = png
+        except Exception as exc:  # a picture is a bonus; report, don't fail the file
+            result["preview_error"] = f"{type(exc).__name__}: {exc}"
+    return result
+
+
 def run_job(job, environ=None):
     """The report row of one job (a BatchJob): refuse an output that is one of the run's inputs,
     run Blender on the job file with the job's timeout, collect the result, and with a preview
@@ -179,17 +195,6 @@ def run_job(job, environ=None):
     try:
         if any(same_file(dst, other) for other in job.never_write):
             return failed_row(src, dst, "InputError", f"refusing to write {dst}: it is one of the inputs")
-        result = run_blender(job, environ)
-        preview = job.preview_path
-        if result["status"] == "ok" and preview and os.path.exists(preview):
-            png = os.path.splitext(dst)[0] + ".png"
-            try:
-                names = "; ".join(f"{o['name']} ({' then '.join(e.lower() for e in o['entries'])})"
-                                  for o in result["objects"])
-                render_preview(preview, png, f"{os.path.basename(src)}: {names}")
-                result["preview"] = png
-            except Exception as exc:  # a picture is a bonus; report, don't fail the file
-                result["preview_error"] = f"{type(exc).__name__}: {exc}"
-        return result
+        return attach_preview(job, run_blender(job, environ))
     except Exception as exc:  # the launcher's own trouble with this file still gets a row
         return failed_row(src, dst, type(exc).__name__, str(exc), "launch")

@@ -1,14 +1,22 @@
 """A run's staging folder in the system temp folder, and how runs see each other: the lock their
-start-ups share, which runs are alive, and the clean-up of those whose launcher was killed."""
+start-ups share, which runs are alive, and the clean-up of those whose launcher was killed. A run
+on a Dask cluster stages in the output folder instead (shared storage: workers may be on other
+machines), with copies of the add-on and the module rather than links into this machine."""
 import contextlib
+import glob
+import json
 import os
 import re
 import shutil
+import socket
 import tempfile
+import time
 
 from . import shared
 
 STAGING = re.compile(re.escape(shared.STAGING_PREFIX) + r"(\d+)-[0-9a-f]+$")
+SHARED_PREFIX = ".deformkit-batch-"  # OUT/.deformkit-batch-<run token>: a cluster run's staging folder
+SHARED = re.compile(re.escape(SHARED_PREFIX) + r"(\d+)-[0-9a-f]+$")
 
 
 def pid_alive(pid):
@@ -78,7 +86,66 @@ def make_staging(token, report_path, addon_dir):
     with open(os.path.join(work, "report-path"), "w", encoding="utf-8") as fh:
         fh.write(os.path.realpath(report_path))
     os.symlink(addon_dir, os.path.join(addons, "deformkit_addon"))
-    # This package's own folder: the launcher and the workers run the same deformkit.
-    package = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    os.symlink(package, os.path.join(lib, "deformkit"))
+    os.symlink(_package_folder(), os.path.join(lib, "deformkit"))
     return work, [addons, lib]
+
+
+def _package_folder():
+    """This package's deformkit folder: the launcher and the workers run the same deformkit."""
+    return os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def make_shared_staging(token, report_path, addon_dir, out_dir):
+    """A cluster run's folder, OUT/.deformkit-batch-<token>: copies of the add-on (under its
+    package name) and of the deformkit module, which every worker's Blender imports, the report's
+    path, the launcher's host and pid (for clean_stale_shared_staging) and the attempts' folders.
+    Returns (folder, the paths for Blender's sys.path)."""
+    work = os.path.join(out_dir, SHARED_PREFIX + token)
+    addons, lib = os.path.join(work, "addons"), os.path.join(work, "lib")
+    os.makedirs(work)
+    try:
+        skip = shutil.ignore_patterns("__pycache__", "*.pyc")
+        shutil.copytree(addon_dir, os.path.join(addons, "deformkit_addon"), ignore=skip)
+        shutil.copytree(_package_folder(), os.path.join(lib, "deformkit"), ignore=skip)
+        with open(os.path.join(work, "report-path"), "w", encoding="utf-8") as fh:
+            fh.write(os.path.realpath(report_path))
+        with open(os.path.join(work, "launcher.json"), "w", encoding="utf-8") as fh:
+            json.dump({"host": socket.gethostname(), "pid": os.getpid()}, fh)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+    return work, [addons, lib]
+
+
+def clean_stale_shared_staging(out_dir):
+    """Remove the cluster staging folders in `out_dir` left by launchers of this machine that are
+    gone (killed), and their attempts' temporary outputs; those of other machines' launchers,
+    which cannot be checked, are left alone."""
+    removed = []
+    for name in os.listdir(out_dir):
+        if not SHARED.match(name):
+            continue
+        try:
+            with open(os.path.join(out_dir, name, "launcher.json"), encoding="utf-8") as fh:
+                launcher = json.load(fh)
+        except (OSError, ValueError):
+            continue
+        pid = launcher.get("pid")
+        if launcher.get("host") == socket.gethostname() and isinstance(pid, int) and pid > 0 and not pid_alive(pid):
+            token = name[len(SHARED_PREFIX):]  # its attempts' half files carry it (attempts.attempt_id)
+            for leftover in glob.glob(os.path.join(glob.escape(out_dir), f"*{shared.TEMP_MARK}{token}-f*")):
+                os.unlink(leftover)
+            shutil.rmtree(os.path.join(out_dir, name), ignore_errors=True)
+            removed.append(name)
+    return removed
+
+
+def remove_staging(work, tries=5):
+    """Remove a run's staging folder, again if something still wrote in it meanwhile (a cluster's
+    cancelled attempt recording its end)."""
+    for _ in range(tries):
+        shutil.rmtree(work, ignore_errors=True)
+        if not os.path.exists(work):
+            return True
+        time.sleep(0.2)
+    return False

@@ -1,0 +1,400 @@
+"""The batch on a Dask cluster: each file one task (`run_job` in one `blender -b`, on the worker
+that picked it), through `distributed`'s scheduler and workers; inputs and outputs by path on
+storage every worker shares. Dask is imported here only, when a run asks for it: the package and
+the local executor need none.
+
+- `Cluster.connect(address, timeout)` / `Cluster.start_local(workers, blender_per_worker)`: a
+  Client on an existing scheduler (bounded connect) or on a LocalCluster of this machine, and the
+  workers offering the blender resource;
+- `check_workers(client, ...)`: every worker reads the inputs, writes the output folder, sees the
+  staging folder and finds Blender, or the run stops before any file with the worker and path;
+- `DaskExecutor`: concurrent.futures' submit/shutdown for run_all. Tasks ask for the resource
+  `blender=1`; each runs as attempts.run_attempt, and a task whose worker died (KilledWorker) is
+  sent again while attempts are left (attempts.py: nothing lost, nothing doubled).
+"""
+import concurrent.futures
+import dataclasses
+import importlib.metadata
+import logging
+import os
+import signal
+import tempfile
+import threading
+import time
+
+from . import attempts
+from .run import failed_row, input_problem
+
+RESOURCE = "blender"
+# What a task whose worker died (or whose result died with it) raises on the client.
+WORKER_LOST = ("KilledWorker", "CommClosedError", "CommError", "StreamClosedError")
+PINS = "dask==2025.12.0 and distributed==2025.12.0 (requirements-dev.txt)"
+
+
+class DaskMissing(ImportError):
+    pass
+
+
+class ClusterError(RuntimeError):
+    """The cluster cannot run this batch: the message names the argument, the worker and the path."""
+
+
+def distributed_module():
+    try:
+        import distributed
+    except ImportError as exc:
+        raise DaskMissing(f"dask and distributed are not installed ({exc}); install {PINS}") from None
+    return distributed
+
+
+def _ignore_ctrl_c():
+    """A worker plugin: Ctrl+C in the terminal reaches a LocalCluster's worker processes (they are
+    in the launcher's process group); they let it pass, as the local pool's processes do, through
+    a handler that Blender's exec resets, so that the Blenders still get it. The launcher decides.
+    (Made here, as distributed is imported only here; cloudpickle sends the class by value.)"""
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    class IgnoreCtrlC(WorkerPlugin):
+        name = "deformkit-batch-ignore-ctrl-c"
+
+        def setup(self, worker):
+            signal.signal(signal.SIGINT, lambda signum, frame: None)
+
+    return IgnoreCtrlC()
+
+
+class Cluster:
+    """The Dask client a run uses, what it was opened on, and the workers that can run a file
+    ({address: units of the blender resource}). close() closes what was opened here only."""
+
+    def __init__(self, client, local=None, owns_client=False, wait=30.0):
+        self.client, self.local, self.owns_client = client, local, owns_client
+        try:
+            self.address = client.scheduler.address
+            self.workers = blender_workers(client, wait)
+            self.dashboard = dashboard(client)
+        except BaseException:
+            self.close()
+            raise
+
+    @classmethod
+    def connect(cls, address, timeout):
+        """On the scheduler at `address`: ClusterError within about `timeout` seconds when it
+        cannot be reached, or when no worker with the blender resource joins in that time."""
+        distributed = distributed_module()
+        try:
+            client = distributed.Client(address, timeout=timeout, set_as_default=False)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ClusterError(f"--scheduler: cannot reach the Dask scheduler {address} within {timeout:g} s "
+                               f"({exc})") from None
+        return cls(client, owns_client=True, wait=timeout)
+
+    @classmethod
+    def start_local(cls, workers, blender_per_worker):
+        """A LocalCluster: `workers` processes of this machine on 127.0.0.1 (under nannies, which
+        restart a worker that dies), each with `blender_per_worker` threads and as many units of
+        the blender resource."""
+        distributed = distributed_module()
+        import dask
+        # Dask's nanny sets OMP/MKL/OpenBLAS threads to 1 and a low malloc trim threshold in its
+        # workers (for numpy tasks); none here, so that the Blenders get the local executor's environment.
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": {}}):
+            local = distributed.LocalCluster(
+                n_workers=workers, threads_per_worker=blender_per_worker, processes=True, host="127.0.0.1",
+                resources={RESOURCE: blender_per_worker}, dashboard_address=":0", silence_logs=logging.ERROR)
+        try:
+            client = distributed.Client(local, set_as_default=False)
+            client.register_plugin(_ignore_ctrl_c())
+        except BaseException:
+            local.close()
+            raise
+        return cls(client, local=local, owns_client=True)
+
+    @property
+    def slots(self):
+        return int(sum(self.workers.values()))
+
+    def close(self):
+        if self.owns_client:
+            self.client.close()
+        if self.local is not None:
+            self.local.close()
+
+
+def dashboard(client):
+    """The dashboard's address, or None: the scheduler serves one when bokeh is installed beside it."""
+    if "dashboard" not in client.scheduler_info().get("services", {}):
+        return None
+    try:
+        client.run_on_scheduler(importlib.metadata.version, "bokeh")
+    except Exception:  # bokeh missing there (PackageNotFoundError), or run_on_scheduler refused
+        return None
+    return client.dashboard_link
+
+
+def blender_workers(client, timeout):
+    """{address: units of the blender resource} of the workers that can run a file; waits up to
+    `timeout` seconds for the first one to join."""
+    deadline = time.monotonic() + timeout
+    address = client.scheduler.address
+    while True:
+        joined = client.scheduler_info()["workers"]
+        found = {a: w.get("resources", {}).get(RESOURCE, 0) for a, w in joined.items()}
+        found = {a: n for a, n in found.items() if n > 0}
+        if found:
+            return found
+        if time.monotonic() > deadline:
+            seen = f"{len(joined)} worker(s) joined, none with it" if joined else "no worker joined"
+            raise ClusterError(f"--scheduler: no worker of {address} offers the resource '{RESOURCE}' after "
+                               f"{timeout:g} s ({seen}); start workers with "
+                               f"`dask worker {address} --resources {RESOURCE}=1 --nthreads 1`")
+        time.sleep(0.2)
+
+
+def worker_problems(inputs, out_dir, staging, blender):
+    """Runs on each worker (client.run): what it cannot do of what the run needs, as
+    (argument, path, problem) triples."""
+    import shutil
+    problems = [("inputs", path, problem) for path in inputs for problem in [input_problem(path)] if problem]
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".deformkit-probe-", dir=out_dir)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        problems.append(("--out", out_dir, f"cannot write in it: {exc.strerror or exc}"))
+    for name in ("addons/deformkit_addon/__init__.py", "lib/deformkit/batch/job.py"):
+        if not os.path.isfile(os.path.join(staging, name)):
+            problems.append(("--out", os.path.join(staging, name), "cannot see the run's staging folder"))
+    found = shutil.which(blender) or (blender if os.path.isfile(blender) else None)
+    if found is None or not os.access(found, os.X_OK):
+        problems.append(("--blender", blender, "not found or not executable on this worker"))
+    return problems
+
+
+def check_workers(client, workers, inputs, out_dir, staging, blender):
+    """ClusterError naming the first worker and path that fails the run's needs (shared storage,
+    Blender). `inputs` are those the launcher itself can read: a worker must read them too."""
+    answers = client.run(worker_problems, inputs, out_dir, staging, blender, workers=list(workers),
+                         on_error="return")
+    for worker, found in sorted(answers.items()):
+        if isinstance(found, BaseException):
+            hint = " (is deformkit installed in the workers' Python?)" if isinstance(found, ImportError) else ""
+            raise ClusterError(f"--scheduler: worker {worker} could not check the run's files: "
+                               f"{type(found).__name__}: {found}{hint}")
+        for argument, path, problem in found[:1]:
+            more = f" (and {len(found) - 1} more problems)" if len(found) > 1 else ""
+            raise ClusterError(f"{argument}: worker {worker}: {path}: {problem}{more}; every worker must see the "
+                               "inputs and the output folder at the same paths (shared storage)")
+
+
+def interrupt_run(staging, grace=5.0):
+    """Runs on each worker (client.run): Ctrl+C twice, as a user at a terminal would press it, to
+    the Blenders this worker started for the run (their job files are under `staging`; Blender
+    takes the first SIGINT as a break event, the second ends it), SIGKILL to those still there
+    after `grace` seconds. Returns their pids."""
+    import psutil
+    mine = []
+    for child in psutil.Process().children(recursive=True):
+        try:
+            if any(staging in part for part in child.cmdline()):
+                child.send_signal(signal.SIGINT)
+                mine.append(child)
+        except psutil.Error:
+            pass
+    time.sleep(0.3)
+    for child in mine:
+        try:
+            if _running(child):
+                child.send_signal(signal.SIGINT)
+        except psutil.Error:
+            pass
+    deadline = time.monotonic() + grace
+    alive = mine
+    while alive and time.monotonic() < deadline:  # no wait(): the thread that started it reaps it, and reads why
+        time.sleep(0.1)
+        alive = [c for c in alive if _running(c)]
+    for child in alive:
+        try:
+            child.kill()
+        except psutil.Error:
+            pass
+    return [c.pid for c in mine]
+
+
+def _running(process):
+    import psutil
+    try:
+        return process.status() != psutil.STATUS_ZOMBIE
+    except psutil.Error:
+        return False
+
+
+class DaskExecutor(concurrent.futures.Executor):
+    """A concurrent.futures-style executor on a Dask client: submit(fn, job) runs fn(job) as one
+    task asking for `blender=1`, wrapped in attempts.run_attempt under `plan` (staging folder on
+    shared storage, run token, retries). The future it returns gets the row of the attempt that
+    finished the file; a task whose worker died is sent again while attempts are left, and gets
+    a "WorkerLost" row after the last. A future is running from its attempt's start (the workers
+    announce it on the run's event topic, also passed to `on_event`). As with the local pool,
+    cancelling the futures (run_all does on Ctrl+C) drops the files not started, and the running
+    ones get their rows: the first cancel stops the run on the cluster (no Blender starts any
+    more, the tasks not started are cancelled, the running Blenders get SIGINT)."""
+
+    def __init__(self, client, plan, on_event=None):
+        self.client, self.plan, self.on_event = client, plan, on_event
+        self._tasks, self._lock, self._cancelled, self._sent = {}, threading.Lock(), False, 0
+        self._sends, self._by_index, self._stopping = {}, {}, None  # sends: a bound on resending a file
+        self.topic = f"deformkit-batch-{plan.token}"
+        client.subscribe_topic(self.topic, self._event)
+
+    def submit(self, fn, job, /):
+        future = concurrent.futures.Future()
+        future.add_done_callback(self._on_done)
+        with self._lock:
+            self._by_index[job.index] = future
+        self._send(future, fn, job)
+        return future
+
+    def _send(self, future, fn, job):
+        with self._lock:
+            self._sent += 1
+            self._sends[job.index] = self._sends.get(job.index, 0) + 1
+            key = f"deformkit-batch-{self.plan.token}-{job.index}-{self._sent}"
+        plan = dataclasses.replace(self.plan, submitted=time.time())
+        task = self.client.submit(attempts.run_attempt, fn, job, plan, key=key, pure=False,
+                                  resources={RESOURCE: 1})
+        with self._lock:
+            self._tasks[future] = task
+        task.add_done_callback(lambda t: self._landed(future, fn, job, t))
+
+    def _event(self, event):
+        """In the client's event loop: an attempt starts (its future is running) or ends."""
+        message = event[1] if isinstance(event, (tuple, list)) and len(event) == 2 else event
+        future = self._by_index.get(message.get("index")) if isinstance(message, dict) else None
+        if future is not None and message.get("event") == "start":
+            try:
+                if not future.running() and not future.done():
+                    future.set_running_or_notify_cancel()
+            except RuntimeError:  # cancelled or finished meanwhile
+                pass
+        if self.on_event is not None and isinstance(message, dict):
+            self.on_event(message)
+
+    def _landed(self, future, fn, job, task):
+        """In Dask's callback thread: the task's row to the future, or the task sent again when
+        its worker was lost and attempts are left."""
+        if future.done():
+            return
+        try:
+            if task.status == "cancelled":
+                if not self._cancelled:  # not ours: the scheduler died or restarted, or our connection to it broke
+                    _settle(future, attempts.lost_row(job, self.plan, "the task was cancelled", scheduler_lost=True))
+                elif future.running():  # started just before the run was stopped: not to be waited for
+                    _settle(future, failed_row(job.input, job.output, "Cancelled",
+                                                        "the run was stopped as this file started"))
+                return
+            try:
+                return _settle(future, task.result())
+            except Exception as exc:
+                if type(exc).__name__ not in WORKER_LOST:
+                    raise
+                lost = f"{type(exc).__name__}: {exc}"
+            attempts.note_lost(self.plan.staging, job.index, lost, self.plan.token)
+            made = len(attempts.attempt_numbers(self.plan.staging, job.index))
+            sends = self._sends.get(job.index, 0)
+            if made < self.plan.max_attempts and sends < 3 * self.plan.max_attempts and not self._cancelled:
+                return self._send(future, fn, job)
+            _settle(future, attempts.lost_row(job, self.plan, lost))
+        except Exception as exc:  # e.g. the job did not unpickle on the worker: run_all makes a row of it
+            if not future.done():
+                try:
+                    future.set_exception(exc)
+                except concurrent.futures.InvalidStateError:
+                    pass
+
+    def _on_done(self, future):
+        if not future.cancelled():
+            return
+        future.set_running_or_notify_cancel()  # as a pool's worker would: wait() and as_completed() see it done
+        with self._lock:
+            first, self._cancelled = not self._cancelled, True
+        if first:  # in a thread: cancel() returns at once, and run_all cancels the other futures meanwhile
+            self._stopping = threading.Thread(target=self._stop, name="deformkit-batch-stop", daemon=True)
+            self._stopping.start()
+
+    def _stop(self):
+        """Stop the run on the cluster: no attempt starts Blender any more (the staging folder's
+        mark), the tasks of the files not started are cancelled, the Blenders running for the
+        run are interrupted (their tasks then give their rows)."""
+        try:
+            attempts.mark_cancelled(self.plan.staging)
+        except OSError:
+            pass
+        with self._lock:
+            waiting = [t for f, t in self._tasks.items() if not f.running() and not f.done() or f.cancelled()]
+        if waiting:
+            self.client.cancel(waiting, force=True)
+        self.client.run(interrupt_run, self.plan.staging, on_error="return")
+        time.sleep(1.0)  # an attempt that read no mark just before it was made may start Blender now
+        self.client.run(interrupt_run, self.plan.staging, on_error="return")
+
+    def cancel_all(self):
+        """Stop the run and drop every file not done: all futures not done are cancelled."""
+        with self._lock:
+            futures = list(self._tasks)
+        for future in futures:
+            future.cancel()
+        if self._stopping is not None:
+            self._stopping.join()
+        with self._lock:
+            tasks = [t for f, t in self._tasks.items() if not f.done() or f.cancelled()]
+        if tasks:
+            self.client.cancel(tasks, force=True)
+
+    def wait_for_attempts(self, seconds=15.0):
+        """Until the attempts that live workers still run have ended (a cancelled task's thread
+        runs on until its Blender is gone), at most `seconds`: the staging folder is removed next."""
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            live = set(self.client.scheduler_info()["workers"])
+            if not any(r.get("worker") in live for r in attempts.open_attempts(self.plan.staging)):
+                return True
+            time.sleep(0.1)
+        return False
+
+    def shutdown(self, wait=True, *, cancel_futures=False):
+        """After a cancel (run_all's on Ctrl+C) or with cancel_futures: the run stopped on the
+        cluster, its attempts waited for (at most 15 s); else wait for the files. The client stays
+        open: it is the caller's."""
+        try:
+            if cancel_futures:
+                self.cancel_all()
+            if self._cancelled:
+                if self._stopping is not None:
+                    self._stopping.join()
+                with self._lock:
+                    tasks = [t for f, t in self._tasks.items() if not f.done() or f.cancelled()]
+                if tasks:  # the running ones too: run_all has stopped waiting for them
+                    self.client.cancel(tasks, force=True)
+                self.wait_for_attempts()
+            elif wait:
+                concurrent.futures.wait(list(self._tasks))
+        finally:
+            self.client.unsubscribe_topic(self.topic)
+
+
+def _settle(future, row):
+    if not future.done():
+        try:
+            future.set_result(row)
+        except concurrent.futures.InvalidStateError:  # cancelled meanwhile
+            pass
+
+
+def dask_installed():
+    try:
+        import dask  # noqa: F401
+        import distributed  # noqa: F401
+    except ImportError:
+        return False
+    return True
