@@ -156,6 +156,9 @@ def write_paths(bpy, outputs, dk, src, co, repeats):
             base, out=outputs.vector_attribute_memory(mesh, name, n)),
         "displacement into a kept numpy array (compute alone)": lambda: stack.displacement(base, out=kept),
         "np.copyto of the 12 MB (memory floor)": lambda: np.copyto(kept, base),
+        # Looking an existing attribute up makes Blender unshare its array from the evaluated
+        # mesh (a 12 MB copy): every path above pays it; it is the write's own floor in Blender.
+        "attributes.get alone (Blender unshares the array)": lambda: mesh.attributes.get(name),
     }
     outputs.write_vector_attribute(mesh, name, np.zeros_like(base))
     times = {label: [] for label in paths}
