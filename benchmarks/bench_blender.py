@@ -119,7 +119,7 @@ ROWS = [(side, key, label) for side, rows in (
                    ("set", "  set angle: property callback -> evaluate()"),
                    ("set:input_positions", "    input_positions (foreach_get)"),
                    ("set:_deformed", "    entries -> offsets in the attribute's memory"),
-                   ("set:displacement", "      of which dk.Stack.displacement"),
+                   ("set:deform", "      of which dk.Stack.deform"),
                    ("set:_write_own_mesh", "    _write_own_mesh (other attributes, mesh.update())"),
                    ("set:ensure_modifier", "    ensure_modifier"),
                    ("set:other", "    other (fingerprint, mesh.update())"),

@@ -149,12 +149,18 @@ def write_paths(bpy, outputs, dk, src, co, repeats):
         p = stack.deform(base)
         outputs.write_vector_attribute(mesh, name, np.subtract(p, base, out=p))
 
+    def deform_into_subtract():
+        view = outputs.vector_attribute_memory(mesh, name, n)
+        np.subtract(stack.deform(base, out=view), base, out=view)
+
     paths = {
         "deform, subtract, foreach_set (before)": deform_subtract_foreach_set,
-        "displacement, foreach_set": lambda: outputs.write_vector_attribute(mesh, name, stack.displacement(base)),
-        "displacement into the attribute's memory [kept]": lambda: stack.displacement(
+        "displacement into the attribute's memory": lambda: stack.displacement(
             base, out=outputs.vector_attribute_memory(mesh, name, n)),
+        "deform into the attribute's memory, subtract [kept]": deform_into_subtract,
         "displacement into a kept numpy array (compute alone)": lambda: stack.displacement(base, out=kept),
+        "deform into a kept numpy array (compute alone)": lambda: stack.deform(base, out=kept),
+        "np.subtract in place, 1M x 3 float32": lambda: np.subtract(kept, base, out=kept),
         "np.copyto of the 12 MB (memory floor)": lambda: np.copyto(kept, base),
         # Looking an existing attribute up makes Blender unshare its array from the evaluated
         # mesh (a 12 MB copy): every path above pays it; it is the write's own floor in Blender.
