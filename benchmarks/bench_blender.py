@@ -8,17 +8,20 @@ goes first: time = set the angle (deformkit: the add-on's update callback) + dep
 evaluated vertex count; "+read" adds a foreach_get of the evaluated positions on both sides. The
 deformkit side is broken down by timers monkeypatched around the add-on's functions ("set" is the
 property callback; "depsgraph" includes the add-on's depsgraph handler re-check). --addon DIR runs
-a (patched) copy of the add-on instead.
+a (patched) copy of the add-on instead. Then (bridge_alternatives.py, --no-alternatives skips it) the
+ways of handing the result to Blender side by side: Geometry Nodes trees and write paths.
 """
 import argparse, json, pathlib, statistics, time, types
 import numpy as np
 
+import bridge_alternatives
 from bench_common import blender_with_addon, displaced_grid_pair
 
 ap = argparse.ArgumentParser()
 for option, default in (("--vertices", 1_000_000), ("--repeats", 15), ("--warmup", 3)):
     ap.add_argument(option, type=int, default=default)
 ap.add_argument("--json")
+ap.add_argument("--no-alternatives", action="store_true")
 ap.add_argument("--addon", default=str(pathlib.Path(__file__).resolve().parents[1] / "python_addon"))
 args = ap.parse_args()
 
@@ -115,8 +118,9 @@ ROWS = [(side, key, label) for side, rows in (
     ("deformkit", [("total", "deformkit total (set + depsgraph + count)"),
                    ("set", "  set angle: property callback -> evaluate()"),
                    ("set:input_positions", "    input_positions (foreach_get)"),
-                   ("set:deform", "    dk.Stack.deform"),
-                   ("set:_write_own_mesh", "    _write_own_mesh (offsets: foreach_set)"),
+                   ("set:_deformed", "    entries -> offsets in the attribute's memory"),
+                   ("set:deform", "      of which dk.Stack.deform"),
+                   ("set:_write_own_mesh", "    _write_own_mesh (other attributes, mesh.update())"),
                    ("set:ensure_modifier", "    ensure_modifier"),
                    ("set:other", "    other (fingerprint, mesh.update())"),
                    ("depsgraph", "  depsgraph update"),
@@ -138,8 +142,12 @@ for side, key, label in ROWS:
 for key in ("total", "total+read"):
     (dm, dn), (bm, bn) = stat("deformkit", key), stat("blender", key)
     summary[f"ratio:{key}"] = {"median": dm / bm, "min": dn / bn}
-    print(f"ratio deformkit / Blender ({key}): median {dm / bm:.2f}, min {dn / bn:.2f}  (target <= 1.0)")
+    print(f"ratio deformkit / Blender ({key}): median {dm / bm:.2f}, min {dn / bn:.2f}  (issue 19 target <= 0.6)")
+alternatives = None if args.no_alternatives else bridge_alternatives.report(
+    bpy, outputs, dk, B, co, args.repeats)
+(c0, i0), _, (c1, i1) = cpu_ticks(), time.sleep(0.5), cpu_ticks()
+print(f"CPU busy after run: {1 - (i1 - i0) / max(c1 - c0, 1):.0%}")
 if args.json:
     pathlib.Path(args.json).write_text(json.dumps({
         "build_info": dk.build_info(), "blender": bpy.app.version_string, "cpu_busy": busy, "vertices": nverts,
-        "max_abs_diff": [diff, final_diff], "summary": summary, "runs": runs}, indent=1))
+        "max_abs_diff": [diff, final_diff], "summary": summary, "runs": runs, "alternatives": alternatives}, indent=1))

@@ -10,6 +10,7 @@ which gives back the original mesh bit for bit. A Subdivide entry, last in the s
 that result into helper objects whose geometry the modifier then outputs instead
 (entries/subdivide.py). Each entry runs through its kind (entries/).
 """
+import functools
 import time
 
 import bpy
@@ -160,10 +161,18 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         render = [b for b in built if shown(b[1], "render", editing)]
         pieces = [] if stack.show_volume_ratio else None
         failures = {}  # entry index -> message of the entries that failed on their input (skipped)
+        same = [b[0] for b in render] == [b[0] for b in viewport]
+        # The common case (own mesh, one result for viewport and render): the offsets are computed
+        # straight into the mesh's attribute (outputs.vector_attribute_memory), the cheapest hand-over.
+        in_place = same and sub is None and not per_object and not editing
         try:
-            positions = _deformed(uid, "viewport", viewport, base, pieces, failures)
-            same = [b[0] for b in render] == [b[0] for b in viewport]
-            render_positions = positions if same else _deformed(uid, "render", render, base, failures=failures)
+            if in_place:
+                offsets = _deformed(uid, "viewport", viewport, base, pieces, failures, offsets_into=functools.partial(
+                    outputs.vector_attribute_memory, obj.data, ATTR_OFFSET, len(base)))
+                positions = render_positions = None
+            else:
+                positions = _deformed(uid, "viewport", viewport, base, pieces, failures)
+                render_positions = positions if same else _deformed(uid, "render", render, base, failures=failures)
         except ValueError as exc:
             _set_if_changed(stack, "error", str(exc))
             return False
@@ -190,7 +199,8 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
         # In place: on a large mesh a second copy of the points costs as much as the deformation.
         render_offsets = None if render_positions is positions else np.subtract(render_positions, base,
                                                                                  out=render_positions)
-        offsets = np.subtract(positions, base, out=positions)
+        if not in_place:
+            offsets = np.subtract(positions, base, out=positions)
         if helpers:
             outputs.ensure_modifier(obj, "subdivided", list(zip(outputs.HELPER_INPUTS, helpers))
                                     + [(outputs.VERTICES_INPUT, len(base))])
@@ -203,7 +213,8 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
             outputs.ensure_modifier(obj, "offsets_split" if render_offsets is not None else "offsets")
         if not editing:
             # Under a Subdivide entry's result too: the cage's offsets, for stored_positions (batch previews).
-            _write_own_mesh(obj, None if per_object else (offsets, render_offsets), ratio)
+            _write_own_mesh(obj, None if per_object else (None if in_place else offsets, render_offsets), ratio)
+        offsets = None  # in place, a view of Blender's memory: not to be kept
         if not per_object:
             outputs.discard_result_helper(obj)
         _edit_mode_toggles(obj, stack)
@@ -218,15 +229,17 @@ def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weight
 
 
 def _write_own_mesh(obj, offsets, ratio):
-    """The offsets (viewport, render or None) and volume colors in obj's own mesh; with offsets
-    None (the result is elsewhere) none of them: a shared mesh's would show on every object using it."""
+    """The offsets (viewport or None when written in place, render or None) and volume colors in
+    obj's own mesh; with offsets None (the result is elsewhere) none of them: a shared mesh's would
+    show on every object using it."""
     mesh = obj.data
     outputs.remove_attributes(mesh, outputs.LEGACY_ATTRIBUTES)
     if offsets is None:
         outputs.remove_attributes(mesh, outputs.OUTPUT_ATTRIBUTES)
     else:
         viewport, render = offsets
-        outputs.write_vector_attribute(mesh, ATTR_OFFSET, viewport)
+        if viewport is not None:  # None: written in place already
+            outputs.write_vector_attribute(mesh, ATTR_OFFSET, viewport)
         if render is not None:
             outputs.write_vector_attribute(mesh, ATTR_OFFSET_RENDER, render)
         else:
@@ -310,16 +323,21 @@ def stored_positions(obj, kind="viewport"):
     return cached[1] + offsets.reshape(-1, 3)
 
 
-def _deformed(uid, kind, built, base, pieces=None, failures=None):
+def _deformed(uid, kind, built, base, pieces=None, failures=None, offsets_into=None):
     """Run the entries in order: runs of stackable (Barr) entries as one dk.Stack, each other
     entry through its kind (a lattice through its binding, kept per object, entry and
     viewport/render; a Laplacian entry through its solver). `pieces`, if a list, receives
     (deformers, their input) for each stretch of entries between those without a Jacobian: the
     factors of the volume ratio. `failures`, if a dict, receives {index: message} of the entries
     that failed on their input, which are skipped (their input goes on, as Blender skips a modifier
-    that fails); without it the first failure raises EntryFailed."""
+    that fails); without it the first failure raises EntryFailed.
+
+    offsets_into: a function giving a float32 (n, 3) array (Blender's own attribute memory); with
+    it, the result minus `base` is computed into that array and returned, the last step writing
+    straight into it, with no temporary result and no copy."""
     points, pending, piece, piece_input = base, [], [], base
-    for index, _entry, entry_kind, prepared in built:
+    out = None  # offsets_into's array, once asked for
+    for position, (index, _entry, entry_kind, prepared) in enumerate(built):
         if entry_kind.STACKABLE:
             pending.append(prepared.deformer)
             piece.append(prepared.deformer)
@@ -328,8 +346,13 @@ def _deformed(uid, kind, built, base, pieces=None, failures=None):
             points, pending = native.dk.Stack(pending).deform(points), []
         if prepared.deformer is None and pieces is not None and piece:  # no Jacobian: the piece ends here
             pieces.append((piece, piece_input))
+        into = {}
+        if offsets_into is not None and position == len(built) - 1 and getattr(entry_kind, "DEFORMS_INTO", False) \
+                and points.dtype == np.float32:
+            out = offsets_into()
+            into = {"out": out}
         try:
-            points = entry_kind.deform((uid, index, kind), prepared, points)
+            points = entry_kind.deform((uid, index, kind), prepared, points, **into)
         except EntryError as exc:
             if failures is None:
                 raise EntryFailed(index, str(exc)) from exc
@@ -339,11 +362,24 @@ def _deformed(uid, kind, built, base, pieces=None, failures=None):
             piece, piece_input = [], points
         else:
             piece.append(prepared.deformer)
-    if pending:
-        points = native.dk.Stack(pending).deform(points)
     if pieces is not None and piece:
         pieces.append((piece, piece_input))
+    if offsets_into is not None:
+        return _offsets(points, pending, base, out, offsets_into)
+    if pending:
+        points = native.dk.Stack(pending).deform(points)
     return base.copy() if points is base else points
+
+
+def _offsets(points, pending, base, out, offsets_into):
+    """The end of _deformed with offsets_into: the pending stack run on `points`, minus base,
+    into offsets_into's array (`out` if already asked for). deform then one numpy subtract, not
+    dk's displacement: that runs a second threaded pass, slower at 1M points (bridge_alternatives.py)."""
+    if out is None:
+        out = offsets_into()
+    if pending:
+        points = native.dk.Stack(pending).deform(points, **({"out": out} if points.dtype == out.dtype else {}))
+    return np.subtract(points, base, out=out, casting="same_kind")
 
 
 def entry_input(obj, index, kind="viewport"):

@@ -16,6 +16,8 @@ The node groups are named "Needs deformkit add-on ..." so that the modifier's pa
 result depends on; the modifier's output never carries the internal attributes (so Apply and
 Convert give a clean mesh).
 """
+import ctypes
+
 import bpy
 import numpy as np
 
@@ -41,14 +43,34 @@ class EntryError(ValueError):
     """A problem with one entry's settings, shown on the entry."""
 
 
-def write_vector_attribute(mesh, name, values):
+def vector_attribute(mesh, name):
+    """mesh's point attribute `name` of 3 floats, made (or remade, if of another type) as needed."""
     attr = mesh.attributes.get(name)
     if attr is not None and (attr.data_type != "FLOAT_VECTOR" or attr.domain != "POINT"):
         mesh.attributes.remove(attr)
         attr = None
     if attr is None:
         attr = mesh.attributes.new(name, "FLOAT_VECTOR", "POINT")
-    attr.data.foreach_set("vector", np.ascontiguousarray(values, np.float32).ravel())
+    return attr
+
+
+def write_vector_attribute(mesh, name, values):
+    vector_attribute(mesh, name).data.foreach_set("vector", np.ascontiguousarray(values, np.float32).ravel())
+
+
+def vector_attribute_memory(mesh, name, count):
+    """Blender's own float32 (count, 3) array of mesh's point attribute `name` (made as needed), as a
+    numpy view to write the result into: no temporary array and no foreach_set copy of it.
+
+    Opening the attribute's data makes Blender's array unshared first (a copy if the evaluated
+    mesh or an undo step still shares it), as foreach_set does, so writing it in place has the
+    same effect as foreach_set. The view is valid only until Blender next touches the mesh: fill
+    it at once and drop it."""
+    data = vector_attribute(mesh, name).data
+    if len(data) != count or count == 0:
+        raise EntryError(f"attribute '{name}' has {len(data)} points, the result {count}")
+    address = data[0].as_pointer()  # the iterator's begin is what unshares the array
+    return np.ctypeslib.as_array((ctypes.c_float * (3 * count)).from_address(address)).reshape(count, 3)
 
 
 def volume_colors(ratio):

@@ -15,6 +15,7 @@ kind does not own properties but declares which of them it uses. A kind is a mod
     setup(obj, entry, reuse_weights) -> common.Prepared (EntryError for a problem with its settings)
     deform(key, prepared, points) -> points, through what it keeps under `key`
                 (object cache key, entry index, "viewport"/"render"); EntryError: the entry's failure
+    DEFORMS_INTO  (optional, default False) deform also takes out=, a float32 array to write into
     apply(obj, entry, prepared, base)  bakes the entry into the base mesh
     followed(entry) -> [(object, remembered name)] of the objects it follows (lattice, handles)
     volume_note(entries) -> the panel's note on the volume colors for these entries of the kind, or ""

@@ -26,6 +26,7 @@ from .common import (KindOperator, Prepared, core_missing, draw_vertex_group, fo
 TYPES = ("LATTICE",)
 ICON = "MOD_LATTICE"
 STACKABLE = False  # deformed through its binding, not in a dk.Stack
+DEFORMS_INTO = True  # deform takes out=: the result is written into the given array
 LAST = False
 MENU = (("deformkit.add_lattice", "OUTLINER_OB_LATTICE"),)  # below the Add menu's entry types
 FIELDS = ("lattice", "lattice_basis", "strength", "outside", "vertex_group", "invert_vertex_group")
@@ -177,9 +178,9 @@ def lattice_setup(obj, entry, weights=None, strength=None):
     return Setup(deformer, fingerprint, layout, lat, local, co)
 
 
-def deform(key, prepared, points):
-    """The entry's result on `points`, through a binding kept for as long as the points and the
-    lattice's layout (basis, resolution, interpolation, placement) stay the same."""
+def deform(key, prepared, points, out=None):
+    """The entry's result on `points` (into `out` if given), through a binding kept for as long as
+    the points and the lattice's layout (basis, resolution, interpolation, placement) stay the same."""
     lattice = prepared.data
     cached = cache.get("lattice", key)
     if cached is None or cached[0] != lattice.layout:
@@ -189,7 +190,7 @@ def deform(key, prepared, points):
             cached = bind(key, lattice, points)
         else:  # the same positions read again: keep this array, which the next evaluation may reuse
             cached = cache.put("lattice", key, (cached[0], points) + cached[2:])
-    return lattice.deformer.deform_bound(cached[2])
+    return lattice.deformer.deform_bound(cached[2], out=out)
 
 
 def bind(key, lattice_setup, points):

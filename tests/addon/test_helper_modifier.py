@@ -197,3 +197,40 @@ def test_volume_colors_on_a_shared_mesh_are_per_object(scene):
     np.testing.assert_allclose(rgba.reshape(-1, 4), outputs.volume_colors(ratio), atol=1e-6)
     assert outputs.ATTR_VOLUME not in obj.data.attributes  # not in the shared mesh: Other shows none
     np.testing.assert_array_equal(evaluated(other), positions(obj.data))
+
+
+def _read(mesh, name):
+    values = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.attributes[name].data.foreach_get("vector", values)
+    return values.reshape(-1, 3)
+
+
+def test_writing_the_offsets_in_place_leaves_shared_copies_alone(scene):
+    """The offsets are computed straight into the attribute's memory: the undo step and the
+    evaluated mesh that shared the array before keep their values, as after a foreach_set."""
+    import bpy
+    from deformkit_addon import outputs
+    obj = make_object(bpy)
+    mesh, n = obj.data, len(obj.data.vertices)
+    before = np.random.default_rng(3).normal(size=(n, 3)).astype(np.float32)
+    outputs.write_vector_attribute(mesh, "probe", before)
+    mesh.update()
+    bpy.ops.ed.undo_push(message="before")
+    shown = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data  # shares the array (no modifiers)
+    view = outputs.vector_attribute_memory(mesh, "probe", n)
+    view[:] = before + 1
+    del view
+    np.testing.assert_array_equal(_read(mesh, "probe"), before + 1)
+    np.testing.assert_array_equal(_read(shown, "probe"), before)
+    mesh.update()
+    bpy.ops.ed.undo_push(message="after")
+    bpy.ops.ed.undo()
+    np.testing.assert_array_equal(_read(bpy.data.objects["Obj"].data, "probe"), before)
+    bpy.ops.ed.redo()
+    np.testing.assert_array_equal(_read(bpy.data.objects["Obj"].data, "probe"), before + 1)
+    try:
+        outputs.vector_attribute_memory(bpy.data.objects["Obj"].data, "probe", n + 1)
+    except outputs.EntryError as exc:
+        assert "probe" in str(exc) and str(n) in str(exc)
+    else:
+        raise AssertionError("a count other than the mesh's was accepted")

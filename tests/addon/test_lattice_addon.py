@@ -214,6 +214,25 @@ def test_stacked_with_barr_entries(scene):
     assert close(evaluated(obj), evaluated(twin), 3.0)
 
 
+def test_lattice_last_after_a_twist(scene):
+    """The lattice last in the stack writes its result straight into the offsets' attribute."""
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    lat = make_lattice(bpy)
+    perturb_lattice(lat, seed=4)
+    twist = api.add_entry(obj, "TWIST", angle=0.9, deform_axis="Z")
+    api.add_entry(obj, "LATTICE", lattice=lat)
+    twin = twin_with_simple_deform(bpy, obj, deform_method="TWIST", angle=0.9, deform_axis="Z")
+    twin.modifiers.new("Lattice", "LATTICE").object = lat
+    assert close(evaluated(obj), evaluated(twin), 3.0)
+    perturb_lattice(lat, seed=5)
+    twist.angle = twin.modifiers[0].angle = -0.5
+    update()
+    assert close(evaluated(obj), evaluated(twin), 3.0)
+    assert not close(evaluated(obj), positions(obj.data), 3.0)
+
+
 def test_animated_lattice(scene):
     import bpy
     from deformkit_addon import api
