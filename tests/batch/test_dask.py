@@ -377,7 +377,9 @@ def test_a_killed_launcher_takes_its_local_cluster_along(fake_blender, tmp_path)
 
 def test_the_scheduler_dies_mid_run(tmp_path, fake_blender):
     """The scheduler SIGKILLed while a file runs: the launcher does not hang; every file not done
-    gets a SchedulerLost row, the report is complete, exit status 1."""
+    gets a SchedulerLost row, the report is complete, exit status 1. (Found under load: a file
+    whose result was on its way when the scheduler died is reported lost although its worker
+    renames its output into place.)"""
     paths = inputs(tmp_path / "in", ["ok", "sleep", "ok", "ok", "ok", "ok"])
     out = tmp_path / "out"
     with DaskCluster(tmp_path / "cluster", workers=2) as cluster:
@@ -391,7 +393,10 @@ def test_the_scheduler_dies_mid_run(tmp_path, fake_blender):
     for row in report["files"]:
         assert row["status"] == "ok" or row["error"].startswith(
             "SchedulerLost: the connection to the Dask scheduler was lost before the file was done"), row
-        assert (out / os.path.basename(row["output"])).exists() == (row["status"] == "ok")
+        # A lost file's worker outlives the scheduler and may still finish it after the launcher
+        # has given up: its output may then exist, whole (renamed into place); an ok file's must.
+        if row["status"] == "ok":
+            assert (out / os.path.basename(row["output"])).exists(), row
 
 
 BLOCK_DASK = """
