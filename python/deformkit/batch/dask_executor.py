@@ -264,7 +264,7 @@ class DaskExecutor(concurrent.futures.Executor):
             key = f"deformkit-batch-{self.plan.token}-{job.index}-{self._sent}"
         plan = dataclasses.replace(self.plan, submitted=time.time())
         task = self.client.submit(attempts.run_attempt, fn, job, plan, key=key, pure=False,
-                                  resources={RESOURCE: 1})
+                                  resources={RESOURCE: 1}, priority=-job.index)  # in the inputs' order
         with self._lock:
             self._tasks[future] = task
         task.add_done_callback(lambda t: self._landed(future, fn, job, t))
