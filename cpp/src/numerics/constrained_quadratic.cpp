@@ -101,8 +101,10 @@ ConstrainedQuadratic ConstrainedQuadratic::quadratic(const SparseMatrix& a, Unkn
   q.split_ = std::move(split);
   q.soft_ = std::move(soft);
   q.soft_free_ = soft_positions(q.soft_, q.split_);
+  StageClock clock(q.stages_);
   std::tie(q.free_part_, q.fixed_part_) = split_columns(a, q.split_, true);
-  q.factorize(q.free_part_, 0.0, kind);
+  clock.mark("free / fixed split");
+  q.factorize(q.free_part_, 0.0, kind, clock);
   return q;
 }
 
@@ -116,14 +118,19 @@ ConstrainedQuadratic ConstrainedQuadratic::least_squares(const SparseMatrix& m, 
   q.split_ = std::move(split);
   q.soft_ = std::move(soft);
   q.soft_free_ = soft_positions(q.soft_, q.split_);
+  StageClock clock(q.stages_);
   std::tie(q.free_part_, q.fixed_part_) = split_columns(m, q.split_, false);
-  if (!q.split_.free().empty())
-    q.factorize(SparseMatrix(SparseMatrix(q.free_part_.transpose()) * q.free_part_), relative_ridge, kind);
+  clock.mark("free / fixed split");
+  if (!q.split_.free().empty()) {
+    SparseMatrix normal = SparseMatrix(q.free_part_.transpose()) * q.free_part_;
+    clock.mark("normal equations M_f^T M_f");
+    q.factorize(std::move(normal), relative_ridge, kind, clock);
+  }
   return q;
 }
 
 // The ridge is measured before the soft weights go on the diagonal, so that it does not depend on them.
-void ConstrainedQuadratic::factorize(SparseMatrix system, double relative_ridge, CholeskyKind kind) {
+void ConstrainedQuadratic::factorize(SparseMatrix system, double relative_ridge, CholeskyKind kind, StageClock& clock) {
   if (split_.free().empty()) return;
   if (relative_ridge > 0) {
     ridge_ = relative_ridge * system.diagonal().sum() / double(system.rows());
@@ -131,7 +138,9 @@ void ConstrainedQuadratic::factorize(SparseMatrix system, double relative_ridge,
   }
   for (std::size_t s = 0; s < soft_free_.size(); ++s) system.coeffRef(soft_free_[s], soft_free_[s]) += soft_.weights[s];
   solver_ = std::make_unique<SparseCholesky>();
+  clock.mark("ridge and soft diagonal");
   factorised_ = solver_->factorize(system, kind);
+  clock.add(solver_->stages(), "");
 }
 
 bool ConstrainedQuadratic::factorised() const { return factorised_; }

@@ -19,6 +19,7 @@ struct SparseCholesky::State {
   cholmod_factor* factor = nullptr;  // only during factorize()
   CholeskyFactor copy;
   bool ready = false;
+  Stages stages;  // of the last factorize()
 
   State() {
     cholmod_l_start(&common);
@@ -40,12 +41,16 @@ bool SparseCholesky::empty() const { return !state_->ready; }
 
 const CholeskyFactor& SparseCholesky::factor() const { return state_->copy; }
 
+const Stages& SparseCholesky::stages() const { return state_->stages; }
+
 std::size_t SparseCholesky::factor_nonzeros() const { return state_->ready ? state_->copy.value.size() : 0; }
 
 bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) {
   State& s = *state_;
   s.ready = false;
   s.copy = CholeskyFactor{};
+  s.stages.clear();
+  StageClock clock(s.stages);
   const SuiteSparse_long n = a.rows();
   // The lower triangle as CHOLMOD's compressed columns (stype -1).
   std::vector<SuiteSparse_long> p(std::size_t(n) + 1, 0), rows;
@@ -78,7 +83,9 @@ bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) {
   s.common.nmethods = 1;
   s.common.method[0].ordering = CHOLMOD_AMD;
   s.common.postorder = 1;
+  clock.mark("lower triangle");
   s.factor = cholmod_l_analyze(&m, &s.common);
+  clock.mark("ordering + symbolic (cholmod_analyze)");
   if (!s.factor) {
     s.check_memory();
     throw std::runtime_error("CHOLMOD could not analyse the matrix");
@@ -90,6 +97,7 @@ bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) {
     }
   } free_factor{s};
   cholmod_l_factorize(&m, s.factor, &s.common);
+  clock.mark("numeric (cholmod_factorize)");
   if (s.common.status == CHOLMOD_NOT_POSDEF || s.factor->minor < s.factor->n) {
     cholmod_l_free_factor(&s.factor, &s.common);
     return false;
@@ -106,6 +114,7 @@ bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) {
     s.check_memory();
     throw std::runtime_error("CHOLMOD could not convert the factor");
   }
+  clock.mark("to simplicial (cholmod_change_factor)");
   const auto* start = static_cast<const SuiteSparse_long*>(f->p);
   const auto* row = static_cast<const SuiteSparse_long*>(f->i);
   const auto* value = static_cast<const double*>(f->x);
@@ -134,7 +143,9 @@ bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) {
         c = CholeskyFactor{};
         return false;
       }
+  clock.mark("copy factor");
   c.schedule(forked_after_threads() ? 1 : parallel_threads());
+  clock.mark("solve schedule");
   s.ready = true;
   return true;
 }

@@ -126,6 +126,7 @@ SoftConstraints interleaved(const SoftConstraints& soft, int width) {
 SurfaceDeformer::SurfaceDeformer(PolygonMesh mesh, std::vector<int> anchors, std::vector<int> handles,
                                  const std::optional<std::vector<int>>& roi, SurfaceSettings settings)
     : mesh_(std::move(mesh).triangulate()), settings_(settings) {
+  StageClock clock(bind_stages_);
   const std::size_t n = mesh_.vertex_count();
   check_settings(settings);
   anchors = checked_indices(std::move(anchors), n, "anchors");
@@ -136,6 +137,7 @@ SurfaceDeformer::SurfaceDeformer(PolygonMesh mesh, std::vector<int> anchors, std
   int components = 0;
   const std::vector<int> component = connected_components(mesh_, &components);
   split_ = UnknownSplit(fixed_vertices(holds.held, component, components, warnings_));
+  clock.mark("checks, components, free / fixed split");
   SoftConstraints soft;
   for (std::size_t v = 0; v < n; ++v)
     if (!split_.is_fixed(int(v)) && holds.held[v] == 2) {
@@ -145,11 +147,13 @@ SurfaceDeformer::SurfaceDeformer(PolygonMesh mesh, std::vector<int> anchors, std
     }
   rest_ = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(mesh_.points().data(), Eigen::Index(n), 3);
   laplacian_ = with_positive_weights(settings.uniform_weights ? uniform_laplacian(mesh_) : cotangent_laplacian(mesh_));
+  clock.mark("Laplacian assembly");
   neighbors_.assign(n, {});
   for (int k = 0; k < laplacian_.outerSize(); ++k)
     for (SparseMatrix::InnerIterator it(laplacian_, k); it; ++it)
       if (it.row() != it.col()) neighbors_[k].emplace_back(int(it.row()), -it.value());
   delta_ = laplacian_ * rest_;
+  clock.mark("neighbour lists, delta");
   if (settings.method == SurfaceMethod::RotationInvariant) {
     // With fewer than three non-collinear held vertices in a component, the linearised rotations
     // about them cost nothing: the system is singular (whether a factorisation notices depends on
@@ -159,8 +163,11 @@ SurfaceDeformer::SurfaceDeformer(PolygonMesh mesh, std::vector<int> anchors, std
     if (loose)
       warnings_.push_back("rotation_invariant: a component is held by fewer than three non-collinear vertices, "
                           "so it may turn freely about them; the solution nearest the 'laplacian' method's is used");
-    implicit_system_ = ConstrainedQuadratic::least_squares(implicit_transform_system(), split_.interleaved(3),
+    SparseMatrix system = implicit_transform_system();
+    clock.mark("implicit-transform rows (3n)");
+    implicit_system_ = ConstrainedQuadratic::least_squares(std::move(system), split_.interleaved(3),
                                                            interleaved(soft, 3), loose ? 1e-6 : 0.0);
+    clock.add(implicit_system_.stages(), "implicit 3n: ");
     if (!implicit_system_.factorised())
       throw std::invalid_argument("faces: the mesh's rotation-invariant system could not be factorised (degenerate geometry)");
   }
@@ -170,6 +177,7 @@ SurfaceDeformer::SurfaceDeformer(PolygonMesh mesh, std::vector<int> anchors, std
   laplacian_system_ = settings.method == SurfaceMethod::Arap
                           ? ConstrainedQuadratic::quadratic(laplacian_, split_, std::move(soft))
                           : ConstrainedQuadratic::least_squares(laplacian_, split_, std::move(soft));
+  clock.add(laplacian_system_.stages(), settings.method == SurfaceMethod::Arap ? "L_ff: " : "L^T L: ");
   if (!laplacian_system_.factorised())
     throw std::invalid_argument("faces: the mesh's Laplacian system could not be factorised (degenerate geometry)");
 }

@@ -72,6 +72,7 @@ class ConstrainedQuadratic {
   const SoftConstraints& soft() const { return soft_; }
   double ridge() const { return ridge_; }
   std::size_t factor_nonzeros() const;
+  const Stages& stages() const { return stages_; }  // where the construction spent its time
 
   // The free unknowns (free x k). fixed_values: fixed x k, in split().fixed() order;
   // soft_targets: one row per soft unknown; b: quadratic form, the free rows of b (free x k),
@@ -91,7 +92,7 @@ class ConstrainedQuadratic {
 
  private:
   enum class Form { Quadratic, LeastSquares };
-  void factorize(SparseMatrix system, double relative_ridge, CholeskyKind kind);
+  void factorize(SparseMatrix system, double relative_ridge, CholeskyKind kind, StageClock& clock);
   Matrix back_substitute(const Matrix& rhs) const;
 
   Form form_ = Form::Quadratic;
@@ -102,6 +103,7 @@ class ConstrainedQuadratic {
   double ridge_ = 0.0;
   bool factorised_ = true;
   std::unique_ptr<SparseCholesky> solver_;
+  Stages stages_;
 };
 
 // One-shot: argmin 1/2 x^T A x - x^T b with x[fixed[i]] = fixed_values.row(i); A n x n, b n x k.

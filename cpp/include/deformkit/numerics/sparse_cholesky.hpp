@@ -3,6 +3,7 @@
 // factorised once, then solved for several right-hand sides in one pass over the factor, which is
 // what makes a re-solve of the three coordinates cheap (the solve is bound by memory traffic).
 #include "deformkit/numerics/sparse.hpp"
+#include "deformkit/core/stages.hpp"
 
 #include <Eigen/Core>
 
@@ -33,6 +34,7 @@ class SparseCholesky {
   bool empty() const;
   std::size_t factor_nonzeros() const;
   const CholeskyFactor& factor() const;
+  const Stages& stages() const;  // where the last factorize() spent its time
 
  private:
   struct State;

@@ -3,6 +3,7 @@
 // as-rigid-as-possible deformation (Sorkine and Alexa 2007), with the system over the free
 // vertices factorised once at construction, so that moving handles only back-substitutes.
 #include "deformkit/surface/cotangent_laplacian.hpp"
+#include "deformkit/core/stages.hpp"
 #include "deformkit/core/types.hpp"
 
 #include "deformkit/numerics/constrained_quadratic.hpp"
@@ -55,6 +56,7 @@ class SurfaceDeformer {
   std::size_t factor_nonzeros() const { return laplacian_system_.factor_nonzeros(); }
   const SurfaceSettings& settings() const { return settings_; }
   const std::vector<std::string>& warnings() const { return warnings_; }
+  const Stages& bind_stages() const { return bind_stages_; }  // where the construction spent its time
   std::vector<double> energy() const {
     const std::lock_guard<std::mutex> lock(deforming_);
     return energy_;
@@ -95,6 +97,7 @@ class SurfaceDeformer {
   // squares |L x - delta|^2. Rotation-invariant also: the 3n x 3n implicit-transform system.
   ConstrainedQuadratic laplacian_system_, implicit_system_;
   std::vector<std::string> warnings_;
+  Stages bind_stages_;
   std::vector<double> energy_;
   mutable std::mutex deforming_;  // deform() records energy_: one call at a time per deformer
 };
