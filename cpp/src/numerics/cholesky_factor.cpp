@@ -1,80 +1,27 @@
 #include "numerics/cholesky_factor.hpp"
 
 #include "core/parallel.hpp"
+#include "numerics/tree_split.hpp"
 
 #include <algorithm>
-#include <numeric>
-#include <queue>
 
 namespace deformkit {
 
 void CholeskyFactor::schedule(int threads) {
   const std::int32_t n = std::int32_t(size());
-  ranges.assign(std::size_t(std::max(threads, 1)), {});
-  top.clear();
-  top_position.assign(std::size_t(n), -1);
-  // Elimination tree (a column's parent is its first off-diagonal row), subtree sizes and work.
-  std::vector<std::int32_t> parent(std::size_t(n), -1), first(static_cast<std::size_t>(n));
+  // Elimination tree: a column's parent is its first off-diagonal row.
+  std::vector<std::int32_t> parent(std::size_t(n), -1);
   std::vector<std::int64_t> work(static_cast<std::size_t>(n));
-  std::iota(first.begin(), first.end(), 0);
-  bool postordered = true;
   for (std::int32_t j = 0; j < n; ++j) {
     std::int32_t p = -1;
     for (std::int64_t e = start[j] + 1; e < start[j + 1]; ++e) p = p < 0 ? row[e] : std::min(p, row[e]);
-    parent[j] = p;
-    work[j] += start[j + 1] - start[j];
-    if (p >= 0) {
-      postordered &= p > j;
-      work[p] += work[j];
-      first[p] = std::min(first[p], first[j]);
-    }
+    parent[std::size_t(j)] = p;
+    work[std::size_t(j)] = start[j + 1] - start[j];
   }
-  std::vector<std::vector<std::int32_t>> children(static_cast<std::size_t>(n));
-  std::vector<std::int64_t> count(std::size_t(n), 1);
-  for (std::int32_t j = 0; j < n; ++j)
-    if (parent[j] >= 0) children[parent[j]].push_back(j), count[parent[j]] += count[j];
-  for (std::int32_t j = 0; j < n && postordered; ++j) postordered = count[j] == j - first[j] + 1;
-  const std::int64_t total = start[std::size_t(n)];
-  if (threads <= 1 || !postordered || total < 200000) {
-    ranges.resize(1);
-    if (n) ranges[0].emplace_back(0, n - 1);
-    return;
-  }
-  // Greedy: cut the heaviest subtree (its root joins the top) until the subtrees share out over
-  // the cores within 5%, or the top holds 15% of the work.
-  auto heavier = [&](std::int32_t a, std::int32_t b) { return work[a] < work[b]; };
-  std::priority_queue<std::int32_t, std::vector<std::int32_t>, decltype(heavier)> open(heavier);
-  for (std::int32_t j = 0; j < n; ++j)
-    if (parent[j] < 0) open.push(j);
-  std::int64_t top_work = 0;
-  std::vector<std::int32_t> chosen;
-  for (int step = 0; step < 1024 && !open.empty(); ++step) {
-    std::vector<std::int32_t> subtrees;
-    for (auto copy = open; !copy.empty(); copy.pop()) subtrees.push_back(copy.top());
-    std::vector<std::int64_t> load(ranges.size(), 0);
-    for (std::int32_t r : subtrees) *std::min_element(load.begin(), load.end()) += work[r];
-    const std::int64_t busiest = *std::max_element(load.begin(), load.end());
-    const std::int64_t share = (total - top_work) / std::int64_t(ranges.size());
-    if (busiest <= share + share / 20 || top_work * 100 > total * 15) {
-      chosen = subtrees;
-      break;
-    }
-    const std::int32_t r = open.top();
-    open.pop();
-    top.push_back(r);
-    top_work += start[r + 1] - start[r];
-    for (std::int32_t c : children[r]) open.push(c);
-  }
-  if (chosen.empty())
-    for (; !open.empty(); open.pop()) chosen.push_back(open.top());
-  std::vector<std::int64_t> load(ranges.size(), 0);
-  for (std::int32_t r : chosen) {  // heaviest first, each to the least loaded core
-    const auto t = std::size_t(std::min_element(load.begin(), load.end()) - load.begin());
-    load[t] += work[r];
-    ranges[t].emplace_back(first[r], r);
-  }
-  for (auto& list : ranges) std::sort(list.begin(), list.end());
-  std::sort(top.begin(), top.end());
+  TreeSplit split = split_tree(parent, work, threads, 200000);
+  ranges = std::move(split.ranges);
+  top = std::move(split.top);
+  top_position.assign(std::size_t(n), -1);
   for (std::size_t k = 0; k < top.size(); ++k) top_position[top[k]] = std::int32_t(k);
 }
 

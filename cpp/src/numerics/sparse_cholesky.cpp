@@ -1,10 +1,12 @@
 #include "deformkit/numerics/sparse_cholesky.hpp"
 
 #include "numerics/cholesky_factor.hpp"
+#include "numerics/supernodal_factor.hpp"
 #include "core/parallel.hpp"
 
 #include <cholmod.h>
 
+#include <mutex>
 #include <new>
 #include <stdexcept>
 #include <vector>
@@ -12,43 +14,88 @@
 namespace deformkit {
 
 // CHOLMOD orders and factorises (64-bit indices, so that the factor of a large mesh's squared
-// Laplacian cannot overflow its non-zero count); the factor is then copied into a CholeskyFactor,
-// whose solve reads it once for all right-hand sides and runs on every core.
+// Laplacian cannot overflow its non-zero count). A supernodal factor stays CHOLMOD's, solved in
+// place (SupernodalFactor); a simplicial one is copied into a CholeskyFactor. Both solves read the
+// factor once for all right-hand sides and run on every core.
 struct SparseCholesky::State {
   cholmod_common common;
-  cholmod_factor* factor = nullptr;  // only during factorize()
-  CholeskyFactor copy;
-  bool ready = false;
+  cholmod_factor* factor = nullptr;  // during factorize(), and after it when supernodal
+  SupernodalFactor super;            // a view of `factor` (supernodal), else empty
+  CholeskyFactor copy;               // simplicial; for a supernodal factor made by factor() on demand
+  bool ready = false, supernodal = false;
   Stages stages;  // of the last factorize()
+  std::mutex copying;
 
   State() {
     cholmod_l_start(&common);
     common.print = 0;  // failures are reported through the return value, not on stderr
   }
-  ~State() {
+  ~State() { release(); cholmod_l_finish(&common); }
+  void release() {
     if (factor) cholmod_l_free_factor(&factor, &common);
-    cholmod_l_finish(&common);
+    super = SupernodalFactor{};
+    copy = CholeskyFactor{};
+    ready = supernodal = false;
   }
   void check_memory() const {
     if (common.status == CHOLMOD_OUT_OF_MEMORY || common.status == CHOLMOD_TOO_LARGE) throw std::bad_alloc();
   }
 };
 
+namespace {
+
+// The supernodal factor's columns one by one, diagonal first; the explicit zeros of its relaxed
+// supernodes dropped, except a column's first off-diagonal entry, its parent in the elimination
+// tree that schedule() reads.
+CholeskyFactor simplicial_copy(const SupernodalFactor& f) {
+  CholeskyFactor c;
+  c.unit_diagonal = false;
+  c.start.assign(1, 0);
+  for (std::int64_t s = 0; s < f.supernodes; ++s) {
+    const std::int64_t j0 = f.column[s], cols = f.column[s + 1] - j0, rows = f.row_start[s + 1] - f.row_start[s];
+    const double* block = f.value + f.value_start[s];
+    for (std::int64_t k = 0; k < cols; ++k) {
+      for (std::int64_t r = k; r < rows; ++r)
+        if (r <= k + 1 || block[k * rows + r] != 0.0)
+          c.row.push_back(std::int32_t(f.row[f.row_start[s] + r])), c.value.push_back(block[k * rows + r]);
+      c.start.push_back(std::int64_t(c.row.size()));
+    }
+  }
+  c.perm.assign(f.perm, f.perm + f.n);
+  return c;
+}
+
+}  // namespace
+
 SparseCholesky::SparseCholesky() : state_(std::make_unique<State>()) {}
 SparseCholesky::~SparseCholesky() = default;
 
 bool SparseCholesky::empty() const { return !state_->ready; }
 
-const CholeskyFactor& SparseCholesky::factor() const { return state_->copy; }
+const CholeskyFactor& SparseCholesky::factor() const {
+  State& s = *state_;
+  const std::lock_guard<std::mutex> lock(s.copying);
+  if (s.ready && s.supernodal && s.copy.perm.empty()) {
+    s.copy = simplicial_copy(s.super);
+    s.copy.schedule(forked_after_threads() ? 1 : parallel_threads());
+  }
+  return s.copy;
+}
+
+const SupernodalFactor* SparseCholesky::supernodal_factor() const {
+  return state_->ready && state_->supernodal ? &state_->super : nullptr;
+}
 
 const Stages& SparseCholesky::stages() const { return state_->stages; }
 
-std::size_t SparseCholesky::factor_nonzeros() const { return state_->ready ? state_->copy.value.size() : 0; }
+std::size_t SparseCholesky::factor_nonzeros() const {
+  const State& s = *state_;
+  return !s.ready ? 0 : s.supernodal ? s.super.stored() : s.copy.value.size();
+}
 
 bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) {
   State& s = *state_;
-  s.ready = false;
-  s.copy = CholeskyFactor{};
+  s.release();
   s.stages.clear();
   StageClock clock(s.stages);
   const SuiteSparse_long n = a.rows();
@@ -90,71 +137,74 @@ bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) {
     s.check_memory();
     throw std::runtime_error("CHOLMOD could not analyse the matrix");
   }
-  struct FreeFactor {  // on every way out, a bad_alloc in the copy below included
+  struct Release {  // on every way out but success, a bad_alloc in the copy below included
     State& s;
-    ~FreeFactor() {
-      if (s.factor) cholmod_l_free_factor(&s.factor, &s.common);
+    bool keep = false;
+    ~Release() {
+      if (!keep) s.release();
     }
-  } free_factor{s};
+  } release{s};
   cholmod_l_factorize(&m, s.factor, &s.common);
   clock.mark("numeric (cholmod_factorize)");
-  if (s.common.status == CHOLMOD_NOT_POSDEF || s.factor->minor < s.factor->n) {
-    cholmod_l_free_factor(&s.factor, &s.common);
-    return false;
-  }
+  if (s.common.status == CHOLMOD_NOT_POSDEF || s.factor->minor < s.factor->n) return false;
   if (s.common.status < CHOLMOD_OK) {
-    cholmod_l_free_factor(&s.factor, &s.common);
     s.check_memory();
     throw std::runtime_error("CHOLMOD could not factorise the matrix");
   }
-  // Packed simplicial columns, diagonal first: L D L^T stays so, a supernodal L L^T becomes simplicial.
   cholmod_factor* f = s.factor;
-  if (!cholmod_l_change_factor(CHOLMOD_REAL, f->is_ll, false, true, true, f, &s.common)) {
-    cholmod_l_free_factor(&s.factor, &s.common);
+  if (f->is_super) {
+    SupernodalFactor& v = s.super;
+    v.n = n;
+    v.supernodes = SuiteSparse_long(f->nsuper);
+    v.column = static_cast<const std::int64_t*>(f->super);
+    v.row_start = static_cast<const std::int64_t*>(f->pi);
+    v.row = static_cast<const std::int64_t*>(f->s);
+    v.value_start = static_cast<const std::int64_t*>(f->px);
+    v.value = static_cast<const double*>(f->x);
+    v.perm = static_cast<const std::int64_t*>(f->Perm);
+    v.schedule(forked_after_threads() ? 1 : parallel_threads());
+    clock.mark("solve schedule");
+    s.supernodal = s.ready = release.keep = true;
+    return true;
+  }
+  // Simplicial L D L^T: packed columns, diagonal first, copied.
+  if (!cholmod_l_change_factor(CHOLMOD_REAL, f->is_ll, false, true, true, s.factor, &s.common)) {
     s.check_memory();
     throw std::runtime_error("CHOLMOD could not convert the factor");
   }
-  clock.mark("to simplicial (cholmod_change_factor)");
   const auto* start = static_cast<const SuiteSparse_long*>(f->p);
   const auto* row = static_cast<const SuiteSparse_long*>(f->i);
   const auto* value = static_cast<const double*>(f->x);
   const auto* perm = static_cast<const SuiteSparse_long*>(f->Perm);
   CholeskyFactor& c = s.copy;
   c.unit_diagonal = !f->is_ll;
-  // A supernodal factor carries the explicit zeros of its relaxed supernodes: dropped, except a
-  // column's first off-diagonal entry, its parent in the elimination tree that schedule() reads.
   c.start.assign(1, 0);
   c.row.reserve(std::size_t(start[n]));
   c.value.reserve(std::size_t(start[n]));
   for (SuiteSparse_long j = 0; j < n; ++j) {
-    SuiteSparse_long parent = -1;
-    for (SuiteSparse_long e = start[j] + 1; e < start[j + 1]; ++e)
-      if (parent < 0 || row[e] < row[parent]) parent = e;
-    for (SuiteSparse_long e = start[j]; e < start[j + 1]; ++e)
-      if (e == start[j] || e == parent || value[e] != 0.0)
-        c.row.push_back(std::int32_t(row[e])), c.value.push_back(value[e]);
+    for (SuiteSparse_long e = start[j]; e < start[j + 1]; ++e) c.row.push_back(std::int32_t(row[e])), c.value.push_back(value[e]);
     c.start.push_back(std::int64_t(c.row.size()));
   }
   c.perm.assign(perm, perm + n);
   cholmod_l_free_factor(&s.factor, &s.common);
   if (c.unit_diagonal)  // CHOLMOD's L D L^T also factors indefinite matrices
     for (SuiteSparse_long j = 0; j < n; ++j)
-      if (!(c.value[std::size_t(c.start[std::size_t(j)])] > 0.0)) {
-        c = CholeskyFactor{};
-        return false;
-      }
+      if (!(c.value[std::size_t(c.start[std::size_t(j)])] > 0.0)) return false;
   clock.mark("copy factor");
   c.schedule(forked_after_threads() ? 1 : parallel_threads());
   clock.mark("solve schedule");
-  s.ready = true;
+  s.ready = release.keep = true;
   return true;
 }
 
 Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& b) const {
-  if (!state_->ready) throw std::logic_error("SparseCholesky::solve before a successful factorize");
-  if (std::size_t(b.rows()) != state_->copy.size()) throw std::invalid_argument("SparseCholesky::solve: wrong row count");
+  const State& s = *state_;
+  if (!s.ready) throw std::logic_error("SparseCholesky::solve before a successful factorize");
+  const std::size_t n = s.supernodal ? std::size_t(s.super.n) : s.copy.size();
+  if (std::size_t(b.rows()) != n) throw std::invalid_argument("SparseCholesky::solve: wrong row count");
   Eigen::MatrixXd x(b.rows(), b.cols());
-  state_->copy.solve(b.data(), x.data(), int(b.cols()));
+  if (s.supernodal) s.super.solve(b.data(), x.data(), int(b.cols()));
+  else s.copy.solve(b.data(), x.data(), int(b.cols()));
   return x;
 }
 

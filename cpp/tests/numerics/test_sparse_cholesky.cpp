@@ -1,5 +1,6 @@
 // SparseCholesky (CHOLMOD factor, own multi-column parallel solve) against Eigen's SimplicialLDLT.
 #include "numerics/cholesky_factor.hpp"
+#include "numerics/supernodal_factor.hpp"
 #include "deformkit/numerics/sparse_cholesky.hpp"
 
 #include <Eigen/SparseCholesky>
@@ -132,5 +133,34 @@ TEST(CholeskyFactor, ScheduleCoversEveryColumnOnceAndSolvesTheSame) {
     f.solve(b.data(), x.data(), 3);
     EXPECT_LT((x - want).cwiseAbs().maxCoeff(), 1e-8 * want.cwiseAbs().maxCoeff()) << threads;
   }
+  }
+}
+
+// The supernodal factor is solved in place, split over cores by whole subtrees of supernodes:
+// every supernode is solved once, for any number of cores, and the solution is the same.
+TEST(SupernodalFactor, ScheduleCoversEverySupernodeOnceAndSolvesTheSame) {
+  for (bool squared : {false, true}) {
+    const SparseMatrix a = grid_system(squared ? 160 : 300, squared, 13);
+    SparseCholesky chol;
+    ASSERT_TRUE(chol.factorize(a, CholeskyKind::Supernodal));
+    ASSERT_NE(chol.supernodal_factor(), nullptr);
+    const Eigen::SimplicialLDLT<SparseMatrix> ldlt(a);
+    const Eigen::MatrixXd b = Eigen::MatrixXd::Random(a.rows(), 13);  // blocks of 12 and 1
+    const Eigen::MatrixXd want = ldlt.solve(b);
+    for (int threads : {1, 2, 3, 8}) {
+      SupernodalFactor f = *chol.supernodal_factor();
+      f.schedule(threads);
+      std::vector<int> seen(std::size_t(f.supernodes), 0);
+      for (const auto& list : f.ranges)
+        for (const auto& [lo, hi] : list)
+          for (auto s = lo; s <= hi; ++s) ++seen[std::size_t(s)];
+      for (auto s : f.top) ++seen[std::size_t(s)];
+      EXPECT_EQ(*std::min_element(seen.begin(), seen.end()), 1) << threads;
+      EXPECT_EQ(*std::max_element(seen.begin(), seen.end()), 1) << threads;
+      if (threads > 1) EXPECT_GT(f.ranges[1].size(), 0u) << "no work for the second core";
+      Eigen::MatrixXd x(a.rows(), b.cols());
+      f.solve(b.data(), x.data(), int(b.cols()));
+      EXPECT_LT((x - want).cwiseAbs().maxCoeff(), 1e-8 * want.cwiseAbs().maxCoeff()) << threads;
+    }
   }
 }

@@ -13,6 +13,7 @@
 namespace deformkit {
 
 struct CholeskyFactor;
+struct SupernodalFactor;
 
 // Supernodal (dense blocks through BLAS) factorises faster on every mesh system measured (the
 // cotangent Laplacian, its square, the rotation-invariant system); simplicial L D L^T is kept for
@@ -33,7 +34,10 @@ class SparseCholesky {
   Eigen::MatrixXd solve(const Eigen::MatrixXd& b) const;
   bool empty() const;
   std::size_t factor_nonzeros() const;
+  // The factor as single columns: a simplicial one as it is solved, a supernodal one converted on
+  // the first call (for tests: it is not what a supernodal factor's solve reads).
   const CholeskyFactor& factor() const;
+  const SupernodalFactor* supernodal_factor() const;  // null when simplicial
   const Stages& stages() const;  // where the last factorize() spent its time
 
  private:
