@@ -1,7 +1,10 @@
 #include "deformkit/numerics/constrained_quadratic.hpp"
 
 #include "core/parallel.hpp"
+#include "numerics/fill_ordering.hpp"
+#include "numerics/normal_equations.hpp"
 
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -57,20 +60,13 @@ namespace {
 // (the quadratic form keeps only the free unknowns' equations).
 std::pair<SparseMatrix, SparseMatrix> split_columns(const SparseMatrix& m, const UnknownSplit& split,
                                                     bool free_rows_only) {
-  std::vector<Eigen::Triplet<double>> f, k;
-  for (int col = 0; col < m.outerSize(); ++col)
-    for (SparseMatrix::InnerIterator it(m, col); it; ++it) {
-      const int row = free_rows_only ? split.free_index(int(it.row())) : int(it.row());
-      if (row < 0) continue;
-      if (split.free_index(col) >= 0) f.emplace_back(row, split.free_index(col), it.value());
-      else k.emplace_back(row, split.fixed_index(col), it.value());
-    }
-  const Eigen::Index rows = free_rows_only ? Eigen::Index(split.free().size()) : m.rows();
-  std::pair<SparseMatrix, SparseMatrix> out{SparseMatrix(rows, Eigen::Index(split.free().size())),
-                                            SparseMatrix(rows, Eigen::Index(split.fixed().size()))};
-  out.first.setFromTriplets(f.begin(), f.end());
-  out.second.setFromTriplets(k.begin(), k.end());
-  return out;
+  std::vector<int> free_col(std::size_t(m.cols()), -1), fixed_col(std::size_t(m.cols()), -1), free_row;
+  for (Eigen::Index c = 0; c < m.cols(); ++c) (split.is_fixed(int(c)) ? fixed_col : free_col)[std::size_t(c)] =
+      split.is_fixed(int(c)) ? split.fixed_index(int(c)) : split.free_index(int(c));
+  const auto free = Eigen::Index(split.free().size()), fixed = Eigen::Index(split.fixed().size());
+  if (!free_rows_only) return {select_columns(m, free_col, free), select_columns(m, fixed_col, fixed)};
+  for (Eigen::Index r = 0; r < m.rows(); ++r) free_row.push_back(split.free_index(int(r)));
+  return {select_columns(m, free_col, free, &free_row, free), select_columns(m, fixed_col, fixed, &free_row, free)};
 }
 
 std::vector<int> soft_positions(const SoftConstraints& soft, const UnknownSplit& split) {
@@ -92,8 +88,22 @@ ConstrainedQuadratic::~ConstrainedQuadratic() = default;
 ConstrainedQuadratic::ConstrainedQuadratic(ConstrainedQuadratic&&) noexcept = default;
 ConstrainedQuadratic& ConstrainedQuadratic::operator=(ConstrainedQuadratic&&) noexcept = default;
 
+namespace {
+
+// The caller's ordering of all n unknowns, restricted to the free ones.
+std::optional<Ordering> free_ordering(const std::vector<std::int64_t>* ordering, const UnknownSplit& split) {
+  if (!ordering) return std::nullopt;
+  if (ordering->size() != split.size())
+    throw std::invalid_argument("ConstrainedQuadratic: the ordering must have one entry per unknown");
+  std::vector<int> index(split.size());
+  for (std::size_t i = 0; i < split.size(); ++i) index[i] = split.free_index(int(i));
+  return restricted_ordering(*ordering, index);
+}
+
+}  // namespace
+
 ConstrainedQuadratic ConstrainedQuadratic::quadratic(const SparseMatrix& a, UnknownSplit split, SoftConstraints soft,
-                                                     CholeskyKind kind) {
+                                                     CholeskyKind kind, const std::vector<std::int64_t>* ordering) {
   if (a.rows() != a.cols() || std::size_t(a.rows()) != split.size())
     throw std::invalid_argument("ConstrainedQuadratic::quadratic: A must be n x n for n unknowns");
   ConstrainedQuadratic q;
@@ -104,13 +114,14 @@ ConstrainedQuadratic ConstrainedQuadratic::quadratic(const SparseMatrix& a, Unkn
   StageClock clock(q.stages_);
   std::tie(q.free_part_, q.fixed_part_) = split_columns(a, q.split_, true);
   clock.mark("free / fixed split");
-  q.factorize(q.free_part_, 0.0, kind, clock);
+  const std::optional<Ordering> order = free_ordering(ordering, q.split_);
+  q.factorize(lower_triangle(q.free_part_), 0.0, kind, clock, order ? &*order : nullptr);
   return q;
 }
 
 ConstrainedQuadratic ConstrainedQuadratic::least_squares(const SparseMatrix& m, UnknownSplit split,
                                                          SoftConstraints soft, double relative_ridge,
-                                                         CholeskyKind kind) {
+                                                         CholeskyKind kind, const std::vector<std::int64_t>* ordering) {
   if (std::size_t(m.cols()) != split.size())
     throw std::invalid_argument("ConstrainedQuadratic::least_squares: M must have n columns for n unknowns");
   ConstrainedQuadratic q;
@@ -122,24 +133,31 @@ ConstrainedQuadratic ConstrainedQuadratic::least_squares(const SparseMatrix& m, 
   std::tie(q.free_part_, q.fixed_part_) = split_columns(m, q.split_, false);
   clock.mark("free / fixed split");
   if (!q.split_.free().empty()) {
-    SparseMatrix normal = SparseMatrix(q.free_part_.transpose()) * q.free_part_;
+    SymmetricLower normal = normal_equations(q.free_part_);
     clock.mark("normal equations M_f^T M_f");
-    q.factorize(std::move(normal), relative_ridge, kind, clock);
+    const std::optional<Ordering> order = free_ordering(ordering, q.split_);
+    q.factorize(std::move(normal), relative_ridge, kind, clock, order ? &*order : nullptr);
   }
   return q;
 }
 
-// The ridge is measured before the soft weights go on the diagonal, so that it does not depend on them.
-void ConstrainedQuadratic::factorize(SparseMatrix system, double relative_ridge, CholeskyKind kind, StageClock& clock) {
+// The ridge is measured before the soft weights go on the diagonal, so that it does not depend on
+// them. Each column's diagonal is its first entry.
+void ConstrainedQuadratic::factorize(SymmetricLower system, double relative_ridge, CholeskyKind kind, StageClock& clock,
+                                     const Ordering* ordering) {
   if (split_.free().empty()) return;
+  const auto n = std::size_t(system.n);
   if (relative_ridge > 0) {
-    ridge_ = relative_ridge * system.diagonal().sum() / double(system.rows());
-    for (Eigen::Index k = 0; k < system.rows(); ++k) system.coeffRef(k, k) += ridge_;
+    double sum = 0;
+    for (std::size_t k = 0; k < n; ++k) sum += system.value[std::size_t(system.start[k])];
+    ridge_ = relative_ridge * sum / double(n);
+    for (std::size_t k = 0; k < n; ++k) system.value[std::size_t(system.start[k])] += ridge_;
   }
-  for (std::size_t s = 0; s < soft_free_.size(); ++s) system.coeffRef(soft_free_[s], soft_free_[s]) += soft_.weights[s];
+  for (std::size_t s = 0; s < soft_free_.size(); ++s)
+    system.value[std::size_t(system.start[std::size_t(soft_free_[s])])] += soft_.weights[s];
   solver_ = std::make_unique<SparseCholesky>();
   clock.mark("ridge and soft diagonal");
-  factorised_ = solver_->factorize(system, kind);
+  factorised_ = solver_->factorize(system, kind, ordering);
   clock.add(solver_->stages(), "");
 }
 

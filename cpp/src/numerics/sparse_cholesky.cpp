@@ -1,11 +1,13 @@
 #include "deformkit/numerics/sparse_cholesky.hpp"
 
 #include "numerics/cholesky_factor.hpp"
+#include "numerics/normal_equations.hpp"
 #include "numerics/supernodal_factor.hpp"
 #include "core/parallel.hpp"
 
 #include <cholmod.h>
 
+#include <cstdio>
 #include <mutex>
 #include <new>
 #include <stdexcept>
@@ -93,28 +95,23 @@ std::size_t SparseCholesky::factor_nonzeros() const {
   return !s.ready ? 0 : s.supernodal ? s.super.stored() : s.copy.value.size();
 }
 
-bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) {
+bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) { return factorize(lower_triangle(a), kind); }
+
+bool SparseCholesky::factorize(const SymmetricLower& a, CholeskyKind kind, const std::vector<std::int64_t>* ordering) {
   State& s = *state_;
   s.release();
   s.stages.clear();
   StageClock clock(s.stages);
-  const SuiteSparse_long n = a.rows();
-  // The lower triangle as CHOLMOD's compressed columns (stype -1).
-  std::vector<SuiteSparse_long> p(std::size_t(n) + 1, 0), rows;
-  std::vector<double> values;
-  rows.reserve(std::size_t(a.nonZeros()));
-  values.reserve(std::size_t(a.nonZeros()));
-  for (SuiteSparse_long k = 0; k < n; ++k) {
-    for (SparseMatrix::InnerIterator it(a, Eigen::Index(k)); it; ++it)
-      if (it.row() >= k) rows.push_back(it.row()), values.push_back(it.value());
-    p[std::size_t(k) + 1] = SuiteSparse_long(rows.size());
-  }
+  const SuiteSparse_long n = a.n;
+  if (ordering && ordering->size() != std::size_t(n))
+    throw std::invalid_argument("SparseCholesky::factorize: the ordering must have one entry per row");
+  // CHOLMOD's compressed columns (stype -1: the lower triangle), a view of a.
   cholmod_sparse m{};
   m.nrow = m.ncol = std::size_t(n);
-  m.nzmax = rows.size();
-  m.p = p.data();
-  m.i = rows.data();
-  m.x = values.data();
+  m.nzmax = a.row.size();
+  m.p = const_cast<std::int64_t*>(a.start.data());
+  m.i = const_cast<std::int64_t*>(a.row.data());
+  m.x = const_cast<double*>(a.value.data());
   m.stype = -1;
   m.itype = CHOLMOD_LONG;
   m.xtype = CHOLMOD_REAL;
@@ -128,11 +125,13 @@ bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) {
   s.common.final_ll = kind == CholeskyKind::Supernodal;  // simplicial: LDL^T, no square roots
   // AMD only: METIS's nested dissection saves ~10% of the factor but costs more than that in time.
   s.common.nmethods = 1;
-  s.common.method[0].ordering = CHOLMOD_AMD;
+  s.common.method[0].ordering = ordering ? CHOLMOD_GIVEN : CHOLMOD_AMD;
   s.common.postorder = 1;
-  clock.mark("lower triangle");
-  s.factor = cholmod_l_analyze(&m, &s.common);
-  clock.mark("ordering + symbolic (cholmod_analyze)");
+  s.factor = ordering ? cholmod_l_analyze_p(&m, const_cast<SuiteSparse_long*>(
+                                                    reinterpret_cast<const SuiteSparse_long*>(ordering->data())),
+                                            nullptr, 0, &s.common)
+                      : cholmod_l_analyze(&m, &s.common);
+  clock.mark(ordering ? "symbolic (cholmod_analyze_p, ordering given)" : "ordering + symbolic (cholmod_analyze)");
   if (!s.factor) {
     s.check_memory();
     throw std::runtime_error("CHOLMOD could not analyse the matrix");
@@ -144,8 +143,11 @@ bool SparseCholesky::factorize(const SparseMatrix& a, CholeskyKind kind) {
       if (!keep) s.release();
     }
   } release{s};
+  const double flops = s.common.fl;
   cholmod_l_factorize(&m, s.factor, &s.common);
-  clock.mark("numeric (cholmod_factorize)");
+  char label[96];
+  std::snprintf(label, sizeof label, "numeric (cholmod_factorize, %.2f GFlop)", flops * 1e-9);
+  clock.mark(label);
   if (s.common.status == CHOLMOD_NOT_POSDEF || s.factor->minor < s.factor->n) return false;
   if (s.common.status < CHOLMOD_OK) {
     s.check_memory();

@@ -10,18 +10,52 @@ namespace deformkit {
 
 namespace {
 
-SparseMatrix assemble(std::size_t n, std::vector<Eigen::Triplet<double>>& entries) {
-  SparseMatrix l(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
-  l.setFromTriplets(entries.begin(), entries.end());  // duplicates (shared edges) are summed
-  l.makeCompressed();
-  return l;
-}
+struct Edge {
+  int a, b;
+  double w;
+};
 
-void add_edge(std::vector<Eigen::Triplet<double>>& e, int i, int j, double w) {
-  e.emplace_back(i, j, -w);
-  e.emplace_back(j, i, -w);
-  e.emplace_back(i, i, w);
-  e.emplace_back(j, j, w);
+// L_ij = -(sum of the w of the records of edge ij), L_ii = sum of the w of i's records, each sum in
+// record order (as Eigen's setFromTriplets sums duplicates), straight into compressed columns: a
+// counting sort of the records by vertex, then each vertex's few entries sorted by neighbour.
+SparseMatrix assemble(std::size_t n, const std::vector<Edge>& edges) {
+  std::vector<std::int64_t> at(n + 1, 0);
+  for (const Edge& e : edges)
+    if (e.a != e.b) ++at[std::size_t(e.a) + 1], ++at[std::size_t(e.b) + 1];
+  for (std::size_t i = 0; i < n; ++i) at[i + 1] += at[i];
+  const std::vector<std::int64_t> start = at;
+  std::vector<std::pair<int, double>> half(std::size_t(at[n]));
+  for (const Edge& e : edges) {
+    if (e.a == e.b) continue;  // a corner repeated in a face: its terms cancel
+    half[std::size_t(at[std::size_t(e.a)]++)] = {e.b, e.w};
+    half[std::size_t(at[std::size_t(e.b)]++)] = {e.a, e.w};
+  }
+  SparseMatrix l(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+  std::vector<SparseMatrix::StorageIndex> outer(n + 1, 0), inner;
+  std::vector<double> value;
+  inner.reserve(half.size() / 2 + n);
+  value.reserve(half.size() / 2 + n);
+  for (std::size_t i = 0; i < n; ++i) {
+    auto first = half.begin() + std::ptrdiff_t(start[i]), last = half.begin() + std::ptrdiff_t(start[i + 1]);
+    double diagonal = 0;
+    for (auto it = first; it != last; ++it) diagonal += it->second;
+    std::stable_sort(first, last, [](const auto& x, const auto& y) { return x.first < y.first; });
+    bool placed = first == last;  // an isolated vertex has no row
+    for (auto it = first; it != last;) {
+      const int j = it->first;
+      double w = 0;
+      for (; it != last && it->first == j; ++it) w += it->second;
+      if (!placed && j > int(i)) inner.push_back(SparseMatrix::StorageIndex(i)), value.push_back(diagonal), placed = true;
+      inner.push_back(j), value.push_back(-w);
+    }
+    if (!placed) inner.push_back(SparseMatrix::StorageIndex(i)), value.push_back(diagonal);
+    outer[i + 1] = SparseMatrix::StorageIndex(inner.size());
+  }
+  l.resizeNonZeros(Eigen::Index(inner.size()));
+  std::copy(outer.begin(), outer.end(), l.outerIndexPtr());
+  std::copy(inner.begin(), inner.end(), l.innerIndexPtr());
+  std::copy(value.begin(), value.end(), l.valuePtr());
+  return l;
 }
 
 // A cotangent is scale-free: edges whose products would leave the double range are brought near
@@ -40,8 +74,8 @@ SparseMatrix cotangent_laplacian(const PolygonMesh& polygons) {
   const PolygonMesh fanned = polygons.all_triangles() ? PolygonMesh() : polygons.triangulate();
   const PolygonMesh& mesh = polygons.all_triangles() ? polygons : fanned;
   const std::size_t triangles = mesh.face_count();
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(12 * triangles);
+  std::vector<Edge> entries;
+  entries.reserve(3 * triangles);
   // Halved (exactly), so that an edge between coordinates near +-DBL_MAX cannot overflow.
   const double* points = mesh.points().data();
   auto p = [&](int v) -> Vec3 { return 0.5 * Vec3(points[3 * v], points[3 * v + 1], points[3 * v + 2]); };
@@ -55,7 +89,7 @@ SparseMatrix cotangent_laplacian(const PolygonMesh& polygons) {
       const double cross = u.cross(w).norm(), dot = u.dot(w);
       double cot = cross > 0.0 ? dot / cross : (dot >= 0.0 ? kMaxCotangent : -kMaxCotangent);
       cot = std::clamp(cot, -kMaxCotangent, kMaxCotangent);
-      add_edge(entries, b, c, 0.5 * cot);
+      entries.push_back({b, c, 0.5 * cot});
     }
   }
   return assemble(mesh.vertex_count(), entries);
@@ -75,9 +109,9 @@ SparseMatrix uniform_laplacian(const PolygonMesh& polygons) {
     }
   std::sort(edges.begin(), edges.end());
   edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(4 * edges.size());
-  for (const auto& [a, b] : edges) add_edge(entries, a, b, 1.0);
+  std::vector<Edge> entries;
+  entries.reserve(edges.size());
+  for (const auto& [a, b] : edges) entries.push_back({a, b, 1.0});
   return assemble(mesh.vertex_count(), entries);
 }
 

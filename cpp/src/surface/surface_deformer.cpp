@@ -1,6 +1,8 @@
 #include "deformkit/surface/surface_deformer.hpp"
 
 #include "deformkit/core/validation.hpp"
+#include "numerics/fill_ordering.hpp"
+#include "numerics/normal_equations.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -25,25 +27,28 @@ std::vector<int> checked_indices(std::vector<int> idx, std::size_t n, const char
 
 // Negative cotangent weights (an edge opposite two obtuse angles) make the ARAP global step
 // indefinite and its energy non-monotone: they are raised to a small positive floor.
-SparseMatrix with_positive_weights(const SparseMatrix& l) {
+SparseMatrix with_positive_weights(SparseMatrix l) {
   double sum = 0;
   int count = 0;
   for (int k = 0; k < l.outerSize(); ++k)
     for (SparseMatrix::InnerIterator it(l, k); it; ++it)
       if (it.row() != it.col() && -it.value() > 0) sum += -it.value(), ++count;
   const double floor = count ? 1e-3 * sum / count : 1e-3;
-  std::vector<Eigen::Triplet<double>> e;
-  for (int k = 0; k < l.outerSize(); ++k)
+  // In place: the pattern stays, each column's diagonal is the sum of its raised weights.
+  for (int k = 0; k < l.outerSize(); ++k) {
+    double diagonal = 0, *at_diagonal = nullptr;
     for (SparseMatrix::InnerIterator it(l, k); it; ++it) {
-      if (it.row() == it.col()) continue;
+      if (it.row() == it.col()) {
+        at_diagonal = &it.valueRef();
+        continue;
+      }
       const double w = std::max(-it.value(), floor);
-      e.emplace_back(it.row(), it.col(), -w);
-      e.emplace_back(it.row(), it.row(), w);
+      it.valueRef() = -w;
+      diagonal += w;
     }
-  SparseMatrix out(l.rows(), l.cols());
-  out.setFromTriplets(e.begin(), e.end());
-  out.makeCompressed();
-  return out;
+    if (at_diagonal) *at_diagonal = diagonal;
+  }
+  return l;
 }
 
 void require_meaningful_constraint_weight(const std::optional<double>& w) {
@@ -110,6 +115,12 @@ std::vector<char> fixed_vertices(const std::vector<char>& held, const std::vecto
   return fixed;
 }
 
+std::vector<int> identity_index(std::size_t n) {
+  std::vector<int> index(n);
+  for (std::size_t i = 0; i < n; ++i) index[i] = int(i);
+  return index;
+}
+
 // The same soft constraints on each of a vertex's `width` interleaved coordinates.
 SoftConstraints interleaved(const SoftConstraints& soft, int width) {
   SoftConstraints out;
@@ -154,6 +165,15 @@ SurfaceDeformer::SurfaceDeformer(PolygonMesh mesh, std::vector<int> anchors, std
       if (it.row() != it.col()) neighbors_[k].emplace_back(int(it.row()), -it.value());
   delta_ = laplacian_ * rest_;
   clock.mark("neighbour lists, delta");
+  // The fill-reducing ordering of all vertices for the system's pattern (L's, or L^T L's, which the
+  // rotation-invariant 3n system has in 3 x 3 blocks), remembered for this connectivity and
+  // restricted to the free vertices by each system.
+  const bool squared = settings.method != SurfaceMethod::Arap;
+  bool remembered = false;
+  const auto ordering = remembered_ordering(pattern_digest(laplacian_) ^ (squared ? 0x5eedull : 0x1ull), [&] {
+    return amd_ordering(squared ? normal_equations(laplacian_) : lower_triangle(laplacian_));
+  }, &remembered);
+  clock.mark(remembered ? "ordering (remembered for this connectivity)" : "ordering (AMD on all vertices)");
   if (settings.method == SurfaceMethod::RotationInvariant) {
     // With fewer than three non-collinear held vertices in a component, the linearised rotations
     // about them cost nothing: the system is singular (whether a factorisation notices depends on
@@ -165,8 +185,9 @@ SurfaceDeformer::SurfaceDeformer(PolygonMesh mesh, std::vector<int> anchors, std
                           "so it may turn freely about them; the solution nearest the 'laplacian' method's is used");
     SparseMatrix system = implicit_transform_system();
     clock.mark("implicit-transform rows (3n)");
-    implicit_system_ = ConstrainedQuadratic::least_squares(std::move(system), split_.interleaved(3),
-                                                           interleaved(soft, 3), loose ? 1e-6 : 0.0);
+    const Ordering blocks = restricted_ordering(*ordering, identity_index(n), 3);  // vertex v: unknowns 3v .. 3v + 2
+    implicit_system_ = ConstrainedQuadratic::least_squares(std::move(system), split_.interleaved(3), interleaved(soft, 3),
+                                                           loose ? 1e-6 : 0.0, CholeskyKind::Supernodal, &blocks);
     clock.add(implicit_system_.stages(), "implicit 3n: ");
     if (!implicit_system_.factorised())
       throw std::invalid_argument("faces: the mesh's rotation-invariant system could not be factorised (degenerate geometry)");
@@ -175,8 +196,10 @@ SurfaceDeformer::SurfaceDeformer(PolygonMesh mesh, std::vector<int> anchors, std
   // min ||L x' - delta||^2 over the free vertices (Sorkine et al. 2004, eq. 5), solved for the
   // displacement. Soft constraints add w^2 on their diagonal.
   laplacian_system_ = settings.method == SurfaceMethod::Arap
-                          ? ConstrainedQuadratic::quadratic(laplacian_, split_, std::move(soft))
-                          : ConstrainedQuadratic::least_squares(laplacian_, split_, std::move(soft));
+                          ? ConstrainedQuadratic::quadratic(laplacian_, split_, std::move(soft), CholeskyKind::Supernodal,
+                                                            ordering.get())
+                          : ConstrainedQuadratic::least_squares(laplacian_, split_, std::move(soft), 0.0,
+                                                                CholeskyKind::Supernodal, ordering.get());
   clock.add(laplacian_system_.stages(), settings.method == SurfaceMethod::Arap ? "L_ff: " : "L^T L: ");
   if (!laplacian_system_.factorised())
     throw std::invalid_argument("faces: the mesh's Laplacian system could not be factorised (degenerate geometry)");

@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -49,8 +50,12 @@ class ConstrainedQuadratic {
 
   // E(x) = 1/2 x^T A x - x^T b (A symmetric, n x n), x_fixed = y: the free unknowns solve
   // A_ff x_f = b_f - A_fk y (+ the soft terms). Only A's free rows are read.
+  // ordering (optional, n entries): a fill-reducing ordering of all n unknowns (e.g. remembered
+  // for the mesh's connectivity), restricted here to the free ones; without it CHOLMOD's AMD
+  // orders the free block.
   static ConstrainedQuadratic quadratic(const SparseMatrix& a, UnknownSplit split, SoftConstraints soft,
-                                        CholeskyKind kind = CholeskyKind::Supernodal);
+                                        CholeskyKind kind = CholeskyKind::Supernodal,
+                                        const std::vector<std::int64_t>* ordering = nullptr);
   // E(x) = 1/2 |M x - r|^2 (M is rows x n), x_fixed = y: the normal equations
   // M_f^T M_f x_f = M_f^T (r - M_k y) (+ the soft terms), M^T M never formed for the fixed part.
   // relative_ridge > 0 adds a Tikhonov term 1/2 rho |x_f - g|^2, rho = relative_ridge times the
@@ -58,7 +63,8 @@ class ConstrainedQuadratic {
   // a singular system, the one nearest g.
   static ConstrainedQuadratic least_squares(const SparseMatrix& m, UnknownSplit split, SoftConstraints soft,
                                             double relative_ridge = 0.0,
-                                            CholeskyKind kind = CholeskyKind::Supernodal);
+                                            CholeskyKind kind = CholeskyKind::Supernodal,
+                                            const std::vector<std::int64_t>* ordering = nullptr);
 
   ConstrainedQuadratic();
   ~ConstrainedQuadratic();
@@ -92,7 +98,8 @@ class ConstrainedQuadratic {
 
  private:
   enum class Form { Quadratic, LeastSquares };
-  void factorize(SparseMatrix system, double relative_ridge, CholeskyKind kind, StageClock& clock);
+  void factorize(SymmetricLower system, double relative_ridge, CholeskyKind kind, StageClock& clock,
+                 const std::vector<std::int64_t>* ordering);
   Matrix back_substitute(const Matrix& rhs) const;
 
   Form form_ = Form::Quadratic;

@@ -8,7 +8,9 @@
 #include <Eigen/Core>
 
 #include <cstddef>
+#include <cstdint>
 #include <memory>
+#include <vector>
 
 namespace deformkit {
 
@@ -20,6 +22,14 @@ struct SupernodalFactor;
 // small or very sparse systems and as the second code path the tests compare.
 enum class CholeskyKind { Simplicial, Supernodal };
 
+// The lower triangle of a symmetric n x n matrix in compressed columns, rows ascending, each
+// column's diagonal present and first: what CHOLMOD reads, built without an intermediate copy.
+struct SymmetricLower {
+  std::int64_t n = 0;
+  std::vector<std::int64_t> start{0}, row;  // column j: entries start[j] .. start[j + 1]
+  std::vector<double> value;
+};
+
 class SparseCholesky {
  public:
   SparseCholesky();
@@ -30,6 +40,9 @@ class SparseCholesky {
   // Factorises a (its lower triangle is read). Returns false if a is not positive definite;
   // throws std::bad_alloc when CHOLMOD runs out of memory.
   bool factorize(const SparseMatrix& a, CholeskyKind kind);
+  // The same for a lower triangle; ordering (n entries, or null for CHOLMOD's AMD): the
+  // fill-reducing permutation to use, row k of the factored system being row ordering[k] of a.
+  bool factorize(const SymmetricLower& a, CholeskyKind kind, const std::vector<std::int64_t>* ordering = nullptr);
   // X with A X = B, all columns of b at once (on every core). Safe to call from several threads.
   Eigen::MatrixXd solve(const Eigen::MatrixXd& b) const;
   bool empty() const;
