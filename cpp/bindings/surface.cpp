@@ -127,9 +127,10 @@ so that they are met only approximately, more closely as w grows.)")
                              "Non-zeros of the Cholesky factor (memory and solve time grow with it).")
       .def_property_readonly("bind_stages", [](const SurfaceDeformer& d) {
         py::list out;
-        for (const Stage& s : d.bind_stages()) out.append(py::make_tuple(s.name, s.seconds, s.page_faults));
+        for (const Stage& s : d.bind_stages()) out.append(py::make_tuple(s.name, s.seconds, s.cpu_seconds, s.page_faults));
         return out;
-      }, "Where the construction spent its time: (stage, seconds, minor page faults) in order, for benchmarks.")
+      }, "Where the construction spent its time, for benchmarks: (stage, wall seconds, the constructing thread's "
+         "CPU seconds, minor page faults) in order.")
       .def_property_readonly("energy", &SurfaceDeformer::energy, "ARAP energy after each iteration of the last deform.")
       .def_property_readonly("method", [](const SurfaceDeformer& d) { return kMethodNames.name(d.settings().method); })
       .def_property_readonly("weights_kind", [](const SurfaceDeformer& d) {

@@ -3,7 +3,11 @@
 // rotate the differential coordinates without the linearisation's scale.
 #include "deformkit/surface/surface_deformer.hpp"
 
+#include "core/parallel.hpp"
+
 #include <Eigen/Eigenvalues>
+
+#include <algorithm>
 
 namespace deformkit {
 
@@ -37,45 +41,108 @@ bool SurfaceDeformer::loosely_held(const std::vector<int>& component, int compon
   return false;
 }
 
+namespace {
+
+// The rows of the fit of T_i = s I + [h]x + t to the one-ring (Sorkine et al. 2004, sec. 4) for
+// points p_r: x, 0, z, -y (s, h) and the unit vectors (t); a ring's 3k rows by 7.
+Eigen::MatrixXd ring_rows(const Eigen::Matrix<double, Eigen::Dynamic, 3>& rest, const std::vector<int>& ring) {
+  Eigen::MatrixXd a(3 * Eigen::Index(ring.size()), 7);
+  for (std::size_t r = 0; r < ring.size(); ++r) {
+    const double x = rest(ring[r], 0), y = rest(ring[r], 1), z = rest(ring[r], 2);
+    const auto q = Eigen::Index(3 * r);
+    a.row(q) << x, 0, z, -y, 1, 0, 0;
+    a.row(q + 1) << y, -z, 0, x, 0, 1, 0;
+    a.row(q + 2) << z, y, -x, 0, 0, 0, 1;
+  }
+  return a;
+}
+
+// (s, h) as a linear map of the ring's new coordinates (4 x 3k): the first four rows of the
+// least-squares fit's pseudo-inverse. The fit of t absorbs any shift of the coordinates, so with
+// the ring centred on its mean (and scaled to unit size) the (s, h) columns are orthogonal to the
+// t ones and (s, h) = (B^T B)^-1 B^T b with B the centred (s, h) columns: a 4 x 4 solve, as exact as
+// the 7-column pseudo-inverse and ~30x cheaper. A degenerate ring (all on a line, or one point)
+// takes the pseudo-inverse of the 7 columns as it is.
+Eigen::Matrix<double, 4, Eigen::Dynamic> similarity_fit(const Eigen::Matrix<double, Eigen::Dynamic, 3>& rest,
+                                                       const std::vector<int>& ring) {
+  const auto k = Eigen::Index(ring.size());
+  Eigen::RowVector3d mean = Eigen::RowVector3d::Zero();
+  for (int v : ring) mean += rest.row(v);
+  mean /= double(k);
+  double size = 0;
+  for (int v : ring) size = std::max(size, (rest.row(v) - mean).cwiseAbs().maxCoeff());
+  if (size > 0) {
+    Eigen::Matrix<double, Eigen::Dynamic, 4> b(3 * k, 4);
+    for (Eigen::Index r = 0; r < k; ++r) {
+      const Eigen::RowVector3d q = (rest.row(ring[std::size_t(r)]) - mean) / size;
+      b.row(3 * r) << q[0], 0, q[2], -q[1];
+      b.row(3 * r + 1) << q[1], -q[2], 0, q[0];
+      b.row(3 * r + 2) << q[2], q[1], -q[0], 0;
+    }
+    const Eigen::Matrix4d gram = b.transpose() * b;
+    const Eigen::LDLT<Eigen::Matrix4d> ldlt(gram);
+    const Eigen::Vector4d d = ldlt.vectorD().cwiseAbs();
+    if (ldlt.info() == Eigen::Success && d.minCoeff() > 1e-10 * d.maxCoeff())
+      return ldlt.solve(Eigen::Matrix<double, 4, Eigen::Dynamic>(b.transpose())) / size;
+  }
+  return ring_rows(rest, ring).completeOrthogonalDecomposition().pseudoInverse().topRows(4);
+}
+
+}  // namespace
+
 // Sorkine et al. 2004, sec. 4: each vertex's transform T_i = s I + [h]x + t, fitted by least squares
 // to its one-ring, is linear in the unknown positions; the rows T_i(V') delta_i - L(V')_i then
-// ask the differential coordinates to follow their own (linearised) rotation and scale.
+// ask the differential coordinates to follow their own (linearised) rotation and scale. Built row
+// by row (a vertex's three rows at once, on the pool's threads), then turned into columns.
 SparseMatrix SurfaceDeformer::implicit_transform_system() const {
   const Eigen::Index n = rest_.rows();
-  const Matrix& delta = delta_;
-  std::vector<Eigen::Triplet<double>> e;
-  for (Eigen::Index i = 0; i < n; ++i) {
-    std::vector<int> ring{int(i)};
-    for (const auto& [j, w] : neighbors_[i]) ring.push_back(j);
-    const int k = int(ring.size());
-    Eigen::MatrixXd a(3 * k, 7);
-    for (int r = 0; r < k; ++r) {
-      const double x = rest_(ring[r], 0), y = rest_(ring[r], 1), z = rest_(ring[r], 2);
-      a.row(3 * r) << x, 0, z, -y, 1, 0, 0;
-      a.row(3 * r + 1) << y, -z, 0, x, 0, 1, 0;
-      a.row(3 * r + 2) << z, y, -x, 0, 0, 0, 1;
+  using RowMajor = Eigen::SparseMatrix<double, Eigen::RowMajor>;
+  // Per vertex: its ring ascending, the 3 x 3k block of T_i delta_i minus the Laplacian's rows.
+  std::vector<std::vector<int>> rings(static_cast<std::size_t>(n));
+  std::vector<Eigen::MatrixXd> blocks(static_cast<std::size_t>(n));
+  parallel_blocks(std::size_t(n), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      std::vector<int>& ring = rings[i];
+      ring.assign(1, int(i));
+      for (const auto& [j, w] : neighbors_[i]) ring.push_back(j);
+      std::sort(ring.begin(), ring.end());
+      const double dx = delta_(Eigen::Index(i), 0), dy = delta_(Eigen::Index(i), 1), dz = delta_(Eigen::Index(i), 2);
+      Eigen::Matrix<double, 3, 4> d;
+      d << dx, 0, dz, -dy,  //
+          dy, -dz, 0, dx,   //
+          dz, dy, -dx, 0;
+      // A lone vertex (k = 1) has delta = 0: it keeps delta fixed.
+      blocks[i] = d * similarity_fit(rest_, ring);  // T_i delta_i = C_i b_i, b_i the ring's coordinates
     }
-    // (s, h, t) = (A^T A)^-1 A^T b; a lone vertex (k = 1) fits nothing, so it keeps delta fixed.
-    const Eigen::MatrixXd fit = a.completeOrthogonalDecomposition().pseudoInverse();
-    const double dx = delta(i, 0), dy = delta(i, 1), dz = delta(i, 2);
-    Eigen::Matrix<double, 3, 4> d;
-    d << dx, 0, dz, -dy,  //
-        dy, -dz, 0, dx,   //
-        dz, dy, -dx, 0;
-    const Eigen::MatrixXd c = d * fit.topRows(4);  // T_i delta_i = C_i b_i, b_i the ring's coordinates
+  });
+  std::vector<RowMajor::StorageIndex> outer(std::size_t(3 * n) + 1, 0), inner;
+  std::vector<double> value;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const std::vector<int>& ring = rings[std::size_t(i)];
+    const Eigen::MatrixXd& c = blocks[std::size_t(i)];
+    SparseMatrix::InnerIterator l(laplacian_, i);  // column i = row i, ascending as the ring
+    std::vector<double> li(ring.size(), 0.0);
+    for (std::size_t r = 0; r < ring.size(); ++r) {
+      while (l && l.row() < ring[r]) ++l;
+      if (l && l.row() == ring[r]) li[r] = l.value();
+    }
     for (int row = 0; row < 3; ++row) {
-      for (int r = 0; r < k; ++r)
-        for (int col = 0; col < 3; ++col)
-          if (c(row, 3 * r + col) != 0.0) e.emplace_back(int(3 * i + row), 3 * ring[r] + col, c(row, 3 * r + col));
-      // - (L V')_i
-      for (SparseMatrix::InnerIterator it(laplacian_, i); it; ++it)
-        e.emplace_back(int(3 * i + row), int(3 * it.row() + row), -it.value());
+      for (std::size_t r = 0; r < ring.size(); ++r)
+        for (int col = 0; col < 3; ++col) {
+          const double v = c(row, Eigen::Index(3 * r) + col);
+          // - (L V')_i on the row's own coordinate
+          if (col == row) inner.push_back(3 * ring[r] + col), value.push_back(v + -li[r]);
+          else if (v != 0.0) inner.push_back(3 * ring[r] + col), value.push_back(v);
+        }
+      outer[std::size_t(3 * i + row) + 1] = RowMajor::StorageIndex(inner.size());
     }
   }
-  SparseMatrix m(3 * n, 3 * n);
-  m.setFromTriplets(e.begin(), e.end());
-  m.makeCompressed();
-  return m;
+  RowMajor m(3 * n, 3 * n);
+  m.resizeNonZeros(Eigen::Index(inner.size()));
+  std::copy(outer.begin(), outer.end(), m.outerIndexPtr());
+  std::copy(inner.begin(), inner.end(), m.innerIndexPtr());
+  std::copy(value.begin(), value.end(), m.valuePtr());
+  return SparseMatrix(m);
 }
 
 SurfaceDeformer::Matrix SurfaceDeformer::deform_rotation_invariant(const Matrix& fixed, const Matrix& pulls) const {

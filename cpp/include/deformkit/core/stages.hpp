@@ -1,6 +1,8 @@
 #pragma once
 // Where a long set-up (a bind's assembly, ordering and factorisation) spends its time: one entry
-// per stage, wall time and the minor page faults (first touches of fresh memory) taken in it.
+// per stage, wall time, the calling thread's CPU time (below the wall time when other programs
+// take the core; the pool's workers not counted) and the minor page faults (first touches of
+// fresh memory) taken in it.
 #include <chrono>
 #include <string>
 #include <vector>
@@ -9,7 +11,7 @@ namespace deformkit {
 
 struct Stage {
   std::string name;
-  double seconds = 0;
+  double seconds = 0, cpu_seconds = 0;
   long page_faults = 0;
 };
 using Stages = std::vector<Stage>;
@@ -26,6 +28,7 @@ class StageClock {
  private:
   Stages& out_;
   std::chrono::steady_clock::time_point start_;
+  double cpu_;
   long faults_;
 };
 
