@@ -53,6 +53,10 @@ void bind_surface(py::module_& m) {
 L_ij = -(cot a + cot b)/2 for an edge, L_ii = -sum of the row: symmetric, rows sum to 0. Polygons
 are fanned into triangles; cotangents are clamped to +-1e4 so degenerate triangles stay finite.)");
 
+  m.def("_forget_remembered_orderings", &SurfaceDeformer::forget_remembered_orderings,
+        "For benchmarks: forget the fill-reducing orderings that binds remember per connectivity, so that the next "
+        "bind of any mesh orders its system from scratch.");
+
   py::class_<SurfaceDeformer, std::shared_ptr<SurfaceDeformer>>(m, "SurfaceDeformer", R"(Laplacian editing and as-rigid-as-possible deformation of a mesh.
 
 points (n, 3) and faces (an (m, k) integer array or a list of polygons) are copied. anchors stay

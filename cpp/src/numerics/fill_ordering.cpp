@@ -63,6 +63,11 @@ std::shared_ptr<const Ordering> remembered_ordering(std::uint64_t key, const std
   return made;
 }
 
+void forget_remembered_orderings() {
+  const std::lock_guard<std::mutex> lock(g_orderings_mutex);
+  g_orderings.clear();
+}
+
 Ordering restricted_ordering(const Ordering& ordering, const std::vector<int>& new_index, int width) {
   Ordering out;
   out.reserve(ordering.size() * std::size_t(width));

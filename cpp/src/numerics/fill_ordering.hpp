@@ -22,6 +22,9 @@ Ordering amd_ordering(const SymmetricLower& a);
 std::shared_ptr<const Ordering> remembered_ordering(std::uint64_t key, const std::function<Ordering()>& compute,
                                                     bool* hit = nullptr);
 
+// Forgets every remembered ordering (benchmarks: the next bind of any connectivity is a first one).
+void forget_remembered_orderings();
+
 // An ordering of n unknowns restricted to those with new_index[i] >= 0, each becoming `width`
 // consecutive ones (new_index[i] * width + 0 .. width - 1), in the same relative order: removing
 // unknowns from an elimination order never adds fill.

@@ -205,6 +205,8 @@ SurfaceDeformer::SurfaceDeformer(PolygonMesh mesh, std::vector<int> anchors, std
     throw std::invalid_argument("faces: the mesh's Laplacian system could not be factorised (degenerate geometry)");
 }
 
+void SurfaceDeformer::forget_remembered_orderings() { deformkit::forget_remembered_orderings(); }
+
 SurfaceDeformer::Matrix SurfaceDeformer::fixed_positions(const double* targets) const {
   Matrix fixed(Eigen::Index(split_.fixed().size()), 3);
   for (std::size_t i = 0; i < split_.fixed().size(); ++i) fixed.row(Eigen::Index(i)) = rest_.row(split_.fixed()[i]);

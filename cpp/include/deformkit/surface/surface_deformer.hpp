@@ -57,6 +57,9 @@ class SurfaceDeformer {
   const SurfaceSettings& settings() const { return settings_; }
   const std::vector<std::string>& warnings() const { return warnings_; }
   const Stages& bind_stages() const { return bind_stages_; }  // where the construction spent its time
+  // A bind remembers the fill-reducing ordering of its connectivity for the next one; benchmarks
+  // forget it to time a first bind again.
+  static void forget_remembered_orderings();
   std::vector<double> energy() const {
     const std::lock_guard<std::mutex> lock(deforming_);
     return energy_;
