@@ -1,6 +1,6 @@
 #pragma once
 // Sparse Cholesky factorisation of a symmetric positive definite matrix: CHOLMOD (SuiteSparse)
-// orders and analyses it; factorised once, then solved for several right-hand sides in one pass
+// orders, analyses and factorises it, deformkit's solve reads the factor in place; factorised once, then solved for several right-hand sides in one pass
 // over the factor, which is what makes a re-solve of the three coordinates cheap (the solve is
 // bound by memory traffic).
 #include "deformkit/numerics/sparse.hpp"
@@ -18,11 +18,10 @@ namespace deformkit {
 struct CholeskyFactor;
 struct SupernodalFactor;
 
-// Supernodal (dense blocks; CHOLMOD's symbolic analysis, deformkit's numeric step and solve on both
-// cores) factorises faster on every mesh system measured (the cotangent Laplacian, its square, the
-// rotation-invariant system); simplicial L D L^T (CHOLMOD's throughout) is kept for small or very
-// sparse systems, for a child forked while threads ran, and as the second code path the tests
-// compare.
+// Supernodal (dense blocks through CHOLMOD's BLAS; deformkit's solve on both cores) factorises
+// faster on every mesh system measured (the cotangent Laplacian, its square, the rotation-invariant
+// system); simplicial L D L^T is kept for small or very sparse systems, for a child forked while
+// threads ran, and as the second code path the tests compare.
 enum class CholeskyKind { Simplicial, Supernodal };
 
 // The lower triangle of a symmetric n x n matrix in compressed columns, rows ascending, each
