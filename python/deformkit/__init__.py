@@ -59,6 +59,7 @@ from ._core import (
     Twist,
     build_info,
     cotangent_laplacian,
+    extrapolated_start,
     mesh_volume,
     smoothness_report,
     subdivide,
@@ -67,7 +68,7 @@ from ._core import (
 __all__ = [
     "BSplineLattice", "BarrDeformer", "Bend", "BezierFFD", "BlenderLattice", "Deformer", "DirectManipulation", "ExtendedFFD",
     "FFD", "Lattice", "LatticeBinding", "SimpleDeform", "Stack", "Stretch", "Taper", "Twist", "build_info",
-    "SurfaceDeformer", "cotangent_laplacian", "mesh_volume",
+    "SurfaceDeformer", "cotangent_laplacian", "extrapolated_start", "mesh_volume",
     "LimitSurface", "SmoothnessReport", "SubdividedMesh", "Subdivider", "SUBDIVISION_MAX_FACES", "SUBDIVISION_MAX_LEVEL",
     "smoothness_report", "subdivide",
     "CageBinding", "CageDeformer", "GreenCage", "MeanValueCage",

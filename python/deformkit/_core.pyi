@@ -186,6 +186,12 @@ def cotangent_laplacian(points: npt.ArrayLike, faces: npt.ArrayLike | Sequence[S
                         ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int32], npt.NDArray[np.float64]]:
     """The cotangent Laplacian as CSR (indptr, indices, data): symmetric, rows summing to 0."""
 
+def extrapolated_start(previous: npt.NDArray[np.floating], earlier: npt.NDArray[np.floating],
+                       targets: npt.NDArray[np.floating], previous_targets: npt.NDArray[np.floating],
+                       earlier_targets: npt.NDArray[np.floating]) -> npt.NDArray[np.float64]:
+    """previous + s (previous - earlier), s the handles' step projected on their last one, in [0, 2]:
+    an initial guess for SurfaceDeformer.deform over a drag."""
+
 class SurfaceDeformer:
     """Laplacian editing (Sorkine et al. 2004), its rotation-invariant form, and ARAP (Sorkine and
     Alexa 2007) on a mesh: the system is factorised here, deform() back-substitutes."""
@@ -193,7 +199,7 @@ class SurfaceDeformer:
                  anchors: npt.ArrayLike = (), handles: npt.ArrayLike = (), roi: npt.ArrayLike | None = None,
                  method: Literal["arap", "rotation_invariant", "laplacian"] = "arap",
                  weights: Literal["cotangent", "uniform"] = "cotangent", iterations: int = 10,
-                 tolerance: float = 0.0, constraint_weight: float | None = None) -> None: ...
+                 tolerance: float = 0.0, constraint_weight: float | None = None, anderson: int = 0) -> None: ...
     def deform(self, handle_targets: npt.ArrayLike, initial: npt.NDArray[np.floating] | None = None) -> npt.NDArray[np.float64]:
         """(n, 3) positions with the handles at handle_targets (len(handles), 3); ARAP warm-starts from initial (n, 3)."""
     def __len__(self) -> int: ...

@@ -217,17 +217,29 @@ def apply(obj, entry, prepared, base):
 
 
 def warm_starts(solver, key):
-    """ARAP in the viewport starts from the previous evaluation's rotations while the frame stays
-    the same (a handle dragged a little converges in a few iterations). Playback, a render and a
-    background run (the batch) start from R = I, so that a frame's result never depends on what
-    was evaluated before it (docs/blender_addon.md, the Laplacian entries)."""
+    """ARAP in the viewport starts from the previous evaluations while the frame stays the same (a
+    handle dragged a little converges in a few iterations). Playback, a render and a background run
+    (the batch) start from R = I, so that a frame's result never depends on what was evaluated
+    before it (docs/blender_addon.md, the Laplacian entries)."""
     return key is not None and key[2] == "viewport" and solver.method == "arap" and not bpy.app.background
+
+
+def drag_start(history, targets):
+    """The initial guess from this frame's last evaluations [(targets, result), ...] (oldest first):
+    none, the last result, or the last two extrapolated along the handles' drag
+    (dk.extrapolated_start)."""
+    if not history:
+        return None
+    if len(history) == 1:
+        return history[-1][1]
+    (earlier_targets, earlier), (previous_targets, previous) = history[-2:]
+    return native.dk.extrapolated_start(previous, earlier, targets, previous_targets, earlier_targets)
 
 
 def surface_deform(entry_setup, points, warm_key=None):
     """The entry's result for the incoming points (float32, like every other entry's). warm_key:
-    the evaluation's (object, entry, kind) key, under which a viewport ARAP entry keeps its last
-    result and frame to start the next evaluation of the same frame from."""
+    the evaluation's (object, entry, kind) key, under which a viewport ARAP entry keeps its last two
+    results, their targets and the frame, to start the next evaluation of the same frame from."""
     if entry_setup.solver is None:
         return points
     targets = entry_setup.targets
@@ -241,10 +253,10 @@ def surface_deform(entry_setup, points, warm_key=None):
     scene = getattr(bpy.context, "scene", None)
     frame = scene.frame_current_final if scene is not None else None
     last = cache.get("laplacian_previous", warm_key)
-    # Only this very solver's result (a rebind makes a new one), and only at the same frame.
-    initial = last[2] if last is not None and last[0] is solver and last[1] == frame else None
-    result = solver.deform(targets, initial=initial)
-    cache.put("laplacian_previous", warm_key, (solver, frame, result))
+    # Only this very solver's results (a rebind makes a new one), and only at the same frame.
+    history = last[2] if last is not None and last[0] is solver and last[1] == frame else []
+    result = solver.deform(targets, initial=drag_start(history, targets))
+    cache.put("laplacian_previous", warm_key, (solver, frame, (history + [(np.array(targets, np.float64), result)])[-2:]))
     return result.astype(np.float32)
 
 

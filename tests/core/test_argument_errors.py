@@ -77,6 +77,7 @@ ENTRY_POINTS = {
     "smoothness_report": (dk.smoothness_report, "smoothness_report", (CUBE, CUBE_FACES), {}),
     "mesh_volume": (dk.mesh_volume, "mesh_volume", (CUBE, CUBE_FACES), {}),
     "cotangent_laplacian": (dk.cotangent_laplacian, "cotangent_laplacian", (GRID, QUADS), {}),
+    "extrapolated_start": (dk.extrapolated_start, "extrapolated_start", (GRID, GRID, PTS, PTS, PTS), {}),
     "deform": (lambda *a, **k: dk.Twist().deform(*a, **k), "deform", (PTS,), {}),
     "displacement": (lambda *a, **k: dk.Twist().displacement(*a, **k), "displacement", (PTS,), {}),
     "jacobian": (lambda *a, **k: dk.Twist().jacobian(*a, **k), "jacobian", (PTS,), {}),

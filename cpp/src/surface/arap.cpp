@@ -3,6 +3,7 @@
 #include "deformkit/surface/surface_deformer.hpp"
 
 #include "deformkit/numerics/best_rotation.hpp"
+#include "numerics/anderson_mixing.hpp"
 #include "core/parallel.hpp"
 
 #include <algorithm>
@@ -74,15 +75,55 @@ SurfaceDeformer::Matrix SurfaceDeformer::deform_arap(const Matrix& fixed, const 
   if (initial)
     fit_rotations(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(initial, rest_.rows(), 3), rotations);
   Matrix x = global_step();
+  auto energy_of = [&](const Matrix& y, const std::vector<Mat3>& r) {
+    double e = arap_energy(y, r);
+    for (std::size_t k = 0; k < soft.size(); ++k) e += 2 * w2[k] * (y.row(soft[k]) - pulls.row(Eigen::Index(k))).squaredNorm();
+    return e;
+  };
+  auto converged = [&] {
+    const std::size_t k = energy_.size();
+    return settings_.tolerance > 0 && k > 1 && energy_[k - 2] - energy_[k - 1] <= settings_.tolerance * energy_[k - 2];
+  };
+  if (settings_.anderson > 0) return accelerate_arap(x, rotations, global_step, energy_of, converged);
   for (int it = 0; it < settings_.iterations; ++it) {
     fit_rotations(x, rotations);
     x = global_step();
-    double e = arap_energy(x, rotations);
-    for (std::size_t k = 0; k < soft.size(); ++k) e += 2 * w2[k] * (x.row(soft[k]) - pulls.row(Eigen::Index(k))).squaredNorm();
+    energy_.push_back(energy_of(x, rotations));
+    if (converged()) break;
+  }
+  return x;
+}
+
+// Anderson-accelerated local/global (Peng et al. 2018, Alg. 1): x <- G(x) = global(local(x)) mixed
+// over the last `anderson` steps; a mixed iterate is kept only if E(x, R(x)) falls, else the plain
+// step G(x) is taken, which never raises it, so the energy stays monotone.
+SurfaceDeformer::Matrix SurfaceDeformer::accelerate_arap(Matrix x, std::vector<Mat3>& rotations,
+                                                         const std::function<Matrix()>& global_step,
+                                                         const std::function<double(const Matrix&, const std::vector<Mat3>&)>& energy_of,
+                                                         const std::function<bool()>& converged) {
+  AndersonMixing mixing(settings_.anderson);
+  fit_rotations(x, rotations);
+  double e = energy_of(x, rotations);
+  std::vector<Mat3> trial_rotations(rotations.size());
+  const auto n = Eigen::Index(x.size());
+  for (int it = 0; it < settings_.iterations; ++it) {
+    Matrix g = global_step();
+    Matrix trial(x.rows(), 3);
+    Eigen::Map<Eigen::VectorXd>(trial.data(), n) =
+        mixing.next(Eigen::Map<const Eigen::VectorXd>(x.data(), n), Eigen::Map<const Eigen::VectorXd>(g.data(), n));
+    const bool mixed = mixing.history() > 0;
+    fit_rotations(trial, trial_rotations);
+    double et = energy_of(trial, trial_rotations);
+    if (mixed && !(et < e)) {
+      trial = g;
+      fit_rotations(trial, trial_rotations);
+      et = energy_of(trial, trial_rotations);
+    }
+    x = std::move(trial);
+    rotations.swap(trial_rotations);
+    e = et;
     energy_.push_back(e);
-    const std::size_t k = energy_.size();
-    if (settings_.tolerance > 0 && k > 1 && energy_[k - 2] - energy_[k - 1] <= settings_.tolerance * energy_[k - 2])
-      break;
+    if (converged()) break;
   }
   return x;
 }

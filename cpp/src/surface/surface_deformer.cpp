@@ -63,6 +63,7 @@ double soft_weight_squared(const SurfaceSettings& s) { return s.constraint_weigh
 
 void check_settings(const SurfaceSettings& s) {
   if (s.iterations < 1 || s.iterations > 10000) throw std::invalid_argument("iterations: must be 1..10000");
+  if (s.anderson < 0 || s.anderson > 50) throw std::invalid_argument("anderson: must be 0..50");
   if (!(s.tolerance >= 0.0) || !std::isfinite(s.tolerance))
     throw std::invalid_argument("tolerance: must be a finite number >= 0");
   require_meaningful_constraint_weight(s.constraint_weight);

@@ -8,6 +8,7 @@
 
 #include "deformkit/numerics/constrained_quadratic.hpp"
 
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -22,6 +23,9 @@ struct SurfaceSettings {
   bool uniform_weights = false;
   int iterations = 10;     // ARAP local/global iterations; rotation-invariant rotation passes
   double tolerance = 0.0;  // > 0: stop when the relative energy decrease falls below it
+  // ARAP: > 0 mixes the last `anderson` local/global steps (Anderson acceleration, Peng et al.
+  // 2018); 0 is the plain alternation (Sorkine and Alexa 2007), step for step as CGAL's.
+  int anderson = 0;
   // None: anchors and handles are hard constraints (met exactly). w: soft, each adding
   // w^2 ||x_i - c_i||^2 to the least-squares energy (Sorkine et al. 2004, eq. 5), 2 w^2 ||.||^2 to
   // ARAP's, whose sum over edges counts every edge twice. w must lie in [kMinConstraintWeight,
@@ -84,6 +88,9 @@ class SurfaceDeformer {
   void fit_rotations(const Matrix& x, std::vector<Mat3>& rotations) const;
   Matrix arap_rhs(const std::vector<Mat3>& rotations) const;
   double arap_energy(const Matrix& x, const std::vector<Mat3>& rotations) const;
+  Matrix accelerate_arap(Matrix x, std::vector<Mat3>& rotations, const std::function<Matrix()>& global_step,
+                         const std::function<double(const Matrix&, const std::vector<Mat3>&)>& energy_of,
+                         const std::function<bool()>& converged);
   SparseMatrix implicit_transform_system() const;
   bool loosely_held(const std::vector<int>& component, int components, const std::vector<char>& held) const;
 

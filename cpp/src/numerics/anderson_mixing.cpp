@@ -1,0 +1,38 @@
+#include "numerics/anderson_mixing.hpp"
+
+#include <stdexcept>
+
+namespace deformkit {
+
+AndersonMixing::AndersonMixing(int window) : window_(window) {
+  if (window < 1) throw std::invalid_argument("anderson: window must be >= 1");
+}
+
+Eigen::VectorXd AndersonMixing::next(const Eigen::Ref<const Eigen::VectorXd>& x,
+                                     const Eigen::Ref<const Eigen::VectorXd>& g) {
+  Eigen::VectorXd f = g - x;
+  if (last_f_.size() == 0) {
+    df_.resize(f.size(), window_);
+    dg_.resize(f.size(), window_);
+  } else {
+    newest_ = columns_ == 0 ? 0 : (newest_ + 1) % std::size_t(window_);
+    df_.col(Eigen::Index(newest_)) = f - last_f_;
+    dg_.col(Eigen::Index(newest_)) = g - last_g_;
+    columns_ = std::min(columns_ + 1, std::size_t(window_));
+  }
+  last_f_ = f;
+  last_g_ = g;
+  if (columns_ == 0) return g;
+  const auto k = Eigen::Index(columns_);
+  // The window's normal equations (k x k), solved rank-revealing: differences that have become
+  // parallel near convergence get theta 0 instead of a blown-up combination.
+  const Eigen::MatrixXd gram = df_.leftCols(k).transpose() * df_.leftCols(k);
+  const Eigen::VectorXd rhs = df_.leftCols(k).transpose() * f;
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(gram);
+  qr.setThreshold(1e-12);
+  const Eigen::VectorXd theta = qr.solve(rhs);
+  if (!theta.allFinite()) return g;
+  return g - dg_.leftCols(k) * theta;
+}
+
+}  // namespace deformkit
