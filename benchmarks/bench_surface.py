@@ -249,6 +249,33 @@ def bandwidth(nbytes):
             {k: a.nbytes / best(read, k) / 1e9 for k in (1, 2)})
 
 
+def dense_rate(n=3000):
+    """GFlop/s of a dense n x n matrix product through numpy's BLAS (its threads: both cores), best of
+    3: what a sparse factorisation's dense kernels could reach at most on this machine."""
+    a = np.random.default_rng(0).random((n, n))
+    best = min(timeit(lambda: a @ a) for _ in range(3))
+    return 2 * n ** 3 / best / 1e9
+
+
+def timeit(work):
+    t0 = time.perf_counter()
+    work()
+    return time.perf_counter() - t0
+
+
+def numeric_limit(stages):
+    """The rotation-invariant bind's floor: its numeric factorisation's flops at the dense rate."""
+    import re
+    for name, wall, _cpu, _faults in stages:
+        m = re.search(r"implicit 3n: numeric \(.*?([\d.]+) GFlop\)", name)
+        if m:
+            gflop, rate = float(m.group(1)), dense_rate()
+            return (f"its numeric factorisation does {gflop:.1f} GFlop in {wall * 1e3:.0f} ms ({gflop / wall:.1f} GFlop/s, "
+                    f"CHOLMOD on the serial BLAS it links); a dense product through numpy's BLAS on both cores runs at "
+                    f"{rate:.1f} GFlop/s, so that step alone takes at least {gflop / rate * 1e3:.0f} ms here")
+    return None
+
+
 def resolve_limit(factor_entries, solve_seconds):
     """The re-solve's floor: the triangular solves read the factor's values (8 bytes an entry, a row
     index per supernode row besides) once forward and once backward."""
@@ -426,6 +453,10 @@ def dk_part(name, points, faces, edit, reps, ri_state, ri_limit, res, drag_toler
           f"(read + write, 1 thread), {limit['copy_gbs'][2]:.1f} GB/s (2 threads); read: {limit['read_gbs'][1]:.1f} / "
           f"{limit['read_gbs'][2]:.1f} GB/s (1 / 2 threads) -> two reads of the factor take at least "
           f"{limit['floor_ms']:.1f} ms")
+    if "rotation_invariant" in breakdown:
+        ri_limit_figures = numeric_limit(breakdown["rotation_invariant"])
+        if ri_limit_figures:
+            print("  rotation_invariant limit: " + ri_limit_figures)
     drag = arap_drag(points, faces, kw, T, drag_tolerance)
     print_drag(drag)
     res.update({"bind_laplacian_first": med(t_lap_first), "bind_arap_first": med(t_arap_first),
