@@ -47,6 +47,13 @@ print(f"deformkit {dk.build_info()}  |  {args.points:,} points, medians of {args
 with OtherLoad() as load:
     copy = median_ms(lambda: p64.copy())
     print(f"numpy copy of the float64 points: {copy:.2f} ms (the memory yardstick)")
+    # The jacobian's floor: writing its (n, 3, 3) float64 result, into new memory (page faults, as
+    # jacobian() without out= must) and into memory already touched (as with out=).
+    fresh = median_ms(lambda: np.full((args.points, 3, 3), 1.0))
+    touched = np.empty((args.points, 3, 3))
+    refill = median_ms(lambda: touched.fill(2.0))
+    print(f"numpy writing an ({args.points:,}, 3, 3) float64 array: {fresh:.2f} ms new (np.full), {refill:.2f} ms "
+          f"already touched (fill): the jacobian's floor without and with out= (one thread)")
     head = (f"{'deformer':20} {'deform f64':>10} {'deform f32':>10} {'jacobian':>9} {'normals f64':>11} {'normals f32':>11}"
             f" {'volume':>7} {'jac out=':>9}   (ms)")
     jac_out = np.empty((args.points, 3, 3))

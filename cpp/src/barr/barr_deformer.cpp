@@ -192,15 +192,18 @@ static void scalar_jacobian(const BarrOp& op, const Placement& placement, const 
     for (int c = 0; c < 3; ++c) jac[3 * r + c] = j(r, c);
 }
 
-void BarrDeformer::jacobian_impl(const double* in, double* jac, std::size_t n) const {
+bool BarrDeformer::jacobian_impl(const double* in, double* jac, std::size_t n) const {
   const BarrKernelParams params = kernel_params(op_, placement_);
   const bool simd = simd_eligible(false);
+  std::atomic<bool> verified{simd};
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    // A block the lanes cannot finish (a non-finite row) goes through the scalar formulas, whose
-    // results the caller checks.
+    // The lanes mark every non-finite input and entry; a block they cannot finish goes through the
+    // scalar formulas, whose results the caller checks.
     if (simd && barr_jacobian_kernel(params, nullptr, in + 3 * begin, jac + 9 * begin, end - begin)) return;
+    verified = false;
     for (std::size_t i = begin; i < end; ++i) scalar_jacobian(op_, placement_, in + 3 * i, jac + 9 * i);
   });
+  return verified;
 }
 
 // A row the lanes left to the scalar path: J blended by its weight, as Deformer::jacobian does.

@@ -127,13 +127,14 @@ bool SimpleDeform::deform_any(const T* in, T* out, std::size_t n) const {
 bool SimpleDeform::deform_impl(const float* in, float* out, std::size_t n) const { return deform_any(in, out, n); }
 bool SimpleDeform::deform_impl(const double* in, double* out, std::size_t n) const { return deform_any(in, out, n); }
 
-void SimpleDeform::jacobian_impl(const double* in, double* jac, std::size_t n) const {
+bool SimpleDeform::jacobian_impl(const double* in, double* jac, std::size_t n) const {
   const auto barr = resolve(in, n);
   if (barr) {
-    barr->jacobian(in, jac, n);
-    return;
+    barr->jacobian(in, jac, n);  // checked there: it returns only with finite rows and entries
+    return true;
   }
   identity_jacobians(jac, n);
+  return false;
 }
 
 // Rows that are not finite are left to the generic path, which names the argument in its order.

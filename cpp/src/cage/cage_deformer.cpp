@@ -159,7 +159,7 @@ bool CageDeformer::deform_impl(const float* in, float* out, std::size_t n) const
 bool CageDeformer::deform_impl(const double* in, double* out, std::size_t n) const { return deform_points(in, out, n); }
 
 // J = sum_j c_j (grad w_j)^T, with the coordinate kind's exact gradients.
-void CageDeformer::jacobian_impl(const double* in, double* jac, std::size_t n) const {
+bool CageDeformer::jacobian_impl(const double* in, double* jac, std::size_t n) const {
   const std::size_t m = columns();
   std::vector<double> c(3 * m);
   control_values(c.data());
@@ -174,6 +174,7 @@ void CageDeformer::jacobian_impl(const double* in, double* jac, std::size_t n) c
       std::copy(j, j + 9, jac + 9 * i);
     }
   });
+  return false;
 }
 
 template <class T>

@@ -117,15 +117,17 @@ static void blend_jacobians(const std::vector<double>& w, double* jac, std::size
 
 void Deformer::jacobian(const double* in, double* jac, std::size_t n, bool float32_result) const {
   require_weight_count(weights_, n, "points", "rows");
-  require_finite_rows(in, n, "points");
   if (is_identity()) {
+    require_finite_rows(in, n, "points");
     identity_jacobians(jac, n);
     return;
   }
-  jacobian_impl(in, jac, n);
+  const bool verified = jacobian_impl(in, jac, n);
   // (1 - w) I + w J with w in [0, 1] is finite where J is: one check after the blend serves both.
   const double limit = float32_result ? double(std::numeric_limits<float>::max()) : kDoubleMax;
   if (!weights_.empty()) blend_jacobians(weights_, jac, n);
+  if (verified && !float32_result) return;
+  require_finite_rows(in, n, "points");  // a bad input row is named before the results it spoilt
   require_finite_results_of(jac, n, 9, "Jacobian", in, limit);
 }
 

@@ -76,7 +76,7 @@ bool Stack::deform_any(const T* in, T* out, std::size_t n) const {
 bool Stack::deform_impl(const float* in, float* out, std::size_t n) const { return deform_any(in, out, n); }
 bool Stack::deform_impl(const double* in, double* out, std::size_t n) const { return deform_any(in, out, n); }
 
-void Stack::jacobian_impl(const double* in, double* jac, std::size_t n) const {
+bool Stack::jacobian_impl(const double* in, double* jac, std::size_t n) const {
   identity_jacobians(jac, n);
   std::vector<double> points(in, in + 3 * n), stage(9 * n);
   for (std::size_t s = 0; s < deformers_.size(); ++s) {
@@ -96,6 +96,7 @@ void Stack::jacobian_impl(const double* in, double* jac, std::size_t n) const {
       throw member_error(s, e);
     }
   }
+  return false;
 }
 
 }  // namespace deformkit

@@ -122,8 +122,9 @@ bool ControlLattice::derivative_lanes(int what, const T* in, const T* normals, T
   return true;
 }
 
-void ControlLattice::jacobian_impl(const double* in, double* jac, std::size_t n) const {
+bool ControlLattice::jacobian_impl(const double* in, double* jac, std::size_t n) const {
   if (!derivative_lanes(kJacobian, in, static_cast<const double*>(nullptr), jac, n)) reference_jacobian(in, jac, n);
+  return false;
 }
 
 bool ControlLattice::normals_impl(const double* points, const double* normals, double* out, std::size_t n) const {

@@ -145,7 +145,7 @@ bool RbfDeformer::deform_impl(const float* in, float* out, std::size_t n) const 
 bool RbfDeformer::deform_impl(const double* in, double* out, std::size_t n) const { return deform_points(in, out, n); }
 
 // J = I + sum_j alpha_j (phi'(r_j) / r_j) (x - c_j)^T + sum_k beta_k (grad q_k)^T.
-void RbfDeformer::jacobian_impl(const double* in, double* jac, std::size_t n) const {
+bool RbfDeformer::jacobian_impl(const double* in, double* jac, std::size_t n) const {
   const std::size_t m = control_count();
   const RbfPolynomial& poly = fit_->polynomial();
   const int t = poly.terms();
@@ -179,6 +179,7 @@ void RbfDeformer::jacobian_impl(const double* in, double* jac, std::size_t n) co
       std::copy(j, j + 9, jac + 9 * i);
     }
   });
+  return false;
 }
 
 std::uint64_t RbfDeformer::layout() const {

@@ -135,7 +135,10 @@ class TableDeformer : public BoundDeformer {
   }
   bool deform_impl(const float* in, float* out, std::size_t n) const override { return direct(in, out, n); }
   bool deform_impl(const double* in, double* out, std::size_t n) const override { return direct(in, out, n); }
-  void jacobian_impl(const double*, double* jac, std::size_t n) const override { identity_jacobians(jac, n); }
+  bool jacobian_impl(const double*, double* jac, std::size_t n) const override {
+    identity_jacobians(jac, n);
+    return false;
+  }
 
  private:
   template <class T>

@@ -43,7 +43,10 @@ class Deformer {
   // Return false when some input or output row is not finite (the output is then unspecified).
   virtual bool deform_impl(const float* in, float* out, std::size_t n) const = 0;
   virtual bool deform_impl(const double* in, double* out, std::size_t n) const = 0;
-  virtual void jacobian_impl(const double* in, double* jac, std::size_t n) const = 0;
+  // Return true only when every input row and every entry of J was seen finite (jacobian() then
+  // skips its two checking passes over them, a third of its memory traffic); false leaves the
+  // checks to jacobian().
+  virtual bool jacobian_impl(const double* in, double* jac, std::size_t n) const = 0;
   // Fast paths of transform_normals and volume_ratio for all n rows, the weights applied as
   // jacobian() applies them. Return false to leave the work (and any error) to the generic path
   // through jacobian(), which then recomputes every row.

@@ -19,7 +19,7 @@ class Stack : public Deformer {
  protected:
   bool deform_impl(const float* in, float* out, std::size_t n) const override;
   bool deform_impl(const double* in, double* out, std::size_t n) const override;
-  void jacobian_impl(const double* in, double* jac, std::size_t n) const override;
+  bool jacobian_impl(const double* in, double* jac, std::size_t n) const override;
 
  private:
   template <class T> bool deform_any(const T* in, T* out, std::size_t n) const;

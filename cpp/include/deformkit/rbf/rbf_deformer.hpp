@@ -61,7 +61,7 @@ class RbfDeformer : public BoundDeformer {
  private:
   bool deform_impl(const float* in, float* out, std::size_t n) const override;
   bool deform_impl(const double* in, double* out, std::size_t n) const override;
-  void jacobian_impl(const double* in, double* jac, std::size_t n) const override;
+  bool jacobian_impl(const double* in, double* jac, std::size_t n) const override;
   template <class T>
   bool deform_points(const T* in, T* out, std::size_t n) const;
   template <class T>
