@@ -53,8 +53,11 @@ constexpr int kDeterminant = static_cast<int>(CellDerivative::Determinant);
 // blends J itself); a row the lanes flag goes through the per-point formulas. False leaves the
 // call to the generic path: a lattice that is not a box, too many cells to sort by counting, an
 // input not finite or one whose lattice coordinates overflow (the generic path names it).
+// all_lanes: set when every row went through the lanes, which saw each input and result finite.
 template <class T>
-bool ControlLattice::derivative_lanes(int what, const T* in, const T* normals, T* out, std::size_t n) const {
+bool ControlLattice::derivative_lanes(int what, const T* in, const T* normals, T* out, std::size_t n,
+                                      bool* all_lanes) const {
+  if (all_lanes) *all_lanes = false;
   const std::uint64_t still = still_key();
   if (!affine_ || still + 1 > kCountingSortKeys) return false;
   const CellDerivative kind = static_cast<CellDerivative>(what);
@@ -101,7 +104,10 @@ bool ControlLattice::derivative_lanes(int what, const T* in, const T* normals, T
     }
   });
   if (!usable) return false;
-  if (!flagged) return true;
+  if (!flagged) {
+    if (all_lanes) *all_lanes = true;
+    return true;
+  }
   // Flagged rows through the per-point formulas, blended and scale-free as the generic path is.
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
@@ -123,8 +129,10 @@ bool ControlLattice::derivative_lanes(int what, const T* in, const T* normals, T
 }
 
 bool ControlLattice::jacobian_impl(const double* in, double* jac, std::size_t n) const {
-  if (!derivative_lanes(kJacobian, in, static_cast<const double*>(nullptr), jac, n)) reference_jacobian(in, jac, n);
-  return false;
+  bool all_lanes = false;
+  if (!derivative_lanes(kJacobian, in, static_cast<const double*>(nullptr), jac, n, &all_lanes))
+    reference_jacobian(in, jac, n);
+  return all_lanes;
 }
 
 bool ControlLattice::normals_impl(const double* points, const double* normals, double* out, std::size_t n) const {

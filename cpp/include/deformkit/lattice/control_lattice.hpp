@@ -106,7 +106,7 @@ class ControlLattice : public BoundDeformer {
   bool normals_impl(const float* points, const float* normals, float* out, std::size_t n) const override;
   bool volume_ratio_impl(const double* points, double* out, std::size_t n) const override;
   template <class T>
-  bool derivative_lanes(int what, const T* in, const T* normals, T* out, std::size_t n) const;
+  bool derivative_lanes(int what, const T* in, const T* normals, T* out, std::size_t n, bool* all_lanes = nullptr) const;
   Mat3 jacobian_at(const Vec3& x, bool& overflow) const;
   // Rows [0, n): parameters, status (or null), cell key (still's for a point left unchanged),
   // local and ds (or null) as cell_key's. False when some row's parameters are not finite (its
