@@ -70,4 +70,12 @@ with OtherLoad() as load:
             print(f"{'':20} / deform: jacobian {ratios[0]:.2f}x, normals f64 {ratios[1]:.2f}x, f32 {ratios[2]:.2f}x, "
                   f"volume {ratios[3]:.2f}x (<= 2x: {'met' if max(ratios) <= 2 else 'missed'});  bind f64 "
                   f"{bind[0]:.2f} ms, f32 {bind[1]:.2f} ms (<= 10 ms: {'met' if max(bind) <= 10 else 'missed'})")
+    # The bind's floor: what it writes into new memory per point (parameters 3 doubles, status 1
+    # byte, order 4 bytes, the points and their cell coordinates sorted by cell, 6 values), written
+    # by numpy into a new array of that size.
+    for label, value_bytes in (("f64", 8), ("f32", 4)):
+        nbytes = args.points * (3 * 8 + 1 + 4 + 6 * value_bytes)
+        floor = median_ms(lambda: np.full(nbytes, 1, np.uint8))
+        print(f"lattice bind {label} writes {nbytes / 1e6:.0f} MB into new memory; numpy filling a new array of that "
+              f"size: {floor:.2f} ms (one thread)")
 print(load.report())
