@@ -142,7 +142,8 @@ def write_paths(bpy, outputs, dk, src, co, repeats):
     obj = _copy(bpy, src)
     obj.modifiers.new("deformkit", "NODES").node_group = outputs.node_group("offsets")
     mesh, n, name = obj.data, len(co), outputs.ATTR_OFFSET
-    stack = dk.Stack([dk.SimpleDeform(mode="TWIST", angle=0.5, deform_axis="Z")])
+    twist = dk.SimpleDeform(mode="TWIST", angle=0.5, deform_axis="Z")
+    stack = dk.Stack([twist])
     base, kept = np.ascontiguousarray(co, np.float32), np.empty((len(co), 3), np.float32)
 
     def deform_subtract_foreach_set():  # the add-on up to issue 19
@@ -155,10 +156,12 @@ def write_paths(bpy, outputs, dk, src, co, repeats):
 
     paths = {
         "deform, subtract, foreach_set (before)": deform_subtract_foreach_set,
-        "displacement into the attribute's memory": lambda: stack.displacement(
+        "Stack displacement (deform, then a second pass) into the attribute's memory": lambda: stack.displacement(
             base, out=outputs.vector_attribute_memory(mesh, name, n)),
-        "deform into the attribute's memory, subtract [kept]": deform_into_subtract,
-        "displacement into a kept numpy array (compute alone)": lambda: stack.displacement(base, out=kept),
+        "deform into the attribute's memory, subtract": deform_into_subtract,
+        "one-pass displacement into the attribute's memory [kept]": lambda: twist.displacement(
+            base, out=outputs.vector_attribute_memory(mesh, name, n)),
+        "one-pass displacement into a kept numpy array (compute alone)": lambda: twist.displacement(base, out=kept),
         "deform into a kept numpy array (compute alone)": lambda: stack.deform(base, out=kept),
         "np.subtract in place, 1M x 3 float32": lambda: np.subtract(kept, base, out=kept),
         "np.copyto of the 12 MB (memory floor)": lambda: np.copyto(kept, base),

@@ -371,12 +371,22 @@ def _deformed(uid, kind, built, base, pieces=None, failures=None, offsets_into=N
     return base.copy() if points is base else points
 
 
+def _one_pass_displacements():
+    """The deformer types whose displacement is one pass of SIMD lanes (Barr's)."""
+    dk = native.dk
+    return (dk.BarrDeformer, dk.Twist, dk.Bend, dk.Taper, dk.Stretch, dk.SimpleDeform)
+
+
 def _offsets(points, pending, base, out, offsets_into):
     """The end of _deformed with offsets_into: the pending stack run on `points`, minus base,
-    into offsets_into's array (`out` if already asked for). deform then one numpy subtract, not
-    dk's displacement: that runs a second threaded pass, slower at 1M points (bridge_alternatives.py)."""
+    into offsets_into's array (`out` if already asked for). One Barr deformer on the base itself:
+    its displacement, which the lanes write in one pass (F(x) - x exactly); otherwise deform then
+    one numpy subtract, faster than the generic displacement's second pass (bridge_alternatives.py)."""
     if out is None:
         out = offsets_into()
+    if (len(pending) == 1 and points is base and points.dtype == out.dtype
+            and isinstance(pending[0], _one_pass_displacements())):
+        return pending[0].displacement(points, out=out)
     if pending:
         points = native.dk.Stack(pending).deform(points, **({"out": out} if points.dtype == out.dtype else {}))
     return np.subtract(points, base, out=out, casting="same_kind")

@@ -166,6 +166,25 @@ def test_displacement_is_deform_minus_points(dtype, rng):
         d.displacement(pts, out=pts)
 
 
+PLACED_FRAME = np.array([[0.8, -0.6, 0, 0.1], [0.6, 0.8, 0, 0.2], [0, 0, 1.5, 0.3], [0, 0, 0, 1]])
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("make", [lambda: dk.Twist(rate=1.3, limits=(-0.7, 0.8)), lambda: dk.Bend(curvature=0.9),
+                                  lambda: dk.Taper(rate=0.4), lambda: dk.Stretch(factor=0.3),
+                                  lambda: dk.Twist(rate=0.7, axis="x", frame=PLACED_FRAME),
+                                  lambda: dk.SimpleDeform(mode="TWIST", angle=1.0)], ids=["twist", "bend", "taper", "stretch", "placed", "simple"])
+def test_one_pass_displacement_is_the_offset_deform_adds(make, dtype, rng):
+    """Barr's lanes write F(x) - x in one pass: points + displacement is deform bit for bit (what
+    Blender's offsets attribute relies on), and the offset is F(x) - x to the rounding of x + it."""
+    pts = rng.uniform(-1, 1, (100_003, 3)).astype(dtype)
+    d = make()
+    disp, moved = d.displacement(pts), d.deform(pts)
+    np.testing.assert_array_equal(pts + disp, moved)
+    ulp = np.spacing(np.maximum(np.abs(pts), np.abs(moved)))
+    assert (np.abs(disp - (moved.astype(np.float64) - pts)) <= ulp).all()
+
+
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_multithreaded_results_match_the_formula(dtype, rng):
     """Large enough for both threads and every SIMD tail: against a plain numpy twist and bend."""

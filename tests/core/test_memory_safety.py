@@ -56,11 +56,12 @@ def same_meaning_variants(a):
 def test_dtype_compared_by_value(d, base):
     want = d.deform(base)
     want_jac = d.jacobian(base)
+    want_disp = d.displacement(base)
     for name, pts in same_meaning_variants(base).items():
         got = d.deform(pts)
         assert got.dtype == base.dtype, name
         np.testing.assert_array_equal(got, want, err_msg=name)
-        np.testing.assert_array_equal(d.displacement(pts), want - base, err_msg=name)
+        np.testing.assert_array_equal(d.displacement(pts), want_disp, err_msg=name)
         np.testing.assert_array_equal(d.jacobian(pts), want_jac, err_msg=name)
         np.testing.assert_array_equal(d.volume_ratio(pts), d.volume_ratio(base), err_msg=name)
         np.testing.assert_array_equal(d.transform_normals(pts, pts), d.transform_normals(base, base), err_msg=name)

@@ -178,6 +178,25 @@ bool BarrDeformer::deform_any(const T* in, T* out, std::size_t n) const {
   return finite;
 }
 
+// The lanes' offset B (g(c) - c) itself: one pass, no subtraction (Blender's offsets attribute).
+template <class T>
+static bool displacement_lanes(const BarrKernelParams& base, const T* in, T* out, std::size_t n) {
+  BarrKernelParams params = base;
+  params.displacement = true;
+  std::atomic<bool> finite{true};
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    if (!barr_kernel(params, in + 3 * begin, out + 3 * begin, end - begin)) finite = false;
+  });
+  return finite;
+}
+
+bool BarrDeformer::displacement_impl(const float* in, float* out, std::size_t n) const {
+  return simd_eligible(true) && displacement_lanes(kernel_params(op_, placement_), in, out, n);
+}
+bool BarrDeformer::displacement_impl(const double* in, double* out, std::size_t n) const {
+  return simd_eligible(false) && displacement_lanes(kernel_params(op_, placement_), in, out, n);
+}
+
 bool BarrDeformer::deform_impl(const float* in, float* out, std::size_t n) const { return deform_any(in, out, n); }
 bool BarrDeformer::deform_impl(const double* in, double* out, std::size_t n) const { return deform_any(in, out, n); }
 

@@ -110,6 +110,16 @@ HWY_INLINE bool Run(const BarrKernelParams& p, const T* in, T* out, size_t n) {
       oz = hn::Add(pz, hn::MulAdd(B6, dx, hn::MulAdd(B7, dy, hn::Mul(B8, dz))));
     }
     bad = hn::MulAdd(hn::Zero(d), ox, hn::MulAdd(hn::Zero(d), oy, hn::MulAdd(hn::Zero(d), oz, bad)));
+    if (p.displacement) {  // the offset the sums above added, exact rather than F(x) - x rounded
+      if (!kIdentity) {
+        ox = hn::MulAdd(B0, dx, hn::MulAdd(B1, dy, hn::Mul(B2, dz)));
+        oy = hn::MulAdd(B3, dx, hn::MulAdd(B4, dy, hn::Mul(B5, dz)));
+        oz = hn::MulAdd(B6, dx, hn::MulAdd(B7, dy, hn::Mul(B8, dz)));
+      } else {
+        ox = dx, oy = dy, oz = dz;
+      }
+      bad = hn::MulAdd(hn::Zero(d), ox, hn::MulAdd(hn::Zero(d), oy, hn::MulAdd(hn::Zero(d), oz, bad)));
+    }
     hn::StoreInterleaved3(ox, oy, oz, d, dst);
   };
 

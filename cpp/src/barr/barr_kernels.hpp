@@ -13,6 +13,7 @@ struct BarrKernelParams {
   double unlocked[3];       // 1 for a free canonical axis, 0 for a locked one
   double offset, slope, lo, hi;  // linear law f = offset + slope * clamp(z, lo, hi) (twist/taper)
   double k, center;         // stretch factor / bend curvature, bend centre (lo/hi: region)
+  bool displacement = false;  // write B (g(c) - c) = F(x) - x itself, not F(x) (checked as F(x) is)
 };
 
 // Processes rows [0, n); returns false if some input or output row was not finite.

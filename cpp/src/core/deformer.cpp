@@ -85,9 +85,10 @@ void Deformer::deform_verified(const float* in, float* out, std::size_t n) const
 void Deformer::deform_verified(const double* in, double* out, std::size_t n) const { deform_checked(in, out, n, true); }
 
 template <class T>
-static void displace(const Deformer& d, const T* in, T* out, std::size_t n) {
+void Deformer::displace(const T* in, T* out, std::size_t n) const {
   if (in == out) throw std::invalid_argument("out: displacement cannot be written over points");
-  d.deform(in, out, n);
+  if (weights().empty() && !is_identity() && displacement_impl(in, out, n)) return;
+  deform(in, out, n);
   std::atomic<bool> finite{true};
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     T acc = 0;  // F(x) and x finite, F(x) - x may still overflow (x near the range's end, moved far)
@@ -101,8 +102,8 @@ static void displace(const Deformer& d, const T* in, T* out, std::size_t n) {
   if (!finite) require_finite_results_of(out, n, 3, "displacement", in);
 }
 
-void Deformer::displacement(const float* in, float* out, std::size_t n) const { displace(*this, in, out, n); }
-void Deformer::displacement(const double* in, double* out, std::size_t n) const { displace(*this, in, out, n); }
+void Deformer::displacement(const float* in, float* out, std::size_t n) const { displace(in, out, n); }
+void Deformer::displacement(const double* in, double* out, std::size_t n) const { displace(in, out, n); }
 
 static void blend_jacobians(const std::vector<double>& w, double* jac, std::size_t n) {
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {

@@ -16,6 +16,8 @@ class BarrDeformer : public Deformer {
  protected:
   bool deform_impl(const float* in, float* out, std::size_t n) const override;
   bool deform_impl(const double* in, double* out, std::size_t n) const override;
+  bool displacement_impl(const float* in, float* out, std::size_t n) const override;
+  bool displacement_impl(const double* in, double* out, std::size_t n) const override;
   bool jacobian_impl(const double* in, double* jac, std::size_t n) const override;
   bool normals_impl(const double* points, const double* normals, double* out, std::size_t n) const override;
   bool normals_impl(const float* points, const float* normals, float* out, std::size_t n) const override;

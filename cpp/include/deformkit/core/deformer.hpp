@@ -47,6 +47,10 @@ class Deformer {
   // skips its two checking passes over them, a third of its memory traffic); false leaves the
   // checks to jacobian().
   virtual bool jacobian_impl(const double* in, double* jac, std::size_t n) const = 0;
+  // F(x) - x in one pass, for a deformer with no weights: false (the default) leaves the call to
+  // deform then a subtraction, which also names any error; true only when every row was finite.
+  virtual bool displacement_impl(const float*, float*, std::size_t) const { return false; }
+  virtual bool displacement_impl(const double*, double*, std::size_t) const { return false; }
   // Fast paths of transform_normals and volume_ratio for all n rows, the weights applied as
   // jacobian() applies them. Return false to leave the work (and any error) to the generic path
   // through jacobian(), which then recomputes every row.
@@ -60,6 +64,8 @@ class Deformer {
  private:
   template <class T>
   void deform_checked(const T* in, T* out, std::size_t n, bool input_verified) const;
+  template <class T>
+  void displace(const T* in, T* out, std::size_t n) const;
   std::vector<double> weights_;
 };
 
