@@ -109,6 +109,14 @@ def test_the_wheel_works_in_a_fresh_venv_with_no_library_path(fresh_venv, tmp_pa
         m = dk.subdivide(cube, faces, 2)
         assert len(m.faces) == 96 and len(m.points) == 98, (len(m.faces), len(m.points))
         assert np.all((m.points > 0) & (m.points < 1))
+        # None of the bundled libraries' Debian originals (libhwy.so.1, libcholmod.so.3, ...) is in
+        # the process: each was loaded from deformkit.libs under its hashed name.
+        import os, re
+        bundled = {{re.sub(r"-[0-9a-f]{{8}}$", "", n.split(".")[0]) for n in os.listdir({str(site)!r} + "/deformkit.libs")}}
+        mapped = set(re.findall(r"(/\\S+\\.so[.\\d]*)$", open("/proc/self/maps").read(), re.M))
+        outside = [p for p in mapped if not p.startswith({str(site)!r})]
+        assert not [p for p in outside if os.path.basename(p).split(".")[0] in bundled], outside
+        assert [p for p in mapped if "/deformkit.libs/libcholmod-" in p], mapped
         print("FRESH VENV OK")
     """))
     proc = subprocess.run([str(python), str(script)], capture_output=True, text=True, timeout=300,
