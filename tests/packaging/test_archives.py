@@ -17,9 +17,10 @@ import pytest
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 SITE = pathlib.Path(sysconfig.get_paths()["purelib"])
-# bpy 5.0 and what it imports, the only part of .venv the bpy process sees (through symlinks in a
-# folder of its own: no .venv path is on its sys.path, deformkit's development install is not).
-BPY_PARTS = ("bpy", "numpy", "numpy.libs", "zstandard", "requests", "urllib3", "idna", "certifi", "charset_normalizer")
+# bpy 5.0 and numpy (all it needs to install and run an extension): the only part of .venv the bpy
+# process sees, through symlinks in a folder of its own (no .venv path is on its sys.path, and
+# deformkit's development install is not reachable).
+BPY_PARTS = ("bpy", "numpy", "numpy.libs")
 # The base interpreter of .venv (bpy 5.0 is built for CPython 3.11), without site-packages.
 BASE_PYTHON = pathlib.Path(sysconfig.get_config_var("BINDIR")) / "python3"
 
