@@ -65,7 +65,7 @@ def packaged_manifest(source, version, wheel_name):
 
 
 def write_zip(path, entries):
-    tmp = path + ".tmp"
+    tmp = f"{path}.{os.getpid()}.tmp"  # run-unique, beside the archive: the rename is atomic
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
         for arcname, data in entries:
             zf.writestr(arcname, data)

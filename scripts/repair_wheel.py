@@ -7,8 +7,8 @@
 - THIRD_PARTY_LICENSES (dist-info/licenses/, listed in METADATA and RECORD) holds, for every
   library the wheel carries (a bundled .so, or headers compiled into _core), its copyright file; a library whose licence is not in LICENSES below
   stops the build, so that nothing ships undeclared.
-- OUT_DIR gets the repaired wheel (written under a temporary name, then renamed) and
-  auditwheel-show.txt; the wheel's path is printed.
+- OUT_DIR gets the repaired wheel and auditwheel-show.txt (each written in a run-unique folder
+  inside OUT_DIR, then renamed); the wheel's path is printed.
 """
 import base64
 import csv
@@ -18,7 +18,6 @@ import importlib.metadata
 import io
 import os
 import re
-import shutil
 import subprocess
 import sys
 import tempfile
@@ -169,14 +168,15 @@ def main(raw_wheel, out_dir):
         licensed = os.path.join(tmp, "licensed", os.path.basename(repaired))
         os.makedirs(os.path.dirname(licensed))
         add_licence_file(repaired, licence_text(components), licensed)
-        show = run([sys.executable, "-m", "auditwheel", "show", licensed])
+        show_path = os.path.join(tmp, "auditwheel-show.txt")
+        with open(show_path, "w") as fh:
+            fh.write(run([sys.executable, "-m", "auditwheel", "show", licensed]))
         for old in glob.glob(os.path.join(out_dir, "deformkit-*.whl")):
-            os.remove(old)  # one wheel in dist/: the one the archives are built from
-        shutil.move(licensed, final + ".tmp")
-        os.replace(final + ".tmp", final)
-    with open(os.path.join(out_dir, "auditwheel-show.txt.tmp"), "w") as fh:
-        fh.write(show)
-    os.replace(os.path.join(out_dir, "auditwheel-show.txt.tmp"), os.path.join(out_dir, "auditwheel-show.txt"))
+            if old != final:
+                os.remove(old)  # one wheel in dist/: the one the archives are built from
+        # tmp is a run-unique folder inside out_dir: the renames are atomic.
+        os.replace(licensed, final)
+        os.replace(show_path, os.path.join(out_dir, "auditwheel-show.txt"))
     print(final)
 
 
