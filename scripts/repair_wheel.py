@@ -5,8 +5,8 @@
 - auditwheel (pinned in requirements-dev.txt) copies every shared library outside the manylinux
   policy into deformkit.libs/, sets RPATHs and retags the wheel for the oldest glibc it supports;
 - THIRD_PARTY_LICENSES (dist-info/licenses/, listed in METADATA and RECORD) holds, for every
-  library the wheel carries (a bundled .so, or headers compiled into _core), its copyright file; a library whose licence is not in LICENSES below
-  stops the build, so that nothing ships undeclared.
+  library the wheel carries (a bundled .so, or headers compiled into _core), its copyright file;
+  a library whose licence is not in LICENSES below stops the build: nothing ships undeclared.
 - OUT_DIR gets the repaired wheel and auditwheel-show.txt (each written in a run-unique folder
   inside OUT_DIR, then renamed); the wheel's path is printed.
 """

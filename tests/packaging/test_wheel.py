@@ -100,7 +100,8 @@ def test_the_wheel_works_in_a_fresh_venv_with_no_library_path(fresh_venv, tmp_pa
         shift = pts + [0.3, -0.2, 0.5]
         out = dk.SurfaceDeformer(pts, tris, handles=handles, method="laplacian").deform(shift[handles])
         assert np.abs(out - shift).max() < 1e-10, np.abs(out - shift).max()
-        bent = dk.SurfaceDeformer(pts, tris, handles=handles, method="laplacian").deform(pts[handles] + np.array([[0, 0, 0.3]] * n + [[0, 0, 0]] * n))
+        lifted = pts[handles] + np.array([[0, 0, 0.3]] * n + [[0, 0, 0]] * n)  # one side raised
+        bent = dk.SurfaceDeformer(pts, tris, handles=handles, method="laplacian").deform(lifted)
         assert np.abs(bent - pts).max() > 0.1  # a real solve, not the rest shape
         # Catmull-Clark (OpenSubdiv): a cube refined twice has 6 * 4^2 quads and, being a closed
         # genus-0 quad mesh (V - E + F = 2, E = 2F), F + 2 points, inside the cube (convex hull).
