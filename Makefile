@@ -6,7 +6,7 @@ CMAKE := $(VENV)/bin/cmake
 JOBS := 2
 # pyproject.toml's [project] version, the one place it is written.
 VERSION = $(shell sed -n 's/^version = "\(.*\)"$$/\1/p' pyproject.toml)
-SOURCES := $(shell find cpp python -type f -not -name '*.pyc' 2>/dev/null) CMakeLists.txt pyproject.toml
+SOURCES := $(shell find cpp python cmake -type f -not -name '*.pyc' 2>/dev/null) CMakeLists.txt pyproject.toml
 
 .PHONY: demo test setup build test-cpp test-cpp-asan test-python bench screenshots wheel addon-zips clean
 
@@ -76,12 +76,18 @@ screenshots: build
 	bash scripts/setup_screenshots.sh
 	$(PY) scripts/screenshots.py --out build/screenshots
 
+# The shipped wheel (docs/install.md): built as `make build` builds it (same build/wheel folder, so
+# incrementally), then repaired by auditwheel (every non-system library bundled, the manylinux tag
+# set) and given THIRD_PARTY_LICENSES by scripts/repair_wheel.py: dist/deformkit-<v>-cp311-cp311-
+# manylinux_*.whl, with dist/auditwheel-show.txt.
 wheel: setup
-	$(PY) -m pip wheel -q --disable-pip-version-check --no-build-isolation --no-deps -w dist .
+	rm -rf build/wheel-raw
+	$(PY) -m pip wheel -q --disable-pip-version-check --no-build-isolation --no-deps -w build/wheel-raw .
+	$(PY) scripts/repair_wheel.py build/wheel-raw/deformkit-$(VERSION)-cp311-cp311-linux_x86_64.whl dist
 
 # dist/deformkit-<v>-extension.zip (Blender 4.2+) and dist/deformkit_addon-<v>-legacy.zip (3.x).
 addon-zips: wheel
-	$(PY) scripts/package_addon.py dist/deformkit-$(VERSION)-cp311-cp311-linux_x86_64.whl dist
+	$(PY) scripts/package_addon.py $$(ls dist/deformkit-$(VERSION)-cp311-cp311-manylinux_*.whl) dist
 
 clean:
 	rm -rf build dist demo_out $(VENV)/.deformkit-installed blend_fixtures/*.blend $(FIXTURES)

@@ -69,7 +69,7 @@ class DEFORMKIT_PT_stack(bpy.types.Panel):
         stack = obj.deformkit
         if not native.available():
             layout.alert = True
-            layout.label(text=native.IMPORT_ERROR, icon="ERROR")
+            panel_text.label_wrapped(layout, native.IMPORT_ERROR, "ERROR", panel_text.context_budget(context))
             return
         budget = panel_text.context_budget(context)
         row = layout.row()
