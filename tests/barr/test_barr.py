@@ -200,3 +200,15 @@ def test_multithreaded_results_match_the_formula(dtype, rng):
     bend = np.stack([x, -np.sin(th) * (z - 1 / k) + np.cos(th) * (y - yh),
                      np.cos(th) * (z - 1 / k) + 1 / k + np.sin(th) * (y - yh)], axis=1)
     np.testing.assert_allclose(dk.Bend(curvature=k, region=(-0.5, 0.6)).deform(pts), bend, atol=tol)
+
+
+@pytest.mark.parametrize("make", [lambda: dk.Twist(rate=1.7, limits=(-0.5, 0.9)), lambda: dk.Twist(rate=0.8, frame=PLACED_FRAME),
+                                  lambda: dk.Twist(profile=([-1, 0, 1], [0, 2, -1])),
+                                  lambda: dk.SimpleDeform(mode="TWIST", angle=2.0),
+                                  lambda: dk.SimpleDeform(mode="TWIST", angle=2.0, lock_x=True)],
+                         ids=["limits", "placed", "profile", "simple", "simple-lock-x"])
+def test_twist_volume_ratio_is_det_of_its_jacobian(make, rng):
+    """A twist keeps volume (det J = 1; with a locked axis it does not): against det of jacobian()."""
+    pts = rng.uniform(-1, 1, (20_003, 3))
+    d = make()
+    np.testing.assert_allclose(d.volume_ratio(pts), np.linalg.det(d.jacobian(pts)), rtol=0, atol=1e-12)

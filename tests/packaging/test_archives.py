@@ -90,15 +90,7 @@ def test_extension_installs_in_blender_5_without_the_venv(shipped, tmp_path):
         mod = sys.modules["bl_ext.user_default.deformkit"]
         assert mod.native.available(), mod.native.IMPORT_ERROR
         assert mod.native.dk.__file__.startswith({str(tmp_path)!r} + "/ext/"), mod.native.dk.__file__
-        bpy.ops.mesh.primitive_monkey_add()
-        obj = bpy.context.active_object
-        entry = mod.api.add_entry(obj, "TWIST", angle=1.0)
-        assert entry.error == "" and "deformkit" in obj.modifiers
-        rest = [v.co.copy() for v in obj.data.vertices]
-        deformed = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data.vertices
-        assert max((a.co - b).length for a, b in zip(deformed, rest)) > 1e-2  # the mesh did move
-        print("EXTENSION OK")
-    """) + MAPPED)
+    """) + deforms_a_monkey("TWIST") + 'print("EXTENSION OK")\n' + MAPPED)
     env = {"PATH": "/usr/bin:/bin", "LD_LIBRARY_PATH": "", "HOME": str(tmp_path)}
     proc = run([str(BASE_PYTHON), "-I", "-S", str(script)], env=env, cwd=tmp_path)
     print(proc.stdout[-3000:])
@@ -106,6 +98,19 @@ def test_extension_installs_in_blender_5_without_the_venv(shipped, tmp_path):
     mapped = json.loads(re.search(r"^MAPPED (.*)$", proc.stdout, re.M).group(1).replace("'", '"'))
     assert any("/libcholmod-" in m for m in mapped) and all(m.startswith(str(tmp_path / "ext")) for m in mapped), mapped
     assert re.search(r"^SYSTEM_HWY \[\]$", proc.stdout, re.M)  # Debian's libhwy is not loaded at all
+
+
+def deforms_a_monkey(kind):
+    """Script lines (for a Blender with the add-on as `mod`): a monkey given a `kind` entry moves."""
+    return textwrap.dedent(f"""
+        bpy.ops.mesh.primitive_monkey_add()
+        obj = bpy.context.active_object
+        entry = mod.api.add_entry(obj, "{kind}", angle=1.0)
+        assert entry.error == "" and "deformkit" in obj.modifiers
+        rest = [v.co.copy() for v in obj.data.vertices]
+        deformed = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data.vertices
+        assert max((a.co - b).length for a, b in zip(deformed, rest)) > 1e-2  # the mesh did move
+    """)
 
 
 def legacy_script(zip_path, tmp_path, body):
@@ -124,18 +129,10 @@ def legacy_script(zip_path, tmp_path, body):
 
 
 def test_legacy_zip_installs_in_blender_3_4(shipped, tmp_path):
-    proc = legacy_script(shipped[2], tmp_path, f"""
+    proc = legacy_script(shipped[2], tmp_path, textwrap.dedent(f"""
         assert mod.native.available(), mod.native.IMPORT_ERROR
         assert mod.native.dk.__file__.startswith({str(tmp_path)!r}), mod.native.dk.__file__
-        bpy.ops.mesh.primitive_monkey_add()
-        obj = bpy.context.active_object
-        entry = mod.api.add_entry(obj, "BEND", angle=1.0)
-        assert entry.error == "" and "deformkit" in obj.modifiers
-        rest = [v.co.copy() for v in obj.data.vertices]
-        deformed = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data.vertices
-        assert max((a.co - b).length for a, b in zip(deformed, rest)) > 1e-2
-        print("LEGACY OK", bpy.app.version_string)
-    """)
+    """) + deforms_a_monkey("BEND") + 'print("LEGACY OK", bpy.app.version_string)\n')
     print(proc.stdout[-3000:])
     assert "LEGACY OK 3.4" in proc.stdout, proc.stdout[-2000:] + proc.stderr[-2000:]
     mapped = json.loads(re.search(r"^MAPPED (.*)$", proc.stdout, re.M).group(1).replace("'", '"'))

@@ -278,6 +278,13 @@ bool BarrDeformer::normals_impl(const float* points, const float* normals, float
 }
 
 bool BarrDeformer::volume_ratio_impl(const double* points, double* out, std::size_t n) const {
+  // A twist turns x and y by t(z) and keeps z: det J = cos^2 t + sin^2 t = 1 exactly (Barr 1984),
+  // whatever the profile or placement (det B det M = 1), unless an axis is locked or weights blend J.
+  if (op_.kind == BarrKind::Twist && !op_.locked[0] && !op_.locked[1] && weights().empty()) {
+    if (!all_finite(points, n, 3)) return false;  // the generic path names the row
+    parallel_blocks(n, [&](std::size_t begin, std::size_t end) { std::fill(out + begin, out + end, 1.0); });
+    return true;
+  }
   if (!simd_eligible(false)) return false;
   const BarrKernelParams params = kernel_params(op_, placement_);
   const std::vector<double>& w = weights();

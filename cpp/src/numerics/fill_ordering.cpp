@@ -1,5 +1,7 @@
 #include "numerics/fill_ordering.hpp"
 
+#include "numerics/cholmod_view.hpp"
+
 #include <cholmod.h>
 
 #include <algorithm>
@@ -17,17 +19,7 @@ Ordering amd_ordering(const SymmetricLower& a) {
   cholmod_common common;
   cholmod_l_start(&common);
   common.print = 0;
-  cholmod_sparse m{};
-  m.nrow = m.ncol = std::size_t(a.n);
-  m.nzmax = a.row.size();
-  m.p = const_cast<std::int64_t*>(a.start.data());
-  m.i = const_cast<std::int64_t*>(a.row.data());
-  m.stype = -1;
-  m.itype = CHOLMOD_LONG;
-  m.xtype = CHOLMOD_PATTERN;
-  m.dtype = CHOLMOD_DOUBLE;
-  m.sorted = 1;
-  m.packed = 1;
+  cholmod_sparse m = cholmod_view(a, false);
   const int ok = cholmod_l_amd(&m, nullptr, 0, reinterpret_cast<SuiteSparse_long*>(perm.data()), &common);
   const int status = common.status;
   cholmod_l_finish(&common);

@@ -1,6 +1,7 @@
 #include "deformkit/numerics/sparse_cholesky.hpp"
 
 #include "numerics/cholesky_factor.hpp"
+#include "numerics/cholmod_view.hpp"
 #include "numerics/normal_equations.hpp"
 #include "numerics/supernodal_factor.hpp"
 #include "core/parallel.hpp"
@@ -120,18 +121,7 @@ bool SparseCholesky::factorize(const SymmetricLower& a, CholeskyKind kind, const
   if (ordering && ordering->size() != std::size_t(n))
     throw std::invalid_argument("SparseCholesky::factorize: the ordering must have one entry per row");
   // CHOLMOD's compressed columns (stype -1: the lower triangle), a view of a.
-  cholmod_sparse m{};
-  m.nrow = m.ncol = std::size_t(n);
-  m.nzmax = a.row.size();
-  m.p = const_cast<std::int64_t*>(a.start.data());
-  m.i = const_cast<std::int64_t*>(a.row.data());
-  m.x = const_cast<double*>(a.value.data());
-  m.stype = -1;
-  m.itype = CHOLMOD_LONG;
-  m.xtype = CHOLMOD_REAL;
-  m.dtype = CHOLMOD_DOUBLE;
-  m.sorted = 1;
-  m.packed = 1;
+  cholmod_sparse m = cholmod_view(a, true);
   // CHOLMOD's supernodal numeric factorisation opens OpenMP regions, which hang in a child forked
   // after the parent started OpenMP's threads; its simplicial path has none.
   if (forked_after_threads()) kind = CholeskyKind::Simplicial;
