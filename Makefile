@@ -4,6 +4,11 @@ VENV := .venv
 PY := $(VENV)/bin/python
 CMAKE := $(VENV)/bin/cmake
 JOBS := 2
+# ccache (found by CMakeLists.txt): paths relative to the checkout and no cwd in the hash, so the
+# module's build, the C++ tests' and other checkouts on this machine share objects; the cache lives
+# in ccache's default folder and survives between runs.
+export CCACHE_BASEDIR := $(CURDIR)
+export CCACHE_NOHASHDIR := 1
 # pyproject.toml's [project] version, the one place it is written.
 VERSION = $(shell sed -n 's/^version = "\(.*\)"$$/\1/p' pyproject.toml)
 SOURCES := $(shell find cpp python cmake -type f -not -name '*.pyc' 2>/dev/null) CMakeLists.txt pyproject.toml

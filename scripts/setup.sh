@@ -10,6 +10,8 @@ cd "$(dirname "$0")/.."
 # build: a threaded one spins on sched_yield between calls, taking a core from deformkit's own
 # OpenMP threads on a 2-core machine.
 # xvfb (xvfb-run, with xauth): a Blender 3.4 window without a screen, for the Ctrl+A test.
+# ccache: builds share objects across `make test`'s three build folders and across runs.
+# CGAL (with GMP and MPFR): exact predicates for the cage's self-intersection test.
 declare -A APT_PINS=(
   [libeigen3-dev]=3.4.0
   [libosd-dev]=3.5.0
@@ -21,6 +23,10 @@ declare -A APT_PINS=(
   [libopenblas0-serial]=0.3.21
   [xvfb]=21.1.7
   [xauth]=1.1.2
+  [ccache]=4.8+really4.7
+  [libcgal-dev]=5.5
+  [libgmp-dev]=6.2
+  [libmpfr-dev]=4.2
 )
 # Shared libraries that the PyPI bpy wheel loads on a headless machine; numpy and pytest for Blender 3.4;
 # chattr (e2fsprogs) for the batch tests' read-only folder, which root cannot otherwise make.
