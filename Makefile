@@ -65,8 +65,10 @@ test-cpp-asan: setup
 	@mkdir -p build
 	$(call cpp_tests,cpp-asan,RelWithDebInfo,-DDEFORMKIT_SANITIZE=ON)
 
+# On both cores: the tests are independent (each makes its own temporary folders), except the
+# packaging ones, which tests/conftest.py keeps on one worker.
 test-python: build
-	$(PY) -m pytest -q tests
+	$(PY) -m pytest -q -n $(JOBS) --dist loadgroup tests
 
 bench: build
 	bash scripts/setup_bench.sh
