@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 namespace deformkit {
@@ -14,10 +15,11 @@ namespace {
 // Closer than this (relative to the cage's length scale) to a vertex or a face is on it: a few
 // ulps of the coordinates, so that points computed on a face are recognised there.
 constexpr double kOnCage = 1e-14;
-// A triangle whose plane passes this close to x (relative to x's distance to the triangle's
-// nearest vertex), with x's projection outside it, is skipped: its contribution is O(h / d) there
-// while the determinant's cancellation costs O(eps d / h); both stay below 1e-8 (docs/math/cage.md,
-// "Accuracy near the cage").
+// A triangle whose plane passes this close to x (relative to x's distance to the triangle),
+// with x's projection outside it, is skipped: its contribution is O(h / rho) there while the
+// determinant's cancellation costs O(eps rho / h); both stay below 1e-8 (docs/math/cage.md,
+// "Accuracy near the cage"). The distance to the nearest vertex, an upper bound of rho, gates the
+// check, so a point away from every plane pays nothing for it.
 constexpr double kNearPlane = 1e-8;
 // A projection this far outside a triangle (in barycentric terms) still lies on it.
 constexpr double kOnEdge = 1e-12;
@@ -48,6 +50,18 @@ V<T> scaled(const V<T>& a, const T& s) {
 template <class T>
 T norm(const V<T>& a) {
   return sqrt(dot(a, a));
+}
+
+// Distance from x to the triangle's edges, given e_k = p_k - x: where x's projection falls
+// outside the triangle, its distance to the triangle.
+double distance_to_edges(const Vec3 (&e)[3]) {
+  double best = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 3; ++k) {
+    const Vec3 a = e[k], ab = e[(k + 1) % 3] - e[k];
+    const double t = std::clamp(-a.dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+    best = std::min(best, (a + t * ab).norm());
+  }
+  return best;
 }
 
 template <class T>
@@ -115,7 +129,15 @@ void MeanValueCage::weights(const T* x, T* w) const {
         for (int k = 0; k < 3; ++k) w[v[k]] = lambda[k];
         return;
       }
-      if (!inside) continue;  // in the plane beside the triangle: it subtends no solid angle
+      if (!inside) {
+        // Beside the triangle: skipped only when its plane is near compared with the triangle
+        // itself. Near an edge of it (a point just outside the cage by an edge) the contribution
+        // is not small, and the determinant form is accurate there.
+        const Vec3 ex[3] = {Vec3(value_of(ev[0].x), value_of(ev[0].y), value_of(ev[0].z)),
+                            Vec3(value_of(ev[1].x), value_of(ev[1].y), value_of(ev[1].z)),
+                            Vec3(value_of(ev[2].x), value_of(ev[2].y), value_of(ev[2].z))};
+        if (std::abs(value_of(h)) <= kNearPlane * distance_to_edges(ex)) continue;
+      }
     }
     // Thiery, Memari, Boubekeur 2018, "simple code": theta_j = 2 asin(|u_j+1 - u_j+2| / 2),
     // N_j = e_j+1 x e_j+2, w_i += (1 / D) sum_j theta_j N_i . N_j / (2 |N_j|), D = e_0 . N_0.

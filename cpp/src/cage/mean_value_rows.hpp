@@ -15,7 +15,7 @@ struct MeanValueCageView {
   const double* normals = nullptr;
   std::size_t triangle_count = 0;
   double on_cage = 0.0;     // absolute: this close to a vertex or a face's plane is on it
-  double near_plane = 0.0;  // relative to the triangle's nearest vertex: the near-plane branch
+  double near_plane = 0.0;  // relative to the triangle's nearest vertex: gates the near-plane branch
 };
 
 // Rows of mean value coordinates (m per row) of n points (n x 3), normalised to sum to 1, equal to

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <random>
+#include <utility>
 #include <stdexcept>
 
 using namespace deformkit;
@@ -200,6 +201,25 @@ TEST(MeanValueCage, ContinuousAcrossAFace) {
       EXPECT_LT((deform_one(c, on - delta * n) - at).norm(), 100 * delta);
     }
   }
+}
+
+// Just outside the cube by the edge y = z = 1, x at distance delta from it is nearly in both faces'
+// planes and beside both; the weights tend to the edge's linear interpolation, 0.63 and 0.37 at
+// vertices 3 and 7, and differ from it by about 1.05 delta (Ju, Schaefer, Warren 2005's formula in
+// long double: tests/cage/test_mvc_reference.py). Skipping both faces by their distance to their
+// nearest vertex lost 0.32 there (docs/math/cage.md, "Accuracy near the cage").
+TEST(MeanValueCage, ContinuousJustOutsideAnEdge) {
+  const MeanValueCage c = make(unit_cube());
+  std::vector<double> w(c.columns());
+  for (double delta : {1e-6, 1e-8, 3e-9, 1e-9, 1e-10, 1e-11, 1e-12})
+    for (const auto& [a, b] : {std::pair{1.0, 0.5}, std::pair{1.0, 1.0}, std::pair{0.2, 1.0}}) {
+      const Vec3 x(0.37, 1 + a * delta, 1 + b * delta);
+      c.coordinates(x, w.data(), nullptr);
+      for (std::size_t j = 0; j < w.size(); ++j) {
+        const double edge = j == 3 ? 0.63 : j == 7 ? 0.37 : 0.0;
+        EXPECT_LT(std::abs(w[j] - edge), 2 * delta + 1e-14) << "x " << x.transpose() << " weight " << j;
+      }
+    }
 }
 
 TEST(MeanValueCage, ThePolygonSplitChangesTheCoordinatesEvenOnAPlanarFace) {
