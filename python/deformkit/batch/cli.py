@@ -52,6 +52,9 @@ from .run import blender_environment, same_file
 CHECKOUT_ADDON = os.path.join(os.path.dirname(os.path.abspath(__file__)), *[os.pardir] * 3, "python_addon")
 
 
+RECIPE_LIMIT = 4 * 1024 * 1024  # bytes; a recipe of every entry kind with long object lists is a few KB
+
+
 class Parser(argparse.ArgumentParser):
     def error(self, message):
         """One line, as the issue asks of every bad command line, then exit status 2."""
@@ -96,10 +99,11 @@ def without_duplicates(pairs):
 
 def parse_recipe(path, data):
     try:
+        text = data.decode("utf-8")  # not json's guess among UTF-8, -16 and -32: a recipe is UTF-8
         if path.endswith(".toml"):
             import tomllib
-            return tomllib.loads(data.decode("utf-8"))
-        return json.loads(data, object_pairs_hook=without_duplicates)
+            return tomllib.loads(text)
+        return json.loads(text, object_pairs_hook=without_duplicates)
     except RecursionError:  # the parsers recurse per level; a recipe needs four
         raise ValueError("nested too deeply (a recipe needs four levels: recipe, deformers, entry, limits)")
     except UnicodeDecodeError as exc:
@@ -138,17 +142,21 @@ def load_recipe_schema(addon):
 
 
 def load_recipe(ap, path, recipe_schema):
-    """The checked recipe, or a one-line error naming --recipe and every bad key path."""
+    """The checked recipe, or a one-line error naming --recipe and every bad key path. Only a
+    regular file (after links) of at most RECIPE_LIMIT bytes is read: a FIFO, a device or a socket
+    would block or never end (docs/errors.md, "Files the batch command reads")."""
     if not os.path.exists(path):
         ap.error(f"--recipe: {path} not found")
     if os.path.isdir(path):
         ap.error(f"--recipe: {path} is a folder, not a recipe file")
     try:
-        with open(path, "rb") as fh:
-            data = fh.read()
-        return recipe_schema.validate(parse_recipe(path, data))
+        data = shared.read_regular_file(path, RECIPE_LIMIT)
+    except shared.FileRefused as exc:
+        ap.error(f"--recipe: {path} {exc}")
     except OSError as exc:
-        ap.error(f"--recipe: cannot read {path}: {exc.strerror}")
+        ap.error(f"--recipe: cannot read {path}: {exc.strerror or exc}")
+    try:
+        return recipe_schema.validate(parse_recipe(path, data))
     except ValueError as exc:  # RecipeError included
         ap.error(f"--recipe: {path}: {exc}")
 
