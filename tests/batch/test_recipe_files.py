@@ -10,6 +10,7 @@ import pathlib
 import socket
 import subprocess
 import sys
+import threading
 
 import pytest
 
@@ -24,6 +25,25 @@ def batch(recipe, tmp_path):
     command = [sys.executable, "-m", "deformkit.batch", str(tmp_path / "missing.blend"), "--recipe", str(recipe),
                "--out", str(tmp_path / "out"), "--addon", str(REPO / "python_addon"), "--blender", sys.executable]
     return subprocess.run(command, capture_output=True, text=True, timeout=GUARD_SECONDS, stdin=subprocess.DEVNULL)
+
+
+def guarded(fn):
+    """fn() in a daemon thread: its result or its exception, or a failure when it has not returned
+    within GUARD_SECONDS (a blocked open() must fail the test, not hang the suite)."""
+    outcome = {}
+
+    def run():
+        try:
+            outcome["value"] = fn()
+        except BaseException as exc:  # handed to the test
+            outcome["error"] = exc
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    thread.join(GUARD_SECONDS)
+    assert not thread.is_alive(), f"{fn} still blocked after {GUARD_SECONDS} s"
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["value"]
 
 
 def assert_refused(proc, message):
@@ -98,7 +118,7 @@ def test_a_fifo_swapped_in_after_the_check_does_not_block(tmp_path, monkeypatch)
     monkeypatch.setattr(shared.os, "stat", lambda path, *a, **k: regular if str(path) == str(fifo)
                         else real_stat(path, *a, **k))
     with pytest.raises(shared.FileRefused, match=r"is a FIFO \(named pipe\), not a regular file"):
-        shared.read_regular_file(str(fifo), 100)
+        guarded(lambda: shared.read_regular_file(str(fifo), 100))
 
 
 def test_a_file_that_grows_past_the_limit_while_read_is_refused(tmp_path, monkeypatch):
@@ -117,5 +137,25 @@ def test_a_file_that_grows_past_the_limit_while_read_is_refused(tmp_path, monkey
     monkeypatch.setattr(shared.os, "fstat", lambda fd: Small(real_fstat(fd)))
     monkeypatch.setattr(shared.os, "read", lambda fd, n: reads.append(n) or real_read(fd, n))
     with pytest.raises(shared.FileRefused, match="more than the 100 bytes allowed"):
-        shared.read_regular_file(str(path), 100)
+        guarded(lambda: shared.read_regular_file(str(path), 100))
     assert sum(reads) == 101
+
+
+def test_the_runs_state_files_are_read_the_same_way(tmp_path):
+    """The other files the command and its workers read where someone else may have put something
+    (the system temp folder, the shared staging folder): a FIFO or a device there is skipped as
+    unreadable, never waited for or read without end."""
+    from deformkit.batch import attempts, run, staging
+    fifo = tmp_path / "0.json"
+    os.mkfifo(fifo)
+    assert guarded(lambda: (run._read_result(str(fifo), ""), attempts._read(str(fifo)))) == (None, None)
+    assert guarded(lambda: run.input_problem(str(fifo))) == "not a file"
+    (tmp_path / "zero.json").symlink_to("/dev/zero")
+    assert guarded(lambda: attempts._read(str(tmp_path / "zero.json"))) is None
+    live = tmp_path / f"{shared.STAGING_PREFIX}{os.getpid()}-0123abcd"  # a live run's name, with a FIFO
+    live.mkdir()
+    os.mkfifo(live / "report-path")
+    assert guarded(lambda: staging.live_runs(str(tmp_path))) == {}
+    (live / "report-path").unlink()
+    (live / "report-path").write_text("/some/report.json")  # the control: a regular one is read
+    assert staging.live_runs(str(tmp_path)) == {str(live): "/some/report.json"}

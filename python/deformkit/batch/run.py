@@ -6,6 +6,7 @@ import json
 import os
 import re
 import signal
+import stat
 import subprocess
 import time
 
@@ -67,9 +68,14 @@ def input_problem(path):
         return "file not found"
     if not os.path.isfile(path):
         return "not a file"
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(8)
+    try:  # non-blocking: a FIFO swapped in after the check above cannot hang the run
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+        try:
+            if not stat.S_ISREG(os.fstat(fd).st_mode):
+                return "not a file"
+            head = os.read(fd, 8)
+        finally:
+            os.close(fd)
     except OSError as exc:
         return f"cannot read it: {exc.strerror}"
     if not head.startswith(BLEND_MAGIC):
@@ -87,10 +93,11 @@ def _read_result(path, stdout):
     """The worker's final result: from its result file, else from the line it prints when it
     cannot write that file (the file may then still hold a progress record, which is returned
     only when there is nothing better: it says at which stage the worker was)."""
-    try:
-        with open(path, encoding="utf-8") as fh:
-            found = json.load(fh)
+    try:  # in the staging folder, which others may write on a cluster: bounded, never blocking
+        found = shared.read_json_file(path, shared.STATE_FILE_LIMIT)
     except (OSError, ValueError):
+        found = None
+    if not isinstance(found, dict):
         found = None
     if found is not None and found.get("status") in ("ok", "failed"):
         return found

@@ -15,6 +15,8 @@ STAGING_PREFIX = "deformkit-batch-run-"  # + "<launcher pid>-<random>": the syst
 TEMP_MARK = ".deformkit-"                # OUTPUT + ".deformkit-<run token>.tmp.blend"
 RESULT_LINE = "DEFORMKIT-BATCH-RESULT "  # a worker that cannot write its result file prints it
 PR_SET_PDEATHSIG = 1
+# Job, result and record files: a job holds a recipe of at most 4 MiB (cli.RECIPE_LIMIT), re-indented.
+STATE_FILE_LIMIT = 64 * 1024 * 1024
 NOT_REGULAR = {stat.S_IFDIR: "a folder", stat.S_IFIFO: "a FIFO (named pipe)", stat.S_IFCHR: "a character device",
                stat.S_IFBLK: "a block device", stat.S_IFSOCK: "a socket"}
 

@@ -54,10 +54,10 @@ def live_runs(folder=None):
     for name in os.listdir(folder):
         match = STAGING.match(name)
         if match and pid_alive(int(match.group(1))):
-            try:
-                with open(os.path.join(folder, name, "report-path"), encoding="utf-8") as fh:
-                    runs[os.path.join(folder, name)] = fh.read()
-            except OSError:
+            try:  # in the system temp folder, where anyone may put a FIFO under that name
+                data = shared.read_regular_file(os.path.join(folder, name, "report-path"), 64 * 1024)
+                runs[os.path.join(folder, name)] = data.decode("utf-8")
+            except (OSError, ValueError):
                 pass
     return runs
 
@@ -126,9 +126,10 @@ def clean_stale_shared_staging(out_dir):
         if not SHARED.match(name):
             continue
         try:
-            with open(os.path.join(out_dir, name, "launcher.json"), encoding="utf-8") as fh:
-                launcher = json.load(fh)
+            launcher = shared.read_json_file(os.path.join(out_dir, name, "launcher.json"), 64 * 1024)
         except (OSError, ValueError):
+            continue
+        if not isinstance(launcher, dict):
             continue
         pid = launcher.get("pid")
         if launcher.get("host") == socket.gethostname() and isinstance(pid, int) and pid > 0 and not pid_alive(pid):
