@@ -2,7 +2,8 @@
 
     deformkit-batch INPUT... --out DIR [--recipe FILE | --evaluate-saved] [--jobs N]
                     [--blender PATH] [--addon PATH] [--report PATH] [--preview] [--smoothness]
-                    [--timeout SECONDS] [--scheduler tcp://HOST:PORT | --executor dask-local
+                    [--timeout SECONDS] [--scheduler tls://HOST:PORT --tls-ca-file CA --tls-cert CERT
+                    --tls-key KEY | --scheduler tcp://HOST:PORT | --executor dask-local
                     [--workers N] [--blender-per-worker N]] [--retries N] [--redo-complete]
 
 Each input runs in its own `blender -b --factory-startup` process with the add-on enabled. Outputs
@@ -19,7 +20,8 @@ cage. Recipes are JSON or TOML, checked against the add-on's own property ranges
     {"objects": ["Suzanne"], "deformers": [{"type": "TWIST", "angle": 1.57, "deform_axis": "Z"},
                                            {"type": "SUBDIVIDE", "levels": 2}]}
 
-On a Dask cluster (`--scheduler tcp://HOST:PORT`, or `--executor dask-local --workers N` for a
+On a Dask cluster (`--scheduler tls://HOST:PORT` with the cluster's CA and this launcher's
+certificate, tcp:// on one machine only, or `--executor dask-local --workers N` for a
 LocalCluster on this machine; options in cluster_cli.py) each input is one task on the worker that
 picks it, with inputs and outputs by path on storage all workers share, retries when a worker dies
 (`--retries`, attempts.py) and per file the worker, the attempts and the queue time in the report.
@@ -238,6 +240,10 @@ def main(argv=None, client=None):
     its own Dask cluster; the run goes there as with --scheduler, and the client stays open."""
     ap, args = arguments(argv)
     kind = cluster_cli.executor_kind(ap, args, client)
+    address = args.scheduler or (client if isinstance(client, str) else None)
+    warning = cluster_cli.plain_tcp_warning(address) if address else None
+    if warning:
+        print(warning, file=sys.stderr, flush=True)
     blender = find_blender(ap, args.blender, kind)
     addon = addon_folder(ap, args.addon)
     recipe = load_recipe(ap, args.recipe, load_recipe_schema(addon)) if args.recipe else None
