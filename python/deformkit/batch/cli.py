@@ -199,11 +199,11 @@ def check_report_path(ap, report, inputs, outputs, recipe_path):
                 ap.error(f"--report: {report} is the {kind} {path}; the report would overwrite it")
 
 
-def build_jobs(inputs, outputs, work, blender, paths, token, recipe, args):
-    """One BatchJob per input, in the report's order."""
+def build_jobs(inputs, outputs, work, blender, paths, token, recipe, args, staged=None):
+    """One BatchJob per input, in the report's order; `staged`: a cluster run's staged code."""
     return [BatchJob(index=i, input=src, output=dst, work=work, blender=blender, token=token,
                      sys_paths=tuple(paths), recipe=recipe, preview=args.preview, smoothness=args.smoothness,
-                     timeout=args.timeout, never_write=tuple(inputs))
+                     timeout=args.timeout, never_write=tuple(inputs), staged=staged)
             for i, (src, dst) in enumerate(zip(inputs, outputs))]
 
 
@@ -254,7 +254,7 @@ def main(argv=None, client=None):
     report_path = os.path.abspath(args.report or os.path.join(out_dir, "report.json"))
     check_report_path(ap, report_path, inputs, outputs, args.recipe)
     cluster = cluster_cli.open_cluster(ap, args, kind, client) if kind != "local" else None
-    token, work = shared.new_run_token(), None
+    token, work, staged = shared.new_run_token(), None, None
     try:
         _, dropped = blender_environment(blender)
         header = {"started": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
@@ -271,8 +271,8 @@ def main(argv=None, client=None):
                 work, paths = staging.make_staging(token, report_path, addon)
             else:  # on storage the workers share: OUT/.deformkit-batch-<token>
                 staging.clean_stale_shared_staging(out_dir)
-                work, paths = staging.make_shared_staging(token, report_path, addon, out_dir)
-        jobs = build_jobs(inputs, outputs, work, blender, paths, token, recipe, args)
+                work, paths, staged = staging.make_shared_staging(token, report_path, addon, out_dir)
+        jobs = build_jobs(inputs, outputs, work, blender, paths, token, recipe, args, staged)
         if cluster is not None:
             cluster_cli.check_cluster(ap, cluster, jobs)
             print(cluster_cli.opening_line(cluster, kind, len(jobs)), flush=True)

@@ -5,12 +5,14 @@ import dataclasses
 import json
 import os
 import re
+import shutil
 import signal
 import stat
 import subprocess
+import tempfile
 import time
 
-from . import shared
+from . import shared, staged_code
 
 BLEND_MAGIC = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")  # plain, gzip, zstd
 PYTHON_NAME = re.compile(r"python3(\.\d+)?$")
@@ -137,17 +139,36 @@ def blender_command(blender, job_path):
 
 def run_blender(job, environ=None):
     """Run the job's file in its own Blender; the worker's result row, or a row saying why there
-    is none (timed out, killed, exited without a result, and at which stage)."""
+    is none (timed out, killed, exited without a result, and at which stage). A job with staged
+    code (a cluster's) runs on a checked private copy of it, or fails naming the altered file."""
     src, dst = job.input, job.output
     problem = input_problem(src)
     if problem:
         return failed_row(src, dst, "InputError", problem)
     job = dataclasses.replace(job, parent_pid=os.getpid())  # Blender dies with this process
-    shared.write_json_atomically(job.job_path, job.to_dict(), job.token)
+    if job.staged is None:
+        return _run_blender(job, job.job_path, environ)
+    private = tempfile.mkdtemp(prefix="deformkit-batch-checked-")  # 0700: this worker's user only
+    try:
+        try:
+            staged_code.verified_copy(job.staged, private)
+            job = dataclasses.replace(job, sys_paths=tuple(staged_code.private_paths(job.sys_paths, job.staged,
+                                                                                     private)))
+        except staged_code.StagedFileAltered as exc:
+            return failed_row(src, dst, "StagedFileAltered", f"{exc}; it was changed after the launcher staged it, "
+                              "and this file was not run (nothing of the staged code was imported)", "verify")
+        return _run_blender(job, os.path.join(private, f"{job.index}.job.json"), environ)
+    finally:
+        shutil.rmtree(private, ignore_errors=True)
+
+
+def _run_blender(job, job_path, environ):
+    src, dst = job.input, job.output
+    shared.write_json_atomically(job_path, job.to_dict(), job.token)
     env, _ = blender_environment(job.blender, environ)
     t0 = time.perf_counter()
     try:
-        proc = subprocess.run(blender_command(job.blender, job.job_path), capture_output=True, text=True,
+        proc = subprocess.run(blender_command(job.blender, job_path), capture_output=True, text=True,
                               errors="replace", timeout=job.timeout, env=env)
         outcome = None
     except subprocess.TimeoutExpired as exc:
