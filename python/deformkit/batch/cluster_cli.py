@@ -23,8 +23,8 @@ PEM_LIMIT = 1024 * 1024  # bytes: a certificate chain or a key is a few KB
 
 def scheduler_address(text):
     if not re.fullmatch(r"(tcp|tls)://[^\s/:]+:\d{1,5}", text):
-        raise argparse.ArgumentTypeError(f"expected a scheduler address tls://HOST:PORT or tcp://HOST:PORT, "
-                                         f"got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected a scheduler address tcp://HOST:PORT, got {text!r} "
+                                         "(or tls://HOST:PORT with TLS)")
     return text
 
 
