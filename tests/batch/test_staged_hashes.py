@@ -1,10 +1,10 @@
-"""The staged code of a cluster run is checked before Blender imports it (docs/batch.md, "Staged
-code"): the launcher's hashes are SHA-256 of its own installed files (hashlib on the sources, an
-independent reading); a staged file changed after staging (at any byte, at the same size or not),
-removed, or replaced by a FIFO fails the file whose task finds it, naming the staged file, and
-its Blender never starts; a file planted in the staging folder is never imported; and on a real
-(TLS) cluster an alteration made at a deterministic point, for one file's task only, fails that
-file and nothing else."""
+"""The staged code of a cluster run is checked before Blender imports it
+(docs/batch.md, "Staged code"): the launcher's hashes are SHA-256 of its own installed files
+(hashlib on the sources, an independent reading); a staged file changed after staging (at any
+byte, at the same size or not), removed, or replaced by a FIFO fails the file whose task finds
+it, naming the staged file, and its Blender never starts; a file planted in the staging folder is
+never imported; and on a real (TLS) cluster an alteration made at a deterministic point, for one
+file's task only, fails that file and nothing else."""
 import hashlib
 import json
 import os
