@@ -285,8 +285,8 @@ def worker_main(job_path):
     names the input, the output, the recipe, whether to leave the positions for a preview,
     smoothness and the run's token; the result file (job.result_path) is rewritten at every
     stage, so that if Blender dies the launcher knows where."""
-    with open(job_path, encoding="utf-8") as fh:
-        job = batch_job.BatchJob.from_json(fh.read())
+    text = batch_io.read_regular_file(job_path, batch_io.STATE_FILE_LIMIT).decode("utf-8")
+    job = batch_job.BatchJob.from_json(text)
 
     def write(result, where=None):
         progress = {**result, "blender": bpy.app.version_string}

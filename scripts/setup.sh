@@ -29,9 +29,10 @@ declare -A APT_PINS=(
   [libmpfr-dev]=4.2
 )
 # Shared libraries that the PyPI bpy wheel loads on a headless machine; numpy and pytest for Blender 3.4;
-# chattr (e2fsprogs) for the batch tests' read-only folder, which root cannot otherwise make.
+# chattr (e2fsprogs) for the batch tests' read-only folder, which root cannot otherwise make;
+# openssl for the TLS cluster tests' certificates, made as docs/batch.md shows.
 APT_RUNTIME=(python3-pytest libgl1 libegl1 libglib2.0-0 libsm6 libxext6 libxrender1 libxi6 libxxf86vm1
-             libxfixes3 libxkbcommon0 build-essential python3-numpy e2fsprogs)
+             libxfixes3 libxkbcommon0 build-essential python3-numpy e2fsprogs openssl)
 
 source scripts/apt_pins.sh
 apt_install_pinned APT_PINS "${APT_RUNTIME[@]}"

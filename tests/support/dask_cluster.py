@@ -2,7 +2,9 @@
 project's .venv on 127.0.0.1 (ports chosen by the scheduler, its address read from its scheduler
 file), each worker with one thread and the resource blender=1, as docs/batch.md tells users to
 start them. Each process runs in its own session, so that stop() kills its whole process group
-(a worker's Blenders included) whatever state the test left it in.
+(a worker's Blenders included) whatever state the test left it in. Their HTTP servers (dashboard,
+/health) listen on 127.0.0.1 only. With `tls` (tls_certificates.make_certificates' files) the
+cluster is tls:// with the commands docs/batch.md shows.
 
     with DaskCluster(tmp_path / "cluster", workers=2) as cluster:
         cluster.address, cluster.worker_pids()  # {worker address: pid}
@@ -26,7 +28,8 @@ class DaskCluster:
     died before it raises KilledWorker; Dask's default 3). `worker_prefix`: a command the worker
     is started through (e.g. one that mounts the output folder read-only for it)."""
 
-    def __init__(self, folder, workers=2, nanny=False, allowed_failures=None, worker_prefix=()):
+    def __init__(self, folder, workers=2, nanny=False, allowed_failures=None, worker_prefix=(), tls=None):
+        self.tls = tls
         self.folder = pathlib.Path(folder)
         self.folder.mkdir(parents=True, exist_ok=True)
         self.n_workers, self.nanny, self.worker_prefix = workers, nanny, list(worker_prefix)
@@ -46,6 +49,7 @@ class DaskCluster:
         if self.allowed_failures is not None:
             env["DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES"] = str(self.allowed_failures)
         scheduler = self._start([DASK, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                                 "--dashboard-address", "127.0.0.1:0", *self._tls_options("scheduler"),
                                  "--scheduler-file", scheduler_file], "scheduler.log", env)
         deadline = time.monotonic() + START_SECONDS
         while self.address is None:
@@ -61,16 +65,32 @@ class DaskCluster:
             self.client().wait_for_workers(self.n_workers, timeout=START_SECONDS)
         return self
 
+    def _tls_options(self, role):
+        if self.tls is None:
+            return []
+        return ["--protocol", "tls", "--tls-ca-file", self.tls["ca"], "--tls-cert", self.tls[role],
+                "--tls-key", self.tls[role + "_key"]]
+
     def start_worker(self, name):
         args = [*self.worker_prefix, DASK, "worker", self.address, "--host", "127.0.0.1", "--nthreads", "1",
-                "--resources", "blender=1", "--no-dashboard", "--name", name, "--nanny" if self.nanny else "--no-nanny",
+                "--resources", "blender=1", "--no-dashboard", "--dashboard-address", "127.0.0.1:0",
+                *self._tls_options("worker"), "--name", name, "--nanny" if self.nanny else "--no-nanny",
                 "--local-directory", self.folder / name]
         return self._start(args, f"worker-{name}.log")
+
+    def security(self):
+        """The distributed.Security of a client with the launcher's certificate (None without TLS)."""
+        if self.tls is None:
+            return None
+        import distributed
+        return distributed.Security(tls_ca_file=str(self.tls["ca"]), tls_client_cert=str(self.tls["client"]),
+                                    tls_client_key=str(self.tls["client_key"]), require_encryption=True)
 
     def client(self):
         if self._client is None:
             import distributed
-            self._client = distributed.Client(self.address, timeout=30, set_as_default=False)
+            self._client = distributed.Client(self.address, timeout=30, set_as_default=False,
+                                              security=self.security())
         return self._client
 
     def worker_pids(self):

@@ -18,7 +18,6 @@ No Dask here: the task function runs on a Dask worker, but only asks it its own 
 import dataclasses
 import datetime
 import inspect
-import json
 import os
 import shutil
 import socket
@@ -92,11 +91,11 @@ def claim(staging, index, limit):
 
 
 def _read(path):
-    try:
-        with open(path, encoding="utf-8") as fh:
-            return json.load(fh)
+    try:  # on shared storage: a regular file of bounded size only (docs/errors.md)
+        found = shared.read_json_file(path, shared.STATE_FILE_LIMIT)
     except (OSError, ValueError):
         return None
+    return found if isinstance(found, dict) else None
 
 
 def _iso(seconds):

@@ -2,7 +2,8 @@
 
     deformkit-batch INPUT... --out DIR [--recipe FILE | --evaluate-saved] [--jobs N]
                     [--blender PATH] [--addon PATH] [--report PATH] [--preview] [--smoothness]
-                    [--timeout SECONDS] [--scheduler tcp://HOST:PORT | --executor dask-local
+                    [--timeout SECONDS] [--scheduler tls://HOST:PORT --tls-ca-file CA --tls-cert CERT
+                    --tls-key KEY | --scheduler tcp://HOST:PORT | --executor dask-local
                     [--workers N] [--blender-per-worker N]] [--retries N] [--redo-complete]
 
 Each input runs in its own `blender -b --factory-startup` process with the add-on enabled. Outputs
@@ -19,7 +20,8 @@ cage. Recipes are JSON or TOML, checked against the add-on's own property ranges
     {"objects": ["Suzanne"], "deformers": [{"type": "TWIST", "angle": 1.57, "deform_axis": "Z"},
                                            {"type": "SUBDIVIDE", "levels": 2}]}
 
-On a Dask cluster (`--scheduler tcp://HOST:PORT`, or `--executor dask-local --workers N` for a
+On a Dask cluster (`--scheduler tls://HOST:PORT` with the cluster's CA and this launcher's
+certificate, tcp:// on one machine only, or `--executor dask-local --workers N` for a
 LocalCluster on this machine; options in cluster_cli.py) each input is one task on the worker that
 picks it, with inputs and outputs by path on storage all workers share, retries when a worker dies
 (`--retries`, attempts.py) and per file the worker, the attempts and the queue time in the report.
@@ -50,6 +52,9 @@ from .run import blender_environment, same_file
 
 # A source checkout: python/deformkit/batch/cli.py, beside python_addon/.
 CHECKOUT_ADDON = os.path.join(os.path.dirname(os.path.abspath(__file__)), *[os.pardir] * 3, "python_addon")
+
+
+RECIPE_LIMIT = 4 * 1024 * 1024  # bytes; a recipe of every entry kind with long object lists is a few KB
 
 
 class Parser(argparse.ArgumentParser):
@@ -96,10 +101,11 @@ def without_duplicates(pairs):
 
 def parse_recipe(path, data):
     try:
+        text = data.decode("utf-8")  # not json's guess among UTF-8, -16 and -32: a recipe is UTF-8
         if path.endswith(".toml"):
             import tomllib
-            return tomllib.loads(data.decode("utf-8"))
-        return json.loads(data, object_pairs_hook=without_duplicates)
+            return tomllib.loads(text)
+        return json.loads(text, object_pairs_hook=without_duplicates)
     except RecursionError:  # the parsers recurse per level; a recipe needs four
         raise ValueError("nested too deeply (a recipe needs four levels: recipe, deformers, entry, limits)")
     except UnicodeDecodeError as exc:
@@ -138,17 +144,21 @@ def load_recipe_schema(addon):
 
 
 def load_recipe(ap, path, recipe_schema):
-    """The checked recipe, or a one-line error naming --recipe and every bad key path."""
+    """The checked recipe, or a one-line error naming --recipe and every bad key path. Only a
+    regular file (after links) of at most RECIPE_LIMIT bytes is read: a FIFO, a device or a socket
+    would block or never end (docs/errors.md, "Files the batch command reads")."""
     if not os.path.exists(path):
         ap.error(f"--recipe: {path} not found")
     if os.path.isdir(path):
         ap.error(f"--recipe: {path} is a folder, not a recipe file")
     try:
-        with open(path, "rb") as fh:
-            data = fh.read()
-        return recipe_schema.validate(parse_recipe(path, data))
+        data = shared.read_regular_file(path, RECIPE_LIMIT)
+    except shared.FileRefused as exc:
+        ap.error(f"--recipe: {path} {exc}")
     except OSError as exc:
-        ap.error(f"--recipe: cannot read {path}: {exc.strerror}")
+        ap.error(f"--recipe: cannot read {path}: {exc.strerror or exc}")
+    try:
+        return recipe_schema.validate(parse_recipe(path, data))
     except ValueError as exc:  # RecipeError included
         ap.error(f"--recipe: {path}: {exc}")
 
@@ -189,11 +199,11 @@ def check_report_path(ap, report, inputs, outputs, recipe_path):
                 ap.error(f"--report: {report} is the {kind} {path}; the report would overwrite it")
 
 
-def build_jobs(inputs, outputs, work, blender, paths, token, recipe, args):
-    """One BatchJob per input, in the report's order."""
+def build_jobs(inputs, outputs, work, blender, paths, token, recipe, args, staged=None):
+    """One BatchJob per input, in the report's order; `staged`: a cluster run's staged code."""
     return [BatchJob(index=i, input=src, output=dst, work=work, blender=blender, token=token,
                      sys_paths=tuple(paths), recipe=recipe, preview=args.preview, smoothness=args.smoothness,
-                     timeout=args.timeout, never_write=tuple(inputs))
+                     timeout=args.timeout, never_write=tuple(inputs), staged=staged)
             for i, (src, dst) in enumerate(zip(inputs, outputs))]
 
 
@@ -230,6 +240,10 @@ def main(argv=None, client=None):
     its own Dask cluster; the run goes there as with --scheduler, and the client stays open."""
     ap, args = arguments(argv)
     kind = cluster_cli.executor_kind(ap, args, client)
+    address = args.scheduler or (client if isinstance(client, str) else None)
+    warning = cluster_cli.plain_tcp_warning(address) if address else None
+    if warning:
+        print(warning, file=sys.stderr, flush=True)
     blender = find_blender(ap, args.blender, kind)
     addon = addon_folder(ap, args.addon)
     recipe = load_recipe(ap, args.recipe, load_recipe_schema(addon)) if args.recipe else None
@@ -240,7 +254,7 @@ def main(argv=None, client=None):
     report_path = os.path.abspath(args.report or os.path.join(out_dir, "report.json"))
     check_report_path(ap, report_path, inputs, outputs, args.recipe)
     cluster = cluster_cli.open_cluster(ap, args, kind, client) if kind != "local" else None
-    token, work = shared.new_run_token(), None
+    token, work, staged = shared.new_run_token(), None, None
     try:
         _, dropped = blender_environment(blender)
         header = {"started": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
@@ -257,8 +271,8 @@ def main(argv=None, client=None):
                 work, paths = staging.make_staging(token, report_path, addon)
             else:  # on storage the workers share: OUT/.deformkit-batch-<token>
                 staging.clean_stale_shared_staging(out_dir)
-                work, paths = staging.make_shared_staging(token, report_path, addon, out_dir)
-        jobs = build_jobs(inputs, outputs, work, blender, paths, token, recipe, args)
+                work, paths, staged = staging.make_shared_staging(token, report_path, addon, out_dir)
+        jobs = build_jobs(inputs, outputs, work, blender, paths, token, recipe, args, staged)
         if cluster is not None:
             cluster_cli.check_cluster(ap, cluster, jobs)
             print(cluster_cli.opening_line(cluster, kind, len(jobs)), flush=True)

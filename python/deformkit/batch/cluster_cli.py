@@ -1,10 +1,15 @@
 """The command line's Dask side: the options of a run on a cluster, which combinations make sense,
-opening the cluster, the workers' check and the run itself (dask_executor.py), with the live
-progress line. Dask is imported only through dask_executor, when a run asks for it."""
+TLS (tls:// with the cluster's CA and a client certificate, or Dask's own configuration) and the
+warning for a plain tcp:// scheduler off this machine, opening the cluster, the workers' check and
+the run itself (dask_executor.py), with the live progress line. Dask is imported only through
+dask_executor, when a run asks for it."""
 import argparse
 import glob
+import ipaddress
 import os
 import re
+import socket
+import ssl
 
 from . import shared
 from .executors import run_all
@@ -12,10 +17,39 @@ from .report import Progress
 from .run import input_problem
 
 
+TLS_OPTIONS = ("tls_ca_file", "tls_cert", "tls_key")
+PEM_LIMIT = 1024 * 1024  # bytes: a certificate chain or a key is a few KB
+
+
 def scheduler_address(text):
     if not re.fullmatch(r"(tcp|tls)://[^\s/:]+:\d{1,5}", text):
-        raise argparse.ArgumentTypeError(f"expected a scheduler address tcp://HOST:PORT, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected a scheduler address tcp://HOST:PORT, got {text!r} "
+                                         "(or tls://HOST:PORT with TLS)")
     return text
+
+
+def on_loopback(address):
+    """True when every address the scheduler's host name stands for is this machine's loopback
+    (127.0.0.0/8, ::1); a name that does not resolve is not."""
+    host = address.split("://", 1)[-1].rsplit(":", 1)[0].strip("[]")
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        pass
+    try:
+        found = {info[4][0] for info in socket.getaddrinfo(host, None)}
+    except (OSError, UnicodeError):
+        return False
+    return bool(found) and all(ipaddress.ip_address(a.split("%")[0]).is_loopback for a in found)
+
+
+def plain_tcp_warning(address):
+    """The one line printed for a tcp:// scheduler that is not on the loopback, else None."""
+    if not address.startswith("tcp://") or on_loopback(address):
+        return None
+    return (f"deformkit-batch: warning: --scheduler {address} is plain tcp:// off this machine: whoever can reach "
+            "it can run code on every worker; use tls:// with --tls-ca-file, --tls-cert and --tls-key "
+            "(docs/batch.md)")
 
 
 def count_of(what, least, most):
@@ -45,6 +79,11 @@ def add_arguments(ap, seconds):
                       help="redo a file an earlier attempt of this run had completed before its worker died")
     dask.add_argument("--connect-timeout", type=seconds,
                       help="seconds to reach the scheduler and for a worker to join (default 30)")
+    dask.add_argument("--tls-ca-file", help="tls:// scheduler: the cluster's CA certificate (PEM), as given to "
+                                            "`dask scheduler --tls-ca-file` and the workers")
+    dask.add_argument("--tls-cert", help="tls:// scheduler: this launcher's certificate (PEM), signed by that CA")
+    dask.add_argument("--tls-key", help="tls:// scheduler: the private key of --tls-cert (PEM), unless --tls-cert "
+                                        "holds it")
 
 
 DASK_ONLY = ("retries", "redo_complete")
@@ -75,12 +114,69 @@ def executor_kind(ap, args, client):
         ap.error(f"{option(wrong[0])}: only with {where}")
     if kind != "dask" and args.connect_timeout is not None:
         ap.error("--connect-timeout: only with --scheduler (a LocalCluster is started here)")
+    given = [n for n in TLS_OPTIONS if getattr(args, n) is not None]
+    if given and not (args.scheduler or (client if isinstance(client, str) else "")).startswith("tls://"):
+        ap.error(f"{option(given[0])}: only with a tls:// --scheduler (a LocalCluster stays on 127.0.0.1; tcp:// is "
+                 "not encrypted)")
     if kind != "local":
         from .dask_executor import PINS, dask_installed
         if not dask_installed():
             ap.error(f"{'--executor dask-local' if kind == 'dask-local' else '--scheduler'}: needs dask and "
                      f"distributed, which are not installed here; install {PINS}")
     return kind
+
+
+def pem_file(ap, name, path):
+    """`path` checked as a PEM file can be: a regular file (after links) of at most PEM_LIMIT
+    bytes, so that ssl never blocks on a FIFO nor reads a device; else one line naming `name`."""
+    from . import shared
+    try:
+        shared.read_regular_file(path, PEM_LIMIT)
+    except shared.FileRefused as exc:
+        ap.error(f"{name}: {path} {exc}")
+    except OSError as exc:
+        ap.error(f"{name}: cannot read {path}: {exc.strerror or exc}")
+    return path
+
+
+def tls_security(ap, args, address):
+    """The distributed.Security for a tls:// scheduler: the command line's CA, certificate and
+    key, or else Dask's configuration (distributed.comm.tls.ca-file, .client.cert, .client.key);
+    checked here (files, PEM, key matching certificate), so that a mistake is one line naming
+    the option rather than a failed handshake. None for tcp://."""
+    if not address.startswith("tls://"):
+        return None
+    from .dask_executor import distributed_module
+    security = distributed_module().Security
+    if any(getattr(args, n) is not None for n in TLS_OPTIONS):
+        ca, cert, key = args.tls_ca_file, args.tls_cert, args.tls_key
+        names = ("--tls-ca-file", "--tls-cert", "--tls-key")
+        missing = [n for n, v in zip(names[:2], (ca, cert)) if v is None]
+        if missing:
+            ap.error(f"{missing[0]}: missing; a tls:// scheduler needs the cluster's CA (--tls-ca-file) and this "
+                     "launcher's certificate (--tls-cert, with --tls-key unless the certificate file holds the key)")
+    else:
+        found = security()  # Dask's configuration, DASK_DISTRIBUTED__COMM__TLS__* included
+        ca, cert, key = found.tls_ca_file, found.tls_client_cert, found.tls_client_key
+        names = ("distributed.comm.tls.ca-file", "distributed.comm.tls.client.cert", "distributed.comm.tls.client.key")
+        if ca is None or cert is None:
+            ap.error(f"--scheduler: {address} is TLS: give the cluster's CA and this launcher's certificate and key "
+                     "(--tls-ca-file, --tls-cert, --tls-key), or set distributed.comm.tls.ca-file, "
+                     "distributed.comm.tls.client.cert and .key in Dask's configuration")
+    for name, path in zip(names, (ca, cert, key)):
+        if path is not None:
+            pem_file(ap, name, path)
+    context = ssl.create_default_context(ssl.Purpose.SERVER_AUTH)
+    try:
+        context.load_verify_locations(cafile=ca)
+    except (ssl.SSLError, ValueError) as exc:
+        ap.error(f"{names[0]}: {ca} is not a PEM CA certificate ({exc})")
+    try:
+        context.load_cert_chain(cert, key)
+    except (ssl.SSLError, ValueError) as exc:
+        ap.error(f"{names[1]}: {cert} is not a PEM certificate with its private key"
+                 f"{f' {key}' if key else ''} ({exc})")
+    return security(tls_ca_file=ca, tls_client_cert=cert, tls_client_key=key, require_encryption=True)
 
 
 def open_cluster(ap, args, kind, client):
@@ -91,7 +187,8 @@ def open_cluster(ap, args, kind, client):
         if kind == "dask-local":
             return dask_executor.Cluster.start_local(args.workers or 2, args.blender_per_worker or 1)
         if client is None or isinstance(client, str):
-            return dask_executor.Cluster.connect(args.scheduler or client, timeout)
+            address = args.scheduler or client
+            return dask_executor.Cluster.connect(address, timeout, tls_security(ap, args, address))
         return dask_executor.Cluster(client, wait=timeout)
     except dask_executor.ClusterError as exc:
         ap.error(str(exc))

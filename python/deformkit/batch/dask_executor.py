@@ -29,6 +29,9 @@ RESOURCE = "blender"
 # What a task whose worker died (or whose result died with it) raises on the client.
 WORKER_LOST = ("KilledWorker", "CommClosedError", "CommError", "StreamClosedError")
 PINS = "dask==2025.12.0 and distributed==2025.12.0 (requirements-dev.txt)"
+# The scheduler's HTTP server (the dashboard, or /health and /metrics without bokeh): this
+# machine's loopback only, a free port; ":0" would listen on every interface.
+LOOPBACK_DASHBOARD = "127.0.0.1:0"
 
 
 class DaskMissing(ImportError):
@@ -78,15 +81,18 @@ class Cluster:
             raise
 
     @classmethod
-    def connect(cls, address, timeout):
-        """On the scheduler at `address`: ClusterError within about `timeout` seconds when it
-        cannot be reached, or when no worker with the blender resource joins in that time."""
+    def connect(cls, address, timeout, security=None):
+        """On the scheduler at `address` (with `security`, a distributed.Security, for tls://):
+        ClusterError within about `timeout` seconds when it cannot be reached (or refuses this
+        client's certificate), or when no worker with the blender resource joins in that time."""
         distributed = distributed_module()
         try:
-            client = distributed.Client(address, timeout=timeout, set_as_default=False)
+            client = distributed.Client(address, timeout=timeout, set_as_default=False, security=security)
         except (OSError, TimeoutError, ValueError) as exc:
+            hint = ("; is --tls-cert signed by the CA the scheduler trusts, and the scheduler's by --tls-ca-file?"
+                    if address.startswith("tls://") else "")
             raise ClusterError(f"--scheduler: cannot reach the Dask scheduler {address} within {timeout:g} s "
-                               f"({exc})") from None
+                               f"({exc}){hint}") from None
         return cls(client, owns_client=True, wait=timeout)
 
     @classmethod
@@ -103,7 +109,8 @@ class Cluster:
         with dask.config.set({"distributed.nanny.pre-spawn-environ": {}, "distributed.worker.profile.enabled": False}):
             local = distributed.LocalCluster(
                 n_workers=workers, threads_per_worker=blender_per_worker, processes=True, host="127.0.0.1",
-                resources={RESOURCE: blender_per_worker}, dashboard_address=":0", silence_logs=logging.ERROR)
+                resources={RESOURCE: blender_per_worker}, dashboard_address=LOOPBACK_DASHBOARD,
+                silence_logs=logging.ERROR)
         try:
             client = distributed.Client(local, set_as_default=False)
             client.register_plugin(_ignore_ctrl_c())

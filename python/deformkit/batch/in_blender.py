@@ -30,8 +30,7 @@ def start_failure(shared, exc, job_path):
     record["message"] += (" (Blender's Python: sys.prefix " + sys.prefix + ", sys.executable "
                           + str(sys.executable) + ")")
     try:
-        with open(job_path, encoding="utf-8") as fh:
-            job = json.load(fh)
+        job = shared.read_json_file(job_path, shared.STATE_FILE_LIMIT)
         result = {"file": job["input"], "output": job["output"], "status": "failed",
                   "error": shared.describe_failure(record), "exception": record, "objects": [], "warnings": [],
                   "python_prefix": sys.prefix}
@@ -47,7 +46,8 @@ def main(argv):
     shared = load_beside("shared")
     job_path = argv[argv.index("--") + 1] if "--" in argv and argv.index("--") + 1 < len(argv) else ""
     try:
-        job = load_beside("job").BatchJob.from_json(open(job_path, encoding="utf-8").read())
+        text = shared.read_regular_file(job_path, shared.STATE_FILE_LIMIT).decode("utf-8")
+        job = load_beside("job").BatchJob.from_json(text)
         shared.prepare_worker(job.parent_pid)
         sys.path[:0] = job.sys_paths
         import deformkit_addon

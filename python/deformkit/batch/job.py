@@ -52,6 +52,28 @@ def _seconds(name, value):
     return float(value)
 
 
+def _staged(name, value):
+    """None, or {"folder": the staging folder, "files": {relative path: {"bytes", "sha256"}}}."""
+    if value is None:
+        return value
+    if not isinstance(value, dict) or set(value) != {"folder", "files"} or not isinstance(value["files"], dict):
+        raise JobError(f"job field '{name}': expected null or a table of 'folder' and 'files', got {value!r}")
+    _text(f"{name}.folder", value["folder"])
+    for rel, entry in value["files"].items():
+        inside = isinstance(rel, str) and rel and not os.path.isabs(rel) and os.path.normpath(rel) == rel
+        if not inside or ".." in rel.split(os.sep):
+            raise JobError(f"job field '{name}.files': expected paths inside the staging folder, got {rel!r}")
+        good = isinstance(entry, dict) and set(entry) == {"bytes", "sha256"}
+        if good:
+            _whole(f"{name}.files[{rel!r}].bytes", entry["bytes"], 0)
+            digest = entry["sha256"]
+            good = isinstance(digest, str) and len(digest) == 64 and all(c in "0123456789abcdef" for c in digest)
+        if not good:
+            raise JobError(f"job field '{name}.files[{rel!r}]': expected {{'bytes': n, 'sha256': 64 hex digits}}, "
+                           f"got {entry!r}")
+    return value
+
+
 def _recipe(name, value):
     if value is not None and not isinstance(value, dict):
         raise JobError(f"job field '{name}': expected a recipe table or null, got {value!r}")
@@ -77,6 +99,8 @@ class BatchJob:
     timeout: float = 600.0
     never_write: tuple[str, ...] = ()  # the run's inputs: no output may be one of them
     parent_pid: int | None = None  # the process that starts Blender (set by run_job, where it runs)
+    # On a cluster: the staged add-on and module, hashed by the launcher (staged_code.py).
+    staged: dict[str, Any] | None = dataclasses.field(default=None, hash=False)
 
     def __post_init__(self):
         for field in dataclasses.fields(self):
@@ -131,4 +155,5 @@ _CHECKS = {
     "index": lambda n, v: _whole(n, v, 0), "input": _text, "output": _text, "work": _text, "blender": _text,
     "token": _text, "sys_paths": _texts, "recipe": _recipe, "preview": _flag, "smoothness": _flag,
     "timeout": _seconds, "never_write": _texts, "parent_pid": lambda n, v: _whole(n, v, 1, optional=True),
+    "staged": _staged,
 }

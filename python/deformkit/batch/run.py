@@ -5,11 +5,14 @@ import dataclasses
 import json
 import os
 import re
+import shutil
 import signal
+import stat
 import subprocess
+import tempfile
 import time
 
-from . import shared
+from . import shared, staged_code
 
 BLEND_MAGIC = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")  # plain, gzip, zstd
 PYTHON_NAME = re.compile(r"python3(\.\d+)?$")
@@ -67,9 +70,14 @@ def input_problem(path):
         return "file not found"
     if not os.path.isfile(path):
         return "not a file"
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(8)
+    try:  # non-blocking: a FIFO swapped in after the check above cannot hang the run
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+        try:
+            if not stat.S_ISREG(os.fstat(fd).st_mode):
+                return "not a file"
+            head = os.read(fd, 8)
+        finally:
+            os.close(fd)
     except OSError as exc:
         return f"cannot read it: {exc.strerror}"
     if not head.startswith(BLEND_MAGIC):
@@ -87,10 +95,11 @@ def _read_result(path, stdout):
     """The worker's final result: from its result file, else from the line it prints when it
     cannot write that file (the file may then still hold a progress record, which is returned
     only when there is nothing better: it says at which stage the worker was)."""
-    try:
-        with open(path, encoding="utf-8") as fh:
-            found = json.load(fh)
+    try:  # in the staging folder, which others may write on a cluster: bounded, never blocking
+        found = shared.read_json_file(path, shared.STATE_FILE_LIMIT)
     except (OSError, ValueError):
+        found = None
+    if not isinstance(found, dict):
         found = None
     if found is not None and found.get("status") in ("ok", "failed"):
         return found
@@ -130,17 +139,36 @@ def blender_command(blender, job_path):
 
 def run_blender(job, environ=None):
     """Run the job's file in its own Blender; the worker's result row, or a row saying why there
-    is none (timed out, killed, exited without a result, and at which stage)."""
+    is none (timed out, killed, exited without a result, and at which stage). A job with staged
+    code (a cluster's) runs on a checked private copy of it, or fails naming the altered file."""
     src, dst = job.input, job.output
     problem = input_problem(src)
     if problem:
         return failed_row(src, dst, "InputError", problem)
     job = dataclasses.replace(job, parent_pid=os.getpid())  # Blender dies with this process
-    shared.write_json_atomically(job.job_path, job.to_dict(), job.token)
+    if job.staged is None:
+        return _run_blender(job, job.job_path, environ)
+    private = tempfile.mkdtemp(prefix="deformkit-batch-checked-")  # 0700: this worker's user only
+    try:
+        try:
+            staged_code.verified_copy(job.staged, private)
+            job = dataclasses.replace(job, sys_paths=tuple(staged_code.private_paths(job.sys_paths, job.staged,
+                                                                                     private)))
+        except staged_code.StagedFileAltered as exc:
+            return failed_row(src, dst, "StagedFileAltered", f"{exc}; it was changed after the launcher staged it, "
+                              "and this file was not run (nothing of the staged code was imported)", "verify")
+        return _run_blender(job, os.path.join(private, f"{job.index}.job.json"), environ)
+    finally:
+        shutil.rmtree(private, ignore_errors=True)
+
+
+def _run_blender(job, job_path, environ):
+    src, dst = job.input, job.output
+    shared.write_json_atomically(job_path, job.to_dict(), job.token)
     env, _ = blender_environment(job.blender, environ)
     t0 = time.perf_counter()
     try:
-        proc = subprocess.run(blender_command(job.blender, job.job_path), capture_output=True, text=True,
+        proc = subprocess.run(blender_command(job.blender, job_path), capture_output=True, text=True,
                               errors="replace", timeout=job.timeout, env=env)
         outcome = None
     except subprocess.TimeoutExpired as exc:

@@ -8,12 +8,61 @@ import math
 import os
 import secrets
 import signal
+import stat
 import traceback
 
 STAGING_PREFIX = "deformkit-batch-run-"  # + "<launcher pid>-<random>": the system temp folder's
 TEMP_MARK = ".deformkit-"                # OUTPUT + ".deformkit-<run token>.tmp.blend"
 RESULT_LINE = "DEFORMKIT-BATCH-RESULT "  # a worker that cannot write its result file prints it
 PR_SET_PDEATHSIG = 1
+# Job, result and record files: a job holds a recipe of at most 4 MiB (cli.RECIPE_LIMIT), re-indented.
+STATE_FILE_LIMIT = 64 * 1024 * 1024
+NOT_REGULAR = {stat.S_IFDIR: "a folder", stat.S_IFIFO: "a FIFO (named pipe)", stat.S_IFCHR: "a character device",
+               stat.S_IFBLK: "a block device", stat.S_IFSOCK: "a socket"}
+
+
+class FileRefused(ValueError):
+    """A file the batch does not read: not a regular file, or larger than its limit. The message
+    says what it is, after the path."""
+
+
+def _refuse_unless_regular(mode):
+    kind = NOT_REGULAR.get(stat.S_IFMT(mode))
+    if kind is not None:
+        raise FileRefused(f"is {kind}, not a regular file")
+
+
+def read_regular_file(path, limit):
+    """The bytes of `path`, which must be a regular file (after symbolic links) of at most `limit`
+    bytes; else FileRefused (or the OSError of a missing or unreadable file). Nothing here can
+    block or read without bound: the kind is checked before opening, the open is non-blocking (a
+    FIFO put there meanwhile cannot hang it) and checked again on what was opened, and at most
+    limit + 1 bytes are read (a file that grows while it is read is refused too)."""
+    _refuse_unless_regular(os.stat(path).st_mode)
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0))
+    try:
+        opened = os.fstat(fd)
+        _refuse_unless_regular(opened.st_mode)
+        if opened.st_size > limit:
+            raise FileRefused(f"is {opened.st_size} bytes, more than the {limit} bytes allowed")
+        chunks, size = [], 0
+        while size <= limit:
+            chunk = os.read(fd, min(1 << 20, limit + 1 - size))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+        if size > limit:
+            raise FileRefused(f"is more than the {limit} bytes allowed (it grew while it was read)")
+        return b"".join(chunks)
+    finally:
+        os.close(fd)
+
+
+def read_json_file(path, limit):
+    """The JSON value in `path` (a regular file of at most `limit` bytes, UTF-8): ValueError for
+    what is not, OSError for what cannot be read."""
+    return json.loads(read_regular_file(path, limit).decode("utf-8"))
 
 
 def new_run_token():

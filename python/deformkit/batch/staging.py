@@ -12,7 +12,7 @@ import socket
 import tempfile
 import time
 
-from . import shared
+from . import shared, staged_code
 
 STAGING = re.compile(re.escape(shared.STAGING_PREFIX) + r"(\d+)-[0-9a-f]+$")
 SHARED_PREFIX = ".deformkit-batch-"  # OUT/.deformkit-batch-<run token>: a cluster run's staging folder
@@ -54,10 +54,10 @@ def live_runs(folder=None):
     for name in os.listdir(folder):
         match = STAGING.match(name)
         if match and pid_alive(int(match.group(1))):
-            try:
-                with open(os.path.join(folder, name, "report-path"), encoding="utf-8") as fh:
-                    runs[os.path.join(folder, name)] = fh.read()
-            except OSError:
+            try:  # in the system temp folder, where anyone may put a FIFO under that name
+                data = shared.read_regular_file(os.path.join(folder, name, "report-path"), 64 * 1024)
+                runs[os.path.join(folder, name)] = data.decode("utf-8")
+            except (OSError, ValueError):
                 pass
     return runs
 
@@ -99,14 +99,14 @@ def make_shared_staging(token, report_path, addon_dir, out_dir):
     """A cluster run's folder, OUT/.deformkit-batch-<token>: copies of the add-on (under its
     package name) and of the deformkit module, which every worker's Blender imports, the report's
     path, the launcher's host and pid (for clean_stale_shared_staging) and the attempts' folders.
-    Returns (folder, the paths for Blender's sys.path)."""
+    Returns (folder, the paths for Blender's sys.path, the staged code's hashes for the jobs:
+    staged_code.py)."""
     work = os.path.join(out_dir, SHARED_PREFIX + token)
     addons, lib = os.path.join(work, "addons"), os.path.join(work, "lib")
     os.makedirs(work)
     try:
-        skip = shutil.ignore_patterns("__pycache__", "*.pyc")
-        shutil.copytree(addon_dir, os.path.join(addons, "deformkit_addon"), ignore=skip)
-        shutil.copytree(_package_folder(), os.path.join(lib, "deformkit"), ignore=skip)
+        files = staged_code.stage_tree(addon_dir, work, os.path.join("addons", "deformkit_addon"))
+        files.update(staged_code.stage_tree(_package_folder(), work, os.path.join("lib", "deformkit")))
         with open(os.path.join(work, "report-path"), "w", encoding="utf-8") as fh:
             fh.write(os.path.realpath(report_path))
         with open(os.path.join(work, "launcher.json"), "w", encoding="utf-8") as fh:
@@ -114,7 +114,7 @@ def make_shared_staging(token, report_path, addon_dir, out_dir):
     except BaseException:
         shutil.rmtree(work, ignore_errors=True)
         raise
-    return work, [addons, lib]
+    return work, [addons, lib], {"folder": work, "files": files}
 
 
 def clean_stale_shared_staging(out_dir):
@@ -126,9 +126,10 @@ def clean_stale_shared_staging(out_dir):
         if not SHARED.match(name):
             continue
         try:
-            with open(os.path.join(out_dir, name, "launcher.json"), encoding="utf-8") as fh:
-                launcher = json.load(fh)
+            launcher = shared.read_json_file(os.path.join(out_dir, name, "launcher.json"), 64 * 1024)
         except (OSError, ValueError):
+            continue
+        if not isinstance(launcher, dict):
             continue
         pid = launcher.get("pid")
         if launcher.get("host") == socket.gethostname() and isinstance(pid, int) and pid > 0 and not pid_alive(pid):
