@@ -19,7 +19,7 @@ TriangleCageView GreenCage::view() const {
 void GreenCage::coordinates(const Vec3& x, double* w, double* dw) const {
   const std::size_t m = vertex_count();
   const double p[3] = {x[0], x[1], x[2]};
-  green_coordinates(p, view(), w, w + m, dw, dw == nullptr ? nullptr : dw + 3 * m);
+  green_coordinates(p, view(), w, w + m, dw, dw == nullptr ? nullptr : dw + 3 * m, tables_.get());
 }
 
 void GreenCage::coordinate_rows(const double* points, std::size_t n, double* w) const {

@@ -277,8 +277,8 @@ void green_integrals(const double x[3], const TriangleCageView& cage, double* ph
 
 namespace {
 
-GreenSide extension(const double x[3], const TriangleCageView& cage, double winding, double* phi, double* psi,
-                    double* dphi, double* dpsi) {
+GreenSide extension(const double x[3], const TriangleCageView& cage, const GreenCageTables* tables, double winding,
+                    double* phi, double* psi, double* dphi, double* dpsi) {
   GreenSide side;
   side.winding = winding;
   if (side.winding >= 1.0 - kWindingTolerance || cage.triangle_count == 0) return side;
@@ -288,22 +288,22 @@ GreenSide extension(const double x[3], const TriangleCageView& cage, double wind
   // times the hat functions at x, those of any triangle through x (the faces at distance 0, which
   // share the blend's weight). Outside the weight is 1 - 0, the continuations' alphas; 1 - winding
   // there also absorbs the winding number's rounding.
-  side.face = add_exterior_continuation(x, cage, 1.0 - side.winding, phi, psi, dphi, dpsi);
+  side.face = add_exterior_continuation(x, cage, tables, 1.0 - side.winding, phi, psi, dphi, dpsi);
   return side;
 }
 
 }  // namespace
 
 GreenSide green_coordinates(const double x[3], const TriangleCageView& cage, double* phi, double* psi, double* dphi,
-                            double* dpsi) {
+                            double* dpsi, const GreenCageTables* tables) {
   const double winding = dphi || dpsi ? integrals<Dual>(x, cage, phi, psi, dphi, dpsi)
                                       : integrals<double>(x, cage, phi, psi, nullptr, nullptr);
-  return extension(x, cage, winding, phi, psi, dphi, dpsi);
+  return extension(x, cage, tables, winding, phi, psi, dphi, dpsi);
 }
 
 GreenSide green_extension(const double x[3], const TriangleCageView& cage, double winding, double* phi,
-                          double* psi) {
-  return extension(x, cage, winding, phi, psi, nullptr, nullptr);
+                          double* psi, const GreenCageTables* tables) {
+  return extension(x, cage, tables, winding, phi, psi, nullptr, nullptr);
 }
 
 GreenCageTables green_cage_tables(const TriangleCageView& cage) {

@@ -10,6 +10,8 @@
 
 namespace deformkit {
 
+struct GreenCageTables;  // cage/green_rows.hpp
+
 // A closed, consistently oriented triangle cage: points m x 3 (row-major) and triangles t x 3
 // whose vertices run counter-clockwise seen from outside (outward normals). Validation (closed,
 // manifold, non-degenerate) is the caller's: a zero-area triangle here contributes nothing.
@@ -48,14 +50,15 @@ void green_integrals(const double x[3], const TriangleCageView& cage, double* ph
 // reproduction then holds everywhere, and the deformed point is C^1 outside and continuous across
 // the cage surface. On the cage's
 // edges and vertices the map is continuous but not differentiable: the gradients there are finite
-// (the log-singular edge terms are dropped) but not derivatives.
+// (the log-singular edge terms are dropped) but not derivatives. The cage's tables (green_cage_tables,
+// may be null) save the extension recomputing each face's normal and hat gradients; same result.
 GreenSide green_coordinates(const double x[3], const TriangleCageView& cage, double* phi, double* psi, double* dphi,
-                            double* dpsi);
+                            double* dpsi, const GreenCageTables* tables = nullptr);
 
 // What green_coordinates() adds to the raw integrals at x (values only), given their winding
 // number: nothing inside, else the exterior extension or the on-surface limit.
 GreenSide green_extension(const double x[3], const TriangleCageView& cage, double winding, double* phi,
-                          double* psi);
+                          double* psi, const GreenCageTables* tables = nullptr);
 
 // Lipman's per-triangle stretch factors s_j into out (t), from the edges u, v of t_j at rest and
 // u', v' deformed: 1 at rest, sigma under a similarity of scale sigma

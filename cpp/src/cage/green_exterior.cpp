@@ -1,10 +1,12 @@
 #include "cage/green_exterior.hpp"
 
 #include "cage/dual3.hpp"
+#include "cage/green_rows.hpp"
 
 #include <Eigen/Dense>
 
 #include <limits>
+#include <vector>
 
 namespace deformkit {
 namespace {
@@ -81,28 +83,46 @@ T unnormalised_weight(double scale, const Vec3& offset) {
   return T(scale) / with_gradient<T>(d2, 2.0 * offset);
 }
 
-// Face j's continuation through x (Lipman et al. 2008, §3.3): x = sum_k alpha_k v_jk + alpha_4 n_j,
-// alpha_1..3 the barycentrics of x's foot point on the face's plane (alpha_k = -g_k . (p_{k+1} - x),
-// g_k the in-plane gradient of vertex k's hat function) and alpha_4 = n . (x - p_0) its height.
-// Each is affine in x: its gradient is g_k, n. Returns false for a zero-area face.
-template <class T>
-bool continuation(const Vec3& x, const Face& t, T alpha[4]) {
+// Face j's unit normal n and hat-function gradients g_k (in its plane), from the cage's tables when
+// given, else computed by the same expressions (green_cage_tables), so both give the same bits.
+// Returns false for a zero-area face.
+bool face_frame(const Face& t, const GreenCageTables* tables, std::size_t j, Vec3& n, Vec3 g[3]) {
+  if (tables) {
+    const GreenCageTables::Triangle& tri = tables->triangles[j];
+    if (tri.degenerate) return false;
+    n = Vec3(tri.normal[0], tri.normal[1], tri.normal[2]);
+    for (int l = 0; l < 3; ++l) g[l] = Vec3(tri.gradient[l][0], tri.gradient[l][1], tri.gradient[l][2]);
+    return true;
+  }
   const Vec3 nn = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]);
   const double twice_area = nn.norm();
   if (!(twice_area > 0)) return false;
-  const Vec3 n = nn / twice_area;
-  for (int l = 0; l < 3; ++l) {
-    const Vec3 g = n.cross(t.p[(l + 2) % 3] - t.p[(l + 1) % 3]) / twice_area;
-    alpha[l] = with_gradient<T>(0.0 - g.dot(t.p[(l + 1) % 3] - x), g);
-  }
-  alpha[3] = with_gradient<T>(0.0 - n.dot(t.p[0] - x), n);
+  n = nn / twice_area;
+  for (int l = 0; l < 3; ++l) g[l] = n.cross(t.p[(l + 2) % 3] - t.p[(l + 1) % 3]) / twice_area;
   return true;
 }
 
+// Face j's continuation through x (Lipman et al. 2008, §3.3): x = sum_k alpha_k v_jk + alpha_4 n_j,
+// alpha_1..3 the barycentrics of x's foot point on the face's plane (alpha_k = -g_k . (p_{k+1} - x))
+// and alpha_4 = n . (x - p_0) its height. Each is affine in x: its gradient is g_k, n.
 template <class T>
-std::size_t blend(const double xp[3], const TriangleCageView& cage, double vertex_weight, double* phi, double* psi,
-                  double* dphi, double* dpsi) {
+void continuation(const Vec3& x, const Face& t, const Vec3& n, const Vec3 g[3], T alpha[4]) {
+  for (int l = 0; l < 3; ++l) alpha[l] = with_gradient<T>(0.0 - g[l].dot(t.p[(l + 1) % 3] - x), g[l]);
+  alpha[3] = with_gradient<T>(0.0 - n.dot(t.p[0] - x), n);
+}
+
+bool has_area(const Face& t, const GreenCageTables* tables, std::size_t j) {
+  if (tables) return !tables->triangles[j].degenerate;
+  return (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).norm() > 0;
+}
+
+template <class T>
+std::size_t blend(const double xp[3], const TriangleCageView& cage, const GreenCageTables* tables, double vertex_weight,
+                  double* phi, double* psi, double* dphi, double* dpsi) {
   const Vec3 x(xp[0], xp[1], xp[2]);
+  // Each face's offset x - q_j, kept for the second pass (per thread, grown once).
+  thread_local std::vector<Vec3> offsets;
+  offsets.resize(cage.triangle_count);
   // Pass 1: the nearest face, the scale (its squared distance) and sum u, rescaled whenever the
   // scale drops (terms so far were scale_old / d^2).
   std::size_t nearest = 0;
@@ -110,8 +130,8 @@ std::size_t blend(const double xp[3], const TriangleCageView& cage, double verte
   T total(0.0);
   for (std::size_t j = 0; j < cage.triangle_count; ++j) {
     const Face t = face(cage, j);
-    if (!((t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).norm() > 0)) continue;  // no measure, no continuation
-    const Vec3 offset = offset_from_triangle(x, t);
+    if (!has_area(t, tables, j)) continue;  // no measure, no continuation
+    const Vec3 offset = offsets[j] = offset_from_triangle(x, t);
     const double d2 = offset.squaredNorm();
     if (d2 < scale) {
       total = total * T(d2 / scale);
@@ -122,11 +142,14 @@ std::size_t blend(const double xp[3], const TriangleCageView& cage, double verte
   }
   if (!(value_of(total) > 0)) return nearest;  // only zero-area faces
   // Pass 2: each face's continuation times w_j = u_j / sum u.
+  const T inverse_total = T(1.0) / total;
   for (std::size_t j = 0; j < cage.triangle_count; ++j) {
     const Face t = face(cage, j);
+    Vec3 n, g[3];
+    if (!face_frame(t, tables, j, n, g)) continue;
     T alpha[4];
-    if (!continuation(x, t, alpha)) continue;
-    const T w = unnormalised_weight<T>(scale, offset_from_triangle(x, t)) / total;
+    continuation(x, t, n, g, alpha);
+    const T w = unnormalised_weight<T>(scale, offsets[j]) * inverse_total;
     accumulate(w * alpha[3], psi + j, dpsi ? dpsi + 3 * j : nullptr);
     const T vw = T(vertex_weight) * w;
     for (int l = 0; l < 3; ++l)
@@ -137,10 +160,10 @@ std::size_t blend(const double xp[3], const TriangleCageView& cage, double verte
 
 }  // namespace
 
-std::size_t add_exterior_continuation(const double x[3], const TriangleCageView& cage, double vertex_weight,
-                                      double* phi, double* psi, double* dphi, double* dpsi) {
-  if (dphi || dpsi) return blend<Dual3>(x, cage, vertex_weight, phi, psi, dphi, dpsi);
-  return blend<double>(x, cage, vertex_weight, phi, psi, nullptr, nullptr);
+std::size_t add_exterior_continuation(const double x[3], const TriangleCageView& cage, const GreenCageTables* tables,
+                                      double vertex_weight, double* phi, double* psi, double* dphi, double* dpsi) {
+  if (dphi || dpsi) return blend<Dual3>(x, cage, tables, vertex_weight, phi, psi, dphi, dpsi);
+  return blend<double>(x, cage, tables, vertex_weight, phi, psi, nullptr, nullptr);
 }
 
 }  // namespace deformkit

@@ -15,8 +15,9 @@ namespace deformkit {
 // x to the closed triangle j). Their gradients go into dphi (3m) and dpsi (3t) when not null; the
 // weights' derivatives included. Where x is on faces (d_j = 0) those faces share the weight
 // equally; their continuations agree there. Returns the nearest face (lowest index among equals).
-// Allocation-free: two passes over the faces.
-std::size_t add_exterior_continuation(const double x[3], const TriangleCageView& cage, double vertex_weight,
-                                      double* phi, double* psi, double* dphi, double* dpsi);
+// tables (may be null) saves recomputing the faces' normals and hat gradients, to the same bits.
+// Two passes over the faces; a per-thread scratch of t offsets, grown once.
+std::size_t add_exterior_continuation(const double x[3], const TriangleCageView& cage, const GreenCageTables* tables,
+                                      double vertex_weight, double* phi, double* psi, double* dphi, double* dpsi);
 
 }  // namespace deformkit
