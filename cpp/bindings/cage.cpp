@@ -94,9 +94,11 @@ void bind_cage(py::module_& m) {
 `cage.deform_bound(binding)` then deforms them with the cage's current points: one matrix
 product W c (W the weights, c the control values). `storage` is 'float64', 'float32' or
 'sparse'. For a sparsified binding, `dropped_weight_max` is the largest sum of |dropped
-weights| of a point and `weight_change_max` the largest L1 change of a point's weights: at any
-deformed cage, a bound point moves at most weight_change_max * (the deformed control values'
-radius about any centre) away from where the dense weights put it.)")
+weights| of a point and `weight_change_max` the largest change of a point's weights (L1, Green's
+face weights scaled by a bound of their control values per unit of cage radius): at any deformed
+cage, a bound point moves at most weight_change_max * (the deformed cage's radius about any
+centre; GreenCage(stretch=False): at least the rest cage's) away from where the dense weights put
+it.)")
       .def("__len__", [](const PyCageBinding& b) { return b.binding->size(); })
       .def_property_readonly("storage", [](const PyCageBinding& b) { return storage_name(b.binding->storage); })
       .def_property_readonly("columns", [](const PyCageBinding& b) { return b.binding->columns; })

@@ -27,6 +27,19 @@ def control_values(cage):
     return np.vstack([c, n / np.linalg.norm(n, axis=1, keepdims=True)])
 
 
+def radius(points):
+    return np.linalg.norm(points - points.mean(axis=0), axis=1).max()
+
+
+def bound_radius(cage):
+    """The radius the sparsification bound multiplies (docs/math/cage.md, "Sparsified bindings"): the
+    deformed cage's about its centroid; for Green coordinates without stretch factors, at least the
+    rest cage's."""
+    if isinstance(cage, dk.GreenCage) and not cage.stretch:
+        return max(radius(cage.cage_points), radius(cage.rest_cage_points))
+    return radius(cage.cage_points)
+
+
 def csr_product(binding, c):
     """W c from binding.weights(), one product per stored weight added row by row, and what bounds
     the rounding of any other order of those sums, row by row: 2 n_i u sum_j |w_ij c_j| (Higham
@@ -55,8 +68,9 @@ def test_sparse_deform_bound_is_its_csr_table_times_the_control_values(rng, kind
     got = cage.deform_bound(sparse)
     want, rounding = csr_product(sparse, c)
     assert np.all(np.abs(got - want) <= rounding)
-    # Against the dense result: within weight_change_max times the control values' radius.
-    radius = np.linalg.norm(c - c.mean(axis=0), axis=1).max()
+    # Against the dense result: within weight_change_max times the deformed cage's radius (with
+    # stretch=False, at least the rest cage's: the faces' control values are unit normals).
+    radius = bound_radius(cage)
     error = np.linalg.norm(got - cage.deform_bound(dense), axis=1).max()
     assert 0 < error <= sparse.weight_change_max * radius * (1 + 1e-9)
     assert sparse.float32_rounding_max == 0.0
@@ -89,7 +103,41 @@ def test_float32_points_keep_float32_weights_within_the_reported_bound(rng, kind
     # Against the dense result for the same (float32) points: the sparsification bound plus the
     # rounding's, float32_rounding_max times the largest control value, plus the output's rounding.
     dense = cage.deform_bound(cage.bind(pts.astype(np.float32))).astype(np.float64)
-    radius = np.linalg.norm(c - c.mean(axis=0), axis=1).max()
+    radius = bound_radius(cage)
     bound = (sparse32.weight_change_max * radius + sparse32.float32_rounding_max * np.linalg.norm(c, axis=1).max()
              + 2 * 2.0 ** -24 * np.abs(dense).max() * np.sqrt(3))
     assert np.linalg.norm(got - dense, axis=1).max() <= bound
+
+
+def random_cage(rng):
+    """An edited cube or L prism, or a tetrahedron, at a random size, turn and place."""
+    from test_green_exterior import TETRAHEDRON, TETRAHEDRON_FACES  # noqa: PLC0415
+    from test_mean_value_cage import CUBE, CUBE_FACES  # noqa: PLC0415
+    rest, faces = [(CUBE, CUBE_FACES), (L_POINTS, L_FACES), (TETRAHEDRON, TETRAHEDRON_FACES)][rng.integers(3)]
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    scale = 10 ** rng.uniform(-2, 2)
+    return scale * (rest + rng.normal(0, 0.03, rest.shape)) @ q + rng.normal(0, scale, 3), faces
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_green_sparse_error_within_the_reported_bound_on_random_cages(seed):
+    """|sparse - dense| <= weight_change_max * R' (the deformed cage's radius), whatever the cage's
+    size and deformation: the faces' columns multiply s_j n'_j, at most kappa_j R' long, so their
+    changes count kappa_j times (docs/math/cage.md, "Sparsified bindings"). Without stretch factors
+    the radius is at least the rest cage's. Inside, near and outside the cage."""
+    rng = np.random.default_rng(seed)
+    rest, faces = random_cage(rng)
+    centre, size = rest.mean(axis=0), radius(rest)
+    x = centre + size * rng.uniform(-2, 2, (3000, 3))
+    for stretch in (True, False):
+        cage = dk.GreenCage(rest, faces, stretch=stretch)
+        dense = cage.bind(x)
+        for threshold in (1e-3, 1e-2, 3e-2):
+            sparse = cage.bind(x, sparsify=threshold)
+            for _ in range(3):
+                sigma = 10 ** rng.uniform(-1.5, 1)  # shrunk or grown, then edited
+                cage.cage_points = centre + sigma * (rest - centre) + rng.normal(0, 0.2 * sigma * size, rest.shape)
+                error = np.linalg.norm(cage.deform_bound(sparse) - cage.deform_bound(dense), axis=1).max()
+                scale = np.abs(cage.deform_bound(dense)).max()
+                assert error <= sparse.weight_change_max * bound_radius(cage) * (1 + 1e-9) + 1e-13 * scale, (
+                    stretch, threshold, sigma)

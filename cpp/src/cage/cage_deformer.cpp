@@ -196,6 +196,10 @@ CageBinding CageDeformer::bind_points(const T* in, std::size_t n, const CageBind
   if (options.storage == WeightStorage::Float64) b.weights_f64.resize(n * m);
   if (options.storage == WeightStorage::Float32) b.weights_f32.resize(n * m);
 
+  // Sparse: the vertex columns keep their sum; the others' changes are charged by kappa.
+  const std::size_t vertex_columns = this->vertex_columns();
+  std::vector<double> kappa(m - vertex_columns);
+  if (sparse) vector_column_bounds(kappa.data());
   FirstRow overflow, emptied;
   // Sparse rows per block, joined in block order afterwards.
   struct Rows {
@@ -239,13 +243,19 @@ CageBinding CageDeformer::bind_points(const T* in, std::size_t n, const CageBind
         }
         round_max = std::max(round_max, change);
       } else {
-        // Drop the small weights; scale the kept ones so the row keeps its sum (docs/math/cage.md,
-        // "Sparsified bindings").
-        double total = 0.0, kept = 0.0, dropped = 0.0;
+        // Drop the small weights; scale the kept vertex weights so that they keep their sum
+        // (docs/math/cage.md, "Sparsified bindings").
+        double total = 0.0, kept = 0.0, dropped = 0.0, change = 0.0;
         for (std::size_t j = 0; j < m; ++j) {
-          total += w[j];
-          if (std::abs(w[j]) >= options.sparsify_threshold) kept += w[j];
-          else dropped += std::abs(w[j]);
+          const bool keep = std::abs(w[j]) >= options.sparsify_threshold;
+          if (j < vertex_columns) {
+            total += w[j];
+            if (keep) kept += w[j];
+          }
+          if (!keep) {
+            dropped += std::abs(w[j]);
+            change += (j < vertex_columns ? 1.0 : kappa[j - vertex_columns]) * std::abs(w[j]);
+          }
         }
         const double scale = total / kept;
         if (!(kept != 0.0 && std::isfinite(scale))) {
@@ -254,10 +264,10 @@ CageBinding CageDeformer::bind_points(const T* in, std::size_t n, const CageBind
           continue;
         }
         std::int64_t count = 0;
-        double change = dropped, rounded = 0.0;
+        double rounded = 0.0;
         for (std::size_t j = 0; j < m; ++j)
           if (std::abs(w[j]) >= options.sparsify_threshold) {
-            const double kept = w[j] * scale;
+            const double kept = j < vertex_columns ? w[j] * scale : w[j];
             // float32 points keep float32 values (CageBinding::sparse_values_f32); held here as the
             // doubles they widen to, so the join below is exact.
             const double stored = std::is_same<T, float>::value ? double(static_cast<float>(kept)) : kept;

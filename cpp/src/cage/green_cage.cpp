@@ -4,6 +4,7 @@
 #include "cage/green_rows.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace deformkit {
 
@@ -19,7 +20,7 @@ TriangleCageView GreenCage::view() const {
 void GreenCage::coordinates(const Vec3& x, double* w, double* dw) const {
   const std::size_t m = vertex_count();
   const double p[3] = {x[0], x[1], x[2]};
-  green_coordinates(p, view(), w, w + m, dw, dw == nullptr ? nullptr : dw + 3 * m);
+  green_coordinates(p, view(), w, w + m, dw, dw == nullptr ? nullptr : dw + 3 * m, tables_.get());
 }
 
 void GreenCage::coordinate_rows(const double* points, std::size_t n, double* w) const {
@@ -37,6 +38,18 @@ void GreenCage::control_values(double* out) const {
   }
   green_scaled_normals(current.data(), triangles_.data(), t, stretch_ ? factors.data() : nullptr,
                        out + current.size());
+}
+
+void GreenCage::vector_column_bounds(double* out) const {
+  // Lipman's s_j = sqrt(|u'|^2 |v|^2 - 2 (u'.v')(u.v) + |v'|^2 |u|^2) / (sqrt(8) area) is at most
+  // (|u'| |v| + |v'| |u|) / (sqrt(8) area) (Cauchy-Schwarz), and deformed edges are at most 2 R' long.
+  const std::vector<double>& p = rest_cage_points();
+  auto point = [&](int i) { return Vec3(p[3 * i], p[3 * i + 1], p[3 * i + 2]); };
+  for (std::size_t j = 0; j < triangles_.size() / 3; ++j) {
+    const int* v = triangles_.data() + 3 * j;
+    const Vec3 u = point(v[1]) - point(v[0]), w = point(v[2]) - point(v[0]);
+    out[j] = (u.norm() + w.norm()) / (std::sqrt(2.0) * 0.5 * u.cross(w).norm());
+  }
 }
 
 }  // namespace deformkit

@@ -1,5 +1,6 @@
 #include "cage/green_coordinates.hpp"
 
+#include "cage/green_exterior.hpp"
 #include "cage/green_rows.hpp"
 
 #include <Eigen/Dense>
@@ -234,46 +235,6 @@ bool triangle_share(const V3<T>& x, const Triangle& t, TriangleShare<T>& out) {
   return true;
 }
 
-// Squared distance from x to the closed triangle (Ericson 2005, "Real-Time Collision Detection",
-// §5.1.5: the Voronoi region of the closest feature).
-double squared_distance_to_triangle(const Vec3& x, const Triangle& t) {
-  const Vec3 &a = t.p[0], &b = t.p[1], &c = t.p[2];
-  const Vec3 ab = b - a, ac = c - a, ap = x - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return ap.squaredNorm();
-  const Vec3 bp = x - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return bp.squaredNorm();
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (ap - ab * (d1 / (d1 - d3))).squaredNorm();
-  const Vec3 cp = x - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return cp.squaredNorm();
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (ap - ac * (d2 / (d2 - d6))).squaredNorm();
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return (bp - (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)))).squaredNorm();
-  const double denom = 1.0 / (va + vb + vc);
-  return (ap - ab * (vb * denom) - ac * (vc * denom)).squaredNorm();
-}
-
-// The exterior extension's face: the triangle nearest to x, the lowest index among equals
-// (docs/math/green_coordinates.md, "Exterior extension").
-std::size_t nearest_triangle(const double x[3], const TriangleCageView& cage) {
-  const Vec3 p(x[0], x[1], x[2]);
-  std::size_t best = 0;
-  double best_distance = std::numeric_limits<double>::infinity();
-  for (std::size_t j = 0; j < cage.triangle_count; ++j) {
-    const double d = squared_distance_to_triangle(p, triangle(cage, j));
-    if (d < best_distance) {
-      best_distance = d;
-      best = j;
-    }
-  }
-  return best;
-}
-
 void clear(double* a, std::size_t n) {
   if (a)
     for (std::size_t i = 0; i < n; ++i) a[i] = 0;
@@ -300,21 +261,6 @@ double integrals(const double x[3], const TriangleCageView& cage, double* phi, d
   return solid_angle / kFourPi;
 }
 
-// Lipman et al. 2008, §3.3: outside, x = sum_k alpha_k v_jk + alpha_4 n_j through face j, and the
-// face's coordinates take the alphas (foot point barycentrics, height above the face). On the
-// surface (weight = 1 - winding) the same terms are the double layer's jump to its inside limit.
-template <class T>
-void extend(const double x[3], const TriangleCageView& cage, std::size_t j, double weight, double* phi, double* psi,
-            double* dphi, double* dpsi) {
-  const Triangle t = triangle(cage, j);
-  TriangleShare<T> share;
-  if (!triangle_share(point_variable<T>(x), t, share)) return;
-  accumulate(0.0 - share.height, psi + j, dpsi ? dpsi + 3 * j : nullptr);
-  for (int l = 0; l < 3; ++l)
-    accumulate(weight * share.foot_barycentric[l], phi + t.index[l],
-               dphi ? dphi + 3 * static_cast<std::size_t>(t.index[l]) : nullptr);
-}
-
 // Off the surface the winding number is an integer to rounding (a sum of t solid angles, each
 // to ~1e-16); a fractional one means x is on the cage (docs/math/green_coordinates.md, "On the cage").
 constexpr double kWindingTolerance = 1e-9;
@@ -331,38 +277,33 @@ void green_integrals(const double x[3], const TriangleCageView& cage, double* ph
 
 namespace {
 
-GreenSide extension(const double x[3], const TriangleCageView& cage, double winding, double* phi, double* psi,
-                    double* dphi, double* dpsi) {
-  const bool gradients = dphi || dpsi;
+GreenSide extension(const double x[3], const TriangleCageView& cage, const GreenCageTables* tables, double winding,
+                    double* phi, double* psi, double* dphi, double* dpsi) {
   GreenSide side;
   side.winding = winding;
   if (side.winding >= 1.0 - kWindingTolerance || cage.triangle_count == 0) return side;
   side.outside = side.winding <= kWindingTolerance;
   side.on_surface = !side.outside;
-  side.face = nearest_triangle(x, cage);
   // On the surface the raw double layer is its principal value; the inside limit adds (1 - winding)
-  // times the hat functions at x, those of any triangle through x. Outside the weight is 1 - 0, the
-  // paper's alphas; 1 - winding there also absorbs the winding number's rounding.
-  const double weight = 1.0 - side.winding;
-  if (gradients)
-    extend<Dual>(x, cage, side.face, weight, phi, psi, dphi, dpsi);
-  else
-    extend<double>(x, cage, side.face, weight, phi, psi, nullptr, nullptr);
+  // times the hat functions at x, those of any triangle through x (the faces at distance 0, which
+  // share the blend's weight). Outside the weight is 1 - 0, the continuations' alphas; 1 - winding
+  // there also absorbs the winding number's rounding.
+  side.face = add_exterior_continuation(x, cage, tables, 1.0 - side.winding, phi, psi, dphi, dpsi);
   return side;
 }
 
 }  // namespace
 
 GreenSide green_coordinates(const double x[3], const TriangleCageView& cage, double* phi, double* psi, double* dphi,
-                            double* dpsi) {
+                            double* dpsi, const GreenCageTables* tables) {
   const double winding = dphi || dpsi ? integrals<Dual>(x, cage, phi, psi, dphi, dpsi)
                                       : integrals<double>(x, cage, phi, psi, nullptr, nullptr);
-  return extension(x, cage, winding, phi, psi, dphi, dpsi);
+  return extension(x, cage, tables, winding, phi, psi, dphi, dpsi);
 }
 
 GreenSide green_extension(const double x[3], const TriangleCageView& cage, double winding, double* phi,
-                          double* psi) {
-  return extension(x, cage, winding, phi, psi, nullptr, nullptr);
+                          double* psi, const GreenCageTables* tables) {
+  return extension(x, cage, tables, winding, phi, psi, nullptr, nullptr);
 }
 
 GreenCageTables green_cage_tables(const TriangleCageView& cage) {

@@ -1,6 +1,7 @@
 #pragma once
 // Green coordinates of a closed triangle cage in 3D (Lipman, Levin, Cohen-Or 2008), as free
-// functions on raw arrays, with exact gradients and the paper's exterior extension (§3.3).
+// functions on raw arrays, with exact gradients and an exterior extension that blends the paper's
+// per-face continuations (§3.3).
 // The formulas as implemented: docs/math/green_coordinates.md.
 //
 // Every function here is allocation-free and re-entrant: the coordinates of one point write only
@@ -8,6 +9,8 @@
 #include <cstddef>
 
 namespace deformkit {
+
+struct GreenCageTables;  // cage/green_rows.hpp
 
 // A closed, consistently oriented triangle cage: points m x 3 (row-major) and triangles t x 3
 // whose vertices run counter-clockwise seen from outside (outward normals). Validation (closed,
@@ -20,13 +23,14 @@ struct TriangleCageView {
 };
 
 // Where a point's coordinates came from: inside, the Green integrals alone; outside, the
-// integrals plus the exterior extension through `face` (the nearest triangle); on the cage surface
+// integrals plus the exterior extension (every face's continuation, weighted by inverse squared
+// distance; `face` is the nearest triangle, the one of largest weight); on the cage surface
 // (where the winding number is fractional), the integrals' limit from inside
 // (docs/math/green_coordinates.md, "Exterior extension"; docs/math/green_coordinates.md, "On the cage").
 struct GreenSide {
   bool outside = false;
   bool on_surface = false;
-  std::size_t face = 0;  // the extending triangle when outside or on the surface
+  std::size_t face = 0;  // the nearest triangle when outside or on the surface
   double winding = 1.0;  // sum of the raw phi: the cage's winding number about x
 };
 
@@ -39,19 +43,22 @@ void green_integrals(const double x[3], const TriangleCageView& cage, double* ph
                      double* dpsi);
 
 // Green coordinates at x, inside, on and outside the cage: the raw integrals, and for a point
-// outside the cage (winding number 0) the exterior extension of §3.3 through the nearest
-// triangle j, with x = sum_k alpha_k v_jk + alpha_4 n_j: phi_jk += alpha_k, psi_j += alpha_4
-// (on the cage: phi_jk += (1 - winding) alpha_k, the inside limit). Linear reproduction
-// then holds everywhere and the deformed point is continuous across the cage surface. On the cage's
+// outside the cage (winding number 0) the blend of §3.3's continuations: with
+// x = sum_k alpha^j_k v_jk + alpha^j_4 n_j through each triangle j and w_j = d_j^-2 / sum d^-2
+// (d_j the distance to the closed triangle), phi_jk += w_j alpha^j_k, psi_j += w_j alpha^j_4
+// (on the cage: phi_jk += (1 - winding) alpha_k of the faces through x, the inside limit). Linear
+// reproduction then holds everywhere, and the deformed point is C^1 outside and continuous across
+// the cage surface. On the cage's
 // edges and vertices the map is continuous but not differentiable: the gradients there are finite
-// (the log-singular edge terms are dropped) but not derivatives.
+// (the log-singular edge terms are dropped) but not derivatives. The cage's tables (green_cage_tables,
+// may be null) save the extension recomputing each face's normal and hat gradients; same result.
 GreenSide green_coordinates(const double x[3], const TriangleCageView& cage, double* phi, double* psi, double* dphi,
-                            double* dpsi);
+                            double* dpsi, const GreenCageTables* tables = nullptr);
 
 // What green_coordinates() adds to the raw integrals at x (values only), given their winding
 // number: nothing inside, else the exterior extension or the on-surface limit.
 GreenSide green_extension(const double x[3], const TriangleCageView& cage, double winding, double* phi,
-                          double* psi);
+                          double* psi, const GreenCageTables* tables = nullptr);
 
 // Lipman's per-triangle stretch factors s_j into out (t), from the edges u, v of t_j at rest and
 // u', v' deformed: 1 at rest, sigma under a similarity of scale sigma

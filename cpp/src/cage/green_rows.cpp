@@ -175,12 +175,12 @@ void GreenRows(const double* points, size_t n, const TriangleCageView& cage, con
       double* row = rows + (base + k) * columns;
       const double* xk = points + 3 * (base + k);
       if (lane_flag[k] != 0.0) {
-        green_coordinates(xk, cage, row, row + m, nullptr, nullptr);
+        green_coordinates(xk, cage, row, row + m, nullptr, nullptr, &tables);
         continue;
       }
       for (size_t j = 0; j < m; ++j) row[j] = s.phi[j * N + k];
       for (size_t j = 0; j < t; ++j) row[m + j] = s.psi[j * N + k];
-      green_extension(xk, cage, lane_winding[k], row, row + m);
+      green_extension(xk, cage, lane_winding[k], row, row + m, &tables);
     }
   }
 }

@@ -35,8 +35,8 @@ std::vector<double> mapped(const std::vector<double>& p, double s) {
 }
 
 std::vector<double> sample_points() {
-  // Inside the L-shaped prism, near its faces, and outside it (the exterior extension; not where
-  // the nearest face changes, across which the extension jumps: docs/math/green_coordinates.md).
+  // Inside the L-shaped prism, near its faces, and outside it (the exterior extension; the last
+  // point's foot lies near a diagonal of the top hexagon's split, where the blend's weights turn).
   return {0.5, 0.5, 0.5, 1.5, 0.5, 0.2, 0.5, 1.5, 0.8, 0.999, 0.5, 0.5, 1e-6, 0.3, 0.7,
           -0.4, 0.5, 0.5, 2.5, 0.3, 0.4, 1.3, 1.6, 0.5, 0.5, 0.5, 1.7};
 }
@@ -74,10 +74,9 @@ TEST(GreenCage, JacobianMatchesCentralDifferences) {
   std::uniform_real_distribution<double> u(-0.15, 0.15);
   for (double& v : moved) v += u(rng);
   g.set_cage_points(moved);
-  // Not the point above the top hexagon: its foot lies near a diagonal of the hexagon's split,
-  // across which the nearest triangle (the extension's) changes.
-  std::vector<double> x = sample_points();
-  x.resize(x.size() - 3);
+  // With the point above the top hexagon, near a diagonal of its split: the blended extension's
+  // weights have derivatives there (docs/math/green_coordinates.md, "Exterior extension").
+  const std::vector<double> x = sample_points();
   std::vector<double> jac(3 * x.size());
   g.jacobian(x.data(), jac.data(), x.size() / 3);
   const double h = 1e-6;

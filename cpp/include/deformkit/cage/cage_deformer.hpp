@@ -40,9 +40,11 @@ struct CageBinding : PointBinding {
   Buffer<double> points_f64;   // n x 3, as bound (float64 points)
   Buffer<float> points_f32;    // (float32 points)
   // Sparse only, over the bound points: the largest sum of |dropped weights| of a point, and the
-  // largest L1 change of a point's weights (dropped plus renormalised): the position error at any
-  // deformed cage is at most weight_change_max * max_j |c'_j - o| for any point o, the deformed
-  // control values' radius about it (the weights still sum to what they summed to).
+  // largest weighted L1 change of a point's weights, sum over the vertex columns of |change| plus
+  // sum over the other columns of kappa_c |change| (CageDeformer::vector_column_bounds): the
+  // position error at any deformed cage is at most weight_change_max * max_i |v'_i - o| for any
+  // point o, the deformed cage's radius about it (the vertex weights still sum to what they summed
+  // to; docs/math/cage.md, "Sparsified bindings").
   double dropped_weight_max = 0.0;
   double weight_change_max = 0.0;
   // Float32, and Sparse of float32 points: the largest L1 change rounding to float made to a point's
@@ -72,6 +74,12 @@ class CageDeformer : public BoundDeformer {
   // gradients. This default calls coordinates() per point; a kind overrides it to compute several
   // points at once (SIMD lanes over points), equal to coordinates() to rounding.
   virtual void coordinate_rows(const double* points, std::size_t n, double* w) const;
+  // The first vertex_columns() columns multiply the cage's vertices; the others (Green's faces)
+  // multiply vectors c with |c| <= kappa_c R' for every deformed cage of radius R' about any centre:
+  // kappa of each such column into out (columns() - vertex_columns()). Sparsifying keeps the vertex
+  // weights' sum and charges the other columns' changes by kappa.
+  virtual std::size_t vertex_columns() const { return columns(); }
+  virtual void vector_column_bounds(double* /*out*/) const {}
 
   // Throws std::invalid_argument naming `points` for a non-finite row, `sparsify` for a threshold
   // that is not positive and finite or that would drop every weight of a point (or leave weights

@@ -24,6 +24,11 @@ class GreenCage : public CageDeformer {
   void coordinates(const Vec3& x, double* w, double* dw) const override;
   void coordinate_rows(const double* points, std::size_t n, double* w) const override;
   void control_values(double* out) const override;
+  // |s_j n'_j| <= kappa_j R' with kappa_j = (|u| + |v|) / (sqrt(2) area_j) from the rest edges u, v
+  // (docs/math/cage.md, "Sparsified bindings"); with stretch = false |n'_j| = 1 <= kappa_j R / sqrt(2)
+  // for R the rest cage's radius.
+  std::size_t vertex_columns() const override { return vertex_count(); }
+  void vector_column_bounds(double* out) const override;
 
  protected:
   // The coordinates do not depend on stretch: bindings are shared by both modes.
