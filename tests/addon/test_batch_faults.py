@@ -6,6 +6,7 @@ import json
 import os
 import pathlib
 import resource
+import select
 import shutil
 import signal
 import subprocess
@@ -233,10 +234,22 @@ def test_killed_launcher_leaves_a_report_and_the_next_run_cleans_up(fixtures, re
     assert not staging[0].exists() and live.exists()
 
 
+def paused_in_its_save(run, paused, seconds=300.0):
+    """Wait until `run`'s worker announces on the FIFO `paused` (an fd opened non-blocking) that its
+    temporary is written (python_addon/batch.py, pause_point_for_tests); the run ending first is a
+    failure. The timeout only guards against a hang."""
+    deadline = time.monotonic() + seconds
+    while run.poll() is None and time.monotonic() < deadline:
+        if select.select([paused], [], [], 1.0)[0]:
+            return os.read(paused, 100)
+    raise AssertionError(f"the run never paused in its save: exit status {run.poll()}")
+
+
 def test_two_runs_into_one_folder(fixtures, tmp_path, recipe):
-    """Run A is frozen while its temporary output exists; run B, writing the same output name
-    into the same folder, fails and cleans up: A's temporary (and any other run's) survives, A
-    finishes with its output, and a run that would share A's report is refused."""
+    """Run A is held by the worker's pause point while its temporary output exists; run B, writing
+    the same output name into the same folder, fails and cleans up: A's temporary (and any other
+    run's) survives, A finishes with its output, and a run that would share A's report is refused."""
+    from deformkit_addon.batch import PAUSE_BEFORE_RENAME
     out = tmp_path / "out"
     out.mkdir()
     others = [out / "monkey.blend.tmp4242.blend", out / "monkey.blend.deformkit-4242-0badc0de.tmp.blend"]
@@ -246,22 +259,25 @@ def test_two_runs_into_one_folder(fixtures, tmp_path, recipe):
     shutil.copy(fixtures / "monkey.blend", tmp_path / "b")
     missing = tmp_path / "missing_object.json"
     missing.write_text(json.dumps({**TWIST, "objects": ["Nope"]}))
-    big = tmp_path / "big.json"  # a subdivided monkey: a save long enough to be caught in the act
-    big.write_text(json.dumps({"objects": ["*"], "deformers": [{"type": "SUBDIVIDE", "levels": 2}]}))
-    a = start(fixtures / "monkey.blend", "--recipe", big, "--out", out, "--report", tmp_path / "a.json",
-              start_new_session=True)
-    planted = {o.name for o in others}
-    while a.poll() is None and not any(e.name.startswith("monkey.blend.") and e.name not in planted
-                                       for e in os.scandir(out)):
-        pass  # no sleep: the temporary exists for a few milliseconds
-    assert a.poll() is None, "run A finished before its save could be caught"
-    os.killpg(a.pid, signal.SIGSTOP)
+    gate = tmp_path / "gate"
+    gate.mkdir()
+    os.mkfifo(gate / "paused")
+    os.mkfifo(gate / "resume")
+    paused = os.open(gate / "paused", os.O_RDONLY | os.O_NONBLOCK)
+    resume = os.open(gate / "resume", os.O_RDWR)  # the writer end A's worker waits on, open before A starts
     try:
+        a = start(fixtures / "monkey.blend", "--recipe", recipe, "--out", out, "--report", tmp_path / "a.json",
+                  env={**os.environ, PAUSE_BEFORE_RENAME: str(gate)})
+        paused_in_its_save(a, paused)
+        planted = {o.name for o in others}
+        assert [e.name for e in os.scandir(out) if e.name not in planted and e.name.startswith("monkey.blend.")], \
+            "A paused without its temporary"
         b = batch(tmp_path / "b/monkey.blend", "--recipe", missing, "--out", out, "--report", tmp_path / "b.json")
         shared = batch(tmp_path / "b/monkey.blend", "--recipe", recipe, "--out", tmp_path / "c",
                        "--report", tmp_path / "a.json")
     finally:
-        os.killpg(a.pid, signal.SIGCONT)
+        os.close(resume)  # A's worker reads to the end and renames
+        os.close(paused)
     assert a.wait(timeout=300) == 0, a.stdout.read() + a.stderr.read()
     assert b.returncode == 1 and "object 'Nope' not found" in b.stdout
     assert_one_line_error(shared, "--report")
