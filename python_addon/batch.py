@@ -160,9 +160,9 @@ def save_atomically(path, token=None):
 
 
 # A test hook, off unless this variable names a folder holding two FIFOs, "paused" and "resume":
-# the worker then announces on "paused" that its temporary is written and waits until "resume" is
-# closed, so that a test can act while the temporary exists without racing the save
-# (tests/addon/test_batch_faults.py, test_two_runs_into_one_folder). Unset, it costs one lookup.
+# the worker then announces on "paused" that its temporary is written and waits for a line (or
+# the end) on "resume", so that a test can act while the temporary exists, or hold a run
+# unfinished, without racing the save (tests/addon/test_batch_faults.py). Unset, it costs one lookup.
 PAUSE_BEFORE_RENAME = "DEFORMKIT_TEST_PAUSE_BEFORE_RENAME"
 
 
@@ -173,7 +173,7 @@ def pause_point_for_tests():
     with open(os.path.join(folder, "resume"), encoding="utf-8") as resume:  # first: its writer is the test
         with open(os.path.join(folder, "paused"), "w", encoding="utf-8") as paused:
             paused.write(f"{os.getpid()}\n")
-        resume.read()  # until the test closes its end
+        resume.readline()  # until the test writes a line or closes its end
 
 
 def save_conditions(path):
