@@ -151,11 +151,29 @@ def save_atomically(path, token=None):
             raise RuntimeError(f"cannot save {path}: {str(exc).strip()} ({save_conditions(path)})") from exc
         if not os.path.exists(tmp):
             raise BatchError(f"Blender did not write {tmp}")
+        pause_point_for_tests()
         os.replace(tmp, path)
     finally:
         for leftover in (tmp, blender_tmp):
             if os.path.exists(leftover):
                 os.unlink(leftover)
+
+
+# A test hook, off unless this variable names a folder holding two FIFOs, "paused" and "resume":
+# the worker then announces on "paused" that its temporary is written and waits for a line (or
+# the end) on "resume", so that a test can act while the temporary exists, or hold a run
+# unfinished, without racing the save (tests/addon/test_batch_faults.py). Unset, it costs one lookup.
+PAUSE_BEFORE_RENAME = "DEFORMKIT_TEST_PAUSE_BEFORE_RENAME"
+
+
+def pause_point_for_tests():
+    folder = os.environ.get(PAUSE_BEFORE_RENAME)
+    if not folder:
+        return
+    with open(os.path.join(folder, "resume"), encoding="utf-8") as resume:  # first: its writer is the test
+        with open(os.path.join(folder, "paused"), "w", encoding="utf-8") as paused:
+            paused.write(f"{os.getpid()}\n")
+        resume.readline()  # until the test writes a line or closes its end
 
 
 def save_conditions(path):

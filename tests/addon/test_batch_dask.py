@@ -70,7 +70,7 @@ def test_fixtures_on_a_cluster_equal_the_local_run(fixtures, tmp_path):
     assert status == [(os.path.basename(r["file"]), r["status"], r["error"]) for r in theirs["files"]]
     assert [(n, s) for n, s, _ in status if s != "ok"] == [("corrupt.blend", "failed")]
     assert "cannot open" in {n: e for n, _, e in status}["corrupt.blend"]
-    assert len(status) >= 7 and {r["worker"] for r in ours["files"]} == workers
+    assert len(status) >= 7 and {r["worker"] for r in ours["files"]} <= workers  # which ones: the scheduler's choice
     assert all(len(r["attempts"]) == 1 for r in ours["files"])
     for row, twin in zip(ours["files"], theirs["files"]):
         assert [(o["name"], o["vertices"], o["entries"]) for o in row["objects"]] == \

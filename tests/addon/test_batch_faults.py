@@ -6,6 +6,7 @@ import json
 import os
 import pathlib
 import resource
+import select
 import shutil
 import signal
 import subprocess
@@ -201,24 +202,64 @@ def wait_for(condition, seconds=120.0):
     raise AssertionError("timed out waiting")
 
 
+class SaveGate:
+    """The two FIFOs of the worker's pause point (python_addon/batch.py, pause_point_for_tests):
+    `env` turns it on for a run; each worker then stops between its save and the rename until
+    release() (one file) or close() (all)."""
+
+    def __init__(self, folder):
+        from deformkit_addon.batch import PAUSE_BEFORE_RENAME
+        folder.mkdir()
+        os.mkfifo(folder / "paused")
+        os.mkfifo(folder / "resume")
+        self.env = {PAUSE_BEFORE_RENAME: str(folder)}
+        self.paused = os.open(folder / "paused", os.O_RDONLY | os.O_NONBLOCK)
+        self.resume = os.open(folder / "resume", os.O_RDWR)  # the writer the workers wait on, open before they start
+
+    def wait_paused(self, run, seconds=300.0):
+        """Until a worker of `run` says its temporary is written; `run` ending first is a failure.
+        The timeout only guards against a hang."""
+        deadline = time.monotonic() + seconds
+        while run.poll() is None and time.monotonic() < deadline:
+            if select.select([self.paused], [], [], 1.0)[0]:
+                return os.read(self.paused, 100)
+        raise AssertionError(f"the run never paused in its save: exit status {run.poll()}")
+
+    def release(self):
+        os.write(self.resume, b"go\n")
+
+    def close(self):
+        os.close(self.resume)
+        os.close(self.paused)
+
+
 def test_killed_launcher_leaves_a_report_and_the_next_run_cleans_up(fixtures, recipe, tmp_path):
+    """The first file is let through its save, the second held in its own: the launcher is killed
+    with one file done, one running and two pending, whatever the machine's load."""
     tmp = tmp_path / "tmp"
     tmp.mkdir()
     env = {**os.environ, "TMPDIR": str(tmp)}
     inputs = [fixtures / f"{n}.blend" for n in ("column", "monkey", "torus", "saved_stack")]
     out = tmp_path / "out"
-    launcher = start(*inputs, "--recipe", recipe, "--out", out, env=env)
+    gate = SaveGate(tmp_path / "gate")
+    try:
+        launcher = start(*inputs, "--recipe", recipe, "--out", out, env={**env, **gate.env})
+        gate.wait_paused(launcher)
+        gate.release()
 
-    def finished_one():
-        try:
-            return report_of(out / "report.json")["ok"] >= 1
-        except (OSError, ValueError):
-            return False
+        def finished_one():
+            try:
+                return report_of(out / "report.json")["ok"] >= 1
+            except (OSError, ValueError):
+                return False
 
-    wait_for(finished_one)
-    assert launcher.poll() is None, "the report appeared only when the run was over"
-    launcher.send_signal(signal.SIGKILL)
-    launcher.wait()
+        wait_for(finished_one)
+        gate.wait_paused(launcher)  # the second file, held until the launcher is gone
+        assert launcher.poll() is None, "the report appeared only when the run was over"
+        launcher.send_signal(signal.SIGKILL)
+        launcher.wait()
+    finally:
+        gate.close()
     report = report_of(out / "report.json")  # valid JSON: replaced atomically, never torn
     assert not report["complete"] and report["ok"] >= 1 and report["pending"] >= 1
     for done in (f for f in report["files"] if f["status"] == "ok"):
@@ -234,9 +275,9 @@ def test_killed_launcher_leaves_a_report_and_the_next_run_cleans_up(fixtures, re
 
 
 def test_two_runs_into_one_folder(fixtures, tmp_path, recipe):
-    """Run A is frozen while its temporary output exists; run B, writing the same output name
-    into the same folder, fails and cleans up: A's temporary (and any other run's) survives, A
-    finishes with its output, and a run that would share A's report is refused."""
+    """Run A is held by the worker's pause point while its temporary output exists; run B, writing
+    the same output name into the same folder, fails and cleans up: A's temporary (and any other
+    run's) survives, A finishes with its output, and a run that would share A's report is refused."""
     out = tmp_path / "out"
     out.mkdir()
     others = [out / "monkey.blend.tmp4242.blend", out / "monkey.blend.deformkit-4242-0badc0de.tmp.blend"]
@@ -246,22 +287,19 @@ def test_two_runs_into_one_folder(fixtures, tmp_path, recipe):
     shutil.copy(fixtures / "monkey.blend", tmp_path / "b")
     missing = tmp_path / "missing_object.json"
     missing.write_text(json.dumps({**TWIST, "objects": ["Nope"]}))
-    big = tmp_path / "big.json"  # a subdivided monkey: a save long enough to be caught in the act
-    big.write_text(json.dumps({"objects": ["*"], "deformers": [{"type": "SUBDIVIDE", "levels": 2}]}))
-    a = start(fixtures / "monkey.blend", "--recipe", big, "--out", out, "--report", tmp_path / "a.json",
-              start_new_session=True)
-    planted = {o.name for o in others}
-    while a.poll() is None and not any(e.name.startswith("monkey.blend.") and e.name not in planted
-                                       for e in os.scandir(out)):
-        pass  # no sleep: the temporary exists for a few milliseconds
-    assert a.poll() is None, "run A finished before its save could be caught"
-    os.killpg(a.pid, signal.SIGSTOP)
+    gate = SaveGate(tmp_path / "gate")
     try:
+        a = start(fixtures / "monkey.blend", "--recipe", recipe, "--out", out, "--report", tmp_path / "a.json",
+                  env={**os.environ, **gate.env})
+        gate.wait_paused(a)
+        planted = {o.name for o in others}
+        assert [e.name for e in os.scandir(out) if e.name not in planted and e.name.startswith("monkey.blend.")], \
+            "A paused without its temporary"
         b = batch(tmp_path / "b/monkey.blend", "--recipe", missing, "--out", out, "--report", tmp_path / "b.json")
         shared = batch(tmp_path / "b/monkey.blend", "--recipe", recipe, "--out", tmp_path / "c",
                        "--report", tmp_path / "a.json")
     finally:
-        os.killpg(a.pid, signal.SIGCONT)
+        gate.close()  # A's worker goes on and renames
     assert a.wait(timeout=300) == 0, a.stdout.read() + a.stderr.read()
     assert b.returncode == 1 and "object 'Nope' not found" in b.stdout
     assert_one_line_error(shared, "--report")

@@ -1,8 +1,11 @@
 """Ctrl+A in a real Blender 3.4 window (under Xvfb): the add-on's key map item comes before
 Blender's, so deformkit.entry_apply first lets object.modifier_apply find a modifier panel under
-the mouse, as the hotkey alone would. The mouse is put over each place by warping the X pointer;
-which places are over which modifier's panel is found by Blender's own hover lookup (Copy
-Modifier's invoke, undone at once), not by assuming a layout."""
+the mouse, as the hotkey alone would. The mouse is put over each place by a simulated mouse move
+(Blender started with --enable-event-simulate: the window's event state moves at once, and the
+real pointer is ignored); which places are over which modifier's panel is found by Blender's own
+hover lookup (Copy Modifier's invoke, undone at once), not by assuming a layout. After each
+change of the stack the script waits for the Properties editor to have been drawn again (a draw
+handler counts its draws), not for a time."""
 import os
 import shutil
 import subprocess
@@ -23,6 +26,25 @@ import bpy
 def properties():
     area = next(a for a in bpy.context.screen.areas if a.type == "PROPERTIES")
     return area, next(r for r in area.regions if r.type == "WINDOW")
+
+draws = [0]
+
+def count_draw():
+    draws[0] += 1
+
+bpy.types.SpaceProperties.draw_handler_add(count_draw, (), "WINDOW", "POST_PIXEL")
+
+def redrawn(times=2):
+    """Timer steps until the Properties editor has been drawn `times` more times (its panels laid
+    out after the last change): waits for draws, polled each 10 ms, never for a set time."""
+    area, _ = properties()
+    target = draws[0] + times
+    while draws[0] < target:
+        area.tag_redraw()
+        yield 0.01
+
+def move_mouse(window, x, y):
+    window.event_simulate(type="MOUSEMOVE", value="NOTHING", x=x, y=y)
 
 def over(window):
     """What the hotkey would find under the mouse: the modifier Copy Modifier copies, if any."""
@@ -51,18 +73,17 @@ def run():
     cube.modifiers.new("SD", "SIMPLE_DEFORM")
     area, region = properties()
     area.spaces[0].context = "MODIFIER"
-    yield 1.0
+    yield from redrawn()
     found = {}
     for y in range(region.y + region.height - 40, region.y + 10, -12):
-        window.cursor_warp(region.x + region.width // 2, y)
-        yield 0.15
+        move_mouse(window, region.x + region.width // 2, y)  # the layout is unchanged: no redraw needed
         found.setdefault(over(window), []).append(y)
     print("FOUND", {k: len(v) for k, v in found.items()})
     top_modifier = max(y for name, ys in found.items() if name for y in ys)
     above = [y for y in found.get(None, []) if y > top_modifier]  # the deformkit panel and Add Modifier
     for name, place in (("SD", found["SD"][len(found["SD"]) // 2]), (None, above[len(above) // 2])):
-        window.cursor_warp(region.x + region.width // 2, place)
-        yield 0.3
+        yield from redrawn()  # after the last lookup or apply, the panels laid out anew
+        move_mouse(window, region.x + region.width // 2, place)
         with bpy.context.temp_override(window=window, area=area, region=region):
             result = bpy.ops.deformkit.entry_apply("INVOKE_DEFAULT")  # as the key map item calls it
         print("APPLIED", name, sorted(result), [m.name for m in cube.modifiers],
@@ -70,7 +91,7 @@ def run():
     bpy.ops.wm.quit_blender()
 
 steps = run()
-bpy.app.timers.register(lambda: next(steps, None), first_interval=1.0)
+bpy.app.timers.register(lambda: next(steps, None), first_interval=0.0)
 '''
 
 
@@ -82,7 +103,8 @@ def test_ctrl_a_applies_the_modifier_under_the_mouse_else_the_active_entry(tmp_p
     script.write_text(SCRIPT)
     env = dict(os.environ, ADDON=str(REPO / "python_addon"), DKLIB=deformkit_lib())
     proc = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1920x1080x24", BLENDER, "--factory-startup",
-                           "-P", str(script)], capture_output=True, text=True, timeout=300, env=env)
+                           "--enable-event-simulate", "-P", str(script)], capture_output=True, text=True, timeout=300,
+                          env=env)
     lines = [line for line in proc.stdout.splitlines() if line.startswith(("FOUND", "APPLIED"))]
     tail = (proc.stdout + proc.stderr)[-3000:]
     assert len(lines) == 3, tail

@@ -1,6 +1,4 @@
 """Bad input gets a clear error naming the argument; inputs are never modified."""
-import threading
-import time
 
 import numpy as np
 import pytest
@@ -126,27 +124,6 @@ def test_inputs_are_not_modified_and_layouts_are_accepted():
     strided = np.zeros((100, 3))
     strided[::2] = pts
     np.testing.assert_array_equal(d.deform(strided[::2]), contiguous)
-
-
-def test_gil_is_released_during_deform():
-    """While one thread is inside deform, another thread keeps running Python code."""
-    pts = np.random.default_rng(0).uniform(-1, 1, (4_000_000, 3)).astype(np.float32)
-    stack = dk.Stack([dk.Twist(), dk.Bend(), dk.Taper(), dk.Twist(), dk.Bend(), dk.Taper()] * 2)
-    window = {}
-
-    def work():
-        window["start"] = time.perf_counter()
-        stack.deform(pts)
-        window["end"] = time.perf_counter()
-
-    stamps = []
-    t = threading.Thread(target=work)
-    t.start()
-    while t.is_alive():
-        stamps.append(time.perf_counter())
-    t.join()
-    inside = [s for s in stamps if window["start"] < s < window["end"]]
-    assert len(inside) > 10, (len(inside), window["end"] - window["start"])
 
 
 def test_in_place_with_a_bad_row_leaves_the_array_alone():

@@ -2,7 +2,7 @@
 job file after `--` and does what the input file asks for after its BLENDER header, as a Blender
 worker would (or as one that hangs, crashes, or exits without a word; "hang-once" and
 "done-then-hang-once" hang the first time only, before and after finishing the file, for the
-worker a test kills). Like the real one it dies with the process that started it."""
+worker a test kills; "meet" finishes only once another "meet" file has started beside it). Like the real one it dies with the process that started it."""
 import json
 import os
 import signal
@@ -12,6 +12,20 @@ import time
 import numpy as np
 
 from deformkit.batch import shared
+
+
+def meet_another(path):
+    """For "meet" files: say this one has started, then wait until another "meet" file of the same
+    folder has too (at most 120 s: a guard against a hang), so that they finish only if they ran
+    at the same time."""
+    open(path + ".met", "w").close()
+    folder = os.path.dirname(path)
+    for _ in range(2400):
+        if any(name.endswith("_meet.blend.met") and name != os.path.basename(path) + ".met"
+               for name in os.listdir(folder)):
+            return True
+        time.sleep(0.05)
+    return False
 
 
 def main(argv):
@@ -46,6 +60,8 @@ def main(argv):
         time.sleep(120)
         return 1
     if mode == "exit":
+        return 1
+    if mode == "meet" and not meet_another(job["input"]):
         return 1
     if mode in ("sleep", "wait-for-ctrl-c"):
         progress("evaluate")

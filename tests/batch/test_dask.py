@@ -8,10 +8,13 @@ import contextlib
 import json
 import os
 import pathlib
+import pty
+import re
 import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 
 import pytest
@@ -54,6 +57,50 @@ def batch(blender, paths, out, *options):
 def start(blender, paths, out, *options):
     return subprocess.Popen(command(blender, paths, out, *options), stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, start_new_session=True)
+
+
+class Terminal:
+    """The launcher's stdout on a pseudo-terminal (its progress line is then redrawn at every
+    attempt's start as well as at every file's end), read by a thread until the launcher closes it."""
+
+    def __init__(self):
+        self.master, self.slave = pty.openpty()
+        self.text, self.changed = "", threading.Condition()
+        self.reader = threading.Thread(target=self._read, daemon=True)
+
+    def _read(self):
+        while True:
+            try:
+                data = os.read(self.master, 4096)
+            except OSError:  # EIO: every writer has closed the terminal
+                data = b""
+            with self.changed:
+                if not data:
+                    self.changed.notify_all()
+                    return
+                self.text += data.decode("utf-8", "replace")
+                self.changed.notify_all()
+
+    def wait_for(self, pattern, process, seconds=120.0):
+        """Until `pattern` appears in what was written; the timeout only guards against a hang."""
+        with self.changed:
+            found = self.changed.wait_for(lambda: pattern.search(self.text) or process.poll() is not None
+                                          or not self.reader.is_alive(), seconds)
+        assert found and pattern.search(self.text), f"never saw {pattern.pattern!r} in:\n{self.text[-3000:]}"
+
+    def close(self):
+        self.reader.join(timeout=30)
+        os.close(self.master)
+
+
+def start_on_a_terminal(blender, paths, out, *options):
+    terminal = Terminal()
+    launcher = subprocess.Popen(command(blender, paths, out, *options), stdout=terminal.slave,
+                                stderr=subprocess.PIPE, text=True, start_new_session=True,
+                                env={**os.environ, "COLUMNS": "400"})
+    os.close(terminal.slave)
+    terminal.reader.start()
+    return launcher, terminal
 
 
 def report_of(out):
@@ -105,8 +152,9 @@ def cluster(tmp_path):
 
 def test_rows_and_outputs_are_the_local_executors(cluster, fake_blender, tmp_path):
     """Good, failing, crashing and unreadable files: each row is the local executor's (but for
-    times, pids and the Dask fields), each output the same bytes; both workers took files, each
-    file once; a stale staging folder of a dead launcher of this machine is removed."""
+    times, pids and the Dask fields), each output the same bytes; each file done once, on one of
+    the cluster's workers (which worker is the scheduler's choice, not asserted); a stale staging
+    folder of a dead launcher of this machine is removed."""
     paths = inputs(tmp_path / "in", ["ok", "fail", "ok", "segv", "stdout", "exit", "ok", "ok"])
     (tmp_path / "in" / "notes.blend").write_text("not a blend file")
     paths += [tmp_path / "in" / "notes.blend", tmp_path / "in" / "missing.blend"]
@@ -128,7 +176,6 @@ def test_rows_and_outputs_are_the_local_executors(cluster, fake_blender, tmp_pat
         assert row["worker"] in workers and isinstance(row["queue_seconds"], float)
         assert [(a["attempt"], a["outcome"], a["worker"]) for a in row["attempts"]] == \
                [(1, row["status"], row["worker"])]
-    assert {r["worker"] for r in ours["files"]} == workers
     assert all(len(runs(p)) == 2 for p in paths[:8])  # once for the local run, once on the cluster
     written = sorted(p.name for p in out.iterdir())
     assert written == sorted([p.name for p in (tmp_path / "local").iterdir()] + [foreign.name])
@@ -292,9 +339,8 @@ def free_port():
 def test_scheduler_out_of_reach_or_without_workers(tmp_path, fake_blender):
     paths = inputs(tmp_path / "in", ["ok"])
     address = f"tcp://127.0.0.1:{free_port()}"
-    t0 = time.monotonic()
     proc = batch(fake_blender, paths, tmp_path / "out", "--scheduler", address, "--connect-timeout", 2)
-    assert proc.returncode == 2 and time.monotonic() - t0 < 30, proc.stderr
+    assert proc.returncode == 2, proc.stderr  # the 2 s bound given is the one applied: the message says so
     assert proc.stderr.startswith(f"deformkit-batch: error: --scheduler: cannot reach the Dask scheduler {address} "
                                   "within 2 s"), proc.stderr
     assert proc.stderr.count("\n") == 1 and not (tmp_path / "out" / "report.json").exists()
@@ -320,25 +366,22 @@ def test_ctrl_c_on_the_launcher(fake_blender, tmp_path, where):
             options = ["--scheduler", cluster.address]
         else:
             options = ["--executor", "dask-local", "--workers", "2"]
-        launcher = start(fake_blender, paths, out, *options)
-
-        def one_done_one_hanging():
-            try:
-                return report_of(out)["ok"] >= 1 and list(out.glob(".deformkit-batch-*/attempts/*/1/*.started"))
-            except (OSError, ValueError):
-                return False
-
-        wait_for(one_done_one_hanging, what="a file done and one hanging")
-        time.sleep(1.0)  # the attempt's start reaches the launcher (an event through the scheduler)
+        launcher, terminal = start_on_a_terminal(fake_blender, paths, out, *options)
+        # Both workers hang on the two "sleep" files, and the launcher has had both attempts' start
+        # (its progress line, redrawn at each start on a terminal, says 2 running): no worker is
+        # free to start another file, and the launcher knows what runs when Ctrl+C comes.
+        terminal.wait_for(re.compile(r"progress: [1-9]\d*/6 done \(0 failed\), 2 running"), launcher)
         os.killpg(launcher.pid, signal.SIGINT)
         _, stderr = launcher.communicate(timeout=60)
+        terminal.close()
         assert launcher.returncode != 0 and "KeyboardInterrupt" in stderr, stderr
         if where == "scheduler":
             wait_for(lambda: cluster.tasks_on_scheduler() == 0, 30, "the scheduler to drop the run's tasks")
         blenders = [int(line.split()[0]) for p in paths for line in runs(p)]
         for pid in blenders:
             wait_for(lambda: not alive(pid), 20, f"Blender {pid} to stop")
-        time.sleep(1.0)  # nothing left running: no file starts after the interrupt
+        # Nothing can start a file any more: the launcher (and a LocalCluster's scheduler in it) has
+        # exited, the scheduler holds none of the run's tasks, the Blenders it started are gone.
     report = report_of(out)
     assert not report["complete"] and report["ok"] >= 1 and report["pending"] >= 1
     killed = [r for r in report["files"] if r["status"] == "failed"]
@@ -456,15 +499,16 @@ def test_bad_combinations_are_one_line_errors(fake_blender, tmp_path, options, m
 
 def test_a_local_cluster_with_two_blenders_per_worker(fake_blender, tmp_path):
     """--executor dask-local --workers 1 --blender-per-worker 2: one worker process runs two
-    files at once (their attempts overlap in time), and the report says so."""
-    paths = inputs(tmp_path / "in", ["ok", "ok"])
+    files at once (each "meet" file finishes only once the other has started), and the report
+    says so."""
+    paths = inputs(tmp_path / "in", ["meet", "meet"])
     proc = batch(fake_blender, paths, tmp_path / "out", "--executor", "dask-local", "--workers", 1,
                  "--blender-per-worker", 2)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     report = report_of(tmp_path / "out")
     assert list(report["executor"]["workers"].values()) == [2] and report["executor"]["kind"] == "dask-local"
     (a,), (b,) = (r["attempts"] for r in report["files"])
-    assert a["worker"] == b["worker"] and a["start"] < b["end"] and b["start"] < a["end"]
+    assert a["worker"] == b["worker"] and [r["status"] for r in report["files"]] == ["ok", "ok"]
     assert "a Dask LocalCluster: 1 workers, 2 files at a time" in proc.stdout
 
 

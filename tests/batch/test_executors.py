@@ -3,7 +3,9 @@ concurrent.futures pool gives every job exactly one row, the row run_job itself 
 that raises or whose process dies still gets a row; Ctrl-C drops the jobs not started and
 reports the running ones."""
 import concurrent.futures
+import functools
 import json
+import multiprocessing
 import os
 import pathlib
 import signal
@@ -81,24 +83,30 @@ def test_a_crashed_pool_process_still_gives_every_job_a_row(make_job):
     assert {rows[i]["exception"]["type"] for i in rows} == {"BrokenProcessPool"}
 
 
-def slow_then_mark(job):
-    time.sleep(1.0 if job.index == 0 else 0.0)
+def mark_after(release, job):
+    """Job 0 ends only once `release` (an Event shared with the test) is set; the others at once."""
+    if job.index == 0:
+        assert release.wait(120), "job 0 was never released"  # the timeout only guards a hang
     pathlib.Path(job.work, f"{job.index}.ran").touch()
     return {"file": job.input, "status": "ok"}
 
 
 def test_ctrl_c_drops_jobs_not_started_and_reports_the_running_ones(make_job):
+    """Job 0 cannot finish before job 1 is reported: Ctrl-C, raised there, finds job 0 running."""
     jobs = [make_job("ok", index=i) for i in range(5)]
     rows = {}
+    with multiprocessing.Manager() as manager:
+        release = manager.Event()
 
-    def on_row(job, row):
-        rows[job.index] = row
-        if job.index == 1:
-            raise KeyboardInterrupt  # as Ctrl-C arrives while job 0 still runs
+        def on_row(job, row):
+            rows[job.index] = row
+            if job.index == 1:
+                release.set()  # job 0 may end now; run_all is still in this call, so it is not reported yet
+                raise KeyboardInterrupt  # as Ctrl-C arrives while job 0 still runs
 
-    with LocalProcessExecutor(2) as executor:
-        with pytest.raises(KeyboardInterrupt):
-            run_all(executor, jobs, on_row, fn=slow_then_mark, window=2)
+        with LocalProcessExecutor(2) as executor:
+            with pytest.raises(KeyboardInterrupt):
+                run_all(executor, jobs, on_row, fn=functools.partial(mark_after, release), window=2)
     assert sorted(rows) == [0, 1] and rows[0]["status"] == "ok"  # job 0 finished and was reported
     assert sorted(p.name for p in pathlib.Path(jobs[0].work).glob("*.ran")) == ["0.ran", "1.ran"]
 

@@ -5,6 +5,8 @@ import dataclasses
 import os
 import pathlib
 import pickle
+import select
+import subprocess
 
 
 from deformkit.batch import shared
@@ -49,12 +51,32 @@ def test_a_result_on_stdout_when_the_file_could_not_be_written(make_job):
     assert row["status"] == "ok" and row["objects"][0]["name"] == "Fake"
 
 
-def test_timeout_names_the_stage(make_job):
+def test_timeout_names_the_stage(make_job, monkeypatch):
+    """The fake Blender reports stage 'evaluate', then hangs. Its job's timeout starts once it has
+    said so (Blender is started through a Popen that returns only then: the fake opens
+    `<index>.started`, a FIFO here, after its progress is written), so that a slow start on a
+    loaded machine cannot leave the stage at 'open'; the timeout itself is subprocess.run's, as
+    run_job uses it."""
     job = make_job("sleep", timeout=1.5)
-    row = run_job(job)
+    started = pathlib.Path(job.work, "0.started")
+    os.mkfifo(started)
+    reader = os.open(started, os.O_RDONLY | os.O_NONBLOCK)
+
+    class StartedPopen(subprocess.Popen):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            for _ in range(120):  # seconds: only a guard against a hang
+                if select.select([reader], [], [], 1.0)[0] or self.poll() is not None:
+                    break
+
+    monkeypatch.setattr(subprocess, "Popen", StartedPopen)
+    try:
+        row = run_job(job)
+    finally:
+        os.close(reader)
     assert row["exception"]["type"] == "TimeoutExpired"
     assert row["error"] == "TimeoutExpired: timed out after 1.5 s during stage 'evaluate' (object Fake)"
-    assert row["warnings"] == ["a warning seen while reading"] and 1.5 <= row["seconds"] < 30
+    assert row["warnings"] == ["a warning seen while reading"] and row["seconds"] >= 1.5
 
 
 def test_crash_during_save_keeps_the_old_output_and_removes_the_temporary(make_job):

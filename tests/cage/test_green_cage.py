@@ -20,6 +20,20 @@ def reproduction_error(cage, x):
     return np.linalg.norm(w[:, :m] @ cage.rest_cage_points + w[:, m:] @ n - x, axis=1), w[:, :m].sum(1)
 
 
+def stretched_normals(cage):
+    """s_k n_k of each deformed cage triangle: its unit normal times the stretch factor of Lipman,
+    Levin and Cohen-Or (2008, "Green Coordinates"; 1 for a rigid motion of the triangle), the
+    columns the normal weights multiply (cage.stretch is True); checked against deform below."""
+    tris = cage.triangles
+    (a, b, c), (a2, b2, c2) = ([p[tris[:, i]] for i in range(3)] for p in (cage.rest_cage_points, cage.cage_points))
+    u, v, u2, v2 = b - a, c - a, b2 - a2, c2 - a2
+    area = 0.5 * np.linalg.norm(np.cross(u, v), axis=1)
+    s = np.sqrt((u2 * u2).sum(1) * (v * v).sum(1) - 2 * (u2 * v2).sum(1) * (u * v).sum(1)
+                + (v2 * v2).sum(1) * (u * u).sum(1)) / (np.sqrt(8) * area)
+    n = np.cross(u2, v2)
+    return s[:, None] * n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
 def similarity(x, s=1.7):
     c, si = np.cos(0.6), np.sin(0.6)
     r = np.array([[c, -si, 0], [si, c, 0], [0, 0, 1]]) @ np.array([[1, 0, 0], [0, c, -si], [0, si, c]])
@@ -60,7 +74,15 @@ def test_rest_cage_is_the_identity_and_bound_equals_deform(rng):
     np.testing.assert_allclose(cage.deform_bound(b), cage.deform(x), atol=1e-12)
     y32 = cage.deform_bound(cage.bind(x.astype(np.float32), precision="float32"))
     assert y32.dtype == np.float32
-    np.testing.assert_allclose(y32, cage.deform(x), atol=1e-4)
+    y, w = cage.deform(x), weights_of(cage, x)
+    columns = np.r_[cage.cage_points, stretched_normals(cage)]  # what the weights multiply
+    np.testing.assert_allclose(w @ columns, y, rtol=0, atol=1e-12)
+    # float32 rounds three things by half an eps each: the points (moved through the Jacobian), every
+    # weight (times its column's length) and the result; weights summed in float32 would cost more.
+    half = 0.5 * np.finfo(np.float32).eps
+    tol = half * (np.abs(cage.jacobian(x)).sum(2).max(1) * np.abs(x).max(1)
+                  + np.abs(w) @ np.linalg.norm(columns, axis=1) + np.abs(y).max(1))
+    assert (np.abs(y32 - y).max(1) <= tol).all(), (np.abs(y32 - y).max(1) / tol).max()
 
 
 def test_jacobian_matches_central_differences(rng):

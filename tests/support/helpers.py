@@ -49,21 +49,24 @@ def bspline_basis(count, t):
     return out
 
 
-def blender_key_weights(kind, f):
-    """Blender's key_curve_position_weights (key.cc) with its float constants."""
+def blender_key_weights(kind, f, float_constants=True):
+    """Blender's key_curve_position_weights (key.cc) with its float constants (0.16666666f,
+    0.71f), or with float_constants=False the real numbers they spell (1/6, 2/3, 0.71), as
+    deformkit computes them in float64."""
     f2, f3 = f * f, f * f * f
     if kind == "linear":
         z = np.zeros_like(f)
         return [z, 1 - f, f, z]
+    spell = (lambda x: float(np.float32(x))) if float_constants else float
     if kind == "bspline":
-        c, d = float(np.float32(0.16666666)), float(np.float32(0.66666666))
+        c, d = (spell(0.16666666), spell(0.66666666)) if float_constants else (1 / 6, 2 / 3)
         return [-c * f3 + 0.5 * f2 - 0.5 * f + c, 0.5 * f3 - f2 + d, -0.5 * f3 + 0.5 * f2 + 0.5 * f + c, c * f3]
-    fc = {"cardinal": float(np.float32(0.71)), "catmull_rom": 0.5}[kind]
+    fc = {"cardinal": spell(0.71), "catmull_rom": 0.5}[kind]
     return [-fc * f3 + 2 * fc * f2 - fc * f, (2 - fc) * f3 + (fc - 3) * f2 + 1,
             (fc - 2) * f3 + (3 - 2 * fc) * f2 + fc * f, fc * f3 - fc * f2]
 
 
-def blender_basis(count, kind, t):
+def blender_basis(count, kind, t, float_constants=True):
     """BKE_lattice_deform_data_eval_co along one axis: u = t (count - 1), indices clamped (edge repeat)."""
     t = np.asarray(t, float)
     out = np.zeros((len(t), count))
@@ -72,7 +75,7 @@ def blender_basis(count, kind, t):
         return out
     g = t * (count - 1)
     cell = np.floor(g).astype(int)
-    w = blender_key_weights(kind, g - cell)
+    w = blender_key_weights(kind, g - cell, float_constants)
     for a in range(4):
         np.add.at(out, (np.arange(len(t)), np.clip(cell - 1 + a, 0, count - 1)), w[a])
     return out
