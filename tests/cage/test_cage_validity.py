@@ -157,3 +157,15 @@ def test_the_shared_cages_are_accepted_and_touch_nowhere(name):
     for cage_type in CAGE_TYPES:
         cage = cage_type(points, faces)
     assert meeting_pairs(points, cage.triangles) == []
+
+
+def test_solids_joined_at_a_vertex_index_are_accepted_and_at_a_copy_of_it_refused():
+    # Apex to apex: sharing vertex 0 by index is a shared vertex; a second vertex at the same
+    # position is a contact.
+    upper, upper_faces = tetrahedron((0, 0, 0), (1, 0, 1), (0, 1, 1), (-1, -1, 1))
+    lower, lower_faces = tetrahedron((0, 0, 0), (1, 0, -1), (0, 1, -1), (-1, -1, -1))
+    volume = 2 * abs(np.linalg.det(upper[1:] - upper[0])) / 6
+    shared = np.vstack([upper, lower[1:]])
+    shared_faces = upper_faces + [[0 if v == 0 else v + 3 for v in f] for f in lower_faces]
+    assert_accepted_as_exact(shared, shared_faces, volume)
+    assert_refused_as_exact(*joined(upper, upper_faces, lower, lower_faces))
