@@ -169,3 +169,13 @@ def test_solids_joined_at_a_vertex_index_are_accepted_and_at_a_copy_of_it_refuse
     shared_faces = upper_faces + [[0 if v == 0 else v + 3 for v in f] for f in lower_faces]
     assert_accepted_as_exact(shared, shared_faces, volume)
     assert_refused_as_exact(*joined(upper, upper_faces, lower, lower_faces))
+
+
+def test_a_polygon_that_crosses_itself_is_named_once():
+    # A prism over the pentagram {5/2}: its caps' edges cross, so their triangles overlap in the plane.
+    ring = regular(5)[[0, 2, 4, 1, 3]]
+    points, faces = prism(ring)
+    assert (0, 0) in meeting_faces(points, faces)
+    for cage_type in CAGE_TYPES:
+        with pytest.raises(ValueError, match=r"^cage_faces: face 0 intersects itself \(the cage intersects itself\)$"):
+            cage_type(points, faces)

@@ -7,9 +7,9 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Intersections_3/Segment_3_Triangle_3.h>
 #include <CGAL/Intersections_3/Triangle_3_Triangle_3.h>
-#include <CGAL/box_intersection_d.h>
 
 #include <algorithm>
+#include <numeric>
 #include <cstddef>
 #include <vector>
 
@@ -19,7 +19,6 @@ namespace {
 
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Point = Kernel::Point_3;
-using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 3, std::size_t, CGAL::Box_intersection_d::ID_EXPLICIT>;
 
 Point point_of(const std::vector<double>& p, int v) { return Point(p[3 * v], p[3 * v + 1], p[3 * v + 2]); }
 
@@ -76,24 +75,35 @@ int turn_along(const Vec3& a, const Vec3& b, const Vec3& c, int axis) {
 
 std::array<int, 2> first_intersecting_triangles(const std::vector<double>& points,
                                                 const std::vector<CageTriangle>& triangles) {
-  std::array<int, 2> first{-1, -1};
-  std::vector<Box> boxes;
-  boxes.reserve(triangles.size());
-  for (std::size_t t = 0; t < triangles.size(); ++t) {
-    const Point a = point_of(points, triangles[t][0]), b = point_of(points, triangles[t][1]),
-                c = point_of(points, triangles[t][2]);
+  const std::size_t t = triangles.size();
+  std::vector<CGAL::Bbox_3> boxes(t);
+  for (std::size_t i = 0; i < t; ++i) {
+    const Point a = point_of(points, triangles[i][0]), b = point_of(points, triangles[i][1]),
+                c = point_of(points, triangles[i][2]);
     // A segment or a point is no triangle to test against: it counts as meeting itself.
-    if (CGAL::collinear(a, b, c)) return {int(t), int(t)};
-    boxes.emplace_back(a.bbox() + b.bbox() + c.bbox(), t);
+    if (CGAL::collinear(a, b, c)) return {int(i), int(i)};
+    boxes[i] = a.bbox() + b.bbox() + c.bbox();  // the doubles themselves: exact
   }
-  auto consider = [&](const Box& x, const Box& y) {
-    const int i = int(std::min(x.info(), y.info())), j = int(std::max(x.info(), y.info()));
-    const bool earlier = first[0] < 0 || i < first[0] || (i == first[0] && j < first[1]);
-    if (earlier && meet_beyond_shared(points, triangles[std::size_t(i)], triangles[std::size_t(j)])) first = {i, j};
-  };
-  // Closed boxes: triangles that only touch have touching boxes, and touching counts.
-  CGAL::box_self_intersection_d(boxes.begin(), boxes.end(), consider, std::ptrdiff_t(10),
-                                CGAL::Box_intersection_d::CLOSED);
+  // Candidates: the pairs whose closed boxes meet (touching counts), found by a sweep along the
+  // axis the cage is longest on. CGAL's box_self_intersection_d would do as well, but it is GPL
+  // where the kernel is LGPL (docs/install.md, "Licences").
+  const CGAL::Bbox_3 all = std::accumulate(boxes.begin(), boxes.end(), CGAL::Bbox_3());
+  int axis = 0;
+  for (int k = 1; k < 3; ++k)
+    if (all.max(k) - all.min(k) > all.max(axis) - all.min(axis)) axis = k;
+  std::vector<std::size_t> order(t);
+  std::iota(order.begin(), order.end(), std::size_t(0));
+  std::sort(order.begin(), order.end(), [&](std::size_t i, std::size_t j) { return boxes[i].min(axis) < boxes[j].min(axis); });
+  std::array<int, 2> first{-1, -1};
+  for (std::size_t m = 0; m < t; ++m) {
+    const CGAL::Bbox_3& x = boxes[order[m]];
+    for (std::size_t n = m + 1; n < t && boxes[order[n]].min(axis) <= x.max(axis); ++n) {
+      if (!CGAL::do_overlap(x, boxes[order[n]])) continue;
+      const int i = int(std::min(order[m], order[n])), j = int(std::max(order[m], order[n]));
+      const bool earlier = first[0] < 0 || i < first[0] || (i == first[0] && j < first[1]);
+      if (earlier && meet_beyond_shared(points, triangles[std::size_t(i)], triangles[std::size_t(j)])) first = {i, j};
+    }
+  }
   return first;
 }
 
