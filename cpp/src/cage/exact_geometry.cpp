@@ -1,5 +1,6 @@
 // The cage family's exact predicates: CGAL's filtered predicates, exact on the input doubles
-// (interval arithmetic first, exact arithmetic when the interval cannot decide the sign).
+// (interval arithmetic first, exact arithmetic when the interval cannot decide the sign:
+// Bronnimann, Burnikel, Pion 2001, "Interval arithmetic yields efficient dynamic filters").
 #include "cage/exact_geometry.hpp"
 
 #include "deformkit/cage/cage_mesh.hpp"
@@ -9,8 +10,8 @@
 #include <CGAL/Intersections_3/Triangle_3_Triangle_3.h>
 
 #include <algorithm>
-#include <numeric>
 #include <cstddef>
+#include <numeric>
 #include <vector>
 
 namespace deformkit {
@@ -22,7 +23,7 @@ using Point = Kernel::Point_3;
 
 Point point_of(const std::vector<double>& p, int v) { return Point(p[3 * v], p[3 * v + 1], p[3 * v + 2]); }
 
-// The vertices a and b share, by index, as positions: a's corners first, then b's.
+// The vertices two triangles a and b share by index, each as its corner in a and its corner in b.
 struct SharedCorners {
   int count = 0;
   int in_a[3] = {0, 0, 0}, in_b[3] = {0, 0, 0};  // for each shared vertex: its corner in a, in b
