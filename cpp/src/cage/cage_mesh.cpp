@@ -1,5 +1,7 @@
 #include "deformkit/cage/cage_mesh.hpp"
 
+#include "cage/exact_geometry.hpp"
+
 #include "deformkit/core/types.hpp"
 
 #include <algorithm>
@@ -32,30 +34,48 @@ CageTriangle starting_at_smallest(int a, int b, int c) {
 
 std::string edge_name(int a, int b) { return "(" + std::to_string(a) + ", " + std::to_string(b) + ")"; }
 
-// Signed volume (times 6) of the tetrahedron p, q, r, s.
-double orient(const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& s) { return (q - p).dot((r - p).cross(s - p)); }
-
-// The segment q0 q1 crosses the triangle's interior (strictly: touching is not counted).
-bool segment_crosses(const Vec3& q0, const Vec3& q1, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const double s0 = orient(a, b, c, q0), s1 = orient(a, b, c, q1);
-  if (!((s0 < 0 && s1 > 0) || (s0 > 0 && s1 < 0))) return false;
-  const double o1 = orient(q0, q1, a, b), o2 = orient(q0, q1, b, c), o3 = orient(q0, q1, c, a);
-  return (o1 > 0 && o2 > 0 && o3 > 0) || (o1 < 0 && o2 < 0 && o3 < 0);
+// The polygon's vector area, sum (p_i - o) x (p_{i+1} - o), about the centre o of its corners'
+// bounding box: the products then round relative to the polygon's size, not its distance from the
+// origin, and o does not depend on which corner the face lists first.
+Vec3 vector_area(const double* points, const int* corners, int count) {
+  Vec3 lo = point(points, corners[0]), hi = lo;
+  for (int i = 1; i < count; ++i) lo = lo.cwiseMin(point(points, corners[i])), hi = hi.cwiseMax(point(points, corners[i]));
+  const Vec3 o = 0.5 * (lo + hi);
+  Vec3 area = Vec3::Zero();
+  for (int i = 0; i < count; ++i) area += (point(points, corners[i]) - o).cross(point(points, corners[(i + 1) % count]) - o);
+  return area;
 }
 
+// The plane a polygon is seen in: along the coordinate axis its vector area leans on most, from
+// the side that area points to. Projecting a planar polygon along that axis keeps its shape's
+// turns, so every turn below is an exact sign on the input doubles (cage_exact::turn_along).
+struct ViewAxis {
+  int axis = 0;
+  int side = 0;  // +1 or -1; 0 for a polygon of no area
+};
 
-// The ear (a, b, c) of `ring` is convex along the polygon's area vector and holds none of the
-// ring's other corners (seen along that vector): cutting it leaves a simple polygon.
-bool is_ear(const double* points, const std::vector<int>& ring, std::size_t i, const Vec3& area) {
+ViewAxis view_axis(const Vec3& area) {
+  ViewAxis v;
+  area.cwiseAbs().maxCoeff(&v.axis);
+  v.side = area[v.axis] > 0 ? 1 : area[v.axis] < 0 ? -1 : 0;
+  return v;
+}
+
+int turn(const Vec3& a, const Vec3& b, const Vec3& c, const ViewAxis& view) {
+  return view.side * cage_exact::turn_along(a, b, c, view.axis);
+}
+
+// The ear (a, b, c) of `ring` turns the polygon's way and holds none of the ring's other corners,
+// on its boundary included (all seen along the view axis): cutting it leaves a simple polygon.
+bool is_ear(const double* points, const std::vector<int>& ring, std::size_t i, const ViewAxis& view) {
   const std::size_t n = ring.size();
   const int ia = ring[(i + n - 1) % n], ib = ring[i], ic = ring[(i + 1) % n];
   const Vec3 a = point(points, ia), b = point(points, ib), c = point(points, ic);
-  if (degenerate_triangle(a, b, c) || !((b - a).cross(c - b).dot(area) > 0.0)) return false;
+  if (degenerate_triangle(a, b, c) || turn(a, b, c, view) <= 0) return false;
   for (const int v : ring) {
     if (v == ia || v == ib || v == ic) continue;
     const Vec3 q = point(points, v);
-    if ((b - a).cross(q - a).dot(area) >= 0 && (c - b).cross(q - b).dot(area) >= 0 && (a - c).cross(q - c).dot(area) >= 0)
-      return false;
+    if (turn(a, b, q, view) >= 0 && turn(b, c, q, view) >= 0 && turn(c, a, q, view) >= 0) return false;
   }
   return true;
 }
@@ -65,8 +85,7 @@ bool is_ear(const double* points, const std::vector<int>& ring, std::size_t i, c
 std::vector<CageTriangle> split_polygon(const double* points, const int* corners, int count) {
   std::vector<int> ring(corners, corners + count);
   std::vector<CageTriangle> out;
-  Vec3 area = Vec3::Zero();
-  for (int i = 0; i < count; ++i) area += point(points, corners[i]).cross(point(points, corners[(i + 1) % count]));
+  const ViewAxis view = view_axis(vector_area(points, corners, count));
   while (ring.size() > 3) {
     const std::size_t n = ring.size();
     std::size_t best = n;
@@ -75,7 +94,7 @@ std::vector<CageTriangle> split_polygon(const double* points, const int* corners
     for (std::size_t i = 0; i < n; ++i) {
       const int prev = ring[(i + n - 1) % n], next = ring[(i + 1) % n];
       const Vec3 a = point(points, prev), c = point(points, next);
-      if (!is_ear(points, ring, i, area)) continue;
+      if (!is_ear(points, ring, i, view)) continue;
       const double length = (c - a).squaredNorm();
       const std::pair<int, int> pair{std::min(prev, next), std::max(prev, next)};
       // A quad's two ears on one diagonal cut the same two triangles: either may be taken.
@@ -93,52 +112,6 @@ std::vector<CageTriangle> split_polygon(const double* points, const int* corners
   return out;
 }
 
-std::array<int, 2> first_intersecting_triangles(const std::vector<double>& points,
-                                                const std::vector<CageTriangle>& triangles) {
-  const double* p = points.data();
-  const std::size_t t = triangles.size();
-  std::vector<Vec3> lo(t), hi(t), normal(t);
-  for (std::size_t i = 0; i < t; ++i) {
-    const Vec3 a = point(p, triangles[i][0]), b = point(p, triangles[i][1]), c = point(p, triangles[i][2]);
-    lo[i] = a.cwiseMin(b).cwiseMin(c);
-    hi[i] = a.cwiseMax(b).cwiseMax(c);
-    normal[i] = (b - a).cross(c - a).normalized();
-  }
-  for (std::size_t i = 0; i < t; ++i)
-    for (std::size_t j = i + 1; j < t; ++j) {
-      if ((lo[i].array() > hi[j].array()).any() || (lo[j].array() > hi[i].array()).any()) continue;
-      const CageTriangle& A = triangles[i];
-      const CageTriangle& B = triangles[j];
-      int shared = 0;
-      for (int u = 0; u < 3; ++u) shared += A[u] == B[0] || A[u] == B[1] || A[u] == B[2];
-      const Vec3 a[3] = {point(p, A[0]), point(p, A[1]), point(p, A[2])};
-      const Vec3 b[3] = {point(p, B[0]), point(p, B[1]), point(p, B[2])};
-      bool hit = false;
-      if (shared == 3) {
-        hit = true;
-      } else if (shared == 2) {
-        // Neighbours across an edge overlap only when folded flat onto each other.
-        hit = normal[i].dot(normal[j]) < -1.0 + 1e-12;
-      } else if (shared == 1) {
-        // Edges through the shared vertex meet the other triangle's plane there only: the
-        // opposite edges are the ones that can cross.
-        int ai = 0, bi = 0;
-        for (int u = 0; u < 3; ++u) {
-          if (A[u] == B[0] || A[u] == B[1] || A[u] == B[2]) ai = u;
-          if (B[u] == A[0] || B[u] == A[1] || B[u] == A[2]) bi = u;
-        }
-        hit = segment_crosses(a[(ai + 1) % 3], a[(ai + 2) % 3], b[0], b[1], b[2]) ||
-              segment_crosses(b[(bi + 1) % 3], b[(bi + 2) % 3], a[0], a[1], a[2]);
-      } else {
-        for (int u = 0; u < 3 && !hit; ++u)
-          hit = segment_crosses(a[u], a[(u + 1) % 3], b[0], b[1], b[2]) ||
-                segment_crosses(b[u], b[(u + 1) % 3], a[0], a[1], a[2]);
-      }
-      if (hit) return {int(i), int(j)};
-    }
-  return {-1, -1};
-}
-
 CageMesh::CageMesh(PolygonMesh polygons) : polygons_(std::move(polygons)) {
   require_distinct_corners(polygons_);
   const double* p = polygons_.points().data();
@@ -147,14 +120,9 @@ CageMesh::CageMesh(PolygonMesh polygons) : polygons_(std::move(polygons)) {
   for (std::size_t f = 0; f < faces; ++f) {
     const int* c = polygons_.face(f);
     const int k = polygons_.face_size(f);
-    Vec3 area = Vec3::Zero();
     double longest = 0.0;
-    for (int i = 0; i < k; ++i) {
-      const Vec3 a = point(p, c[i]), b = point(p, c[(i + 1) % k]);
-      area += a.cross(b);
-      longest = std::max(longest, (b - a).squaredNorm());
-    }
-    if (!(0.5 * area.norm() > kDegenerate * longest))
+    for (int i = 0; i < k; ++i) longest = std::max(longest, (point(p, c[(i + 1) % k]) - point(p, c[i])).squaredNorm());
+    if (!(0.5 * vector_area(p, c, k).norm() > kDegenerate * longest))
       throw std::invalid_argument("faces: face " + std::to_string(f) + " has zero area (degenerate)");
     const std::vector<CageTriangle> split = split_polygon(p, c, k);
     if (split.empty())
@@ -224,9 +192,12 @@ CageMesh::CageMesh(PolygonMesh polygons) : polygons_(std::move(polygons)) {
   }
   volume_ = std::abs(six_volume) / 6.0;
   const std::array<int, 2> hit = first_intersecting_triangles(polygons_.points(), triangles_);
-  if (hit[0] >= 0)
-    throw std::invalid_argument("faces: faces " + std::to_string(triangle_face_[hit[0]]) + " and " +
-                                std::to_string(triangle_face_[hit[1]]) + " intersect (the cage intersects itself)");
+  if (hit[0] < 0) return;
+  const int f = triangle_face_[std::size_t(hit[0])], g = triangle_face_[std::size_t(hit[1])];
+  if (f == g)  // a polygon folded so far out of its plane that two of its triangles meet
+    throw std::invalid_argument("faces: face " + std::to_string(f) + " intersects itself (the cage intersects itself)");
+  throw std::invalid_argument("faces: faces " + std::to_string(f) + " and " + std::to_string(g) +
+                              " intersect (the cage intersects itself)");
 }
 
 }  // namespace deformkit

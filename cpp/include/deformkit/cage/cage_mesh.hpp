@@ -14,7 +14,9 @@ using CageTriangle = std::array<int, 3>;
 
 // The triangles of one polygon of `count` corners (vertex indices into points, 3 values each),
 // in the polygon's orientation: ears cut one by one, each time the ear of non-degenerate area
-// whose closing diagonal is shortest (ties: the diagonal of the smaller vertex pair). Each triangle
+// whose closing diagonal is shortest (ties: the diagonal of the smaller vertex pair). An ear's
+// turns are exact signs seen along the axis the polygon's vector area leans on most, so a planar
+// simple polygon always splits validly, whatever its placement. Each triangle
 // starts at its smallest vertex and the polygon's triangles are sorted, so the result depends on
 // the polygon's vertices and their cyclic order only, not on which corner the face lists first.
 // Empty when no ear of non-zero area is left (a degenerate polygon).
@@ -27,7 +29,8 @@ class CageMesh {
   // point, an index out of range) and then `faces` for the first face that repeats a vertex or has
   // zero area, then for the first edge (in face order) that is non-manifold (more than two faces),
   // runs the same way in two faces (inconsistent orientation) or has one face only (an open cage),
-  // then for a cage that encloses no volume and for the first pair of triangles that intersect.
+  // then for a cage that encloses no volume and for the first pair of triangles that meet beyond
+  // the vertices and edge they share (first_intersecting_triangles): their polygons are named.
   // A cage whose faces point inward (negative signed volume) is flipped: flipped() is then true.
   explicit CageMesh(PolygonMesh polygons);
 
@@ -54,9 +57,10 @@ class CageMesh {
   double length_scale_ = 0.0;
 };
 
-// The first pair (in triangle order) of triangles of `triangles` that intersect other than along
-// the vertices and edges they share, or {-1, -1}: O(t^2) with a bounding-box reject, for cages of
-// a few thousand triangles at most.
+// The first pair (in triangle order) of triangles of `triangles` that have a point in common
+// besides the vertices and the edge they share by index, touching included, or {-1, -1}; {t, t}
+// for a triangle whose corners are collinear. Decided exactly on the input doubles (CGAL's exact
+// predicates), testing only the pairs whose closed bounding boxes meet.
 std::array<int, 2> first_intersecting_triangles(const std::vector<double>& points,
                                                 const std::vector<CageTriangle>& triangles);
 
