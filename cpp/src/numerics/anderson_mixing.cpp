@@ -1,5 +1,6 @@
 #include "numerics/anderson_mixing.hpp"
 
+#include <cmath>
 #include <stdexcept>
 
 namespace deformkit {
@@ -26,8 +27,13 @@ Eigen::VectorXd AndersonMixing::next(const Eigen::Ref<const Eigen::VectorXd>& x,
   const auto k = Eigen::Index(columns_);
   // The window's normal equations (k x k), solved rank-revealing: differences that have become
   // parallel near convergence get theta 0 instead of a blown-up combination.
-  const Eigen::MatrixXd gram = df_.leftCols(k).transpose() * df_.leftCols(k);
-  const Eigen::VectorXd rhs = df_.leftCols(k).transpose() * f;
+  // theta does not change when df and f are scaled alike: by a power of two near df's largest
+  // entry, so that the products neither overflow nor underflow and no bit depends on the scale.
+  const double largest = df_.leftCols(k).cwiseAbs().maxCoeff();
+  const double unit = largest > 0 && std::isfinite(largest) ? std::ldexp(1.0, -std::ilogb(largest)) : 1.0;
+  const Eigen::MatrixXd scaled = unit * df_.leftCols(k);
+  const Eigen::MatrixXd gram = scaled.transpose() * scaled;
+  const Eigen::VectorXd rhs = scaled.transpose() * (unit * f);
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(gram);
   qr.setThreshold(1e-12);
   const Eigen::VectorXd theta = qr.solve(rhs);
