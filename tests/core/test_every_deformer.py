@@ -2,8 +2,8 @@
 `test_every_deformer_class_is_covered`): NaN and Inf points are refused by name on every path
 (deform, displacement, jacobian, transform_normals, volume_ratio, bind); points so far away that
 some derivative is refused are refused by all three derivative methods alike, and wherever they are
-not, transform_normals gives unit normals and volume_ratio det(jacobian) (docs/errors.md, "Edge
-cases: transfer, surface and lattices")."""
+not, transform_normals gives unit normals and volume_ratio det(jacobian).
+See docs/errors.md, "Edge cases: transfer, surface and lattices"."""
 import inspect
 from fractions import Fraction
 
