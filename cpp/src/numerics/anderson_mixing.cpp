@@ -27,13 +27,21 @@ Eigen::VectorXd AndersonMixing::next(const Eigen::Ref<const Eigen::VectorXd>& x,
   const auto k = Eigen::Index(columns_);
   // The window's normal equations (k x k), solved rank-revealing: differences that have become
   // parallel near convergence get theta 0 instead of a blown-up combination.
-  // theta does not change when df and f are scaled alike: by a power of two near df's largest
-  // entry, so that the products neither overflow nor underflow and no bit depends on the scale.
+  // theta does not change when df and f are scaled alike: beyond 2^+-200, where the products
+  // could overflow or underflow, by a power of two near df's largest entry. Powers of two scale
+  // exactly, so no bit of theta depends on the scale either way.
   const double largest = df_.leftCols(k).cwiseAbs().maxCoeff();
-  const double unit = largest > 0 && std::isfinite(largest) ? std::ldexp(1.0, -std::ilogb(largest)) : 1.0;
-  const Eigen::MatrixXd scaled = unit * df_.leftCols(k);
-  const Eigen::MatrixXd gram = scaled.transpose() * scaled;
-  const Eigen::VectorXd rhs = scaled.transpose() * (unit * f);
+  Eigen::MatrixXd gram;
+  Eigen::VectorXd rhs;
+  if (largest >= 0x1p-200 && largest <= 0x1p200) {
+    gram = df_.leftCols(k).transpose() * df_.leftCols(k);
+    rhs = df_.leftCols(k).transpose() * f;
+  } else {
+    const double unit = largest > 0 && std::isfinite(largest) ? std::ldexp(1.0, -std::ilogb(largest)) : 1.0;
+    const Eigen::MatrixXd scaled = unit * df_.leftCols(k);
+    gram = scaled.transpose() * scaled;
+    rhs = scaled.transpose() * (unit * f);
+  }
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(gram);
   qr.setThreshold(1e-12);
   const Eigen::VectorXd theta = qr.solve(rhs);
