@@ -264,7 +264,10 @@ bool BarrDeformer::normals_any(const T* points, const T* normals, T* out, std::s
       [&](std::size_t i) {
         const Vec3 p(points[3 * i], points[3 * i + 1], points[3 * i + 2]), q(normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]);
         if (!p.allFinite() || !q.allFinite()) return false;
-        const Vec3 m = normal_direction(scalar_blended_jacobian(op_, placement_, w, p, i), q);
+        // A Jacobian that is not finite is jacobian()'s to refuse: normals follow its one rule.
+        const Mat3 j = scalar_blended_jacobian(op_, placement_, w, p, i);
+        if (!j.allFinite()) return false;
+        const Vec3 m = normal_direction(j, q);
         for (int a = 0; a < 3; ++a) out[3 * i + a] = static_cast<T>(m[a]);
         return m.allFinite();
       });
@@ -297,7 +300,9 @@ bool BarrDeformer::volume_ratio_impl(const double* points, double* out, std::siz
       [&](std::size_t i) {
         const Vec3 p(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
         if (!p.allFinite()) return false;
-        out[i] = scaled_determinant(scalar_blended_jacobian(op_, placement_, w, p, i));
+        const Mat3 j = scalar_blended_jacobian(op_, placement_, w, p, i);
+        if (!j.allFinite()) return false;  // jacobian()'s to refuse, as for normals
+        out[i] = scaled_determinant(j);
         return true;
       });
 }

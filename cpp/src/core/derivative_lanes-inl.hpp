@@ -94,6 +94,9 @@ HWY_INLINE void NormalLanes(const V j[3][3], V n[3], LaneTrouble<D>& trouble) {
   CofactorRows(j, c);
   V o[3];
   for (int a = 0; a < 3; ++a) o[a] = hn::MulAdd(c[0][a], n[0], hn::MulAdd(c[1][a], n[1], hn::Mul(c[2][a], n[2])));
+  // Each component: Max drops a NaN (x86's max returns its other operand), so inf - inf in one
+  // component would pass a check of the largest alone and come out as a NaN normal.
+  for (int a = 0; a < 3; ++a) trouble.mark(o[a]);
   const V top = hn::Max(hn::Abs(o[0]), hn::Max(hn::Abs(o[1]), hn::Abs(o[2])));
   trouble.mark(top);
   trouble.mark_small(top);

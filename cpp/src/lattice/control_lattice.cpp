@@ -9,6 +9,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -324,7 +325,7 @@ bool ControlLattice::place_rows(const T* in, std::size_t n, double* parameters, 
   const std::uint64_t still = still_key();
   for (std::size_t i = 0; i < n; ++i) {
     Vec3 p;
-    const PointStatus s = locate(Vec3(in[3 * i], in[3 * i + 1], in[3 * i + 2]), p);
+    const PointStatus s = place(Vec3(in[3 * i], in[3 * i + 1], in[3 * i + 2]), p);
     for (int a = 0; a < 3; ++a) parameters[3 * i + a] = p[a];
     if (status) status[i] = static_cast<std::uint8_t>(s);
     const bool ok = p.allFinite();
@@ -337,6 +338,12 @@ template bool ControlLattice::place_rows(const float*, std::size_t, double*, std
                                          double*) const;
 template bool ControlLattice::place_rows(const double*, std::size_t, double*, std::uint8_t*, std::uint64_t*, double*,
                                          double*) const;
+
+PointStatus ControlLattice::place(const Vec3& x, Vec3& parameters) const {
+  if (x.allFinite()) return locate(x, parameters);
+  parameters = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+  return PointStatus::NotPlaced;
+}
 
 // Cell key: pieces offset by 2 (Blender's run from -2 to count), in a box of count + 4 per axis;
 // one more key for points left where they are.

@@ -16,8 +16,8 @@ namespace deformkit {
 
 Mat3 ControlLattice::jacobian_at(const Vec3& x, bool& overflow) const {
   Vec3 p;
-  const PointStatus status = locate(x, p);
-  overflow = !p.allFinite();
+  const PointStatus status = place(x, p);
+  overflow = !p.allFinite() && x.allFinite();  // a non-finite input is jacobian()'s to name
   Mat3 j = Mat3::Identity();
   if (!overflow && displaces(status)) {
     Mat3 d;
@@ -108,12 +108,19 @@ bool ControlLattice::derivative_lanes(int what, const T* in, const T* normals, T
     if (all_lanes) *all_lanes = true;
     return true;
   }
-  // Flagged rows through the per-point formulas, blended and scale-free as the generic path is.
+  // Flagged rows through the per-point formulas, blended and scale-free as the generic path is. A
+  // row whose Jacobian is not finite leaves the whole call to the generic path, so that normals
+  // and det J are refused exactly where jacobian() is, with its message.
+  std::atomic<bool> all_finite_jacobians{true};
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) {
+    for (std::size_t i = begin; i < end && all_finite_jacobians; ++i) {
       if (!flags[i]) continue;
       bool over = false;
       Mat3 j = jacobian_at(Vec3(in[3 * i], in[3 * i + 1], in[3 * i + 2]), over);
+      if (over || !j.allFinite()) {
+        all_finite_jacobians = false;
+        return;
+      }
       if (weight) j = (1.0 - weight[i]) * Mat3::Identity() + weight[i] * j;
       if (what == kJacobian) {
         for (int e = 0; e < 9; ++e) out[9 * i + e] = static_cast<T>(j(e / 3, e % 3));
@@ -125,7 +132,7 @@ bool ControlLattice::derivative_lanes(int what, const T* in, const T* normals, T
       }
     }
   });
-  return true;
+  return all_finite_jacobians;
 }
 
 bool ControlLattice::jacobian_impl(const double* in, double* jac, std::size_t n) const {

@@ -1,5 +1,6 @@
 #include "numerics/anderson_mixing.hpp"
 
+#include <cmath>
 #include <stdexcept>
 
 namespace deformkit {
@@ -26,8 +27,21 @@ Eigen::VectorXd AndersonMixing::next(const Eigen::Ref<const Eigen::VectorXd>& x,
   const auto k = Eigen::Index(columns_);
   // The window's normal equations (k x k), solved rank-revealing: differences that have become
   // parallel near convergence get theta 0 instead of a blown-up combination.
-  const Eigen::MatrixXd gram = df_.leftCols(k).transpose() * df_.leftCols(k);
-  const Eigen::VectorXd rhs = df_.leftCols(k).transpose() * f;
+  // theta does not change when df and f are scaled alike: beyond 2^+-200, where the products
+  // could overflow or underflow, by a power of two near df's largest entry. Powers of two scale
+  // exactly, so no bit of theta depends on the scale either way.
+  const double largest = df_.leftCols(k).cwiseAbs().maxCoeff();
+  Eigen::MatrixXd gram;
+  Eigen::VectorXd rhs;
+  if (largest >= 0x1p-200 && largest <= 0x1p200) {
+    gram = df_.leftCols(k).transpose() * df_.leftCols(k);
+    rhs = df_.leftCols(k).transpose() * f;
+  } else {
+    const double unit = largest > 0 && std::isfinite(largest) ? std::ldexp(1.0, -std::ilogb(largest)) : 1.0;
+    const Eigen::MatrixXd scaled = unit * df_.leftCols(k);
+    gram = scaled.transpose() * scaled;
+    rhs = scaled.transpose() * (unit * f);
+  }
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(gram);
   qr.setThreshold(1e-12);
   const Eigen::VectorXd theta = qr.solve(rhs);

@@ -7,12 +7,22 @@
 #include "core/parallel.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <mutex>
 
 namespace deformkit {
 
-// Local step: R_i maximising tr(R_i S_i), S_i = sum_j w_ij e_ij e'_ij^T.
+double SurfaceDeformer::length_unit(const Matrix& rows) {
+  if (rows.rows() == 0) return 1.0;
+  const double side = (rows.colwise().maxCoeff() - rows.colwise().minCoeff()).maxCoeff();
+  return side > 0 && std::isfinite(side) ? std::ldexp(1.0, std::ilogb(side)) : 1.0;
+}
+
+// Local step: R_i maximising tr(R_i S_i), S_i = sum_j w_ij e_ij e'_ij^T. The rotation does not
+// change when S_i is scaled, so the edges are taken in units of each mesh's length_unit: S_i
+// neither overflows nor underflows at any scale, and scaling both by 2^k changes no bit.
 void SurfaceDeformer::fit_rotations(const Matrix& x, std::vector<Mat3>& rotations) const {
+  const double rest_scale = 1.0 / length_unit_, x_scale = 1.0 / length_unit(x);
   parallel_blocks(rest_.rows(), [&](std::size_t begin, std::size_t end) {
     constexpr std::size_t kChunk = 512;  // S and R of a chunk, component-major for the SIMD polar step
     std::vector<double> s(9 * kChunk), r(9 * kChunk);
@@ -22,7 +32,7 @@ void SurfaceDeformer::fit_rotations(const Matrix& x, std::vector<Mat3>& rotation
         Mat3 si = Mat3::Zero();
         const Vec3 xi = x.row(i).transpose(), pi = rest_.row(i).transpose();
         for (const auto& [j, w] : neighbors_[i])
-          si.noalias() += (w * (pi - rest_.row(j).transpose())) * (xi - x.row(j).transpose()).transpose();
+          si.noalias() += (w * rest_scale * (pi - rest_.row(j).transpose())) * (x_scale * (xi - x.row(j).transpose())).transpose();
         for (int k = 0; k < 9; ++k) s[std::size_t(k) * count + (i - first)] = si(k / 3, k % 3);
       }
       best_rotations(s.data(), r.data(), count);
@@ -49,13 +59,14 @@ SurfaceDeformer::Matrix SurfaceDeformer::arap_rhs(const std::vector<Mat3>& rotat
 }
 
 double SurfaceDeformer::arap_energy(const Matrix& x, const std::vector<Mat3>& rotations) const {
+  const double unit = 1.0 / length_unit_;
   double total = 0;
   std::mutex add;
   parallel_blocks(rest_.rows(), [&](std::size_t begin, std::size_t end) {
     double e = 0;
     for (std::size_t i = begin; i < end; ++i)
       for (const auto& [j, w] : neighbors_[i])
-        e += w * ((x.row(i) - x.row(j)).transpose() - rotations[i] * (rest_.row(i) - rest_.row(j)).transpose())
+        e += w * (unit * ((x.row(i) - x.row(j)).transpose() - rotations[i] * (rest_.row(i) - rest_.row(j)).transpose()))
                      .squaredNorm();
     const std::lock_guard<std::mutex> lock(add);
     total += e;
@@ -77,7 +88,9 @@ SurfaceDeformer::Matrix SurfaceDeformer::deform_arap(const Matrix& fixed, const 
   Matrix x = global_step();
   auto energy_of = [&](const Matrix& y, const std::vector<Mat3>& r) {
     double e = arap_energy(y, r);
-    for (std::size_t k = 0; k < soft.size(); ++k) e += 2 * w2[k] * (y.row(soft[k]) - pulls.row(Eigen::Index(k))).squaredNorm();
+    const double unit = 1.0 / length_unit_;  // arap_energy's units
+    for (std::size_t k = 0; k < soft.size(); ++k)
+      e += 2 * w2[k] * (unit * (y.row(soft[k]) - pulls.row(Eigen::Index(k)))).squaredNorm();
     return e;
   };
   auto converged = [&] {

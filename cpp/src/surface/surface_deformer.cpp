@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <sstream>
 #include <stdexcept>
 
@@ -158,6 +159,7 @@ SurfaceDeformer::SurfaceDeformer(PolygonMesh mesh, std::vector<int> anchors, std
       soft_handle_.push_back(holds.constraint[v]);
     }
   rest_ = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(mesh_.points().data(), Eigen::Index(n), 3);
+  length_unit_ = length_unit(rest_);
   laplacian_ = with_positive_weights(settings.uniform_weights ? uniform_laplacian(mesh_) : cotangent_laplacian(mesh_));
   clock.mark("Laplacian assembly");
   neighbors_.assign(n, {});
@@ -245,6 +247,20 @@ std::vector<double> SurfaceDeformer::deform(const double* targets, const double*
                                                                           : deform_arap(fixed, pulls, initial);
   if (!x.allFinite())
     throw std::invalid_argument("handle_targets: the solve overflowed (targets too far from the mesh)");
+  // ARAP kept its energies in units of length_unit_^2 (docs/math/surface.md, "At any scale").
+  const int unit_exponent = std::ilogb(length_unit_);
+  for (double& e : energy_) {
+    const double scaled = e;
+    e = std::ldexp(e, 2 * unit_exponent);  // exact, and no unit^2 to overflow on its own
+    if (!std::isfinite(e)) {
+      std::ostringstream message;
+      message << "points: the ARAP energy of the result, about 10^" << std::fixed << std::setprecision(1)
+              << std::log10(scaled) + 2.0 * std::log10(length_unit_)
+              << ", is beyond a double (it grows as the mesh's size squared): scale the mesh and the targets down";
+      energy_.clear();
+      throw std::invalid_argument(message.str());
+    }
+  }
   std::vector<double> out(3 * rest_.rows());
   Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(out.data(), rest_.rows(), 3) = x;
   return out;

@@ -1,6 +1,7 @@
 #include "deformkit/transfer/deformation_transfer.hpp"
 
 #include "core/parallel.hpp"
+#include "transfer/sliver.hpp"
 
 #include <Eigen/Dense>
 
@@ -25,11 +26,6 @@ Eigen::Matrix3d frame(const Vec3& a, const Vec3& b, const Vec3& c) {
   Eigen::Matrix3d v;
   v << e1, e2, n / std::sqrt(n.norm());
   return v;
-}
-
-std::string zero_area(const char* which, std::size_t j, const int* v) {
-  return std::string(which) + ": triangle " + std::to_string(j) + " (vertices " + std::to_string(v[0]) + ", " +
-         std::to_string(v[1]) + ", " + std::to_string(v[2]) + ") has zero area";
 }
 
 // For each target triangle, its source partners (CSR: offset has t + 1 entries).
@@ -57,8 +53,7 @@ SparseMatrix weighted_gradient_operator(const std::vector<double>& points, const
     const int* v = triangles.data() + 3 * j;
     const Vec3 p[3] = {point(points, v[0]), point(points, v[1]), point(points, v[2])};
     const Vec3 nn = (p[1] - p[0]).cross(p[2] - p[0]);
-    const double twice_area = nn.norm();
-    if (!(twice_area > 0)) throw std::invalid_argument(zero_area("target_faces", j, v));
+    const double twice_area = nn.norm();  // positive: require_no_sliver ran
     const double m = std::max(1, partner_offset[j + 1] - partner_offset[j]);
     const Vec3 unit = nn / twice_area;
     const double w = std::sqrt(0.5 * twice_area * m);
@@ -110,6 +105,8 @@ DeformationTransfer::DeformationTransfer(const PolygonMesh& source, const Polygo
                                          const std::vector<int>& source_markers, const std::vector<int>& target_markers,
                                          const std::vector<int>& fixed_vertices, const CorrespondenceOptions& options) {
   const PolygonMesh s = source.triangulate(), t = target.triangulate();
+  require_no_sliver(s, "source_faces");
+  require_no_sliver(t, "target_faces");
   fit_ = triangle_correspondence(s, t, source_markers, target_markers, options);
   fitted_ = true;
   TransferPairing pairing;
@@ -122,6 +119,8 @@ DeformationTransfer::DeformationTransfer(const PolygonMesh& source, const Polygo
 }
 
 void DeformationTransfer::build(const PolygonMesh& source, const PolygonMesh& target, const TransferPairing& pairing) {
+  require_no_sliver(source, "source_faces");
+  require_no_sliver(target, "target_faces");
   source_ = source.points();
   target_ = target.points();
   source_triangles_ = source.corners();
@@ -133,12 +132,12 @@ void DeformationTransfer::build(const PolygonMesh& source, const PolygonMesh& ta
       throw std::invalid_argument("correspondence: pair " + std::to_string(p) + " is (" + std::to_string(pairs_[2 * p]) + ", " +
                                   std::to_string(pairs_[2 * p + 1]) + "); expected a source triangle in 0.." +
                                   std::to_string(ts - 1) + " and a target triangle in 0.." + std::to_string(tt - 1));
+  frame_.resize(ts);
   frame_inverse_.resize(ts);
   for (std::size_t j = 0; j < ts; ++j) {
     const int* v = source_triangles_.data() + 3 * j;
-    const Eigen::Matrix3d s = frame(point(source_, v[0]), point(source_, v[1]), point(source_, v[2]));
-    if (!(s.col(0).cross(s.col(1)).norm() > 0)) throw std::invalid_argument(zero_area("source_faces", j, v));
-    frame_inverse_[j] = s.inverse();
+    frame_[j] = frame(point(source_, v[0]), point(source_, v[1]), point(source_, v[2]));
+    frame_inverse_[j] = frame_[j].inverse();
   }
   partners_by_target(pairs_, tt, partner_offset_, partner_);
   const SparseMatrix m = weighted_gradient_operator(target_, target_triangles_, partner_offset_, tangent_);
@@ -237,47 +236,51 @@ void DeformationTransfer::transfer(const double* poses, std::size_t k, double* o
 void DeformationTransfer::transfer_block(const double* poses, std::size_t k, double* out, const double* fixed_positions) const {
   const std::size_t ns = vertex_count(), nt = target_vertex_count(), ts = triangle_count(), tt = target_triangle_count();
   const std::size_t nf = fixed_vertices_.size();
-  // S^T per source triangle and pose; a triangle the pose collapses has no frame (its fourth
-  // vertex is n / sqrt(0)).
-  std::vector<Eigen::Matrix3d> gradient(ts * k);
+  // (S - I)^T = ((V' - V) V^-1)^T per source triangle and pose: the fit is solved for the target's
+  // displacement from its rest, whose gradients are S - I, so that the rest pose (V' = V to the
+  // bit) gives zero and lands on the target rest exactly (docs/math/transfer.md, "Target fit"). A
+  // triangle the pose collapses has no frame (its fourth vertex is n / sqrt(0)).
+  std::vector<Eigen::Matrix3d> change(ts * k);
   parallel_blocks(ts, [&](std::size_t begin, std::size_t end) {
     for (std::size_t j = begin; j < end; ++j) {
       const int* v = source_triangles_.data() + 3 * j;
       for (std::size_t q = 0; q < k; ++q) {
         const double* pose = poses + 3 * ns * q;
         const Eigen::Matrix3d moved = frame(point(pose, v[0]), point(pose, v[1]), point(pose, v[2]));
-        gradient[j * k + q] = (moved * frame_inverse_[j]).transpose();
+        change[j * k + q] = ((moved - frame_[j]) * frame_inverse_[j]).transpose();
       }
     }
   });
   for (std::size_t p = 0; p < partner_.size(); ++p)
     for (std::size_t q = 0; q < k; ++q)
-      if (!gradient[std::size_t(partner_[p]) * k + q].allFinite())
+      if (!change[std::size_t(partner_[p]) * k + q].allFinite())
         throw std::invalid_argument("source_pose: pose " + std::to_string(q) + " collapses triangle " +
                                     std::to_string(partner_[p]) + " to zero area: it has no deformation gradient");
+  // A target triangle without partners keeps its rest shape: no change.
   Eigen::MatrixXd r(Eigen::Index(3 * tt), Eigen::Index(3 * k));
   parallel_blocks(tt, [&](std::size_t begin, std::size_t end) {
     for (std::size_t j = begin; j < end; ++j)
       for (std::size_t q = 0; q < k; ++q) {
         Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
-        for (int p = partner_offset_[j]; p < partner_offset_[j + 1]; ++p) sum += gradient[std::size_t(partner_[std::size_t(p)]) * k + q];
-        if (partner_offset_[j + 1] == partner_offset_[j]) sum.setIdentity();
+        for (int p = partner_offset_[j]; p < partner_offset_[j + 1]; ++p) sum += change[std::size_t(partner_[std::size_t(p)]) * k + q];
         r.block<3, 3>(Eigen::Index(3 * j), Eigen::Index(3 * q)) = tangent_[j] * sum;
       }
   });
-  // The held values, in the split's (index) order: fixed vertices as given, anchors at rest.
+  // The held displacements, in the split's (index) order: fixed vertices to where they are given,
+  // anchors none.
   const std::vector<int>& held = system_.split().fixed();
   std::vector<int> slot(nt, -1);
   for (std::size_t f = 0; f < nf; ++f) slot[std::size_t(fixed_vertices_[f])] = int(f);
+  auto given = [&](std::size_t q, std::size_t i, std::size_t c) {
+    const int f = slot[i];
+    return f >= 0 && fixed_positions ? fixed_positions[3 * nf * q + 3 * std::size_t(f) + c] : target_[3 * i + c];
+  };
   Eigen::MatrixXd values(Eigen::Index(held.size()), Eigen::Index(3 * k));
-  for (std::size_t a = 0; a < held.size(); ++a) {
-    const int i = held[a], f = slot[std::size_t(i)];
+  for (std::size_t a = 0; a < held.size(); ++a)
     for (std::size_t q = 0; q < k; ++q)
-      for (int c = 0; c < 3; ++c)
-        values(Eigen::Index(a), Eigen::Index(3 * q + c)) =
-            f >= 0 && fixed_positions ? fixed_positions[3 * nf * q + 3 * std::size_t(f) + std::size_t(c)] : target_[3 * std::size_t(i) + std::size_t(c)];
-  }
-  Eigen::MatrixXd all = system_.assemble(system_.solve_free(r, values, Eigen::MatrixXd()), values);
+      for (std::size_t c = 0; c < 3; ++c)
+        values(Eigen::Index(a), Eigen::Index(3 * q + c)) = given(q, std::size_t(held[a]), c) - target_[3 * std::size_t(held[a]) + c];
+  const Eigen::MatrixXd moved = system_.assemble(system_.solve_free(r, values, Eigen::MatrixXd()), values);
   // Each part without fixed vertices: its reference targets' mean moves as their sources' does.
   const std::size_t parts = part_fixed_.size();
   Eigen::MatrixXd shift = Eigen::MatrixXd::Zero(Eigen::Index(parts), Eigen::Index(3 * k));
@@ -289,14 +292,16 @@ void DeformationTransfer::transfer_block(const double* poses, std::size_t k, dou
       for (std::size_t q = 0; q < k; ++q)
         for (std::size_t c = 0; c < 3; ++c)
           shift(Eigen::Index(p), Eigen::Index(3 * q + c)) +=
-              (poses[3 * ns * q + 3 * s + c] - source_[3 * s + c]) - (all(Eigen::Index(g), Eigen::Index(3 * q + c)) - target_[3 * g + c]);
+              (poses[3 * ns * q + 3 * s + c] - source_[3 * s + c]) - moved(Eigen::Index(g), Eigen::Index(3 * q + c));
     }
     shift.row(Eigen::Index(p)) /= double(end - begin) / 2.0;
   }
   for (std::size_t q = 0; q < k; ++q)
     for (std::size_t i = 0; i < nt; ++i)
       for (std::size_t c = 0; c < 3; ++c)
-        out[3 * nt * q + 3 * i + c] = all(Eigen::Index(i), Eigen::Index(3 * q + c)) + shift(part_[i], Eigen::Index(3 * q + c));
+        out[3 * nt * q + 3 * i + c] = slot[i] >= 0 ? given(q, i, c)
+                                                   : target_[3 * i + c] + (moved(Eigen::Index(i), Eigen::Index(3 * q + c)) +
+                                                                           shift(part_[i], Eigen::Index(3 * q + c)));
 }
 
 }  // namespace deformkit

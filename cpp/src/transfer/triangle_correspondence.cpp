@@ -2,6 +2,7 @@
 
 #include "core/parallel.hpp"
 #include "deformkit/numerics/constrained_quadratic.hpp"
+#include "transfer/sliver.hpp"
 #include "transfer/triangle_locator.hpp"
 
 #include <Eigen/Dense>
@@ -127,6 +128,7 @@ TriangleCorrespondence triangle_correspondence(const PolygonMesh& source, const 
     throw std::invalid_argument(std::string(source.all_triangles() ? "target_faces" : "source_faces") +
                                 ": the correspondence takes triangles (fan the polygons first)");
   check_markers(source, target, source_markers, target_markers);
+  require_no_sliver(source, "source_faces");
   const std::vector<double>& rest = source.points();
   const std::vector<int>& tri = source.corners();
   const std::size_t n = source.vertex_count(), t = tri.size() / 3, unknowns = n + t;
@@ -135,9 +137,6 @@ TriangleCorrespondence triangle_correspondence(const PolygonMesh& source, const 
   for (std::size_t j = 0; j < t; ++j) {
     const int* v = tri.data() + 3 * j;
     const Vec3 e1 = at(rest, v[1]) - at(rest, v[0]), e2 = at(rest, v[2]) - at(rest, v[0]), c = e1.cross(e2);
-    if (!(c.norm() > 0))
-      throw std::invalid_argument("source_faces: triangle " + std::to_string(j) + " (vertices " + std::to_string(v[0]) +
-                                  ", " + std::to_string(v[1]) + ", " + std::to_string(v[2]) + ") has zero area");
     Eigen::Matrix3d frame;
     frame << e1, e2, c / std::sqrt(c.norm());  // the fourth vertex (eq. 1)
     coefficient[j] = gradient_coefficients(frame.inverse());

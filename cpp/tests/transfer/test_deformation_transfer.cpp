@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 using namespace deformkit;
@@ -174,4 +175,33 @@ TEST(DeformationTransfer, RefusesBadInputByName) {
   std::vector<double> nan = g.points;
   nan[7] = std::nan("");
   refused([&] { dt.transfer(nan.data(), 1, out.data()); }, "source_pose");
+}
+
+// A corner moved towards its opposite edge: refused by name once the triangle's area is under 1e-8
+// of its longest edge squared (docs/math/transfer.md, "Thin triangles"); accepted above, with the
+// rest pose landing on the target rest bit for bit.
+TEST(DeformationTransfer, RefusesSliversByNameAndOtherwiseTransfersTheRestExactly) {
+  const Grid g = grid(6);
+  const std::vector<double> target = mapped(g.points, other_character);
+  for (const double lift : {1e-2, 1e-5, 1e-7, 1e-10, 1e-12, 1e-17}) {
+    std::vector<double> thin = g.points;
+    // Vertex 7 onto the middle of the edge (0, 1) of triangle (0, 1, 7) (quad (0, 1, 7, 6) fanned),
+    // lifted off it by `lift`: the shape is about 2.3 lift (edge 0.2 long).
+    for (int a = 0; a < 3; ++a) thin[3 * 7 + a] = 0.5 * (thin[a] + thin[3 * 1 + a]);
+    thin[3 * 7 + 2] += lift;
+    const bool sliver = lift < 1e-8;
+    for (const bool on_source : {true, false}) {
+      const std::vector<double>& source = on_source ? thin : g.points;
+      const std::vector<double>& posed_target = on_source ? target : thin;
+      try {
+        const DeformationTransfer dt(mesh(source, g.quads), posed_target);
+        EXPECT_FALSE(sliver) << lift;
+        EXPECT_EQ(transferred(dt, source), posed_target) << lift;
+      } catch (const std::invalid_argument& e) {
+        EXPECT_TRUE(sliver) << lift << ": " << e.what();
+        const std::string expected = std::string(on_source ? "source_faces" : "target_faces") + ": triangle ";
+        EXPECT_EQ(std::string(e.what()).rfind(expected, 0), 0u) << e.what();
+      }
+    }
+  }
 }

@@ -108,6 +108,9 @@ class ControlLattice : public BoundDeformer {
   template <class T>
   bool derivative_lanes(int what, const T* in, const T* normals, T* out, std::size_t n, bool* all_lanes = nullptr) const;
   Mat3 jacobian_at(const Vec3& x, bool& overflow) const;
+  // locate() for any point: a non-finite one gets NaN parameters (NotPlaced), so every path
+  // reports it as the input's fault, whatever a lattice's locate would make of it.
+  PointStatus place(const Vec3& x, Vec3& parameters) const;
   // Rows [0, n): parameters, status (or null), cell key (still's for a point left unchanged),
   // local and ds (or null) as cell_key's. False when some row's parameters are not finite (its
   // input, or an overflow): the caller decides; the other rows are complete.

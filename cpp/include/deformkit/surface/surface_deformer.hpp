@@ -87,7 +87,11 @@ class SurfaceDeformer {
   Matrix deform_arap(const Matrix& fixed, const Matrix& pulls, const double* initial);
   void fit_rotations(const Matrix& x, std::vector<Mat3>& rotations) const;
   Matrix arap_rhs(const std::vector<Mat3>& rotations) const;
+  // The ARAP energy in units of length_unit_ squared, so that it neither overflows nor underflows
+  // on its way (deform() scales it back once, and refuses a result whose energy is beyond a double).
   double arap_energy(const Matrix& x, const std::vector<Mat3>& rotations) const;
+  // 2^k with the rows' bounding box's largest side in [2^k, 2^(k+1)), or 1 for coincident rows.
+  static double length_unit(const Matrix& rows);
   Matrix accelerate_arap(Matrix x, std::vector<Mat3>& rotations, const std::function<Matrix()>& global_step,
                          const std::function<double(const Matrix&, const std::vector<Mat3>&)>& energy_of,
                          const std::function<bool()>& converged);
@@ -109,6 +113,7 @@ class SurfaceDeformer {
   std::vector<std::string> warnings_;
   Stages bind_stages_;
   std::vector<double> energy_;
+  double length_unit_ = 1.0;  // length_unit(rest_)
   mutable std::mutex deforming_;  // deform() records energy_: one call at a time per deformer
 };
 

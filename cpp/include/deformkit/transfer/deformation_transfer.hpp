@@ -36,7 +36,8 @@ class DeformationTransfer {
   // other, polygons fanned alike); triangle j pairs with triangle j, and each connected part's
   // first vertex moves by its source partner's displacement, so that the rest pose transfers to
   // the target rest exactly. Throws std::invalid_argument naming target_points for another vertex
-  // count, source_faces / target_faces for a degenerate (zero area) triangle, naming it.
+  // count, source_faces / target_faces for a triangle of zero area or a sliver (area under
+  // kThinnestTriangle of its longest edge squared), naming it; so do the other constructors.
   DeformationTransfer(const PolygonMesh& source, const std::vector<double>& target_points,
                       const std::vector<int>& fixed_vertices = {});
   // Any two meshes, triangles numbered as triangulate() fans them. Throws std::invalid_argument
@@ -79,7 +80,8 @@ class DeformationTransfer {
   std::vector<double> source_, target_;
   std::vector<int> source_triangles_, target_triangles_;  // t x 3 each
   std::vector<int> pairs_;
-  std::vector<Eigen::Matrix3d> frame_inverse_;  // per source triangle: V^-1 (Sumner and Popovic 2004, eq. 3)
+  // Per source triangle: its rest frame V and V^-1 (Sumner and Popovic 2004, eq. 3).
+  std::vector<Eigen::Matrix3d> frame_, frame_inverse_;
   // Per target triangle: its partners (CSR) and I - n n^T times sqrt(area / partners), which
   // turns the partners' summed gradients into the weighted mean's rows.
   std::vector<int> partner_offset_, partner_;
