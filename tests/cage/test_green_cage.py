@@ -130,6 +130,6 @@ def test_green_keeps_angles_better_than_mean_value(record_property):
     figures = {}
     for name, cage in (("green", dk.GreenCage(CUBE, CUBE_FACES)), ("mean value", dk.MeanValueCage(CUBE, CUBE_FACES))):
         cage.cage_points = edit
-        figures[name] = angle_distortion(points, cage.deform(points), tris)
+        figures[name] = float(angle_distortion(points, cage.deform(points), tris))
     record_property("mean angle change, degrees", figures)
     assert figures["green"] < 0.9 * figures["mean value"], figures
