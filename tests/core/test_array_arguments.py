@@ -1,7 +1,8 @@
-"""One conversion rule for every real-valued array that crosses into C++ (docs/errors.md, "One
-rule for real-valued arrays"): a numpy array must be float32 or float64; any other dtype is
-refused by a TypeError naming the argument, the dtype it got and what is accepted -- in
-constructors, setters and methods alike.
+"""One conversion rule for every real-valued array that crosses into C++.
+
+docs/errors.md, "One rule for real-valued arrays": a numpy array must be float32 or float64; any
+other dtype is refused by a TypeError naming the argument, the dtype it got and what is accepted
+-- in constructors, setters and methods alike.
 
 The setters are found by introspection (every property with a setter on every exported class),
 and so are the methods and their array parameters (each public method's signature, its valid
