@@ -23,8 +23,7 @@ CageMesh parse_cage(const py::object& points, const py::object& faces) {
 }
 
 std::vector<double> parse_cage_points(const py::object& obj, const CageDeformer& cage) {
-  require_real(obj, "cage_points");
-  const auto a = c_array<double>(obj, "cage_points");
+  const auto a = real_array(obj, "cage_points");
   if (a.ndim() != 2 || a.shape(1) != 3 || std::size_t(a.shape(0)) != cage.vertex_count())
     throw py::value_error("cage_points: expected shape (" + std::to_string(cage.vertex_count()) + ", 3), got " +
                           shape_of(a));

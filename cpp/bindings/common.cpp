@@ -93,18 +93,50 @@ py::array_t<T, py::array::c_style> new_array(const std::vector<py::ssize_t>& sha
 template py::array_t<float, py::array::c_style> new_array<float>(const std::vector<py::ssize_t>&, const char*);
 template py::array_t<double, py::array::c_style> new_array<double>(const std::vector<py::ssize_t>&, const char*);
 
-// An (n, 3) float32/float64 array, C-contiguous (copied only when the layout requires it).
+void require_float_dtype(const py::array& a, const char* name) {
+  // By kind and size, so that byte-swapped or metadata-carrying float dtypes are accepted too.
+  const auto kind = a.dtype().kind();
+  if (kind == 'f' && (a.itemsize() == 4 || a.itemsize() == 8)) return;
+  throw py::type_error(std::string(name) + ": expected float32 or float64, got " + std::string(py::str(a.dtype())) +
+                       (kind == 'c' || kind == 'O' || kind == 'U' || kind == 'S' ? " (real numbers only)"
+                                                                                 : " (convert with .astype(np.float64))"));
+}
+
+py::array_t<double, py::array::c_style> real_array(const py::handle& obj, const char* name) {
+  static const py::object& numpy_generic = *new py::object(py::module_::import("numpy").attr("generic"));
+  if (py::isinstance<py::array>(obj)) {
+    require_float_dtype(py::reinterpret_borrow<py::array>(obj), name);
+    return c_array<double>(obj, name);
+  }
+  if (py::isinstance(obj, numpy_generic)) {  // a numpy scalar carries its dtype as an array does
+    require_float_dtype(py::array::ensure(obj), name);
+    return c_array<double>(obj, name);
+  }
+  // Python numbers: numpy reads them as int64 or float64 (bool, complex, strings and objects
+  // are what they are, and refused).
+  const py::array a = py::array::ensure(obj);
+  if (!a) {
+    PyErr_Clear();
+    throw py::type_error(std::string(name) + ": expected real numbers (a float32 or float64 array, or a sequence of "
+                         "numbers), got " + std::string(py::str(py::type::of(obj).attr("__name__"))));
+  }
+  const auto kind = a.dtype().kind();
+  if (kind != 'f' && kind != 'i' && kind != 'u')
+    throw py::type_error(std::string(name) + ": expected real numbers (a float32 or float64 array, or a sequence of "
+                         "numbers), got " + std::string(py::str(py::type::of(obj).attr("__name__"))) + " of " +
+                         std::string(py::str(a.dtype())));
+  if (kind == 'f') require_float_dtype(a, name);  // a list of float16 or longdouble scalars
+  return c_array<double>(a, name);
+}
+
+// An (n, 3) float32/float64 numpy array, C-contiguous (copied only when the layout requires it).
 py::array points_array(const py::handle& obj, const char* name) {
   if (!py::isinstance<py::array>(obj))
     throw py::type_error(std::string(name) + ": expected a numpy array of shape (n, 3), got " +
                          std::string(py::str(py::type::of(obj).attr("__name__"))));
   auto a = py::reinterpret_borrow<py::array>(obj);
-  const auto kind = a.dtype().kind();
-  // By kind and size, so that byte-swapped or metadata-carrying float dtypes are accepted too.
-  const bool f32 = kind == 'f' && a.itemsize() == 4, f64 = kind == 'f' && a.itemsize() == 8;
-  if (!f32 && !f64)
-    throw py::type_error(std::string(name) + ": expected float32 or float64, got " +
-                         std::string(py::str(a.dtype())) + (kind == 'f' ? "" : " (convert with .astype(np.float64))"));
+  require_float_dtype(a, name);
+  const bool f32 = a.itemsize() == 4;
   if (a.ndim() != 2 || a.shape(1) != 3)
     throw py::value_error(std::string(name) + ": expected shape (n, 3), got " + shape_of(a));
   if (a.shape(0) == 0) throw py::value_error(std::string(name) + ": is empty (0 rows)");
@@ -182,17 +214,9 @@ py::ssize_t sequence_length(const py::handle& obj) {
   return n;
 }
 
-// Real numbers only: forcecast would silently drop an imaginary part or call into objects.
-void require_real(const py::object& obj, const char* name) {
-  const py::array a = py::array::ensure(obj);
-  if (a && (a.dtype().kind() == 'c' || a.dtype().kind() == 'O' || a.dtype().kind() == 'U' || a.dtype().kind() == 'S'))
-    throw py::type_error(std::string(name) + ": expected real numbers, got " + std::string(py::str(a.dtype())));
-}
-
 Eigen::MatrixXd parse_matrix(const py::object& obj, const char* name, py::ssize_t rows, py::ssize_t cols,
                              const std::string& expected, bool report_shape) {
-  require_real(obj, name);
-  const auto a = c_array<double>(obj, name);
+  const auto a = real_array(obj, name);
   if (a.ndim() != 2 || a.shape(0) != rows || a.shape(1) != cols)
     throw py::value_error(std::string(name) + ": " + expected + (report_shape ? ", got shape " + shape_of(a) : ""));
   Eigen::MatrixXd m(rows, cols);
@@ -214,12 +238,9 @@ std::pair<double, double> parse_range(const py::object& obj, const char* name) {
   const double inf = std::numeric_limits<double>::infinity();
   if (obj.is_none()) return {-inf, inf};
   std::vector<double> v;
-  require_real(obj, name);
   if (sequence_length(obj) == 2) {
-    try {
-      v = obj.cast<std::vector<double>>();
-    } catch (const py::cast_error&) {
-    }
+    const auto a = real_array(obj, name);
+    if (a.ndim() == 1) v.assign(a.data(), a.data() + 2);
   }
   if (v.size() != 2)
     throw py::value_error(std::string(name) + ": expected (lo, hi), got " + std::string(py::repr(obj)).substr(0, 60));
@@ -232,8 +253,7 @@ std::pair<double, double> parse_range(const py::object& obj, const char* name) {
 }
 
 std::vector<double> parse_vector(const py::object& obj, const char* name) {
-  require_real(obj, name);
-  const auto a = c_array<double>(obj, name);
+  const auto a = real_array(obj, name);
   if (a.ndim() != 1)
     throw py::value_error(std::string(name) + ": expected a 1-D sequence of numbers, got shape " + shape_of(a));
   return std::vector<double>(a.data(), a.data() + a.size());

@@ -65,7 +65,16 @@ void without_gil(const std::string& what, F&& work) {
 std::string working_size(std::size_t n, double bytes_per_point);
 std::string gigabytes(double bytes);
 
-// An (n, 3) float32/float64 array, C-contiguous (copied only when the layout requires it).
+// The one dtype rule of every real-valued array that crosses into C++, constructors, setters and
+// methods alike: a numpy array (or numpy scalar) must be float32 or float64, by value (either
+// byte order); any other dtype -- integers, bool, float16, longdouble, complex, datetime64,
+// timedelta64, object, strings -- is a TypeError naming `name`, the dtype it got and what it
+// accepts. A plain Python sequence of numbers has no dtype and is read as float64.
+void require_float_dtype(const py::array& a, const char* name);
+// A real-valued argument of any shape, as a C-contiguous float64 array, through that rule.
+py::array_t<double, py::array::c_style> real_array(const py::handle& obj, const char* name);
+
+// An (n, 3) float32/float64 numpy array, C-contiguous (copied only when the layout requires it).
 py::array points_array(const py::handle& obj, const char* name);
 
 py::array_t<double, py::array::c_style> as_double(const py::array& a, const char* name = "points");
@@ -88,9 +97,6 @@ bool bool_arg(const py::handle& v, const char* name);
 
 // The length of a list, tuple or other sized sequence (not a string, not a 0-d array), else -1.
 py::ssize_t sequence_length(const py::handle& obj);
-
-// Real numbers only: forcecast would silently drop an imaginary part or call into objects.
-void require_real(const py::object& obj, const char* name);
 
 Frame parse_frame(const py::object& obj, const char* name);
 

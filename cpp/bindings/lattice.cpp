@@ -95,8 +95,7 @@ const char* interpolation_name(BasisKind k) { return kInterpolationNames.name(k)
 
 // A (nu, nv, nw, 3) grid as a flat vector, checked against the lattice's resolution.
 std::vector<double> parse_grid(const py::object& obj, std::array<int, 3> res, const char* name) {
-  require_real(obj, name);
-  const auto a = c_array<double>(obj, name);
+  const auto a = real_array(obj, name);
   const std::string want = "(" + std::to_string(res[0]) + ", " + std::to_string(res[1]) + ", " +
                            std::to_string(res[2]) + ", 3)";
   if (a.ndim() != 4 || a.shape(0) != res[0] || a.shape(1) != res[1] || a.shape(2) != res[2] || a.shape(3) != 3)
@@ -335,8 +334,7 @@ points take the boundary's displacement ('clamp', the default); 'unchanged' is a
 
   auto make_effd = [](const py::object& rest, const py::object& cps, double strength, const py::object& weights,
                       double tolerance, std::int64_t max_iterations) {
-    require_real(rest, "rest_control_points");
-    const auto a = c_array<double>(rest, "rest_control_points");
+    const auto a = real_array(rest, "rest_control_points");
     if (a.ndim() != 4 || a.shape(3) != 3)
       throw py::value_error("rest_control_points: expected shape (3a+1, 3b+1, 3c+1, 3), got " + shape_of(a));
     const std::array<int, 3> counts{int(a.shape(0)), int(a.shape(1)), int(a.shape(2))};

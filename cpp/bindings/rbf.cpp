@@ -55,8 +55,8 @@ RbfOptions parse_options(const std::string& kernel, const std::optional<double>&
       throw py::value_error("epsilon: the " + name + " kernel needs its shape parameter (epsilon=e > 0), as scipy's");
     if (epsilon) o.kernel.epsilon = finite_param(*epsilon, "epsilon");
   }
-  // scipy's default: degree 1, or the kernel's minimum degree if higher.
-  o.degree = degree ? int_arg(*degree, "degree", -1, 2) : std::max(1, rbf_minimum_degree(o.kernel.kind));
+  // scipy 1.14's RBFInterpolator default: max(the kernel's minimum degree, 0), the compact kernels alike.
+  o.degree = degree ? int_arg(*degree, "degree", -1, 2) : std::max(0, rbf_minimum_degree(o.kernel.kind));
   o.smoothing = finite_param(smoothing, "smoothing");
   return o;
 }
@@ -86,7 +86,7 @@ only (a table would be n x m) and deform_bound evaluates the kernel sums again.)
 control_points (m, 3) move to targets (m, 3; default: the controls, the identity); every other
 point x moves by d(x) = sum_j alpha_j phi(|x - c_j|) + p(x), the interpolant of the controls'
 displacements with a polynomial p of `degree` (-1 none, 0 constant, 1 affine, 2 quadratic; default
-1 or the kernel's minimum, as scipy's). Kernels and their parameters are scipy.interpolate.
+max(the kernel's minimum, 0), as scipy's: 1 for thin_plate_spline and cubic, 2 for quintic, else 0). Kernels and their parameters are scipy.interpolate.
 RBFInterpolator's: 'thin_plate_spline' (default), 'cubic', 'quintic', 'linear', 'gaussian',
 'multiquadric', 'inverse_multiquadric', 'inverse_quadratic', with phi evaluated at epsilon * r
 (epsilon required for the last four); plus compactly supported 'wendland_c0', 'wendland_c2',

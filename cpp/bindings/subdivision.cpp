@@ -25,8 +25,7 @@ std::vector<std::int64_t> int_rows(const py::object& obj, const char* name, py::
 }
 
 std::vector<double> real_vector(const py::object& obj, const char* name) {
-  require_real(obj, name);
-  const auto v = c_array<double>(obj, name);
+  const auto v = real_array(obj, name);
   if (v.ndim() != 1) throw py::value_error(std::string(name) + ": expected a 1-D sequence of sharpness values");
   return {v.data(), v.data() + v.size()};
 }
@@ -168,11 +167,8 @@ ControlMesh cage_with_uvs(const py::object& points, const py::object& faces, con
   if (max_faces < 1) throw py::value_error("max_faces: must be >= 1, got " + std::to_string(max_faces));
   const UvSmooth smooth = parse_uv_smooth(uv_smooth);
   if (uvs.is_none()) return cage;
-  const py::array a = py::array::ensure(uvs);
-  if (!a || a.ndim() != 2 || a.shape(1) != 2)
-    throw py::value_error("uvs: expected shape (corners, 2)" + (a ? ", got " + shape_of(a) : std::string()));
-  require_real(uvs, "uvs");
-  const auto d = as_double(a, "uvs");
+  const auto d = real_array(uvs, "uvs");
+  if (d.ndim() != 2 || d.shape(1) != 2) throw py::value_error("uvs: expected shape (corners, 2), got " + shape_of(d));
   set_uvs(cage, d.data(), std::size_t(d.shape(0)), smooth);
   return cage;
 }
@@ -350,12 +346,10 @@ ptex_offset[f+1] - 1.)").c_str())
                           const py::object& points, std::int64_t derivatives_arg) {
         const int derivatives = int_arg(derivatives_arg, "derivatives", 0, 2);
         const std::vector<std::int64_t> faces = int_rows(ptex, "ptex", 1);
-        const py::array uva = py::array::ensure(uv);
-        if (!uva || uva.ndim() != 2 || uva.shape(1) != 2 || std::size_t(uva.shape(0)) != faces.size())
-          throw py::value_error("uv: expected shape (" + std::to_string(faces.size()) + ", 2), one row per ptex sample" +
-                                (uva ? ", got " + shape_of(uva) : std::string()));
-        require_real(uv, "uv");
-        const auto uvd = as_double(uva, "uv");
+        const auto uvd = real_array(uv, "uv");
+        if (uvd.ndim() != 2 || uvd.shape(1) != 2 || std::size_t(uvd.shape(0)) != faces.size())
+          throw py::value_error("uv: expected shape (" + std::to_string(faces.size()) + ", 2), one row per ptex sample, got " +
+                                shape_of(uvd));
         std::vector<int> f32(faces.size());
         for (std::size_t i = 0; i < faces.size(); ++i) {
           if (faces[i] < 0 || faces[i] >= s.surface->ptex_count())

@@ -136,13 +136,9 @@ records each iterate's energy with its best rotations.)")
            "tolerance"_a = 0.0, "constraint_weight"_a = py::none(), "anderson"_a = 0)
       .def("deform", [](SurfaceDeformer& d, const py::object& targets, const py::object& initial) {
         const auto k = py::ssize_t(d.handle_count());
-        py::array t = py::array::ensure(targets);
-        if (!t || t.ndim() != 2 || t.shape(0) != k || t.shape(1) != 3)
-          throw py::value_error("handle_targets: expected shape (" + std::to_string(k) + ", 3)" +
-                                (t ? ", got " + shape_of(t) : std::string()));
-        if (t.dtype().kind() != 'f' && t.dtype().kind() != 'i' && t.dtype().kind() != 'u')
-          throw py::type_error("handle_targets: expected real numbers");
-        const auto td = as_double(t, "handle_targets");
+        const auto td = real_array(targets, "handle_targets");
+        if (td.ndim() != 2 || td.shape(0) != k || td.shape(1) != 3)
+          throw py::value_error("handle_targets: expected shape (" + std::to_string(k) + ", 3), got " + shape_of(td));
         std::optional<py::array_t<double, py::array::c_style>> guess;
         if (!initial.is_none()) {
           const py::array g = points_array(initial, "initial");

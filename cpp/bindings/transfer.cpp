@@ -73,14 +73,7 @@ py::array int_rows(const std::vector<int>& v, py::ssize_t width) {
 
 // A float array argument of one of the given shapes, as every deformer's points: floats only.
 py::array_t<double, py::array::c_style> float_rows(const py::object& obj, const char* name) {
-  require_real(obj, name);
-  if (py::isinstance<py::array>(obj)) {
-    const auto dtype = py::reinterpret_borrow<py::array>(obj).dtype();
-    if (dtype.kind() != 'f')
-      throw py::type_error(std::string(name) + ": expected float32 or float64, got " + std::string(py::str(dtype)) +
-                           " (convert with .astype(np.float64))");
-  }
-  return c_array<double>(obj, name);
+  return real_array(obj, name);
 }
 
 }  // namespace

@@ -155,7 +155,7 @@ def test_parameters_that_overflow_are_reported():
         dk.Twist(profile=([0, 1e-320, 1], [0, 1, 0]))
     with pytest.raises(ValueError, match="weights: is empty"):
         dk.Twist(weights=[])
-    with pytest.raises(TypeError, match="frame: expected real numbers, got complex128"):
+    with pytest.raises(TypeError, match="frame: expected float32 or float64, got complex128"):
         dk.Twist(frame=np.eye(4) * (1 + 1j))
     with pytest.raises(ValueError, match="axis: expected"):
         dk.Twist(axis=True)

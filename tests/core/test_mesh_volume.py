@@ -51,3 +51,16 @@ def test_bad_faces(faces, match):
     pts = np.random.default_rng(0).random((3, 3))
     with pytest.raises((ValueError, TypeError), match=match):
         dk.mesh_volume(pts, faces)
+
+
+@pytest.mark.parametrize("faces", [np.array([[0, 1, 1]], np.int32), np.array([[0, 1, 2], [0, 2, 2]]),
+                                   [[0, 1, 2], [2, 0, 1, 0]]])
+def test_a_face_repeating_a_vertex_is_refused_as_everywhere(faces):
+    """The same face check as every other mesh entry point (SurfaceDeformer, subdivide, the cages):
+    the face is named, through each of mesh_volume's three readings of faces."""
+    pts = np.random.default_rng(0).random((3, 3))
+    bad = next(i for i, f in enumerate(faces) if len(set(f)) < len(f))
+    with pytest.raises(ValueError, match=rf"^faces: face {bad} repeats vertex"):
+        dk.mesh_volume(pts, faces)
+    with pytest.raises(ValueError, match=rf"^faces: face {bad} repeats vertex"):
+        dk.cotangent_laplacian(pts, faces)

@@ -44,7 +44,7 @@ def test_controls_that_cannot_be_fitted():
     assert refused(line).startswith("control_points: the controls span only 1 dimension(s)")
     assert refused(C[:3]).startswith("control_points: degree 1 needs at least 4 controls, got 3")
     assert refused(C, kernel="gaussian", epsilon=1e-3, degree=-1).startswith(
-        "control_points: the gaussian RBF system is singular or ill-conditioned (condition estimate ")
+        "epsilon: 0.001 (epsilon times the controls' extent is ")
     bad = C.copy()
     bad[7, 1] = np.nan
     assert refused(bad).startswith("control_points:")

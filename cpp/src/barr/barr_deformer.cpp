@@ -325,15 +325,23 @@ static BarrOp ranged_op(BarrKind kind, double k, double center, double lo, doubl
 }
 
 Twist::Twist(const Profile& theta, int axis, const Frame& frame)
-    : BarrDeformer(twist_op(BarrKind::Twist, theta), Placement(frame, axis_to_z(axis))) {}
+    : BarrDeformer(twist_op(BarrKind::Twist, theta), Placement(frame, axis_to_z(axis))) {
+  parameters_ = "rate, limits, profile, frame";
+}
 
 Taper::Taper(const Profile& radius, int axis, const Frame& frame)
-    : BarrDeformer(twist_op(BarrKind::Taper, radius), Placement(frame, axis_to_z(axis))) {}
+    : BarrDeformer(twist_op(BarrKind::Taper, radius), Placement(frame, axis_to_z(axis))) {
+  parameters_ = "rate, limits, profile, frame";
+}
 
 Stretch::Stretch(double factor, double lo, double hi, int axis, const Frame& frame)
-    : BarrDeformer(ranged_op(BarrKind::Stretch, factor, 0.0, lo, hi), Placement(frame, axis_to_z(axis))) {}
+    : BarrDeformer(ranged_op(BarrKind::Stretch, factor, 0.0, lo, hi), Placement(frame, axis_to_z(axis))) {
+  parameters_ = "factor, limits, frame";
+}
 
 Bend::Bend(double curvature, double center, double lo, double hi, int axis, const Frame& frame)
-    : BarrDeformer(ranged_op(BarrKind::Bend, curvature, center, lo, hi), Placement(frame, axis_to_x(axis))) {}
+    : BarrDeformer(ranged_op(BarrKind::Bend, curvature, center, lo, hi), Placement(frame, axis_to_x(axis))) {
+  parameters_ = "curvature, center, region, frame";
+}
 
 }  // namespace deformkit

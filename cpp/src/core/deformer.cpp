@@ -5,12 +5,14 @@
 #include "core/scale_free.hpp"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace deformkit {
 
@@ -41,22 +43,75 @@ void identity_jacobians(double* jac, std::size_t n) {
   for (std::size_t i = 0; i < 9 * n; ++i) jac[i] = (i % 9) % 4 == 0 ? 1.0 : 0.0;
 }
 
+// Runs a finite-results check; an overflow it reports is re-reported against `d`: the point
+// (row of `in`, when given) beyond d's magnitude is blamed on `points`, else d's parameters are
+// named, with the point.
+template <class T, class Check>
+static void report_against(const Deformer& d, const T* in, double limit, Check&& check) {
+  try {
+    check();
+  } catch (const NonFiniteResult& e) {
+    const double range = d.point_magnitude(std::min(limit, double(std::numeric_limits<T>::max())));
+    std::ostringstream detail;
+    detail.precision(3);
+    if (in) {
+      const T* x = in + 3 * e.row;
+      blame_points_beyond_range(e.row, e.quantity, x, range);
+      detail << " (the point (" << x[0] << ", " << x[1] << ", " << x[2] << ") is within the accepted magnitude "
+             << range << ")";
+    }
+    const std::string names = d.overflow_parameters();
+    throw_non_finite_result(e.row, e.quantity, names.empty() ? "the parameters" : "its parameters (" + names + ")",
+                            detail.str());
+  }
+}
+
 // After an implementation reported a non-finite row: blame the input if it is the culprit,
 // otherwise the parameters, which made a finite point overflow.
-// In place (in == out) the input was checked before it was overwritten: only the parameters remain.
+// In place (in == out) the input was checked before it was overwritten: deform_checked kept the
+// rows beyond the magnitude for this report.
 template <class T>
-static void report_non_finite(const T* in, const T* out, std::size_t n) {
-  if (in == out) return require_finite_results(out, n, 3, "position");
+static void report_non_finite(const Deformer& d, const T* in, const T* out, std::size_t n) {
+  if (in == out) return report_against(d, static_cast<const T*>(nullptr), kDoubleMax, [&] {
+    require_finite_results(out, n, 3, "position");
+  });
   require_finite_rows(in, n, "points");
-  require_finite_results_of(out, n, 3, "position", in);
+  report_against(d, in, kDoubleMax, [&] { require_finite_results_of(out, n, 3, "position", in); });
+}
+
+// An in-place call's input rows of magnitude `range` or more, kept before they are overwritten.
+template <class T>
+static std::vector<std::pair<std::size_t, std::array<T, 3>>> rows_beyond(const T* in, std::size_t n, double range) {
+  std::vector<std::pair<std::size_t, std::array<T, 3>>> far;
+  for (std::size_t i = 0; i < n; ++i)
+    if (std::max({std::abs(double(in[3 * i])), std::abs(double(in[3 * i + 1])), std::abs(double(in[3 * i + 2]))}) >= range)
+      far.push_back({i, {in[3 * i], in[3 * i + 1], in[3 * i + 2]}});
+  return far;
 }
 
 template <class T>
 void Deformer::deform_checked(const T* in, T* out, std::size_t n, bool input_verified) const {
+  const double range = point_magnitude(double(std::numeric_limits<T>::max()));
+  std::vector<std::pair<std::size_t, std::array<T, 3>>> far;
+  // In place, a non-finite row must be reported before anything is overwritten, and a row beyond
+  // the magnitude kept for the overflow report.
+  if (in == out && !input_verified && !all_finite(in, n, 3, range)) {
+    require_finite_rows(in, n, "points");
+    far = rows_beyond(in, n, range);
+  }
+  try {
+    deform_unchecked(in, out, n, input_verified);
+  } catch (const NonFiniteResult& e) {
+    const auto row = std::find_if(far.begin(), far.end(), [&](const auto& r) { return r.first == e.row; });
+    if (row != far.end()) blame_points_beyond_range(e.row, e.quantity, row->second.data(), range);
+    throw;
+  }
+}
+
+template <class T>
+void Deformer::deform_unchecked(const T* in, T* out, std::size_t n, bool input_verified) const {
   const std::vector<double>& w = weights_;
   require_weight_count(w, n, "points", "rows");
-  // In place, a non-finite row must be reported before anything is overwritten.
-  if (in == out && !input_verified && !all_finite(in, n, 3)) require_finite_rows(in, n, "points");
   if (is_identity()) {  // exact, with no arithmetic that could round, flip -0.0 or overflow
     if (in != out) {
       if (!input_verified && !all_finite(in, n, 3)) require_finite_rows(in, n, "points");
@@ -65,7 +120,7 @@ void Deformer::deform_checked(const T* in, T* out, std::size_t n, bool input_ver
     return;
   }
   if (w.empty()) {
-    if (!deform_impl(in, out, n)) report_non_finite(in, out, n);
+    if (!deform_impl(in, out, n)) report_non_finite(*this, in, out, n);
     return;
   }
   // The blend needs the original positions, which an in-place call overwrites.
@@ -75,7 +130,7 @@ void Deformer::deform_checked(const T* in, T* out, std::size_t n, bool input_ver
     original.assign(in, in + 3 * n);
     source = original.data();
   }
-  if (!deform_impl(source, out, n)) report_non_finite(source, out, n);
+  if (!deform_impl(source, out, n)) report_non_finite(*this, source, out, n);
   blend_toward_originals(w, source, out, n);
 }
 
@@ -99,7 +154,7 @@ void Deformer::displace(const T* in, T* out, std::size_t n) const {
     }
     if (acc != acc) finite = false;
   });
-  if (!finite) require_finite_results_of(out, n, 3, "displacement", in);
+  if (!finite) report_against(*this, in, kDoubleMax, [&] { require_finite_results_of(out, n, 3, "displacement", in); });
 }
 
 void Deformer::displacement(const float* in, float* out, std::size_t n) const { displace(in, out, n); }
@@ -129,7 +184,7 @@ void Deformer::jacobian(const double* in, double* jac, std::size_t n, bool float
   if (!weights_.empty()) blend_jacobians(weights_, jac, n);
   if (verified && !float32_result) return;
   require_finite_rows(in, n, "points");  // a bad input row is named before the results it spoilt
-  require_finite_results_of(jac, n, 9, "Jacobian", in, limit);
+  report_against(*this, in, limit, [&] { require_finite_results_of(jac, n, 9, "Jacobian", in, limit); });
 }
 
 Mat3 cofactor(const Mat3& j) {
@@ -191,7 +246,7 @@ void volume_ratio(const Deformer& d, const double* points, double* out, std::siz
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) out[i] = scaled_determinant(read_mat(&jac[9 * i]));
   });
-  require_finite_results_of(out, n, 1, "volume ratio", points, limit);
+  report_against(d, points, limit, [&] { require_finite_results_of(out, n, 1, "volume ratio", points, limit); });
 }
 
 }  // namespace deformkit

@@ -24,6 +24,7 @@ static Vec3 axis_scales(const double* points, std::size_t n, int exponent[3]) {
 }
 
 double mesh_volume(const PolygonMeshView& mesh) {
+  require_distinct_corners(mesh);
   const double* points = mesh.points;
   const std::size_t n = mesh.vertex_count;
   // a . (b x c) = det[a b c] scales by sx sy sz when the axes are scaled by (sx, sy, sz): with each

@@ -83,7 +83,14 @@ void BoundDeformer::deform_bound_checked(const PointBinding& b, T* out) const {
   }
   // The bound points were finite when bound, so a non-finite result is the parameters' overflow.
   // Weights in [0, 1] keep a blend of finite positions finite: the kernel's report suffices.
-  if (!deform_bound_impl(b, out)) require_finite_results(out, b.size(), 3, "position");
+  if (!deform_bound_impl(b, out)) {
+    try {
+      require_finite_results(out, b.size(), 3, "position");
+    } catch (const NonFiniteResult& e) {
+      const std::string names = overflow_parameters();
+      throw_non_finite_result(e.row, e.quantity, names.empty() ? "the parameters" : "its parameters (" + names + ")");
+    }
+  }
   if (weights().empty()) return;
   bound_points(b, original);
   blend_toward_stored(weights(), original, out, b.size());

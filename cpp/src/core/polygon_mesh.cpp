@@ -101,8 +101,8 @@ PolygonMesh PolygonMesh::triangulate() && {
 
 // One pass over the corners with the face that last visited each vertex: linear in the corners
 // however large a face is.
-void require_distinct_corners(const PolygonMesh& mesh) {
-  std::vector<std::int64_t> last_face(mesh.vertex_count(), -1);
+void require_distinct_corners(const PolygonMeshView& mesh) {
+  std::vector<std::int64_t> last_face(mesh.vertex_count, -1);
   for (std::size_t f = 0; f < mesh.face_count(); ++f) {
     const int* c = mesh.face(f);
     for (int k = 0; k < mesh.face_size(f); ++k) {

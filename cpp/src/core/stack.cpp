@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -15,6 +16,11 @@ namespace {
 // through a weighted stack inside), so that an overflow is never blamed on the caller's points.
 std::invalid_argument member_error(std::size_t index, const std::invalid_argument& e) {
   const std::string msg = e.what(), name = "deformers[" + std::to_string(index) + "]";
+  if (const auto* overflow = dynamic_cast<const NonFiniteResult*>(&e)) {
+    // Kept as an overflow report (its row), so that an in-place caller can still blame its point.
+    const std::string renamed = msg.rfind("deformer: ", 0) == 0 ? name + ": " + msg.substr(10) : name + "." + msg;
+    throw NonFiniteResult(renamed, overflow->row, overflow->quantity);
+  }
   if (msg.rfind("deformer: ", 0) == 0) return std::invalid_argument(name + ": " + msg.substr(10));
   if (msg.rfind("deformers[", 0) == 0) return std::invalid_argument(name + "." + msg);
   if (msg.rfind("points: ", 0) == 0) return std::invalid_argument(name + ": the points it receives: " + msg.substr(8));
@@ -42,6 +48,12 @@ Stack::Stack(std::vector<DeformerPtr> deformers) {
                                 std::to_string(kMaxStackDepth) + " (flatten them, or combine their weights)");
 }
 
+double Stack::point_magnitude(double limit) const {
+  double range = Deformer::point_magnitude(limit);
+  for (const auto& d : deformers_) range = std::min(range, d->point_magnitude(limit));
+  return range;
+}
+
 bool Stack::is_identity() const {
   for (const auto& d : deformers_)
     if (!d->is_identity()) return false;
@@ -57,6 +69,9 @@ bool Stack::deform_any(const T* in, T* out, std::size_t n) const {
   }
   try {
     deformers_.front()->deform(in, out, n);
+  } catch (const NonFiniteResult& e) {
+    if (in != out) blame_points_beyond_range(e.row, e.quantity, in + 3 * e.row, point_magnitude(double(std::numeric_limits<T>::max())));
+    throw member_error(0, e);
   } catch (const std::invalid_argument& e) {
     // Bad points are the caller's; anything else (an in-place call has checked its input before
     // writing) is the member's.
@@ -66,6 +81,10 @@ bool Stack::deform_any(const T* in, T* out, std::size_t n) const {
   for (std::size_t i = 1; i < deformers_.size(); ++i) {
     try {
       deformers_[i]->deform_verified(out, out, n);
+    } catch (const NonFiniteResult& e) {
+      // The caller's point, when it is out of range, is to blame whatever earlier members made of it.
+      if (in != out) blame_points_beyond_range(e.row, e.quantity, in + 3 * e.row, point_magnitude(double(std::numeric_limits<T>::max())));
+      throw member_error(i, e);
     } catch (const std::invalid_argument& e) {
       throw member_error(i, e);
     }

@@ -26,10 +26,14 @@ void require_finite_rows(const T* data, std::size_t n, const char* argument) {
 template void require_finite_rows<float>(const float*, std::size_t, const char*);
 template void require_finite_rows<double>(const double*, std::size_t, const char*);
 
-void throw_non_finite_result(std::size_t row, const char* what) {
-  throw std::invalid_argument("deformer: row " + std::to_string(row) + " maps to a non-finite " + what +
-                              ": the parameters overflow there");
+void throw_non_finite_result(std::size_t row, const char* what, const std::string& parameters,
+                             const std::string& detail) {
+  throw NonFiniteResult("deformer: row " + std::to_string(row) + " maps to a non-finite " + what + ": " + parameters +
+                            " overflow there" + detail,
+                        row, what);
 }
+
+double point_range(double limit) { return std::sqrt(limit) / 16.0; }
 
 constexpr double kDoubleMax = std::numeric_limits<double>::max();
 
@@ -70,17 +74,27 @@ void require_finite_results(const T* values, std::size_t n, std::size_t width, c
 }
 template void require_finite_results<float>(const float*, std::size_t, std::size_t, const char*, double);
 
-// Row i's `what` overflowed. A point beyond the square root of the result's range (1.3e154 for
-// float64, 1.8e19 for float32) overflows under any non-trivial map: it is to blame, otherwise
-// the parameters are.
+// Row i's `what` overflowed. A point beyond point_range(limit) is to blame (its squares, and the
+// distances and products of such points, reach the end of the range under any non-trivial map);
+// a point within it was mapped by the parameters, which are.
+template <class T>
+void blame_points_beyond_range(std::size_t i, const char* what, const T* x, double range) {
+  if (std::max({std::abs(double(x[0])), std::abs(double(x[1])), std::abs(double(x[2]))}) < range) return;
+  std::ostringstream msg;
+  msg.precision(3);
+  // The range says which dtype's results were checked (float32 points may be computed in double).
+  const bool single = range <= point_range(std::numeric_limits<float>::max());
+  msg << "points: row " << i << " maps to a non-finite " << what << ": its coordinates (" << x[0] << ", " << x[1]
+      << ", " << x[2] << ") are beyond the magnitude this deformer maps (|coordinate| < " << range << " for "
+      << (single ? "float32" : "float64") << " results)";
+  throw std::invalid_argument(msg.str());
+}
+template void blame_points_beyond_range<float>(std::size_t, const char*, const float*, double);
+template void blame_points_beyond_range<double>(std::size_t, const char*, const double*, double);
+
 template <class T>
 [[noreturn]] static void blame_row(std::size_t i, const char* what, const T* x, double limit) {
-  if (std::max({std::abs(double(x[0])), std::abs(double(x[1])), std::abs(double(x[2]))}) > std::sqrt(limit)) {
-    std::ostringstream msg;
-    msg << "points: row " << i << " maps to a non-finite " << what << ": its coordinates (" << x[0] << ", " << x[1]
-        << ", " << x[2] << ") are too large for this deformer";
-    throw std::invalid_argument(msg.str());
-  }
+  blame_points_beyond_range(i, what, x, point_range(limit));
   throw_non_finite_result(i, what);
 }
 

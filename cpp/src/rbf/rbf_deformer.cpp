@@ -41,6 +41,36 @@ constexpr std::size_t kChunk = 256;
 
 }  // namespace
 
+// |phi(r)| grows as r^k for large r (thin plate spline as r^2 log r); the polynomial as |x|^degree.
+static int growth(const RbfOptions& o) {
+  int k = 0;
+  switch (o.kernel.kind) {
+    case RbfKernel::Linear: case RbfKernel::Multiquadric: k = 1; break;
+    case RbfKernel::ThinPlateSpline: k = 2; break;
+    case RbfKernel::Cubic: k = 3; break;
+    case RbfKernel::Quintic: k = 5; break;
+    default: k = 0;  // decaying or compactly supported
+  }
+  return std::max(k, o.degree);
+}
+
+double RbfDeformer::point_magnitude(double limit) const {
+  // r^k stays below limit / 1024 (room for the log factor and the sum) up to (limit / 1024)^(1/k);
+  // the margin of 16 is point_range's.
+  const int k = growth(options_);
+  const double range = point_range(limit);
+  return k <= 2 ? range : std::min(range, std::pow(limit / 1024.0, 1.0 / k) / 16.0);
+}
+
+std::string RbfDeformer::overflow_parameters() const {
+  if (rbf_compact(options_.kernel.kind)) return "targets, radius";
+  switch (options_.kernel.kind) {
+    case RbfKernel::Gaussian: case RbfKernel::Multiquadric: case RbfKernel::InverseMultiquadric:
+    case RbfKernel::InverseQuadratic: return "targets, epsilon";
+    default: return "targets";
+  }
+}
+
 RbfDeformer::RbfDeformer(const double* controls, std::size_t m, const RbfOptions& options) : options_(options) {
   check_options(options);
   if (m == 0) throw std::invalid_argument("control_points: expected at least one control point, got none");

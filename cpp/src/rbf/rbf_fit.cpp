@@ -2,6 +2,8 @@
 
 #include "rbf/rbf_grid.hpp"
 
+#include "deformkit/core/validation.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -81,13 +83,41 @@ std::string span_problem(int degree, Eigen::Index rank, Eigen::Index terms) {
          " of " + std::to_string(terms) + " on them): use degree=1 or add controls";
 }
 
-[[noreturn]] void ill_conditioned(const RbfOptions& o, double condition) {
+// The largest span of the controls along an axis.
+double extent_of(const double* c, std::size_t m) {
+  double span = 0.0;
+  for (int a = 0; a < 3; ++a) {
+    double lo = c[a], hi = c[a];
+    for (std::size_t j = 1; j < m; ++j) lo = std::min(lo, c[3 * j + a]), hi = std::max(hi, c[3 * j + a]);
+    span = std::max(span, hi - lo);
+  }
+  return span;
+}
+
+// The argument a singular system is blamed on: controls beyond the range points may take; else a
+// shape parameter that makes the kernel nearly flat over the controls (epsilon, whose remedy is
+// a larger one; a support radius of at least the controls' extent); else the controls themselves
+// (nearly coincident).
+[[noreturn]] void ill_conditioned(const RbfOptions& o, double condition, double extent) {
+  const bool shaped = o.kernel.kind == RbfKernel::Gaussian || o.kernel.kind == RbfKernel::Multiquadric ||
+                      o.kernel.kind == RbfKernel::InverseMultiquadric || o.kernel.kind == RbfKernel::InverseQuadratic;
   std::string hint = o.smoothing > 0 ? "a larger smoothing" : "smoothing > 0";
-  if (o.kernel.kind == RbfKernel::Gaussian || o.kernel.kind == RbfKernel::Multiquadric ||
-      o.kernel.kind == RbfKernel::InverseMultiquadric || o.kernel.kind == RbfKernel::InverseQuadratic)
-    hint = "a larger epsilon (a narrower kernel), " + hint;
-  throw std::invalid_argument("control_points: the " + std::string(rbf_kernel_name(o.kernel.kind)) +
-                              " RBF system is singular or ill-conditioned (condition estimate " + number(condition) +
+  std::string blamed = "control_points: these controls make the ";
+  if (!(extent < point_range())) {
+    blamed = "control_points: spanning " + number(extent) + ", beyond the magnitude points may take (" +
+             number(point_range()) + "), they make the ";
+  } else if (shaped) {
+    // phi(eps r) flat over the controls (eps r small) or overflowing (eps r huge).
+    const double scaled = o.kernel.epsilon * extent;
+    hint = (scaled > 1.0 ? "a smaller epsilon (a wider kernel), " : "a larger epsilon (a narrower kernel), ") + hint;
+    blamed = "epsilon: " + number(o.kernel.epsilon) + " (epsilon times the controls' extent is " + number(scaled) +
+             ") makes the ";
+  } else if (rbf_compact(o.kernel.kind) && o.kernel.radius >= extent) {
+    hint = "a smaller radius, " + hint;
+    blamed = "radius: " + number(o.kernel.radius) + ", at least the controls' extent " + number(extent) + ", makes the ";
+  }
+  throw std::invalid_argument(blamed + std::string(rbf_kernel_name(o.kernel.kind)) +
+                              " RBF system singular or ill-conditioned (condition estimate " + number(condition) +
                               ", the limit is " + number(kMaxCondition) + "); try " + hint +
                               ", or remove controls that nearly coincide");
 }
@@ -144,12 +174,12 @@ RbfFit::RbfFit(const double* c, std::size_t m, const RbfOptions& o, const RbfGri
     SparseMatrix k(n, n);
     k.setFromTriplets(entries.begin(), entries.end());
     cholesky_ = std::make_shared<SparseCholesky>();
-    if (!cholesky_->factorize(k, CholeskyKind::Supernodal)) ill_conditioned(o, std::numeric_limits<double>::infinity());
+    if (!cholesky_->factorize(k, CholeskyKind::Supernodal)) ill_conditioned(o, std::numeric_limits<double>::infinity(), extent_of(c, m));
     if (t > 0) {
       kinv_p_ = cholesky_->solve(p_);
       schur_.compute(p_.transpose() * kinv_p_);
       if (schur_.info() != Eigen::Success || !(schur_.rcond() > 1.0 / kMaxCondition))
-        ill_conditioned(o, 1.0 / schur_.rcond());
+        ill_conditioned(o, 1.0 / schur_.rcond(), extent_of(c, m));
     }
     condition_ = std::numeric_limits<double>::quiet_NaN();  // not estimated for the sparse factor
     return;
@@ -174,7 +204,7 @@ RbfFit::RbfFit(const double* c, std::size_t m, const RbfOptions& o, const RbfGri
   }
   const double rcond = reduced_.info() == Eigen::Success ? reduced_.rcond() : 0.0;
   condition_ = rcond > 0 ? 1.0 / rcond : std::numeric_limits<double>::infinity();
-  if (!(condition_ <= kMaxCondition)) ill_conditioned(o, condition_);
+  if (!(condition_ <= kMaxCondition)) ill_conditioned(o, condition_, extent_of(c, m));
 }
 
 void RbfFit::solve(const double* displacements, double* alpha, double* beta) const {

@@ -1,6 +1,9 @@
 #include "rbf/rbf_grid.hpp"
 
+#include "deformkit/core/validation.hpp"
+
 #include <algorithm>
+#include <cstdio>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
@@ -12,6 +15,12 @@ namespace {
 // A dense cell index up to this many cells (16 MB); beyond, a hash map of the occupied ones.
 constexpr double kDenseCells = 4.0 * 1024 * 1024;
 }  // namespace
+
+static std::string short_number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
 
 RbfGrid::RbfGrid(const double* controls, std::size_t m, double radius) : radius_(radius) {
   double lo[3], hi[3];
@@ -31,6 +40,12 @@ RbfGrid::RbfGrid(const double* controls, std::size_t m, double radius) : radius_
     cells *= span + 4.0;
     extent_[a] = std::int64_t(std::min(span, 1e18));
   }
+  double extent = 0.0;
+  for (int a = 0; a < 3; ++a) extent = std::max(extent, hi[a] - lo[a]);
+  if (!(cells < 1.8e19) && !(extent < point_range()))
+    throw std::invalid_argument("control_points: spanning " + short_number(extent) +
+                                ", beyond the magnitude points may take (" + short_number(point_range()) +
+                                "): no support radius covers them in 2^64 grid cells");
   if (!(cells < 1.8e19))
     throw std::invalid_argument("radius: " + std::to_string(radius) +
                                 " is too small for the controls' extent (more grid cells than 2^64); use a larger radius");

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
@@ -16,8 +17,21 @@ std::vector<double> extrapolated_start(const double* previous, const double* ear
     along += step * last_step;
     last += last_step * last_step;
   }
-  if (!std::isfinite(along) || !std::isfinite(last))
-    throw std::invalid_argument("targets: the handles' steps overflow (finite coordinates below ~1e154 are accepted)");
+  if (!std::isfinite(along) || !std::isfinite(last)) {
+    // The one of the three handle positions with the largest coordinate made the steps overflow.
+    const char* names[3] = {"targets", "previous_targets", "earlier_targets"};
+    const double* arrays[3] = {targets, previous_targets, earlier_targets};
+    int worst = 0;
+    double top[3] = {0, 0, 0};
+    for (int a = 0; a < 3; ++a) {
+      for (std::size_t k = 0; k < 3 * handles; ++k) top[a] = std::max(top[a], std::abs(arrays[a][k]));
+      if (top[a] > top[worst]) worst = a;
+    }
+    char magnitude[32];
+    std::snprintf(magnitude, sizeof magnitude, "%.3g", top[worst]);
+    throw std::invalid_argument(std::string(names[worst]) + ": a coordinate of magnitude " + magnitude +
+                                " makes the handles' steps overflow (finite coordinates below ~1e154 are accepted)");
+  }
   const double s = last > 0 ? std::clamp(along / last, 0.0, 2.0) : 0.0;
   std::vector<double> out(3 * vertices);
   for (std::size_t k = 0; k < out.size(); ++k) {

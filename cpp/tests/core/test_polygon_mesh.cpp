@@ -45,6 +45,18 @@ TEST(PolygonMesh, NamesTheBadArgument) {
   EXPECT_EQ(message_of(p, {0, 1, 2, 1, 3, 2}, {0, 3, 6}), "");
 }
 
+TEST(PolygonMesh, MeshVolumeRefusesARepeatedVertexAsEveryEntryPoint) {
+  const std::vector<double> p = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+  const int faces[6] = {0, 1, 2, 0, 3, 3};  // face 1 visits vertex 3 twice
+  const PolygonMeshView view = PolygonMeshView::borrowed(p.data(), 4, faces, 2, 3);
+  try {
+    mesh_volume(view);
+    FAIL() << "accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "faces: face 1 repeats vertex 3");
+  }
+}
+
 TEST(PolygonMesh, TriangulateFansFromTheFirstCorner) {
   const PolygonMesh cube(kCube.data(), 8, kCubeQuads, kQuadOffsets);
   EXPECT_FALSE(cube.all_triangles());

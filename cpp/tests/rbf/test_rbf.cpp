@@ -209,7 +209,7 @@ TEST(RbfDeformer, RefusesBadInput) {
   gauss.kernel.kind = RbfKernel::Gaussian;
   gauss.kernel.epsilon = 1e-4;  // flat: the kernel matrix is numerically singular
   gauss.degree = -1;
-  fails(c, gauss, "control_points");
+  fails(c, gauss, "epsilon");  // flat over the controls: the remedy is a larger epsilon
   RbfDeformer good(c.data(), 10, o);
   EXPECT_THROW(good.set_targets(std::vector<double>(27, 0.0)), std::invalid_argument);
   std::vector<double> t = c;

@@ -12,8 +12,10 @@ class BarrDeformer : public Deformer {
   const BarrOp& op() const { return op_; }
   const Placement& placement() const { return placement_; }
   bool is_identity() const override;
+  std::string overflow_parameters() const override { return parameters_; }
 
  protected:
+  const char* parameters_ = "angle or factor, origin";  // a SimpleDeform's map; each Barr deformer its own
   bool deform_impl(const float* in, float* out, std::size_t n) const override;
   bool deform_impl(const double* in, double* out, std::size_t n) const override;
   bool displacement_impl(const float* in, float* out, std::size_t n) const override;

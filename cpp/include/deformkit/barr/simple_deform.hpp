@@ -25,6 +25,7 @@ class SimpleDeform : public Deformer {
   const SimpleDeformSettings& settings() const { return settings_; }
   // Every mode with a zero angle or factor leaves points where they are (MOD_simpledeform).
   bool is_identity() const override { return settings_.factor == 0.0; }
+  std::string overflow_parameters() const override { return "angle or factor, origin, limits"; }
   // The Barr operator Blender would apply to these points (bounds measured from them);
   // nullptr when Blender leaves them unchanged (bend with |k| < 1e-6).
   template <class T>

@@ -59,6 +59,7 @@ class CageDeformer : public BoundDeformer {
   std::size_t vertex_count() const { return cage_.vertex_count(); }
   const std::vector<double>& rest_cage_points() const { return cage_.rest_points(); }
   const std::vector<double>& cage_points() const { return current_; }
+  std::string overflow_parameters() const override { return "cage_points"; }
   // Copies the current cage in. Throws std::invalid_argument naming cage_points for a wrong count
   // or a non-finite point. At rest (bit for bit the rest cage) the map is the identity.
   void set_cage_points(std::vector<double> points);

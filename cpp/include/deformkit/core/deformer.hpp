@@ -4,6 +4,7 @@
 #include "deformkit/core/validation.hpp"
 
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace deformkit {
@@ -32,6 +33,15 @@ class Deformer {
   // True when the map is the identity for every point (zero angle, factor or curvature, control
   // points at rest): deform then returns its input bit for bit, however large, and J = I.
   virtual bool is_identity() const { return false; }
+
+  // Who an overflow at a point is blamed on: docs/errors.md, "Overflow blames the argument at fault".
+  // A point with a coordinate of magnitude point_magnitude(the result dtype's largest
+  // value) or more is the caller's (`points`): the default is point_range, less for a map that
+  // grows faster than quadratically. A point within it that overflows is the parameters' fault,
+  // named as the user gives them by overflow_parameters ("rate, limits, profile, frame"; empty:
+  // "the parameters").
+  virtual double point_magnitude(double limit) const { return point_range(limit); }
+  virtual std::string overflow_parameters() const { return ""; }
 
   // Per-point blend between the original and the deformed position (Blender's vertex group):
   // x' = x + w (F(x) - x), so J' = (1 - w) I + w J. Each weight must lie in [0, 1], Blender's
@@ -64,6 +74,8 @@ class Deformer {
  private:
   template <class T>
   void deform_checked(const T* in, T* out, std::size_t n, bool input_verified) const;
+  template <class T>
+  void deform_unchecked(const T* in, T* out, std::size_t n, bool input_verified) const;
   template <class T>
   void displace(const T* in, T* out, std::size_t n) const;
   std::vector<double> weights_;

@@ -69,9 +69,11 @@ class PolygonMesh {
 };
 
 // Throws std::invalid_argument "faces: face f repeats vertex v" for the first face (and in it the
-// first corner) that visits a vertex twice: the surface deformers and subdivision need simple
-// polygons; a volume does not.
-void require_distinct_corners(const PolygonMesh& mesh);
+// first corner) that visits a vertex twice: every mesh entry point refuses such a face (the
+// surface deformers, subdivision, cages, mesh_volume), so that one mesh is valid everywhere or
+// nowhere.
+void require_distinct_corners(const PolygonMeshView& mesh);
+inline void require_distinct_corners(const PolygonMesh& mesh) { require_distinct_corners(mesh.view()); }
 
 // The connected component of each vertex (through faces; an isolated vertex is its own), numbered
 // in order of their first vertex; *count gets the number of components.

@@ -15,6 +15,7 @@ class Stack : public Deformer {
   // Weighted stacks nested inside this one (0 when no member is a stack).
   int depth() const { return depth_; }
   bool is_identity() const override;
+  double point_magnitude(double limit) const override;  // the least of its members'
 
  protected:
   bool deform_impl(const float* in, float* out, std::size_t n) const override;

@@ -54,6 +54,7 @@ class ControlLattice : public BoundDeformer {
   void set_control_points(std::vector<double> grid);
   double strength() const { return strength_; }
   bool is_identity() const override { return strength_ == 0.0 || at_rest_; }
+  std::string overflow_parameters() const override { return "control_points, strength"; }
   Outside outside() const { return outside_; }
   // Control points merged into one handle (extended FFD: coincident at rest); identity otherwise.
   const std::vector<int>& handle_of() const { return handle_of_; }

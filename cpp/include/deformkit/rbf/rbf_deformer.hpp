@@ -48,6 +48,9 @@ class RbfDeformer : public BoundDeformer {
   void set_targets(std::vector<double> targets);
   const RbfOptions& options() const { return options_; }
   bool is_identity() const override { return at_rest_; }
+  // The kernels that grow as r^k with k > 2 (cubic, quintic) map a shorter range than the default.
+  double point_magnitude(double limit) const override;
+  std::string overflow_parameters() const override;
   // 1-norm condition estimate of the factorised (null-space or sparse) kernel system.
   double condition_estimate() const;
   // The coefficients: alpha (m x 3) and the polynomial's beta (terms x 3, in the basis of
