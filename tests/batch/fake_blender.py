@@ -9,8 +9,6 @@ import signal
 import sys
 import time
 
-import numpy as np
-
 from deformkit.batch import shared
 
 
@@ -84,6 +82,7 @@ def main(argv):
     saved = os.stat(job["output"])
     row["output_stat"] = {"bytes": saved.st_size, "mtime_ns": saved.st_mtime_ns}
     if job["preview"]:
+        import numpy as np  # here only: a Ctrl+C while numpy loads ends in an ImportError, not SIGINT
         tri = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
         np.savez(os.path.join(job["work"], f"{job['index']}.npz"), before=tri, after=tri + [0, 0, 0.5],
                  faces=np.array([[0, 1, 2]]))
