@@ -7,11 +7,22 @@ import json
 import os
 import signal
 import sys
+import importlib.util
 import time
 
-import numpy as np
 
-from deformkit.batch import shared
+def load_shared():
+    """deformkit/batch/shared.py by its path, as in_blender.py loads it: importing it through the
+    package would import the compiled core and numpy first, and a Ctrl+C during numpy's import
+    ends in an ImportError (exit status 1) instead of the SIGINT a starting Blender dies of."""
+    package = importlib.util.find_spec("deformkit").submodule_search_locations[0]
+    spec = importlib.util.spec_from_file_location("fake_blender_shared", os.path.join(package, "batch", "shared.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+shared = load_shared()
 
 
 def meet_another(path):
@@ -84,6 +95,7 @@ def main(argv):
     saved = os.stat(job["output"])
     row["output_stat"] = {"bytes": saved.st_size, "mtime_ns": saved.st_mtime_ns}
     if job["preview"]:
+        import numpy as np  # here only, for the same reason
         tri = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
         np.savez(os.path.join(job["work"], f"{job['index']}.npz"), before=tri, after=tri + [0, 0, 0.5],
                  faces=np.array([[0, 1, 2]]))

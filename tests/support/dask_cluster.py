@@ -17,7 +17,9 @@ import subprocess
 import sys
 import time
 
-DASK = pathlib.Path(sys.executable).with_name("dask")
+# This very Python, not the `dask` script beside it: a script names the interpreter it was installed
+# with, which is another checkout's when a .venv is copied (the workers would then import its deformkit).
+DASK = (sys.executable, "-m", "dask")
 START_SECONDS = 90.0
 
 
@@ -26,14 +28,15 @@ class DaskCluster:
     with one (`nanny=True`: the nanny starts a new worker process). `allowed_failures`: the
     scheduler's distributed.scheduler.allowed-failures (how often it re-runs a task whose worker
     died before it raises KilledWorker; Dask's default 3). `worker_prefix`: a command the worker
-    is started through (e.g. one that mounts the output folder read-only for it)."""
+    is started through (e.g. one that mounts the output folder read-only for it). `slots`: the
+    threads and units of the blender resource of each worker (how many files it runs at once)."""
 
-    def __init__(self, folder, workers=2, nanny=False, allowed_failures=None, worker_prefix=(), tls=None):
+    def __init__(self, folder, workers=2, nanny=False, allowed_failures=None, worker_prefix=(), tls=None, slots=1):
         self.tls = tls
         self.folder = pathlib.Path(folder)
         self.folder.mkdir(parents=True, exist_ok=True)
         self.n_workers, self.nanny, self.worker_prefix = workers, nanny, list(worker_prefix)
-        self.allowed_failures = allowed_failures
+        self.allowed_failures, self.slots = allowed_failures, slots
         self.processes, self.address, self._client = [], None, None
 
     def _start(self, args, log, env=None):
@@ -48,7 +51,7 @@ class DaskCluster:
         env = {}
         if self.allowed_failures is not None:
             env["DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES"] = str(self.allowed_failures)
-        scheduler = self._start([DASK, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+        scheduler = self._start([*DASK, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
                                  "--dashboard-address", "127.0.0.1:0", *self._tls_options("scheduler"),
                                  "--scheduler-file", scheduler_file], "scheduler.log", env)
         deadline = time.monotonic() + START_SECONDS
@@ -72,8 +75,8 @@ class DaskCluster:
                 "--tls-key", self.tls[role + "_key"]]
 
     def start_worker(self, name):
-        args = [*self.worker_prefix, DASK, "worker", self.address, "--host", "127.0.0.1", "--nthreads", "1",
-                "--resources", "blender=1", "--no-dashboard", "--dashboard-address", "127.0.0.1:0",
+        args = [*self.worker_prefix, *DASK, "worker", self.address, "--host", "127.0.0.1", "--nthreads", self.slots,
+                "--resources", f"blender={self.slots}", "--no-dashboard", "--dashboard-address", "127.0.0.1:0",
                 *self._tls_options("worker"), "--name", name, "--nanny" if self.nanny else "--no-nanny",
                 "--local-directory", self.folder / name]
         return self._start(args, f"worker-{name}.log")

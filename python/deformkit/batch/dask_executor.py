@@ -23,7 +23,7 @@ import threading
 import time
 
 from . import attempts
-from .run import failed_row, input_problem
+from .run import BLENDERS, failed_row, input_problem
 
 RESOURCE = "blender"
 # What a task whose worker died (or whose result died with it) raises on the client.
@@ -197,45 +197,26 @@ def check_workers(client, workers, inputs, out_dir, staging, blender):
 
 
 def interrupt_run(staging, grace=5.0):
-    """Runs on each worker (client.run): Ctrl+C twice, as a user at a terminal would press it, to
-    the Blenders this worker started for the run (their job files are under `staging`; Blender
-    takes the first SIGINT as a break event, the second ends it), SIGKILL to those still there
-    after `grace` seconds. Returns their pids."""
-    import psutil
-    mine = []
-    for child in psutil.Process().children(recursive=True):
-        try:
-            if any(staging in part for part in child.cmdline()):
-                child.send_signal(signal.SIGINT)
-                mine.append(child)
-        except psutil.Error:
-            pass
-    time.sleep(0.3)
-    for child in mine:
-        try:
-            if _running(child):
-                child.send_signal(signal.SIGINT)
-        except psutil.Error:
-            pass
+    """Runs on each worker (client.run): no Blender of the run starts here any more, and those
+    this worker started for it (their jobs' work folders are under `staging`; their job files may
+    be elsewhere, in the worker's private copy of the staged code) get Ctrl+C twice, as a user at
+    a terminal would press it (Blender takes the first SIGINT as a break event, the second ends
+    it), then SIGKILL if still there after `grace` seconds. Returns their pids."""
+    mine = BLENDERS.stop(staging)
+    for proc in mine:
+        proc.send_signal(signal.SIGINT)  # nothing once reaped: the thread that started it reads why it ended
+    if mine:
+        time.sleep(0.3)
+    for proc in mine:
+        proc.send_signal(signal.SIGINT)
     deadline = time.monotonic() + grace
-    alive = mine
-    while alive and time.monotonic() < deadline:  # no wait(): the thread that started it reaps it, and reads why
+    alive = [p for p in mine if p.poll() is None]
+    while alive and time.monotonic() < deadline:
         time.sleep(0.1)
-        alive = [c for c in alive if _running(c)]
-    for child in alive:
-        try:
-            child.kill()
-        except psutil.Error:
-            pass
-    return [c.pid for c in mine]
-
-
-def _running(process):
-    import psutil
-    try:
-        return process.status() != psutil.STATUS_ZOMBIE
-    except psutil.Error:
-        return False
+        alive = [p for p in alive if p.poll() is None]
+    for proc in alive:
+        proc.kill()
+    return [p.pid for p in mine]
 
 
 class DaskExecutor(concurrent.futures.Executor):
@@ -343,8 +324,8 @@ class DaskExecutor(concurrent.futures.Executor):
             waiting = [t for f, t in self._tasks.items() if not f.running() and not f.done() or f.cancelled()]
         if waiting:
             self.client.cancel(waiting, force=True)
-        self.client.run(interrupt_run, self.plan.staging, on_error="return")
-        time.sleep(1.0)  # an attempt that read no mark just before it was made may start Blender now
+        # Once a worker has run this, it starts no Blender for the run (run.BLENDERS): an attempt
+        # that read no mark just before it was made is refused there, not raced.
         self.client.run(interrupt_run, self.plan.staging, on_error="return")
 
     def cancel_all(self):

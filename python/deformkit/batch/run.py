@@ -10,6 +10,7 @@ import signal
 import stat
 import subprocess
 import tempfile
+import threading
 import time
 
 from . import shared, staged_code
@@ -131,6 +132,45 @@ def _unfinished(src, dst, progress, message, kind, seconds, output):
     return row
 
 
+class BlenderRegistry:
+    """The Blenders this process has started and not yet reaped, by their job's work folder, so
+    that stopping a run on a worker (Ctrl+C on a cluster's launcher: dask_executor.interrupt_run)
+    reaches every Blender of the run, wherever its job file lies, and none starts after it: the
+    check and the start are one step under the lock."""
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._running = {}  # Popen -> the job's work folder
+        self._stopped = set()  # folders (a run's staging folder) under which no Blender starts
+
+    def _stopped_under(self, work):
+        return any(work == folder or work.startswith(folder.rstrip(os.sep) + os.sep) for folder in self._stopped)
+
+    def start(self, work, argv, **options):
+        """subprocess.Popen(argv, **options), or None when the run of `work` was stopped."""
+        with self._lock:
+            if self._stopped_under(work):
+                return None
+            proc = subprocess.Popen(argv, **options)
+            self._running[proc] = work
+            return proc
+
+    def reaped(self, proc):
+        with self._lock:
+            self._running.pop(proc, None)
+
+    def stop(self, folder):
+        """No Blender starts under `folder` any more; the Popens of those running under it (their
+        starting threads reap them: Popen's own lock makes poll() and send_signal() safe here)."""
+        with self._lock:
+            self._stopped.add(folder)
+            return [p for p, work in self._running.items()
+                    if work == folder or work.startswith(folder.rstrip(os.sep) + os.sep)]
+
+
+BLENDERS = BlenderRegistry()
+
+
 def blender_command(blender, job_path):
     # -noaudio: a batch needs no sound, and the audio client maps 64 MB of shared memory at start-up
     return [blender, "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1", "--python", IN_BLENDER,
@@ -167,19 +207,30 @@ def _run_blender(job, job_path, environ):
     shared.write_json_atomically(job_path, job.to_dict(), job.token)
     env, _ = blender_environment(job.blender, environ)
     t0 = time.perf_counter()
+    proc = BLENDERS.start(job.work, blender_command(job.blender, job_path), stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE, text=True, errors="replace", env=env)
+    if proc is None:
+        return failed_row(src, dst, "Cancelled", "the run was stopped before this file started")
     try:
-        proc = subprocess.run(blender_command(job.blender, job_path), capture_output=True, text=True,
-                              errors="replace", timeout=job.timeout, env=env)
-        outcome = None
-    except subprocess.TimeoutExpired as exc:
-        proc, outcome = exc, f"timed out after {job.timeout:g} s"
+        with proc:  # as subprocess.run: killed on any exception, reaped on the way out
+            try:
+                stdout, stderr = proc.communicate(timeout=job.timeout)
+                outcome = None
+            except subprocess.TimeoutExpired as exc:
+                proc.kill()
+                proc.wait()
+                stdout, stderr, outcome = exc.stdout, exc.stderr, f"timed out after {job.timeout:g} s"
+            except BaseException:
+                proc.kill()
+                raise
     finally:
+        BLENDERS.reaped(proc)
         for leftover in shared.run_temporaries(dst, job.token):  # only this run's
             if os.path.exists(leftover):
                 os.unlink(leftover)
     seconds = round(time.perf_counter() - t0, 3)
-    stdout = proc.stdout if isinstance(proc.stdout, str) else (proc.stdout or b"").decode("utf-8", "replace")
-    stderr = proc.stderr if isinstance(proc.stderr, str) else (proc.stderr or b"").decode("utf-8", "replace")
+    stdout = stdout if isinstance(stdout, str) else (stdout or b"").decode("utf-8", "replace")
+    stderr = stderr if isinstance(stderr, str) else (stderr or b"").decode("utf-8", "replace")
     output = (stderr + stdout).strip().splitlines()
     result = _read_result(job.result_path, stdout)
     if outcome is None and result is not None and result.get("status") in ("ok", "failed"):
