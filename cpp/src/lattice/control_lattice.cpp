@@ -338,8 +338,11 @@ void ControlLattice::refuse_row(const T* in, std::size_t row) const {
     msg << " lies so far from the lattice that its lattice coordinates overflow";
   } else {
     msg.precision(3);
-    msg << " lies too far outside the lattice to extrapolate accurately: its weights' magnitudes sum to "
-        << extrapolation_gain(p) << ", over the limit " << kMaxExtrapolationGain
+    const double gain = extrapolation_gain(p);
+    msg << " lies too far outside the lattice to extrapolate accurately: its weights' magnitudes sum to ";
+    if (std::isfinite(gain)) msg << gain;
+    else msg << "more than a double holds";
+    msg << ", over the limit " << kMaxExtrapolationGain
         << " (docs/lattice.md, \"Far outside\"); use outside='clamp' or 'unchanged', or a larger lattice";
   }
   throw std::invalid_argument(msg.str());
