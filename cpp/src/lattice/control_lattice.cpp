@@ -77,6 +77,36 @@ ControlLattice::ControlLattice(const LatticeAxes& axes, std::vector<double> rest
   handle_count_ = static_cast<int>(control_count());
   handle_of_.resize(handle_count_);
   for (int i = 0; i < handle_count_; ++i) handle_of_[i] = i;
+  if (outside_ == Outside::Extrapolate) find_safe_ranges();
+}
+
+// Per axis, the coordinates within which sum |w_axis| stays at most 99: a point inside all three
+// ranges has a gain below 99^3 < kMaxExtrapolationGain and needs no weights evaluated. sum |w| is
+// 1 + 2 (the negative weights' magnitudes), which grow monotonically away from the domain for
+// Bernstein and B-spline end pieces, so bisection finds each end.
+void ControlLattice::find_safe_ranges() {
+  constexpr double kSafeAxisGain = 99.0;
+  for (int a = 0; a < 3; ++a) {
+    const AxisBasis& axis = axes_[a];
+    auto gain = [&](double s) {
+      double w[kMaxAxisWidth];
+      int index[kMaxAxisWidth];
+      axis.evaluate(axis.locate(s, outside_), w, nullptr, index);
+      double sum = 0.0;
+      for (int k = 0; k < axis.width(); ++k) sum += std::abs(w[k]);
+      return sum;
+    };
+    for (int side = 0; side < 2; ++side) {
+      const double end = side ? axis.domain_hi() : axis.domain_lo(), away = side ? 1.0 : -1.0;
+      double in = 0.0, out = 1.0;  // distances from the end: gain(in) <= kSafeAxisGain < gain(out)
+      while (gain(end + away * out) <= kSafeAxisGain) in = out, out *= 2.0;
+      for (int i = 0; i < 64; ++i) {
+        const double mid = 0.5 * (in + out);
+        (gain(end + away * mid) <= kSafeAxisGain ? in : out) = mid;
+      }
+      (side ? safe_hi_ : safe_lo_)[a] = end + away * in;
+    }
+  }
 }
 
 void ControlLattice::merge_coincident_control_points(double tolerance) {
@@ -323,7 +353,10 @@ double ControlLattice::extrapolation_gain(const Vec3& p) const {
 }
 
 bool ControlLattice::too_far(const Vec3& p) const {
-  return outside_ == Outside::Extrapolate && !(extrapolation_gain(p) <= kMaxExtrapolationGain);
+  if (outside_ != Outside::Extrapolate) return false;
+  bool safe = true;
+  for (int a = 0; a < 3; ++a) safe = safe && p[a] >= safe_lo_[a] && p[a] <= safe_hi_[a];
+  return !safe && !(extrapolation_gain(p) <= kMaxExtrapolationGain);
 }
 
 template <class T>

@@ -118,6 +118,7 @@ class ControlLattice : public BoundDeformer {
   Mat3 jacobian_at(const Vec3& x, bool& overflow) const;
   // Placed parameters that 'extrapolate' cannot evaluate accurately (extrapolation_gain).
   bool too_far(const Vec3& parameters) const;
+  void find_safe_ranges();
   // The refusal of a finite row whose parameters overflow or are too_far: names points, the row,
   // the point and, for too_far, its gain and the limit.
   template <class T>
@@ -167,6 +168,8 @@ class ControlLattice : public BoundDeformer {
   bool affine_ = false;
   Mat3 to_parameters_ = Mat3::Identity();
   Vec3 origin_ = Vec3::Zero();
+  // 'extrapolate': per axis, coordinates whose weights' magnitudes sum to at most 99.
+  double safe_lo_[3] = {0, 0, 0}, safe_hi_[3] = {1, 1, 1};
 };
 
 }  // namespace deformkit
