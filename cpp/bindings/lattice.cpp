@@ -194,7 +194,8 @@ F(x) = x + strength * sum w(x) (P - R) with R the rest control points, so the re
 the identity. `outside`: 'clamp' (default) holds the boundary's displacement outside the box,
 so the map stays continuous, as Blender's Lattice modifier does; 'unchanged' leaves outside
 points where they are (a jump where boundary control points moved); 'extrapolate' continues
-the polynomials.)";
+the polynomials, and refuses points whose weights' magnitudes sum past 1e6, too far out for the
+sum to be accurate (docs/lattice.md, "Far outside").)";
 
 }  // namespace
 

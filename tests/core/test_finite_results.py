@@ -24,7 +24,7 @@ def ffd_stretched_along_x(strength):
 def bezier_extrapolating():
     rest = np.array(dk.BezierFFD(1, outside="extrapolate").rest_control_points)
     moved = rest.copy()
-    moved[-1, -1, -1] += 1.0
+    moved[-1, -1, -1] += 1e306
     return dk.BezierFFD(1, outside="extrapolate", control_points=moved)
 
 
@@ -43,7 +43,9 @@ OVERFLOWING = [
     ("taper float32 at 1e30", dk.Taper(), np.array([[1e30, 1e30, 1e30]], np.float32)),
     ("ffd strength 1e308", ffd_stretched_along_x(1e308), np.array([[0.5, 0.5, 0.5]])),
     ("profile spanning 1e308", dk.Twist(profile=([-1e308, 1e308], [-1e308, 1e308])), np.array([[1.0, 1.0, 0.3]])),
-    ("bezier extrapolated far out", bezier_extrapolating(), np.array([[1e155, 1e155, 1e155]])),
+    # Extrapolated at s = 2, where sum |w| = 27^3 is within the limit (docs/lattice.md, "Far outside")
+    # and the moved corner's weight 8^3 (its derivative 3 * 4 * 8^2): 5e308, 7.7e308.
+    ("bezier extrapolated, corner at 1e306", bezier_extrapolating(), np.array([[2.0, 2.0, 2.0]])),
     ("twist by pi at 1e308", dk.Twist(rate=np.pi), np.array([[1e308, 1e308, 1.0]])),
 ]
 
@@ -62,7 +64,7 @@ def test_every_path_is_finite_or_raises_the_overflow_error(name, d, p, path):
 @pytest.mark.parametrize("name, d, p", [OVERFLOWING[i] for i in (0, 3, 4)], ids=lambda v: v if isinstance(v, str) else "")
 def test_jacobian_of_an_overflowing_point_raises(name, d, p):
     """The true Jacobian there is beyond a double: J_00 = s = 1 + k (z^2 - 1) with z = 1e200, or the
-    profile's slope times 1e308, or the extrapolated cubic's derivative at 1e155."""
+    profile's slope times 1e308, or the extrapolated cubic's derivative at s = 2 with a corner at 1e306."""
     with pytest.raises(ValueError, match=OVERFLOW):
         d.jacobian(p)
 
@@ -228,9 +230,10 @@ def test_direct_manipulation_honours_the_lattices_per_point_weights():
 
 
 def test_extrapolated_weights_that_overflow_are_refused():
-    binding = dk.FFD(2, outside="extrapolate").bind(np.full((1, 3), 1e154))
-    with pytest.raises(ValueError, match="binding: point 0 lies so far outside the lattice"):
-        binding.weights()
+    """Refused when bound, at rest too: the binding outlives the control points (docs/lattice.md,
+    "Far outside")."""
+    with pytest.raises(ValueError, match=r"^points: row 0 \(.*\) lies too far outside the lattice"):
+        dk.FFD(2, outside="extrapolate").bind(np.full((1, 3), 1e154))
 
 
 def test_overflow_errors_name_the_deformer_or_the_points():

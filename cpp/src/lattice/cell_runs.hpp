@@ -13,7 +13,8 @@
 
 namespace deformkit {
 
-// A finite point far enough from the lattice overflows its lattice coordinates (M^-1 (x - X0)).
+// A finite point far enough from the lattice overflows its lattice coordinates (M^-1 (x - X0)),
+// or, extrapolating, lies too far out to evaluate accurately (ControlLattice::refuse_row names it).
 // Exceptions must not leave an OpenMP region, so rows are noted there and reported after it.
 class OverflowRows {
  public:
@@ -22,11 +23,8 @@ class OverflowRows {
     while (i < cur && !first_.compare_exchange_weak(cur, i)) {
     }
   }
-  void raise() const {
-    if (first_.load() != kNone)
-      throw std::invalid_argument("points: row " + std::to_string(first_.load()) +
-                                  " lies so far from the lattice that its lattice coordinates overflow");
-  }
+  bool any() const { return first_.load() != kNone; }
+  std::size_t first() const { return first_.load(); }
 
  private:
   static constexpr std::size_t kNone = ~std::size_t(0);

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -76,6 +77,36 @@ ControlLattice::ControlLattice(const LatticeAxes& axes, std::vector<double> rest
   handle_count_ = static_cast<int>(control_count());
   handle_of_.resize(handle_count_);
   for (int i = 0; i < handle_count_; ++i) handle_of_[i] = i;
+  if (outside_ == Outside::Extrapolate) find_safe_ranges();
+}
+
+// Per axis, the coordinates within which sum |w_axis| stays at most 99: a point inside all three
+// ranges has a gain below 99^3 < kMaxExtrapolationGain and needs no weights evaluated. sum |w| is
+// 1 + 2 (the negative weights' magnitudes), which grow monotonically away from the domain for
+// Bernstein and B-spline end pieces, so bisection finds each end.
+void ControlLattice::find_safe_ranges() {
+  constexpr double kSafeAxisGain = 99.0;
+  for (int a = 0; a < 3; ++a) {
+    const AxisBasis& axis = axes_[a];
+    auto gain = [&](double s) {
+      double w[kMaxAxisWidth];
+      int index[kMaxAxisWidth];
+      axis.evaluate(axis.locate(s, outside_), w, nullptr, index);
+      double sum = 0.0;
+      for (int k = 0; k < axis.width(); ++k) sum += std::abs(w[k]);
+      return sum;
+    };
+    for (int side = 0; side < 2; ++side) {
+      const double end = side ? axis.domain_hi() : axis.domain_lo(), away = side ? 1.0 : -1.0;
+      double in = 0.0, out = 1.0;  // distances from the end: gain(in) <= kSafeAxisGain < gain(out)
+      while (gain(end + away * out) <= kSafeAxisGain) in = out, out *= 2.0;
+      for (int i = 0; i < 64; ++i) {
+        const double mid = 0.5 * (in + out);
+        (gain(end + away * mid) <= kSafeAxisGain ? in : out) = mid;
+      }
+      (side ? safe_hi_ : safe_lo_)[a] = end + away * in;
+    }
+  }
 }
 
 void ControlLattice::merge_coincident_control_points(double tolerance) {
@@ -259,7 +290,7 @@ LatticeBinding ControlLattice::bind_points(const T* in, std::size_t n) const {
       std::vector<double> local(3 * (end - begin));
       place_block(begin, end, &key[begin], local.data());
     });
-    overflow.raise();
+    if (overflow.any()) refuse_row(in, overflow.first());
     sort_by_cell(b, in, key.data());
     return b;
   }
@@ -292,7 +323,7 @@ LatticeBinding ControlLattice::bind_points(const T* in, std::size_t n) const {
       });
     }
   });
-  overflow.raise();
+  if (overflow.any()) refuse_row(in, overflow.first());
   CellIds ids(still);
   for (const auto& runs : chunk_runs)
     for (const auto& [begin, k] : runs) add_run(b, ids, begin, k, k != still, cell_of_key(k));
@@ -306,9 +337,72 @@ void ControlLattice::set_affine_placement(const Mat3& to_parameters, const Vec3&
   origin_ = origin;
 }
 
+double ControlLattice::extrapolation_gain(const Vec3& p) const {
+  double gain = 1.0;
+  for (int a = 0; a < 3; ++a) {
+    const AxisBasis& axis = axes_[a];
+    if (p[a] >= axis.domain_lo() && p[a] <= axis.domain_hi()) continue;  // weights >= 0, summing to 1
+    double w[kMaxAxisWidth];
+    int index[kMaxAxisWidth];
+    axis.evaluate(axis.locate(p[a], outside_), w, nullptr, index);
+    double sum = 0.0;
+    for (int k = 0; k < axis.width(); ++k) sum += std::abs(w[k]);
+    gain *= sum;
+  }
+  return gain;
+}
+
+bool ControlLattice::too_far(const Vec3& p) const {
+  if (outside_ != Outside::Extrapolate) return false;
+  bool safe = true;
+  for (int a = 0; a < 3; ++a) safe = safe && p[a] >= safe_lo_[a] && p[a] <= safe_hi_[a];
+  return !safe && !(extrapolation_gain(p) <= kMaxExtrapolationGain);
+}
+
+template <class T>
+void ControlLattice::refuse_row(const T* in, std::size_t row) const {
+  const Vec3 x(in[3 * row], in[3 * row + 1], in[3 * row + 2]);
+  Vec3 p;
+  place(x, p);
+  std::ostringstream msg;
+  msg.precision(17);
+  msg << "points: row " << row << " (" << x[0] << ", " << x[1] << ", " << x[2] << ")";
+  if (!p.allFinite()) {
+    msg << " lies so far from the lattice that its lattice coordinates overflow";
+  } else {
+    msg.precision(3);
+    const double gain = extrapolation_gain(p);
+    msg << " lies too far outside the lattice to extrapolate accurately: its weights' magnitudes sum to ";
+    if (std::isfinite(gain)) msg << gain;
+    else msg << "more than a double holds";
+    msg << ", over the limit " << kMaxExtrapolationGain
+        << " (docs/lattice.md, \"Far outside\"); use outside='clamp' or 'unchanged', or a larger lattice";
+  }
+  throw std::invalid_argument(msg.str());
+}
+template void ControlLattice::refuse_row(const float*, std::size_t) const;
+template void ControlLattice::refuse_row(const double*, std::size_t) const;
+
 template <class T>
 bool ControlLattice::place_rows(const T* in, std::size_t n, double* parameters, std::uint8_t* status,
                                 std::uint64_t* key, double* local, double* ds) const {
+  bool finite = place_rows_unchecked(in, n, parameters, status, key, local, ds);
+  if (outside_ != Outside::Extrapolate) return finite;
+  // A row too far out to evaluate accurately is one the caller refuses, as one that overflows.
+  for (std::size_t i = 0; i < n; ++i) {
+    double* p = parameters + 3 * i;
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]) || !too_far(Vec3(p[0], p[1], p[2])))
+      continue;
+    p[0] = p[1] = p[2] = std::numeric_limits<double>::quiet_NaN();
+    key[i] = still_key();
+    finite = false;
+  }
+  return finite;
+}
+
+template <class T>
+bool ControlLattice::place_rows_unchecked(const T* in, std::size_t n, double* parameters, std::uint8_t* status,
+                                          std::uint64_t* key, double* local, double* ds) const {
   if (affine_) {
     Placement3 box;
     for (int e = 0; e < 9; ++e) box.to_parameters[e] = to_parameters_(e / 3, e % 3);
@@ -338,6 +432,10 @@ template bool ControlLattice::place_rows(const float*, std::size_t, double*, std
                                          double*) const;
 template bool ControlLattice::place_rows(const double*, std::size_t, double*, std::uint8_t*, std::uint64_t*, double*,
                                          double*) const;
+template bool ControlLattice::place_rows_unchecked(const float*, std::size_t, double*, std::uint8_t*, std::uint64_t*,
+                                                   double*, double*) const;
+template bool ControlLattice::place_rows_unchecked(const double*, std::size_t, double*, std::uint8_t*,
+                                                   std::uint64_t*, double*, double*) const;
 
 PointStatus ControlLattice::place(const Vec3& x, Vec3& parameters) const {
   if (x.allFinite()) return locate(x, parameters);
@@ -538,7 +636,7 @@ bool ControlLattice::deform_points(const T* in, T* out, std::size_t n) const {
     }
     if (!ok || !results_finite) finite = false;
   });
-  overflow.raise();
+  if (overflow.any()) refuse_row(in, overflow.first());
   return finite;
 }
 

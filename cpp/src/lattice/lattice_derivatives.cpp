@@ -17,7 +17,8 @@ namespace deformkit {
 Mat3 ControlLattice::jacobian_at(const Vec3& x, bool& overflow) const {
   Vec3 p;
   const PointStatus status = place(x, p);
-  overflow = !p.allFinite() && x.allFinite();  // a non-finite input is jacobian()'s to name
+  // A non-finite input is jacobian()'s to name; a finite one too far out to extrapolate is refused.
+  overflow = x.allFinite() && (!p.allFinite() || too_far(p));
   Mat3 j = Mat3::Identity();
   if (!overflow && displaces(status)) {
     Mat3 d;
@@ -38,7 +39,7 @@ void ControlLattice::reference_jacobian(const double* in, double* jac, std::size
         for (int c = 0; c < 3; ++c) jac[9 * i + 3 * r + c] = j(r, c);
     }
   });
-  overflow.raise();
+  if (overflow.any()) refuse_row(in, overflow.first());
 }
 
 namespace {

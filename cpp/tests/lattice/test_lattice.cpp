@@ -196,3 +196,15 @@ TEST(Lattice, ABindingOfAnotherFamilyIsRefused) {
     EXPECT_EQ(std::string(e.what()), "binding: was not made by a lattice; bind the points to this lattice");
   }
 }
+
+// Far outside, the gain sum |w_ijk| is the product over the axes of sum |w_axis|: for Bernstein
+// weights of degree d at s = 1 + delta, (|1 - s| + |s|)^d = (1 + 2 delta)^d; 1 inside the box.
+TEST(Lattice, ExtrapolationGainIsTheClosedForm) {
+  const FFD lat(LatticeBox::from_edges(Vec3::Zero(), Mat3::Identity()), {2, 3, 1}, Outside::Extrapolate);
+  EXPECT_EQ(lat.extrapolation_gain(Vec3(0.3, 0.9, 0.5)), 1.0);
+  for (double delta : {0.5, 3.0, 40.0}) {
+    const Vec3 s(1.0 + delta, -delta, 1.0 + 2.0 * delta);
+    const double expected = std::pow(1 + 2 * delta, 2) * std::pow(1 + 2 * delta, 3) * (1 + 4 * delta);
+    EXPECT_NEAR(lat.extrapolation_gain(s), expected, 1e-13 * expected) << delta;
+  }
+}

@@ -71,6 +71,14 @@ class ControlLattice : public BoundDeformer {
   // index clamping) merged.
   WeightTable weights_matrix(const LatticeBinding& binding) const;
 
+  // With outside='extrapolate', sum |w_ijk| over a point's weights, the product over the axes of
+  // sum |w_axis|: the factor by which rounding in sum w (P - R), and in its derivatives per cell,
+  // can exceed eps max|P - R| (docs/lattice.md, "Far outside"). 1 inside the domain.
+  double extrapolation_gain(const Vec3& parameters) const;
+  // Points whose gain passes this are refused on every path: eps * 1e6 = 2.2e-10 keeps a float64
+  // result within about 1e-9 of max|P - R| (docs/lattice.md, "Far outside").
+  static constexpr double kMaxExtrapolationGain = 1e6;
+
   // The Jacobians through the per-point formulas, with no SIMD lanes: what jacobian(),
   // transform_normals() and volume_ratio() are tested against (weights not applied). Throws as
   // jacobian() does for a row whose lattice coordinates overflow.
@@ -109,15 +117,26 @@ class ControlLattice : public BoundDeformer {
   template <class T>
   bool derivative_lanes(int what, const T* in, const T* normals, T* out, std::size_t n, bool* all_lanes = nullptr) const;
   Mat3 jacobian_at(const Vec3& x, bool& overflow) const;
+  // Placed parameters that 'extrapolate' cannot evaluate accurately (extrapolation_gain).
+  bool too_far(const Vec3& parameters) const;
+  void find_safe_ranges();
+  // The refusal of a finite row whose parameters overflow or are too_far: names points, the row,
+  // the point and, for too_far, its gain and the limit.
+  template <class T>
+  [[noreturn]] void refuse_row(const T* in, std::size_t row) const;
   // locate() for any point: a non-finite one gets NaN parameters (NotPlaced), so every path
   // reports it as the input's fault, whatever a lattice's locate would make of it.
   PointStatus place(const Vec3& x, Vec3& parameters) const;
   // Rows [0, n): parameters, status (or null), cell key (still's for a point left unchanged),
   // local and ds (or null) as cell_key's. False when some row's parameters are not finite (its
-  // input, or an overflow): the caller decides; the other rows are complete.
+  // input, an overflow, or a row too_far, whose parameters are set to NaN): the caller decides;
+  // the other rows are complete.
   template <class T>
   bool place_rows(const T* in, std::size_t n, double* parameters, std::uint8_t* status, std::uint64_t* key,
                   double* local, double* ds) const;
+  template <class T>
+  bool place_rows_unchecked(const T* in, std::size_t n, double* parameters, std::uint8_t* status,
+                            std::uint64_t* key, double* local, double* ds) const;
   template <class T>
   bool deform_points(const T* in, T* out, std::size_t n) const;
   template <class T>
@@ -150,6 +169,8 @@ class ControlLattice : public BoundDeformer {
   bool affine_ = false;
   Mat3 to_parameters_ = Mat3::Identity();
   Vec3 origin_ = Vec3::Zero();
+  // 'extrapolate': per axis, coordinates whose weights' magnitudes sum to at most 99.
+  double safe_lo_[3] = {0, 0, 0}, safe_hi_[3] = {1, 1, 1};
 };
 
 }  // namespace deformkit
