@@ -19,7 +19,7 @@ import time
 
 import pytest
 
-from support.dask_cluster import DaskCluster
+from support.dask_cluster import DaskCluster, fake_inputs as inputs
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 ADDON = str(REPO / "python_addon")
@@ -32,16 +32,6 @@ def comparable(row, out):
     """A row without its times, pids and Dask fields, its output named relative to `out`."""
     kept = {k: v for k, v in row.items() if k not in VOLATILE}
     return {**kept, "output": os.path.relpath(row["output"], out)}
-
-
-def inputs(folder, modes):
-    folder.mkdir(exist_ok=True)
-    paths = []
-    for i, mode in enumerate(modes):
-        path = folder / f"{i}_{mode}.blend"
-        path.write_bytes(b"BLENDER" + mode.encode())
-        paths.append(path)
-    return paths
 
 
 def command(blender, paths, out, *options):

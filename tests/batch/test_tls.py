@@ -20,7 +20,7 @@ import psutil
 import pytest
 
 from deformkit.batch import cluster_cli, dask_executor
-from support.dask_cluster import DaskCluster
+from support.dask_cluster import DaskCluster, fake_inputs as inputs
 from support.tls_certificates import make_certificates
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
@@ -37,16 +37,6 @@ def certificates(tmp_path_factory):
 def tls_cluster(certificates, tmp_path_factory):
     with DaskCluster(tmp_path_factory.mktemp("cluster"), workers=1, tls=certificates) as running:
         yield running
-
-
-def inputs(folder, modes):
-    folder.mkdir(exist_ok=True)
-    paths = []
-    for i, mode in enumerate(modes):
-        path = folder / f"{i}_{mode}.blend"
-        path.write_bytes(b"BLENDER" + mode.encode())
-        paths.append(path)
-    return paths
 
 
 def batch(blender, paths, out, *options, env=None):

@@ -131,3 +131,13 @@ class DaskCluster:
     def __exit__(self, *exc):
         self.stop()
 
+
+def fake_inputs(folder, modes):
+    """One input per mode, `<i>_<mode>.blend`, whose bytes tell tests/batch/fake_blender.py what to do."""
+    folder.mkdir(exist_ok=True)
+    paths = []
+    for i, mode in enumerate(modes):
+        path = folder / f"{i}_{mode}.blend"
+        path.write_bytes(b"BLENDER" + mode.encode())
+        paths.append(path)
+    return paths
