@@ -1,5 +1,6 @@
 #include "cage/green_coordinates.hpp"
 
+#include "cage/cage_triangle.hpp"
 #include "cage/green_exterior.hpp"
 #include "cage/green_rows.hpp"
 
@@ -109,20 +110,9 @@ inline void accumulate(const Dual& a, double* val, double* grad) {
   grad[2] += a.d[2];
 }
 
-struct Triangle {
-  Vec3 p[3];
-  int index[3];
-};
+using Triangle = CageTriangle3;
 
-inline Triangle triangle(const TriangleCageView& cage, std::size_t j) {
-  Triangle t;
-  for (int k = 0; k < 3; ++k) {
-    t.index[k] = cage.triangles[3 * j + k];
-    const double* q = cage.points + 3 * static_cast<std::size_t>(t.index[k]);
-    t.p[k] = Vec3(q[0], q[1], q[2]);
-  }
-  return t;
-}
+inline Triangle triangle(const TriangleCageView& cage, std::size_t j) { return cage_triangle(cage, j); }
 
 // (s_hi/R_hi - s_lo/R_lo) / t0 for x in a triangle's plane (R^2 = s^2 + t0^2): with both ends on one
 // side of x's foot, s/R = sign(s) / sqrt(1 + t0^2/s^2) and the difference is written without

@@ -1,5 +1,6 @@
 #include "cage/green_exterior.hpp"
 
+#include "cage/cage_triangle.hpp"
 #include "cage/dual3.hpp"
 #include "cage/green_rows.hpp"
 
@@ -13,20 +14,7 @@ namespace {
 
 using Vec3 = Eigen::Vector3d;
 
-struct Face {
-  Vec3 p[3];
-  int index[3];
-};
-
-Face face(const TriangleCageView& cage, std::size_t j) {
-  Face f;
-  for (int k = 0; k < 3; ++k) {
-    f.index[k] = cage.triangles[3 * j + k];
-    const double* q = cage.points + 3 * static_cast<std::size_t>(f.index[k]);
-    f.p[k] = Vec3(q[0], q[1], q[2]);
-  }
-  return f;
-}
+using Face = CageTriangle3;
 
 // x - q for q the point of the closed triangle nearest to x (Ericson 2005, "Real-Time Collision
 // Detection", §5.1.5: the Voronoi region of the closest feature). |x - q|^2 is C^1 in x with
@@ -129,7 +117,7 @@ std::size_t blend(const double xp[3], const TriangleCageView& cage, const GreenC
   double scale = std::numeric_limits<double>::infinity();
   T total(0.0);
   for (std::size_t j = 0; j < cage.triangle_count; ++j) {
-    const Face t = face(cage, j);
+    const Face t = cage_triangle(cage, j);
     if (!has_area(t, tables, j)) continue;  // no measure, no continuation
     const Vec3 offset = offsets[j] = offset_from_triangle(x, t);
     const double d2 = offset.squaredNorm();
@@ -144,7 +132,7 @@ std::size_t blend(const double xp[3], const TriangleCageView& cage, const GreenC
   // Pass 2: each face's continuation times w_j = u_j / sum u.
   const T inverse_total = T(1.0) / total;
   for (std::size_t j = 0; j < cage.triangle_count; ++j) {
-    const Face t = face(cage, j);
+    const Face t = cage_triangle(cage, j);
     Vec3 n, g[3];
     if (!face_frame(t, tables, j, n, g)) continue;
     T alpha[4];

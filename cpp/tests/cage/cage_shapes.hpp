@@ -4,6 +4,8 @@
 #include "deformkit/cage/cage_mesh.hpp"
 
 #include <cstdint>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace deformkit::test {
@@ -20,6 +22,16 @@ inline PolygonMesh polygon_mesh(const PolygonSoup& s) {
     offsets.push_back(std::int64_t(corners.size()));
   }
   return PolygonMesh(s.points.data(), s.points.size() / 3, corners, offsets);
+}
+
+// What the cage's checks say about s: the message of the refusal, or "" for a valid cage.
+inline std::string error_of(const PolygonSoup& s) {
+  try {
+    CageMesh cage(polygon_mesh(s));
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
 }
 
 // Outward quads of [0, 1]^3; vertex (x, y, z) is 4 x + 2 y + z.

@@ -15,15 +15,6 @@ using namespace deformkit::test;
 
 namespace {
 
-std::string error_of(const PolygonSoup& s) {
-  try {
-    CageMesh cage(polygon_mesh(s));
-  } catch (const std::invalid_argument& e) {
-    return e.what();
-  }
-  return "";
-}
-
 bool starts_with(const std::string& s, const std::string& prefix) { return s.rfind(prefix, 0) == 0; }
 
 }  // namespace

@@ -20,15 +20,6 @@ using namespace deformkit::test;
 
 namespace {
 
-std::string error_of(const PolygonSoup& s) {
-  try {
-    CageMesh cage(polygon_mesh(s));
-  } catch (const std::invalid_argument& e) {
-    return e.what();
-  }
-  return "";
-}
-
 bool says_self_intersecting(const std::string& e) {
   return e.rfind("faces: faces ", 0) == 0 && e.size() > 39 &&
          e.compare(e.size() - 39, 39, " intersect (the cage intersects itself)") == 0;
