@@ -19,7 +19,7 @@ if "bpy" in locals():  # F8 / script reload
     import importlib
     for _m in (native, cache, properties, outputs, meshdata, entries.common, entries.barr,  # noqa: F821
                entries.lattice, entries.laplacian, entries.subdivide, entries, evaluation,  # noqa: F821
-               api, operators, transfer, ui, handlers):  # noqa: F821
+               api, operators.stack, operators, transfer, ui, handlers):  # noqa: F821
         importlib.reload(_m)
 else:
     from . import (api, cache, entries, evaluation, handlers, meshdata, native, operators, outputs, properties,
@@ -34,7 +34,7 @@ lattices, surface, subdivision = entries.lattice, entries.laplacian, entries.sub
 for _name, _module in (("lattices", lattices), ("surface", surface), ("subdivision", subdivision)):
     sys.modules[f"{__name__}.{_name}"] = _module
 
-classes = properties.classes + operators.classes + entries.classes + transfer.classes + ui.classes
+classes = properties.classes + operators.classes + transfer.classes + ui.classes
 
 
 def register():

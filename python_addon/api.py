@@ -530,3 +530,28 @@ def select_flipped(obj, samples_per_edge=8):
     faces = sorted(check_smoothness(obj, select=False, samples_per_edge=samples_per_edge)["flipped_faces"])
     meshdata.select_faces(obj, faces)
     return faces
+
+
+# Any kind with a bind -----------------------------------------------------------------------------
+
+def bind(obj, index):
+    """Bind entry `index` (Laplacian, Cage, RBF: its rest; Lattice: bind again), as the entry's Bind
+    button; returns what the kind reports (a count, or the Lattice's Bound)."""
+    stack = obj.deformkit
+    _check_index(stack, index)
+    kind = stack.entries[index].type
+    binds = dict(BINDS, LATTICE=bind_lattice)
+    if kind not in binds:
+        raise ValueError(f"entry '{stack.entries[index].name}' is a {kinds.LABELS[kind]} entry, which has no bind")
+    return binds[kind](obj, index)
+
+
+def unbind(obj, index):
+    """Forget entry `index`'s bind: it passes its input through until bound again."""
+    stack = obj.deformkit
+    _check_index(stack, index)
+    kind = stack.entries[index].type
+    unbinds = {"LAPLACIAN": unbind_laplacian, "CAGE": unbind_cage, "RBF": unbind_rbf}
+    if kind not in unbinds:
+        raise ValueError(f"entry '{stack.entries[index].name}' is a {kinds.LABELS[kind]} entry, which has no unbind")
+    unbinds[kind](obj, index)

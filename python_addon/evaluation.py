@@ -19,8 +19,9 @@ import numpy as np
 from . import cache, entries, native, outputs
 from .entries import common, subdivide
 from .meshdata import base_positions, cache_key, input_positions, vertex_group_weights  # noqa: F401
+from .errors import EntryError
 from .outputs import (ATTR_OFFSET, ATTR_OFFSET_RENDER, ATTR_VOLUME, MODIFIER_NAME, NODE_GROUP_NAME,  # noqa: F401
-                      EntryError, remove_outputs)
+                      remove_outputs)
 
 
 _evaluating = set()  # session_uids being evaluated: writes below re-enter through handlers

@@ -7,7 +7,7 @@ from collections import namedtuple
 import numpy as np
 
 from . import cache
-from .outputs import EntryError
+from .errors import EntryError
 
 
 def cache_key(obj):

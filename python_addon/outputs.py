@@ -21,6 +21,8 @@ import ctypes
 import bpy
 import numpy as np
 
+from .errors import EntryError
+
 MODIFIER_NAME = "deformkit"
 ATTR_OFFSET = "deformkit_offset"
 ATTR_OFFSET_RENDER = "deformkit_offset_render"
@@ -37,10 +39,6 @@ RESULT_INPUT = "Result"  # the per-object helper; a Subdivide entry's helpers:
 HELPER_INPUTS = ("Viewport", "Render")
 VERTICES_INPUT = "Vertices"  # the vertex count the result was made for
 RESULT_OWNER = "deformkit_result_of"  # on a per-object helper: the name of its object
-
-
-class EntryError(ValueError):
-    """A problem with one entry's settings, shown on the entry."""
 
 
 def vector_attribute(mesh, name):

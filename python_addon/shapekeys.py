@@ -17,7 +17,7 @@ only for relative keys, as in Blender; the active block's points are then the ed
 """
 import numpy as np
 
-from .outputs import EntryError
+from .errors import EntryError
 
 _F = np.float32
 

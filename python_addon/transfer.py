@@ -25,7 +25,7 @@ import numpy as np
 from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 
 from . import meshdata, native
-from .outputs import EntryError
+from .errors import EntryError
 
 STORE = "deformkit_transfer"  # the target's ID property group: the stored correspondence
 DEFAULT_PREFIX = "dt_"

@@ -22,7 +22,6 @@ kind does not own properties but declares which of them it uses. A kind is a mod
     retyped(entry)  the entry became another kind: drop what only this kind keeps on it
     prune(object_key, entries)  drop what it keeps for the object beyond these entries of its kind
     draw(col, obj, entry)  its settings in the panel
-    classes     its operators, registered after the core's
 """
 from ..properties import ENTRY_TYPES
 from . import barr, cage, laplacian, lattice, rbf, subdivide
@@ -38,7 +37,6 @@ TYPES = tuple(t[0] for t in ENTRY_TYPES)
 LABELS = {t[0]: t[1] for t in ENTRY_TYPES}
 # Every parameter the api sets, in the order of the kinds.
 PARAMS = tuple(dict.fromkeys(COMMON + tuple(f for kind in KINDS for f in kind.FIELDS)))
-classes = tuple(cls for kind in KINDS for cls in kind.classes)
 
 
 def kind(entry):

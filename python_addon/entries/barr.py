@@ -18,7 +18,6 @@ ANGLES = ("TWIST", "BEND")  # Simple Deform's amount is an angle in these modes,
 _PLACE = ("origin", "deform_axis", "limits", "vertex_group", "invert_vertex_group")
 _LOCKS = ("lock_x", "lock_y", "lock_z")  # Simple Deform has no locks in Bend mode
 FIELDS = ("angle", "factor", "deform_axis", "origin", "limits") + _LOCKS + ("vertex_group", "invert_vertex_group")
-classes = ()
 
 
 def fields(entry_type):

@@ -17,9 +17,9 @@ from collections import namedtuple
 import bpy
 import numpy as np
 
-from .. import api, cache, meshdata, native
-from ..outputs import EntryError
-from .common import (EntryOperator, Prepared, draw_vertex_group, evaluated_mesh_in, followed_mesh, forget_bindings,
+from .. import cache, meshdata, native
+from ..errors import EntryError
+from .common import (Prepared, draw_vertex_group, evaluated_mesh_in, followed_mesh, forget_bindings,
                      kept_binding, scaled_influence, store_array, weights_crc, write_base)
 from .laplacian import _signed, is_bound, new_bind_id
 
@@ -171,34 +171,3 @@ def draw(col, obj, entry):
     else:
         col.label(text="Not bound", icon="UNLINKED")
         col.operator("deformkit.cage_bind", text="Bind", icon="LINKED").index = index
-
-
-class _CageOperator(EntryOperator):
-    TYPES = TYPES
-    NEEDS = "Needs a mesh with a Cage entry"
-
-
-class DEFORMKIT_OT_cage_bind(_CageOperator, bpy.types.Operator):
-    """Record the cage's current shape as its rest: afterwards the mesh follows the cage's edits"""
-    bl_idname = "deformkit.cage_bind"
-    bl_label = "Bind to Cage"
-
-    def run(self, context):
-        obj, index = self.target(context)
-        count = api.bind_cage(obj, index)
-        self.report({"INFO"}, f"Bound '{obj.name}' to a cage of {count} vertices")
-        return {"FINISHED"}
-
-
-class DEFORMKIT_OT_cage_unbind(_CageOperator, bpy.types.Operator):
-    """Forget the cage's rest shape: the entry passes the mesh through until bound again"""
-    bl_idname = "deformkit.cage_unbind"
-    bl_label = "Unbind from Cage"
-
-    def run(self, context):
-        obj, index = self.target(context)
-        api.unbind_cage(obj, index)
-        return {"FINISHED"}
-
-
-classes = (DEFORMKIT_OT_cage_bind, DEFORMKIT_OT_cage_unbind)

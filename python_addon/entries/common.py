@@ -9,7 +9,7 @@ import numpy as np
 from bpy.props import IntProperty
 
 from .. import cache, meshdata, native
-from ..outputs import EntryError
+from ..errors import EntryError
 
 # deformer: a dk.Deformer with a Jacobian (in dk.Stack and the volume ratio), or None for kinds
 # without a pointwise map; fingerprint: everything besides the incoming points that the result

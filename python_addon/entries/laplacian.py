@@ -23,10 +23,10 @@ from collections import namedtuple
 import bpy
 import numpy as np
 
-from .. import api, cache, meshdata, native
-from ..outputs import EntryError
+from .. import cache, meshdata, native
+from ..errors import EntryError
 from ..panel_text import label_wrapped
-from .common import KindOperator, Prepared, core_missing, followed_object, mesh_object, store_array, write_base
+from .common import Prepared, followed_object, store_array, write_base
 
 TYPES = ("LAPLACIAN",)
 ICON = "MOD_MESHDEFORM"
@@ -439,74 +439,6 @@ def draw(col, obj, entry):
         col.operator("deformkit.laplacian_bind", text="Bind", icon="LINKED").index = index
 
 
-# Operators ------------------------------------------------------------------------------------
-
-class _LaplacianOperator(KindOperator):
-    """Acts on a Laplacian entry of the active mesh: the given one, else the active entry if it is
-    one, else the first."""
-    TYPES = TYPES
-
-    @classmethod
-    def poll(cls, context):
-        if core_missing(cls):
-            return False
-        obj = mesh_object(context)
-        if obj is None or not cls.has_entry(obj):
-            cls.poll_message_set("Needs a mesh with a Laplacian entry")
-            return False
-        if obj.mode == "EDIT":
-            cls.poll_message_set("Leave edit mode first")
-            return False
-        return True
-
-
-class DEFORMKIT_OT_laplacian_bind(_LaplacianOperator, bpy.types.Operator):
-    """Record the mesh as it comes into the entry as the rest shape, and prepare the solver"""
-    bl_idname = "deformkit.laplacian_bind"
-    bl_label = "Bind"
-
-    def run(self, context):
-        obj, index = self.target(context)
-        count = api.bind_laplacian(obj, index)
-        self.report({"INFO"}, f"Bound '{obj.deformkit.entries[index].name}': {count} vertices")
-        return {"FINISHED"}
-
-
-class DEFORMKIT_OT_laplacian_unbind(_LaplacianOperator, bpy.types.Operator):
-    """Forget the rest shape: the entry passes the mesh through until bound again"""
-    bl_idname = "deformkit.laplacian_unbind"
-    bl_label = "Unbind"
-
-    def run(self, context):
-        api.unbind_laplacian(*self.target(context))
-        return {"FINISHED"}
-
-
-class DEFORMKIT_OT_laplacian_select_unanchored(KindOperator, bpy.types.Operator):
-    """Select the parts of the mesh that have no anchor and no handle, which the entry leaves where they are (in Edit Mode)"""
-    bl_idname = "deformkit.laplacian_select_unanchored"
-    bl_label = "Select Parts Without Anchors"
-    TYPES = TYPES
-
-    @classmethod
-    def poll(cls, context):
-        obj = mesh_object(context)
-        if obj is None or not cls.has_entry(obj):
-            cls.poll_message_set("Needs a mesh with a Laplacian entry")
-            return False
-        return True
-
-    def run(self, context):
-        obj, index = self.target(context)
-        if obj.mode == "EDIT":
-            bpy.ops.object.mode_set(mode="OBJECT")  # writes the edit mesh back, to read it
-        vertices = unanchored_vertices(obj, obj.deformkit.entries[index])
-        select_vertices(obj.data, vertices)
-        bpy.ops.object.mode_set(mode="EDIT")
-        self.report({"INFO"}, f"{len(vertices)} vertices selected")
-        return {"FINISHED"}
-
-
 def select_vertices(mesh, vertices):
     """Exactly `vertices` selected, with the edges and faces between them (as Edit Mode's flush)."""
     chosen = np.zeros(len(mesh.vertices), bool)
@@ -520,6 +452,3 @@ def select_vertices(mesh, vertices):
         corners, offsets = _ordered_corners(topo)
         inside = np.minimum.reduceat(chosen[corners].astype(np.int8), offsets).astype(bool)
         mesh.polygons.foreach_set("select", inside)
-
-
-classes = (DEFORMKIT_OT_laplacian_bind, DEFORMKIT_OT_laplacian_unbind, DEFORMKIT_OT_laplacian_select_unanchored)

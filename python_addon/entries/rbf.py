@@ -23,10 +23,10 @@ from collections import namedtuple
 import bpy
 import numpy as np
 
-from .. import api, cache, meshdata, native
-from ..outputs import EntryError
+from .. import cache, meshdata, native
+from ..errors import EntryError
 from ..properties import RBF_KERNELS, RBF_POLYNOMIALS
-from .common import (EntryOperator, Prepared, draw_vertex_group, evaluated_mesh_in, followed_mesh, followed_object,
+from .common import (Prepared, draw_vertex_group, evaluated_mesh_in, followed_mesh, followed_object,
                      forget_bindings, in_space_of, kept_binding, scaled_influence, store_array, weights_crc,
                      write_base)
 from .laplacian import is_bound, new_bind_id
@@ -289,34 +289,3 @@ def draw(col, obj, entry):
     else:
         col.label(text="Not bound", icon="UNLINKED")
         col.operator("deformkit.rbf_bind", text="Bind", icon="LINKED").index = index
-
-
-class _RBFOperator(EntryOperator):
-    TYPES = TYPES
-    NEEDS = "Needs a mesh with an RBF entry"
-
-
-class DEFORMKIT_OT_rbf_bind(_RBFOperator, bpy.types.Operator):
-    """Record the controls' rest positions: afterwards the mesh follows the control object's vertices"""
-    bl_idname = "deformkit.rbf_bind"
-    bl_label = "Bind to Controls"
-
-    def run(self, context):
-        obj, index = self.target(context)
-        count = api.bind_rbf(obj, index)
-        self.report({"INFO"}, f"Bound '{obj.name}' to {count} control points")
-        return {"FINISHED"}
-
-
-class DEFORMKIT_OT_rbf_unbind(_RBFOperator, bpy.types.Operator):
-    """Forget the controls' rest positions: the entry passes the mesh through until bound again"""
-    bl_idname = "deformkit.rbf_unbind"
-    bl_label = "Unbind from Controls"
-
-    def run(self, context):
-        obj, index = self.target(context)
-        api.unbind_rbf(obj, index)
-        return {"FINISHED"}
-
-
-classes = (DEFORMKIT_OT_rbf_bind, DEFORMKIT_OT_rbf_unbind)

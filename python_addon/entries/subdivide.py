@@ -25,7 +25,7 @@ import bpy
 import numpy as np
 
 from .. import cache, meshdata, native, outputs
-from ..outputs import EntryError
+from ..errors import EntryError
 from .common import Prepared
 
 TYPES = ("SUBDIVIDE",)
@@ -432,4 +432,3 @@ def draw(col, obj, entry):
             col.label(text=f"{label}: {len(helper.data.vertices)} vertices, {len(helper.data.polygons)} faces")
 
 
-classes = ()

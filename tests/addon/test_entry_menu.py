@@ -149,7 +149,8 @@ def test_a_duplicated_bind_deforms_as_the_original(scene):
 
 def test_a_subdivide_entry_cannot_be_duplicated(scene):
     import bpy
-    from deformkit_addon import api, operators, ui
+    from deformkit_addon import api, ui
+    from deformkit_addon.operators import stack as operators
     obj = make_object(bpy)
     api.add_entry(obj, "TWIST", **TWIST)
     api.add_entry(obj, "SUBDIVIDE", levels=1)
@@ -241,7 +242,8 @@ def test_a_copied_bind_is_bound_again_on_the_target(scene):
 
 def test_ctrl_a_in_the_properties_editor_applies_the_active_entry(scene):
     import bpy
-    from deformkit_addon import api, operators
+    from deformkit_addon import api
+    from deformkit_addon.operators import stack as operators
     keyconfig = bpy.context.window_manager.keyconfigs.addon
     items = [i for i in keyconfig.keymaps["Property Editor"].keymap_items if i.idname == "deformkit.entry_apply"]
     assert [(i.type, i.value, i.ctrl, i.shift, i.alt) for i in items] == [("A", "PRESS", True, False, False)]

@@ -209,7 +209,7 @@ def test_writing_the_offsets_in_place_leaves_shared_copies_alone(scene):
     """The offsets are computed straight into the attribute's memory: the undo step and the
     evaluated mesh that shared the array before keep their values, as after a foreach_set."""
     import bpy
-    from deformkit_addon import outputs
+    from deformkit_addon import errors, outputs
     obj = make_object(bpy)
     mesh, n = obj.data, len(obj.data.vertices)
     before = np.random.default_rng(3).normal(size=(n, 3)).astype(np.float32)
@@ -230,7 +230,7 @@ def test_writing_the_offsets_in_place_leaves_shared_copies_alone(scene):
     np.testing.assert_array_equal(_read(bpy.data.objects["Obj"].data, "probe"), before + 1)
     try:
         outputs.vector_attribute_memory(bpy.data.objects["Obj"].data, "probe", n + 1)
-    except outputs.EntryError as exc:
+    except errors.EntryError as exc:
         assert "probe" in str(exc) and str(n) in str(exc)
     else:
         raise AssertionError("a count other than the mesh's was accepted")

@@ -1,61 +1,52 @@
-"""Operators on the stack: thin wrappers around `api` with poll, undo and reports. Each entry kind's
-own operators (Lattice: fit, bind, reset, direct manipulation; Laplacian: bind, unbind) are in its
-module under entries/."""
+"""Operators on the stack: thin wrappers around `api` with poll, undo and reports (base.py reports
+their errors). Each kind's own operators are in this folder under the kind's name."""
 import math
 
 import bpy
 from bpy.props import EnumProperty, FloatProperty, IntProperty
 
-from . import api, entries, panel_text
-from .entries.common import core_missing
-from .entries.common import mesh_object as _mesh_object
-from .properties import ENTRY_TYPES
+from .. import api, entries, panel_text
+from ..properties import ENTRY_TYPES
+from .base import EntryOperator, Operator, core_missing, mesh_object
 
 
-class _EntryOperator:
-    bl_options = {"REGISTER", "UNDO"}
-    index: IntProperty(name="Index", default=-1, options={"SKIP_SAVE"})
+class _StackOperator(EntryOperator):
+    """Acts on entry `index` of the active mesh, else on its active entry; available whenever the mesh
+    has entries (without the compiled core too: the stack can still be edited)."""
 
     @classmethod
     def poll(cls, context):
-        obj = _mesh_object(context)
+        obj = mesh_object(context)
         return obj is not None and len(obj.deformkit.entries) > 0
 
     def entry_index(self, context):
         return self.index if self.index >= 0 else context.object.deformkit.active_index
 
 
-class DEFORMKIT_OT_entry_add(bpy.types.Operator):
+class DEFORMKIT_OT_entry_add(Operator, bpy.types.Operator):
     """Add a deformkit entry to the active object's stack"""
     bl_idname = "deformkit.entry_add"
     bl_label = "Add deformkit Entry"
-    bl_options = {"REGISTER", "UNDO"}
     type: EnumProperty(name="Type", items=ENTRY_TYPES)
 
     @classmethod
     def poll(cls, context):
-        return not core_missing(cls) and _mesh_object(context) is not None
+        return not core_missing(cls) and mesh_object(context) is not None
 
-    def execute(self, context):
-        try:
-            api.add_entry(context.object, self.type)
-        except ValueError as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
-        return {"FINISHED"}
+    def run(self, context):
+        api.add_entry(context.object, self.type)
 
 
-class DEFORMKIT_OT_entry_remove(_EntryOperator, bpy.types.Operator):
+class DEFORMKIT_OT_entry_remove(_StackOperator, bpy.types.Operator):
     """Remove the entry"""
     bl_idname = "deformkit.entry_remove"
     bl_label = "Remove deformkit Entry"
 
-    def execute(self, context):
+    def run(self, context):
         api.remove_entry(context.object, self.entry_index(context))
-        return {"FINISHED"}
 
 
-class DEFORMKIT_OT_entry_move(_EntryOperator, bpy.types.Operator):
+class DEFORMKIT_OT_entry_move(_StackOperator, bpy.types.Operator):
     """Move the entry up or down in the stack, or to its first or last place"""
     bl_idname = "deformkit.entry_move"
     bl_label = "Move deformkit Entry"
@@ -68,12 +59,12 @@ class DEFORMKIT_OT_entry_move(_EntryOperator, bpy.types.Operator):
                 api.move_entry_to(context.object, self.entry_index(context), self.direction)
             else:
                 api.move_entry(context.object, self.entry_index(context), -1 if self.direction == "UP" else 1)
-        except IndexError:
+        except IndexError:  # already first (last): nothing to do, as a modifier's Move Up on the first
             return {"CANCELLED"}
         return {"FINISHED"}
 
 
-class DEFORMKIT_OT_entry_set_active(_EntryOperator, bpy.types.Operator):
+class DEFORMKIT_OT_entry_set_active(_StackOperator, bpy.types.Operator):
     """Make this the active entry (the one Ctrl+A applies)"""
     bl_idname = "deformkit.entry_set_active"
     bl_label = "Set Active deformkit Entry"
@@ -86,7 +77,7 @@ class DEFORMKIT_OT_entry_set_active(_EntryOperator, bpy.types.Operator):
         return {"FINISHED"}
 
 
-class DEFORMKIT_OT_entry_duplicate(_EntryOperator, bpy.types.Operator):
+class DEFORMKIT_OT_entry_duplicate(_StackOperator, bpy.types.Operator):
     """Duplicate the entry below it, with the same settings (a Laplacian entry's bind too)"""
     bl_idname = "deformkit.entry_duplicate"
     bl_label = "Duplicate deformkit Entry"
@@ -94,23 +85,18 @@ class DEFORMKIT_OT_entry_duplicate(_EntryOperator, bpy.types.Operator):
     @classmethod
     def description(cls, context, properties):
         # The menu greys the item out for a Subdivide entry; its tooltip says why.
-        obj = _mesh_object(context)
+        obj = mesh_object(context)
         stack = obj.deformkit if obj is not None else None
         index = properties.index if properties.index >= 0 else (stack.active_index if stack else -1)
         if stack is not None and 0 <= index < len(stack.entries) and entries.kind(stack.entries[index]).LAST:
             return "A Subdivide entry must be the last one, so it cannot be duplicated"
         return cls.__doc__
 
-    def execute(self, context):
-        try:
-            api.duplicate_entry(context.object, self.entry_index(context))
-        except (ValueError, IndexError) as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
-        return {"FINISHED"}
+    def run(self, context):
+        api.duplicate_entry(context.object, self.entry_index(context))
 
 
-class DEFORMKIT_OT_entry_copy_to_selected(_EntryOperator, bpy.types.Operator):
+class DEFORMKIT_OT_entry_copy_to_selected(_StackOperator, bpy.types.Operator):
     """Copy the entry to the other selected mesh objects (a Laplacian entry arrives unbound: bind it there)"""
     bl_idname = "deformkit.entry_copy_to_selected"
     bl_label = "Copy deformkit Entry to Selected"
@@ -128,19 +114,14 @@ class DEFORMKIT_OT_entry_copy_to_selected(_EntryOperator, bpy.types.Operator):
             return False
         return True
 
-    def execute(self, context):
-        try:
-            copies = api.copy_entry_to(context.object, self.entry_index(context), self.targets(context))
-        except (ValueError, IndexError) as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+    def run(self, context):
+        copies = api.copy_entry_to(context.object, self.entry_index(context), self.targets(context))
         unbound = [c.id_data.name for c in copies if c.bind_copied_from]
         if unbound:
             self.report({"WARNING"}, f"Copied unbound to {', '.join(unbound)}: a bind belongs to its mesh, Bind again")
-        return {"FINISHED"}
 
 
-class DEFORMKIT_OT_entry_apply(_EntryOperator, bpy.types.Operator):
+class DEFORMKIT_OT_entry_apply(_StackOperator, bpy.types.Operator):
     """Apply the entry: bake its deformation into the mesh and remove it"""
     bl_idname = "deformkit.entry_apply"
     bl_label = "Apply deformkit Entry"
@@ -166,15 +147,10 @@ class DEFORMKIT_OT_entry_apply(_EntryOperator, bpy.types.Operator):
                 return {"FINISHED"}
         return self.execute(context)  # the active entry (pressed in the panel), or the menu's
 
-    def execute(self, context):
-        try:
-            warning = api.apply(context.object, self.entry_index(context))
-        except ValueError as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+    def run(self, context):
+        warning = api.apply(context.object, self.entry_index(context))
         if warning:
             self.report({"INFO"}, warning)
-        return {"FINISHED"}
 
 
 def register_keymaps():
@@ -197,11 +173,10 @@ def unregister_keymaps():
 KEYMAP_ITEMS = []
 
 
-class DEFORMKIT_OT_check_smoothness(bpy.types.Operator):
+class DEFORMKIT_OT_check_smoothness(Operator, bpy.types.Operator):
     """Check the limit surface of the cage (as the entries above any Subdivide entry leave it): select creased edges"""
     bl_idname = "deformkit.check_smoothness"
     bl_label = "Check Smoothness"
-    bl_options = {"REGISTER", "UNDO"}  # the selection changes
     worst: IntProperty(name="Worst Edges", default=10, min=1, max=100000,
                        description="How many of the edges with the largest angles to consider for selection")
     min_angle: FloatProperty(name="Minimum Angle", subtype="ANGLE", default=1e-6, min=0.0, precision=6,
@@ -211,12 +186,8 @@ class DEFORMKIT_OT_check_smoothness(bpy.types.Operator):
     def poll(cls, context):
         return DEFORMKIT_OT_entry_add.poll(context)
 
-    def execute(self, context):
-        try:
-            figures = api.check_smoothness(context.object, worst=self.worst, min_angle=self.min_angle)
-        except ValueError as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+    def run(self, context):
+        figures = api.check_smoothness(context.object, worst=self.worst, min_angle=self.min_angle)
         edge = figures["worst_edge"]
         where = f" at edge {tuple(edge)}" if edge else ""
         self.report({"WARNING" if figures["selected_edges"] else "INFO"},
@@ -224,27 +195,20 @@ class DEFORMKIT_OT_check_smoothness(bpy.types.Operator):
                     f"gap {panel_text.percent(figures['max_gap'])} of the diagonal, "
                     f"{figures['degenerate_samples']} degenerate, {figures['flipped_samples']} flipped samples; "
                     f"{len(figures['selected_edges'])} creased edges selected")
-        return {"FINISHED"}
 
 
-class DEFORMKIT_OT_select_flipped(bpy.types.Operator):
+class DEFORMKIT_OT_select_flipped(Operator, bpy.types.Operator):
     """Select the control faces whose limit surface has flipped samples (folds the entries made)"""
     bl_idname = "deformkit.select_flipped"
     bl_label = "Select Flipped"
-    bl_options = {"REGISTER", "UNDO"}  # the selection changes
 
     @classmethod
     def poll(cls, context):
         return DEFORMKIT_OT_entry_add.poll(context)
 
-    def execute(self, context):
-        try:
-            faces = api.select_flipped(context.object)
-        except ValueError as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+    def run(self, context):
+        faces = api.select_flipped(context.object)
         self.report({"WARNING" if faces else "INFO"}, f"{len(faces)} faces with flipped samples selected")
-        return {"FINISHED"}
 
 
 classes = (DEFORMKIT_OT_entry_add, DEFORMKIT_OT_entry_remove, DEFORMKIT_OT_entry_move, DEFORMKIT_OT_entry_set_active,
