@@ -28,7 +28,7 @@ args = ap.parse_args()
 blender_with_addon(args.addon)
 import bpy  # noqa: E402
 import bmesh  # noqa: E402  (after bpy, which provides it)
-from deformkit_addon import api, evaluation, native  # noqa: E402
+from deformkit_addon import api, meshdata, native  # noqa: E402
 A, B, co = displaced_grid_pair(args.vertices)
 mod = B.modifiers.new("SimpleDeform", "SIMPLE_DEFORM")
 mod.deform_method, mod.deform_axis, mod.angle = "TWIST", "Z", 0.5
@@ -66,7 +66,7 @@ def edited_result(obj):
     dg = bpy.context.evaluated_depsgraph_get()
     mesh = obj.evaluated_get(dg).to_mesh()
     try:
-        return evaluation.base_positions(mesh).copy()
+        return meshdata.base_positions(mesh).copy()
     finally:
         obj.evaluated_get(dg).to_mesh_clear()
 

@@ -105,11 +105,11 @@ def displaced_grid_pair(vertices):
     import math
     import bpy
     import numpy as np
-    from deformkit_addon import evaluation
+    from deformkit_addon import meshdata
     s = max(2, round(math.sqrt(vertices)) - 1)
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=s, y_subdivisions=s, size=2)
     a = bpy.context.active_object
-    co = evaluation.base_positions(a.data)
+    co = meshdata.base_positions(a.data)
     co[:, 2] = 0.3 * np.sin(3 * co[:, 0]) * np.cos(2 * co[:, 1])
     a.data.vertices.foreach_set("co", co.ravel())
     a.data.update()

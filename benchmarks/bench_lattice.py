@@ -363,14 +363,14 @@ def blender_part(n, reps, warmup, addon_dir, summary):
     import deformkit_addon
     if not hasattr(bpy.types.Object, "deformkit"):
         deformkit_addon.register()
-    from deformkit_addon import evaluation
+    from deformkit_addon import meshdata
 
     # The mesh: a grid with a smooth z displacement, slightly moved and turned.
     s = max(2, round(np.sqrt(n)) - 1)
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=s, y_subdivisions=s, size=2)
     mesh_obj = bpy.context.active_object
     mesh_obj.name = "blender_lattice_mesh"
-    co = evaluation.base_positions(mesh_obj.data)
+    co = meshdata.base_positions(mesh_obj.data)
     co[:, 2] = 0.3 * np.sin(3 * co[:, 0]) * np.cos(2 * co[:, 1])
     mesh_obj.data.vertices.foreach_set("co", co.ravel())
     mesh_obj.data.update()

@@ -13,10 +13,9 @@ import time
 
 import bpy
 import numpy as np
-from deformkit.batch import job as batch_job
-from deformkit.batch import shared as batch_io
 
-from . import api, batch_checks, evaluation, recipe_schema, subdivision, transfer
+from . import api, batch_checks, evaluation, meshdata, recipe_schema, transfer
+from .entries import subdivide
 from .entries import common
 
 
@@ -30,7 +29,7 @@ def resolve_objects(selectors):
     found = []
     for name in selectors:
         if name == "*":
-            found += [o for o in bpy.data.objects if o.type == "MESH" and subdivision.OWNER not in o]
+            found += [o for o in bpy.data.objects if o.type == "MESH" and subdivide.OWNER not in o]
             continue
         obj = bpy.data.objects.get(name)
         if obj is None:
@@ -142,6 +141,8 @@ def describe(obj, seconds, smoothness=False):
 def save_atomically(path, token=None):
     """Save a copy of the open file as `path`: written under a name unique to this run (`token`),
     then renamed. Only that run's own temporaries are ever removed."""
+    # Imported here: the add-on loads (and says why it cannot run) without the compiled module.
+    from deformkit.batch import shared as batch_io
     token = token or batch_io.new_run_token()
     tmp, blender_tmp = batch_io.run_temporaries(path, token)
     try:
@@ -220,7 +221,7 @@ def export_preview(objects, path):
         tris = np.empty(len(mesh.loop_triangles) * 3, np.int32)
         mesh.loop_triangles.foreach_get("vertices", tris)
         world = np.array(obj.matrix_world)
-        base = evaluation.base_positions(mesh).astype(np.float64)
+        base = meshdata.base_positions(mesh).astype(np.float64)
         deformed = evaluation.evaluated_positions(obj, depsgraph).astype(np.float64)
         if len(deformed) != len(base):  # a later modifier changed the topology: show the cage
             deformed = _stored_positions(obj, base)
@@ -243,6 +244,8 @@ def process(input_path, output_path, recipe=None, preview_path=None, smoothness=
     smoothness (or a recipe's "smoothness": true) the report has each object's smoothness figures.
     Never raises: a failure is the result's "error" (one line) and "exception" (type, message,
     stage, object, entry). on_stage(result, where) is called as the work moves on."""
+    # Imported here: the add-on loads (and says why it cannot run) without the compiled module.
+    from deformkit.batch import shared as batch_io
     t0 = time.perf_counter()
     result = {"file": input_path, "output": output_path, "status": "failed", "error": "", "objects": [],
               "warnings": []}
@@ -303,6 +306,9 @@ def worker_main(job_path):
     names the input, the output, the recipe, whether to leave the positions for a preview,
     smoothness and the run's token; the result file (job.result_path) is rewritten at every
     stage, so that if Blender dies the launcher knows where."""
+    # Imported here: the add-on loads (and says why it cannot run) without the compiled module.
+    from deformkit.batch import shared as batch_io
+    from deformkit.batch import job as batch_job
     text = batch_io.read_regular_file(job_path, batch_io.STATE_FILE_LIMIT).decode("utf-8")
     job = batch_job.BatchJob.from_json(text)
 

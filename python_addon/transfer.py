@@ -621,12 +621,12 @@ def draw_menu_item(self, context):
     self.layout.operator(DEFORMKIT_OT_transfer_deformation.bl_idname, icon="MOD_DATA_TRANSFER")
 
 
-def register_menus():
+def register():
     """Beside Blender's Transfer Shape Key (object.shape_key_transfer), in the shape-key specials."""
     bpy.types.MESH_MT_shape_key_context_menu.append(draw_menu_item)
 
 
-def unregister_menus():
+def unregister():
     bpy.types.MESH_MT_shape_key_context_menu.remove(draw_menu_item)
 
 

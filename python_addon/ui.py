@@ -2,7 +2,6 @@
 import bpy
 
 from . import entries, native, outputs, panel_text
-from .entries.common import draw_vertex_group  # noqa: F401  (where it was before the entries/ folder)
 from .properties import ENTRY_TYPES
 
 ICONS = {t[0]: entries.kind(t[0]).ICON for t in ENTRY_TYPES}

@@ -1,6 +1,3 @@
 """The operator layer: what the panel, the menus and the key map run, each a thin wrapper naming
-the api (or evaluation) function it calls. One module per subject; base.py owns the error reporting."""
-from . import cage, laplacian, lattice, rbf, stack
-
-classes = stack.classes + lattice.classes + laplacian.classes + cage.classes + rbf.classes
-register_keymaps, unregister_keymaps = stack.register_keymaps, stack.unregister_keymaps
+the api (or evaluation) function it calls; one module per subject, registered by the add-on's
+module list. base.py owns the error reporting."""

@@ -153,7 +153,7 @@ class DEFORMKIT_OT_entry_apply(_StackOperator, bpy.types.Operator):
             self.report({"INFO"}, warning)
 
 
-def register_keymaps():
+def register():
     """Ctrl+A in the Properties editor applies the active entry, as it applies a modifier (over a
     modifier's panel, the modifier: see DEFORMKIT_OT_entry_apply.invoke)."""
     keyconfig = bpy.context.window_manager.keyconfigs.addon
@@ -164,7 +164,7 @@ def register_keymaps():
     KEYMAP_ITEMS.append((keymap, item))
 
 
-def unregister_keymaps():
+def unregister():
     for keymap, item in KEYMAP_ITEMS:
         keymap.keymap_items.remove(item)
     KEYMAP_ITEMS.clear()

@@ -270,8 +270,8 @@ def test_apply_is_refused_in_edit_mode(scene):
 
 def test_names_and_a_users_node_group_of_the_same_name(scene):
     import bpy
-    from deformkit_addon import api, evaluation
-    theirs = bpy.data.node_groups.new(evaluation.NODE_GROUP_NAME, "GeometryNodeTree")
+    from deformkit_addon import api, evaluation, outputs
+    theirs = bpy.data.node_groups.new(outputs.NODE_GROUP_NAME, "GeometryNodeTree")
     obj = make_object(bpy)
     first = api.add_entry(obj, "TWIST", angle=1.0, deform_axis="Z")
     second = api.add_entry(obj, "TWIST", angle=0.5, deform_axis="Z")
@@ -304,11 +304,11 @@ def test_frame_changes_then_base_edits(scene):
 
 def test_volume_ratio_colors(scene):
     import bpy
-    from deformkit_addon import api, evaluation, native
+    from deformkit_addon import api, evaluation, native, outputs
     obj = make_object(bpy)
     api.add_entry(obj, "TAPER", factor=0.8, deform_axis="Z")
     obj.deformkit.show_volume_ratio = True
-    attr = obj.data.attributes[evaluation.ATTR_VOLUME]
+    attr = obj.data.attributes[outputs.ATTR_VOLUME]
     rgba = np.empty(len(obj.data.vertices) * 4, np.float32)
     attr.data.foreach_get("color", rgba)
     rgba = rgba.reshape(-1, 4)

@@ -135,7 +135,7 @@ def test_saved_laplacian_entry_is_evaluated_again(fixtures, tmp_path, scene):
     motion since bind."""
     import bpy
     from addon_helpers import group_members, polygons
-    from deformkit_addon import surface
+    from deformkit_addon.entries import laplacian as surface
     import deformkit as dk
     proc = run_batch(fixtures / "laplacian_arm.blend", "--evaluate-saved", "--out", tmp_path / "out")
     assert proc.returncode == 0, proc.stdout + proc.stderr

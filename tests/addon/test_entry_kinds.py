@@ -63,11 +63,3 @@ def test_operators_share_one_prefix_poll_and_undo(addon):
         assert {"REGISTER", "UNDO"} <= cls.bl_options, cls.__name__
         module, name = cls.bl_idname.split(".")
         assert getattr(getattr(bpy.ops, module), name).get_rna_type() is not None
-
-
-def test_old_module_names_still_import(addon):
-    import importlib
-    from deformkit_addon import entries
-    for old, kind in (("lattices", entries.lattice), ("surface", entries.laplacian),
-                      ("subdivision", entries.subdivide)):
-        assert importlib.import_module(f"deformkit_addon.{old}") is kind

@@ -73,7 +73,7 @@ def turn_and_shift(empty):
 @pytest.mark.parametrize("target", ["INCOMING", "OBJECT"])
 def test_bound_at_rest_gives_the_mesh_back(scene, method, target):
     import bpy
-    from deformkit_addon import surface
+    from deformkit_addon.entries import laplacian as surface
     obj, entry, _ = bound_tube(bpy, method=method, handle_target=target)
     base = positions(obj.data)
     assert close(evaluated(obj), base, size(base))
@@ -192,7 +192,8 @@ def test_incoming_handles_follow_edits_of_the_base_mesh(scene):
 
 def test_keyframed_empty_gives_per_frame_results(scene):
     import bpy
-    from deformkit_addon import cache, surface
+    from deformkit_addon import cache
+    from deformkit_addon.entries import laplacian as surface
     obj, entry, empty = bound_tube(bpy)
     at_bind = np.array(empty.matrix_world)
     base = positions(obj.data).copy()
@@ -218,7 +219,8 @@ def test_keyframed_empty_gives_per_frame_results(scene):
 
 def test_solver_is_kept_until_what_it_depends_on_changes(scene):
     import bpy
-    from deformkit_addon import api, cache, surface
+    from deformkit_addon import api, cache
+    from deformkit_addon.entries import laplacian as surface
     obj, entry, empty = bound_tube(bpy)
     api.add_entry(obj, "TWIST", angle=0.3, deform_axis="Z")  # after the Laplacian entry
 
@@ -252,7 +254,8 @@ def test_solver_is_kept_until_what_it_depends_on_changes(scene):
 
 def test_unbind_passes_the_input_through_and_forgets_the_rest(scene):
     import bpy
-    from deformkit_addon import api, cache, surface
+    from deformkit_addon import api, cache
+    from deformkit_addon.entries import laplacian as surface
     obj, entry, empty = bound_tube(bpy)
     base = positions(obj.data).copy()
     turn_and_shift(empty)
@@ -283,7 +286,8 @@ def test_unbind_passes_the_input_through_and_forgets_the_rest(scene):
 
 def test_undo_and_redo_of_a_bind(scene):
     import bpy
-    from deformkit_addon import api, cache, surface
+    from deformkit_addon import api, cache
+    from deformkit_addon.entries import laplacian as surface
     obj = make_tube(bpy)
     empty = add_empty(bpy)
     api.add_laplacian(obj, bind=False, anchors_group="Bottom", handles_group="Top", handle_target="OBJECT",
@@ -313,7 +317,8 @@ def test_undo_and_redo_of_a_bind(scene):
 
 def test_save_and_reload_rebuild_the_solver(scene, tmp_path):
     import bpy
-    from deformkit_addon import cache, surface
+    from deformkit_addon import cache
+    from deformkit_addon.entries import laplacian as surface
     obj, entry, empty = bound_tube(bpy)
     at_bind = np.array(empty.matrix_world)
     turn_and_shift(empty)
@@ -357,7 +362,8 @@ def test_apply_bakes_the_result(scene):
 
 def test_batch_evaluates_a_saved_laplacian_entry(scene, tmp_path):
     import bpy
-    from deformkit_addon import batch, surface
+    from deformkit_addon import batch
+    from deformkit_addon.entries import laplacian as surface
     obj, entry, empty = bound_tube(bpy, method="ROTATION_INVARIANT")
     at_bind = np.array(empty.matrix_world)
     empty.location.y += 0.4
@@ -379,7 +385,8 @@ def test_batch_evaluates_a_saved_laplacian_entry(scene, tmp_path):
 
 def test_batch_recipe_binds_laplacian_entries(scene):
     import bpy
-    from deformkit_addon import batch, surface
+    from deformkit_addon import batch
+    from deformkit_addon.entries import laplacian as surface
     obj = make_tube(bpy)
     add_empty(bpy, "Handle")
     spec = {"type": "LAPLACIAN", "anchors_group": "Bottom", "handles_group": "Top", "handle_target": "OBJECT",
@@ -534,7 +541,8 @@ def test_bad_settings_leave_the_mesh_alone(scene, problem):
 def test_bind_refuses_bad_settings_and_stays_unbound(scene, problem, message):
     import bmesh
     import bpy
-    from deformkit_addon import api, surface
+    from deformkit_addon import api
+    from deformkit_addon.entries import laplacian as surface
     obj = make_tube(bpy)
     empty = add_empty(bpy)
     settings = dict(anchors_group="Bottom", handles_group="Top", handle_target="OBJECT", handle_object=empty)
@@ -584,7 +592,7 @@ def test_scripting_api_rejects_bad_calls(scene):
 
 def test_volume_colors_leave_out_laplacian_entries(scene):
     import bpy
-    from deformkit_addon import api, evaluation
+    from deformkit_addon import api, evaluation, outputs
     obj, entry, empty = bound_tube(bpy)
     at_bind = np.array(empty.matrix_world)
     turn_and_shift(empty)
@@ -595,7 +603,7 @@ def test_volume_colors_leave_out_laplacian_entries(scene):
     top = group_members(obj, "Top")
     laplacian_out = direct(obj, base, moved(base[top], motion(obj, empty, at_bind))).astype(np.float32)
     rgba = np.empty(len(base) * 4, np.float32)
-    obj.data.attributes[evaluation.ATTR_VOLUME].data.foreach_get("color", rgba)
+    obj.data.attributes[outputs.ATTR_VOLUME].data.foreach_get("color", rgba)
     ratio = dk().SimpleDeform(mode="TAPER", factor=0.4, deform_axis="Z").volume_ratio(laplacian_out)
     green = 1 - np.abs(np.clip(np.log2(ratio), -1, 1))  # the green channel: 1 - |log2 det J|, clamped
     assert np.abs(rgba.reshape(-1, 4)[:, 1] - green).max() < 1e-4

@@ -169,11 +169,12 @@ def test_edit_mode_of_a_lattice_spaced_one_apart(scene):
 
 def test_binding_is_kept_until_its_inputs_change(scene):
     import bpy
-    from deformkit_addon import api, cache, evaluation, lattices
+    from deformkit_addon import api, cache, evaluation, meshdata
+    from deformkit_addon.entries import lattice as lattices
     obj = make_object(bpy)
     lat = make_lattice(bpy)
     api.add_entry(obj, "LATTICE", lattice=lat)
-    key = (evaluation.cache_key(obj), 0, "viewport")
+    key = (meshdata.cache_key(obj), 0, "viewport")
     first = cache.get("lattice", key)[2]
     perturb_lattice(lat, seed=2)
     update()
@@ -184,7 +185,7 @@ def test_binding_is_kept_until_its_inputs_change(scene):
     assert cache.get("lattice", key)[2] is not first  # the frame changed: bound again
     bound = api.bind_lattice(obj, 0)
     assert bound.inside == len(obj.data.vertices) and bound.outside == 0 == bound.not_placed
-    assert lattices.binding_counts(evaluation.cache_key(obj), 0) == tuple(bound)
+    assert lattices.binding_counts(meshdata.cache_key(obj), 0) == tuple(bound)
     lat.scale = (1.5, 1.5, 2.5)  # smaller than the mesh now
     update()
     bound = api.bind_lattice(obj, 0)
@@ -403,7 +404,8 @@ def test_apply_bakes_the_lattice(scene):
 
 def test_undo_redo_save_and_reload(scene, tmp_path):
     import bpy
-    from deformkit_addon import api, evaluation, lattices
+    from deformkit_addon import api, evaluation, meshdata
+    from deformkit_addon.entries import lattice as lattices
     obj = make_object(bpy)
     lat = make_lattice(bpy)
     base = evaluated(obj).copy()
@@ -437,7 +439,7 @@ def test_undo_redo_save_and_reload(scene, tmp_path):
     api.evaluate(obj)
     assert close(evaluated(obj), edited)
     obj.deformkit.entries.remove(1)
-    assert lattices.binding_counts(evaluation.cache_key(obj), 0) is not None  # bound again on load
+    assert lattices.binding_counts(meshdata.cache_key(obj), 0) is not None  # bound again on load
     twin = twin_with_lattice_modifier(bpy, obj, lat)
     perturb_lattice(lat, seed=5)  # edits after the reload still reach the entry
     update()

@@ -492,7 +492,7 @@ def test_select_flipped_selects_the_folded_faces(scene):
 def test_undoing_a_type_change_gives_the_bind_back(scene):
     import numpy as np
     import bpy
-    from deformkit_addon import surface
+    from deformkit_addon.entries import laplacian as surface
     from addon_helpers import evaluated
     from test_entry_menu import tube_with_bound_laplacian
     obj, _empty = tube_with_bound_laplacian(bpy)
