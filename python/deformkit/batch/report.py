@@ -1,4 +1,5 @@
 """The run's report file, console lines and (on a cluster) live progress line."""
+import datetime
 import os
 import shutil
 import sys
@@ -23,6 +24,11 @@ class Report:
             **self.header, "complete": complete, "ok": len(done) - failed, "failed": failed,
             "pending": len(self.rows) - len(done), "files": self.rows}, self.token)
 
+    def finish(self):
+        """The run is over: the report gets its end time and is marked complete."""
+        self.header["finished"] = utc_now()
+        self.record(0, None, complete=True)
+
     def record(self, i, row, complete=False):
         with self.lock:
             if row is not None:
@@ -32,6 +38,10 @@ class Report:
                 self.problem = ""
             except OSError as exc:  # e.g. the disk filled up: keep going, say so at the end
                 self.problem = f"cannot write the report {self.path}: {exc.strerror or exc}"
+
+
+def utc_now():
+    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
 
 
 def console_line(n, total, result):
