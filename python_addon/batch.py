@@ -244,8 +244,7 @@ def process(input_path, output_path, recipe=None, preview_path=None, smoothness=
     Never raises: a failure is the result's "error" (one line) and "exception" (type, message,
     stage, object, entry). on_stage(result, where) is called as the work moves on."""
     t0 = time.perf_counter()
-    result = {"file": input_path, "output": output_path, "status": "failed", "error": "", "objects": [],
-              "warnings": []}
+    result = batch_io.file_row(input_path, output_path)
     where = {"stage": "open", "object": None, "entry": None, "recipe_entries": {}}
 
     def stage(name):
@@ -323,8 +322,7 @@ def worker_main(job_path):
                          on_stage=progress)
     except Exception as exc:  # a bug of ours: still a result, with its traceback's last frames
         record = batch_io.exception_record(exc, "worker")
-        result = {"file": job.input, "output": job.output, "status": "failed", "objects": [],
-                  "warnings": [], "error": batch_io.describe_failure(record), "exception": record}
+        result = batch_io.file_row(job.input, job.output, exception=record)
     try:
         write(result)
     except OSError as exc:  # e.g. a full disk: the launcher reads this line from stdout instead

@@ -13,8 +13,7 @@ class Report:
 
     def __init__(self, path, token, header, inputs, outputs):
         self.path, self.token, self.header, self.lock, self.problem = path, token, header, threading.Lock(), ""
-        self.rows = [{"file": s, "output": d, "status": "pending", "error": "", "objects": [], "warnings": []}
-                     for s, d in zip(inputs, outputs)]
+        self.rows = [shared.file_row(s, d, "pending") for s, d in zip(inputs, outputs)]
         self.write()  # before any file: a report that cannot be written is a bad --report
 
     def write(self, complete=False):
