@@ -247,8 +247,7 @@ def process(input_path, output_path, recipe=None, preview_path=None, smoothness=
     # Imported here: the add-on loads (and says why it cannot run) without the compiled module.
     from deformkit.batch import shared as batch_io
     t0 = time.perf_counter()
-    result = {"file": input_path, "output": output_path, "status": "failed", "error": "", "objects": [],
-              "warnings": []}
+    result = batch_io.file_row(input_path, output_path)
     where = {"stage": "open", "object": None, "entry": None, "recipe_entries": {}}
 
     def stage(name):
@@ -329,8 +328,7 @@ def worker_main(job_path):
                          on_stage=progress)
     except Exception as exc:  # a bug of ours: still a result, with its traceback's last frames
         record = batch_io.exception_record(exc, "worker")
-        result = {"file": job.input, "output": job.output, "status": "failed", "objects": [],
-                  "warnings": [], "error": batch_io.describe_failure(record), "exception": record}
+        result = batch_io.file_row(job.input, job.output, exception=record)
     try:
         write(result)
     except OSError as exc:  # e.g. a full disk: the launcher reads this line from stdout instead

@@ -7,10 +7,12 @@ import pathlib
 import pickle
 import select
 import subprocess
+import sys
 
 
 from deformkit.batch import shared
 from deformkit.batch.job import BatchJob
+from deformkit.batch.report import console_line
 from deformkit.batch.run import IN_BLENDER, run_job
 
 
@@ -49,6 +51,20 @@ def test_a_failure_reported_by_the_worker_is_its_row(make_job):
 def test_a_result_on_stdout_when_the_file_could_not_be_written(make_job):
     row = run_job(make_job("stdout"))
     assert row["status"] == "ok" and row["objects"][0]["name"] == "Fake"
+
+
+def test_a_blender_that_cannot_read_its_job_file_still_gives_this_files_row(make_job, tmp_path):
+    """in_blender.py, unable to read its job file, prints its failure for the launcher without the
+    file it was for: the row is still this job's, and its console line can be printed."""
+    blender = tmp_path / "bin" / "blender-without-job"
+    blender.write_text(f'#!/bin/sh\nexec "{sys.executable}" "{IN_BLENDER}" -- "{tmp_path / "no-such.job.json"}"\n')
+    blender.chmod(0o755)
+    job = make_job("ok", blender=str(blender))
+    row = run_job(job)
+    assert (row["file"], row["output"], row["status"]) == (job.input, job.output, "failed")
+    assert (row["exception"]["type"], row["exception"]["stage"]) == ("FileNotFoundError", "start")
+    assert console_line(1, 1, row).startswith("[1/1] 0_ok.blend: FAILED: FileNotFoundError: ")
+    assert not os.path.exists(job.output)
 
 
 def test_timeout_names_the_stage(make_job, monkeypatch):

@@ -19,7 +19,8 @@ import sys
 import psutil
 import pytest
 
-from deformkit.batch import cluster_cli, dask_executor
+from deformkit.batch import cluster_cli
+from deformkit.batch.cluster import Cluster
 from support.dask_cluster import DaskCluster, fake_inputs as inputs
 from support.tls_certificates import make_certificates
 
@@ -195,7 +196,7 @@ def off_loopback(addresses):
 
 def test_a_local_clusters_servers_listen_on_the_loopback_only():
     before = listening([os.getpid()])
-    cluster = dask_executor.Cluster.start_local(1, 1)
+    cluster = Cluster.start_local(1, 1)
     try:
         me = psutil.Process()
         opened = listening([me.pid, *(c.pid for c in me.children(recursive=True))]) - before

@@ -4,11 +4,13 @@
 - :func:`run_job` (run.py): runs one job in its own Blender and returns its report row;
 - executors (executors.py): :class:`LocalProcessExecutor` (processes of this machine),
   :class:`InProcessExecutor`, or any concurrent.futures-style executor, driven by :func:`run_all`;
-  on a Dask cluster (dask_executor.py, imported only when asked for: no Dask needed otherwise),
-  ``DaskExecutor`` runs each file as a task whose attempts attempts.py keeps apart;
+  on a Dask cluster (cluster.py opens it, preflight.py checks its workers; Dask is imported only
+  when asked for), ``DaskExecutor`` (dask_executor.py) runs each file as a task whose attempts
+  attempts.py keeps apart;
 - the command line (cli.py, ``python -m deformkit.batch`` or ``scripts/deformkit-batch``; in
-  Python :func:`main`, which also takes a ``distributed.Client`` or an address), the report
-  (report.py) and the run's staging folder (staging.py).
+  Python :func:`main`, which also takes a ``distributed.Client`` or an address), where its jobs
+  run (places.py: local processes or a Dask cluster, one interface), the report (report.py) and
+  the run's staging folder (staging.py).
 
 Inside Blender, in_blender.py starts the add-on's worker (python_addon/batch.py) on a job file;
 shared.py and job.py are standard library only, as that start needs.

@@ -25,6 +25,7 @@ certificate, tcp:// on one machine only, or `--executor dask-local --workers N` 
 LocalCluster on this machine; options in cluster_cli.py) each input is one task on the worker that
 picks it, with inputs and outputs by path on storage all workers share, retries when a worker dies
 (`--retries`, attempts.py) and per file the worker, the attempts and the queue time in the report.
+Local processes or a cluster, main goes through one interface (places.py) in named stages.
 
 This package needs no bpy: it only starts Blender, on one job file per input (BatchJob, run by
 run_job on an executor: local processes, --jobs at a time, or Dask tasks). Run it with the project's Python
@@ -34,20 +35,20 @@ deformkit_addon, else the python_addon/ folder of the checkout this package is i
 checked against that add-on's own property definitions (its recipe_schema.py).
 """
 import argparse
-import datetime
 import glob
 import importlib.util
+import itertools
 import json
 import math
 import os
 import shutil
 import sys
 import tempfile
+from typing import NamedTuple
 
-from . import cluster_cli, shared, staging
-from .executors import LocalProcessExecutor, run_all
+from . import cluster_cli, places, shared, staging
 from .job import BatchJob
-from .report import Report, console_line
+from .report import Report, console_line, utc_now
 from .run import blender_environment, same_file
 
 # A source checkout: python/deformkit/batch/cli.py, beside python_addon/.
@@ -199,12 +200,81 @@ def check_report_path(ap, report, inputs, outputs, recipe_path):
                 ap.error(f"--report: {report} is the {kind} {path}; the report would overwrite it")
 
 
-def build_jobs(inputs, outputs, work, blender, paths, token, recipe, args, staged=None):
+class RunFiles(NamedTuple):
+    """The run's files, as absolute paths: the inputs, the output folder, the output of each input
+    in it, and the report."""
+
+    inputs: list
+    out_dir: str
+    outputs: list
+    report: str
+
+
+def run_files(ap, args):
+    """The inputs (patterns expanded), the output folder (made, and written in once), the outputs'
+    names and the report's path (neither a folder nor any input, output or the recipe)."""
+    inputs = expand_inputs(args.inputs)
+    out_dir = os.path.abspath(args.out)
+    check_out_folder(ap, out_dir)
+    outputs = output_names(inputs, out_dir)
+    report = os.path.abspath(args.report or os.path.join(out_dir, "report.json"))
+    check_report_path(ap, report, inputs, outputs, args.recipe)
+    return RunFiles(inputs, out_dir, outputs, report)
+
+
+def staged_run(ap, place, token, files, addon):
+    """(work folder, sys paths, staged code) of the run's staging folder (places.Place.stage),
+    made under the lock on the runs of this machine, after removing the stale ones; a report
+    that a live run writes is refused."""
+    with staging.runs_locked():
+        staging.clean_stale_staging()
+        for folder, other in staging.live_runs().items():
+            if other == os.path.realpath(files.report):
+                ap.error(f"--report: {files.report} is the report of a run in progress ({folder}); "
+                         "give this run its own --report")
+        return place.stage(token, files.report, addon, files.out_dir)
+
+
+def build_jobs(files, work, blender, paths, token, recipe, args, staged=None):
     """One BatchJob per input, in the report's order; `staged`: a cluster run's staged code."""
     return [BatchJob(index=i, input=src, output=dst, work=work, blender=blender, token=token,
                      sys_paths=tuple(paths), recipe=recipe, preview=args.preview, smoothness=args.smoothness,
-                     timeout=args.timeout, never_write=tuple(inputs), staged=staged)
-            for i, (src, dst) in enumerate(zip(inputs, outputs))]
+                     timeout=args.timeout, never_write=tuple(files.inputs), staged=staged)
+            for i, (src, dst) in enumerate(zip(files.inputs, files.outputs))]
+
+
+def report_header(blender, recipe, args, place):
+    _, dropped = blender_environment(blender)
+    return {"started": utc_now(), "blender": blender, "recipe": recipe, "evaluate_saved": args.evaluate_saved,
+            "smoothness": args.smoothness, "path_left_out_for_blender": dropped, "executor": place.describe()}
+
+
+def open_report(ap, files, token, header):
+    try:
+        return Report(files.report, token, header, files.inputs, files.outputs)
+    except OSError as exc:
+        ap.error(f"--report: cannot write {files.report}: {exc.strerror or exc}")
+
+
+def shown_and_recorded(place, report, total):
+    """run_all's on_row: each finished file's console line (through the place: a cluster's
+    progress line) and its row in the report, in the order the files finish."""
+    done = itertools.count(1)
+
+    def on_row(job, row):
+        place.show(job, console_line(next(done), total, row), row)
+        report.record(job.index, row)
+    return on_row
+
+
+def summary(report, files):
+    """The last line, and the exit status: 1 if any file failed or the report could not be written."""
+    failed = sum(r["status"] != "ok" for r in report.rows)
+    if report.problem:
+        print(f"deformkit-batch: {report.problem}", file=sys.stderr)
+        return 1
+    print(f"deformkit-batch: {len(files.inputs) - failed} ok, {failed} failed; report: {files.report}")
+    return 1 if failed else 0
 
 
 def arguments(argv):
@@ -227,9 +297,11 @@ def arguments(argv):
     return ap, ap.parse_args(argv)
 
 
-def find_blender(ap, given, kind):
+def find_blender(ap, given, here):
+    """--blender's path; `here` (places.Place.blender_here): it must be found on this machine,
+    else each worker of a scheduler's cluster must find it (checked there)."""
     found = shutil.which(given) or (given if os.path.isfile(given) else None)
-    if found is None and kind != "dask":  # on a scheduler's cluster, each worker must find it (checked there)
+    if found is None and here:
         ap.error(f"--blender: '{given}' not found (install Blender or pass its path)")
     return found or given
 
@@ -239,79 +311,26 @@ def main(argv=None, client=None):
     `client` (Python only): a distributed.Client, or a scheduler's address, for code that drives
     its own Dask cluster; the run goes there as with --scheduler, and the client stays open."""
     ap, args = arguments(argv)
-    kind = cluster_cli.executor_kind(ap, args, client)
-    address = args.scheduler or (client if isinstance(client, str) else None)
-    warning = cluster_cli.plain_tcp_warning(address) if address else None
-    if warning:
-        print(warning, file=sys.stderr, flush=True)
-    blender = find_blender(ap, args.blender, kind)
+    place = places.chosen(ap, args, client)
+    blender = find_blender(ap, args.blender, place.blender_here)
     addon = addon_folder(ap, args.addon)
     recipe = load_recipe(ap, args.recipe, load_recipe_schema(addon)) if args.recipe else None
-    inputs = expand_inputs(args.inputs)
-    out_dir = os.path.abspath(args.out)
-    check_out_folder(ap, out_dir)
-    outputs = output_names(inputs, out_dir)
-    report_path = os.path.abspath(args.report or os.path.join(out_dir, "report.json"))
-    check_report_path(ap, report_path, inputs, outputs, args.recipe)
-    cluster = cluster_cli.open_cluster(ap, args, kind, client) if kind != "local" else None
-    token, work, staged = shared.new_run_token(), None, None
+    files = run_files(ap, args)
+    place.open(ap)
+    token, work = shared.new_run_token(), None
     try:
-        _, dropped = blender_environment(blender)
-        header = {"started": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-                  "blender": blender, "recipe": recipe, "evaluate_saved": args.evaluate_saved,
-                  "smoothness": args.smoothness, "path_left_out_for_blender": dropped,
-                  "executor": cluster_cli.describe_executor(kind, args, cluster)}
-        with staging.runs_locked():
-            staging.clean_stale_staging()
-            for folder, other in staging.live_runs().items():
-                if other == os.path.realpath(report_path):
-                    ap.error(f"--report: {report_path} is the report of a run in progress ({folder}); "
-                             "give this run its own --report")
-            if cluster is None:
-                work, paths = staging.make_staging(token, report_path, addon)
-            else:  # on storage the workers share: OUT/.deformkit-batch-<token>
-                staging.clean_stale_shared_staging(out_dir)
-                work, paths, staged = staging.make_shared_staging(token, report_path, addon, out_dir)
-        jobs = build_jobs(inputs, outputs, work, blender, paths, token, recipe, args, staged)
-        if cluster is not None:
-            cluster_cli.check_cluster(ap, cluster, jobs)
-            print(cluster_cli.opening_line(cluster, kind, len(jobs)), flush=True)
-        try:
-            report = Report(report_path, token, header, inputs, outputs)
-        except OSError as exc:
-            ap.error(f"--report: cannot write {report_path}: {exc.strerror or exc}")
-        done = [0]
-
-        def on_row(job, row, progress=None):
-            done[0] += 1
-            line = console_line(done[0], len(inputs), row)
-            if progress is None:
-                print(line, flush=True)
-            else:
-                tried = len(row.get("attempts") or [])
-                progress.finished(job.index, line + (f" on {row.get('worker')}" if row.get("worker") else "")
-                                  + (f", {tried} attempts" if tried > 1 else ""), row)
-            report.record(job.index, row)
-
-        if cluster is None:
-            with LocalProcessExecutor(args.jobs or 1) as executor:
-                run_all(executor, jobs, on_row, window=args.jobs or 1)
-        else:
-            cluster_cli.run_on_cluster(cluster, args, jobs, on_row)
-        report.header["finished"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-        report.record(0, None, complete=True)
+        header = report_header(blender, recipe, args, place)
+        work, paths, staged = staged_run(ap, place, token, files, addon)
+        jobs = build_jobs(files, work, blender, paths, token, recipe, args, staged)
+        place.check(ap, jobs)
+        report = open_report(ap, files, token, header)
+        place.run(jobs, shown_and_recorded(place, report, len(jobs)))
+        report.finish()
     finally:
-        if cluster is not None:
-            cluster.close()  # a LocalCluster's workers stop here: nothing writes in the staging folder after
-            cluster_cli.remove_attempt_temporaries(outputs, token)
+        place.close(files.outputs, token)
         if work is not None:
             staging.remove_staging(work)
-    failed = sum(r["status"] != "ok" for r in report.rows)
-    if report.problem:
-        print(f"deformkit-batch: {report.problem}", file=sys.stderr)
-        return 1
-    print(f"deformkit-batch: {len(inputs) - failed} ok, {failed} failed; report: {report_path}")
-    return 1 if failed else 0
+    return summary(report, files)
 
 
 if __name__ == "__main__":

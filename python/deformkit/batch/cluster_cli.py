@@ -1,20 +1,15 @@
 """The command line's Dask side: the options of a run on a cluster, which combinations make sense,
 TLS (tls:// with the cluster's CA and a client certificate, or Dask's own configuration) and the
-warning for a plain tcp:// scheduler off this machine, opening the cluster, the workers' check and
-the run itself (dask_executor.py), with the live progress line. Dask is imported only through
-dask_executor, when a run asks for it."""
+warning for a plain tcp:// scheduler off this machine. The cluster itself is cluster.py's; the run
+on it, places.DaskCluster. Dask is imported only through cluster.py, when a run asks for it."""
 import argparse
-import glob
 import ipaddress
-import os
 import re
 import socket
 import ssl
 
 from . import shared
-from .executors import run_all
-from .report import Progress
-from .run import input_problem
+from .cluster import PINS, dask_installed, distributed_module
 
 
 TLS_OPTIONS = ("tls_ca_file", "tls_cert", "tls_key")
@@ -119,7 +114,6 @@ def executor_kind(ap, args, client):
         ap.error(f"{option(given[0])}: only with a tls:// --scheduler (a LocalCluster stays on 127.0.0.1; tcp:// is "
                  "not encrypted)")
     if kind != "local":
-        from .dask_executor import PINS, dask_installed
         if not dask_installed():
             ap.error(f"{'--executor dask-local' if kind == 'dask-local' else '--scheduler'}: needs dask and "
                      f"distributed, which are not installed here; install {PINS}")
@@ -129,7 +123,6 @@ def executor_kind(ap, args, client):
 def pem_file(ap, name, path):
     """`path` checked as a PEM file can be: a regular file (after links) of at most PEM_LIMIT
     bytes, so that ssl never blocks on a FIFO nor reads a device; else one line naming `name`."""
-    from . import shared
     try:
         shared.read_regular_file(path, PEM_LIMIT)
     except shared.FileRefused as exc:
@@ -146,7 +139,6 @@ def tls_security(ap, args, address):
     the option rather than a failed handshake. None for tcp://."""
     if not address.startswith("tls://"):
         return None
-    from .dask_executor import distributed_module
     security = distributed_module().Security
     if any(getattr(args, n) is not None for n in TLS_OPTIONS):
         ca, cert, key = args.tls_ca_file, args.tls_cert, args.tls_key
@@ -177,69 +169,3 @@ def tls_security(ap, args, address):
         ap.error(f"{names[1]}: {cert} is not a PEM certificate with its private key"
                  f"{f' {key}' if key else ''} ({exc})")
     return security(tls_ca_file=ca, tls_client_cert=cert, tls_client_key=key, require_encryption=True)
-
-
-def open_cluster(ap, args, kind, client):
-    """The Dask cluster of the run (dask_executor.Cluster), or a one-line error."""
-    from . import dask_executor
-    timeout = args.connect_timeout or 30.0
-    try:
-        if kind == "dask-local":
-            return dask_executor.Cluster.start_local(args.workers or 2, args.blender_per_worker or 1)
-        if client is None or isinstance(client, str):
-            address = args.scheduler or client
-            return dask_executor.Cluster.connect(address, timeout, tls_security(ap, args, address))
-        return dask_executor.Cluster(client, wait=timeout)
-    except dask_executor.ClusterError as exc:
-        ap.error(str(exc))
-
-
-def check_cluster(ap, cluster, jobs):
-    """Every worker must read the inputs the launcher reads, write the output folder, see the
-    staging folder and find Blender; else one line naming the worker and the path (exit 2)."""
-    from . import dask_executor
-    readable = [j.input for j in jobs if not input_problem(j.input)]
-    try:
-        dask_executor.check_workers(cluster.client, cluster.workers, readable, os.path.dirname(jobs[0].output),
-                                    jobs[0].work, jobs[0].blender)
-    except dask_executor.ClusterError as exc:
-        ap.error(str(exc))
-
-
-def run_on_cluster(cluster, args, jobs, on_row):
-    """The jobs as tasks on the Dask cluster, with the live progress line."""
-    from . import attempts, dask_executor
-    retries = 2 if args.retries is None else args.retries
-    plan = attempts.AttemptPlan(staging=jobs[0].work, token=jobs[0].token, max_attempts=retries + 1,
-                                redo_complete=args.redo_complete)
-    progress = Progress([os.path.basename(j.input) for j in jobs])
-    try:
-        with dask_executor.DaskExecutor(cluster.client, plan, on_event=progress.event) as executor:
-            run_all(executor, jobs, lambda job, row: on_row(job, row, progress))
-    finally:
-        progress.close()
-
-
-def remove_attempt_temporaries(outputs, token):
-    """A lost attempt's half file, should a worker have left one after all: its names carry the
-    run token (attempts.attempt_id)."""
-    for output in outputs:
-        for leftover in glob.glob(glob.escape(output + shared.TEMP_MARK + token) + "-f*"):
-            try:
-                os.unlink(leftover)
-            except FileNotFoundError:
-                pass
-
-
-def opening_line(cluster, kind, files):
-    where = f"the Dask scheduler {cluster.address}" if kind == "dask" else "a Dask LocalCluster"
-    shown = cluster.dashboard or "none (needs bokeh beside the scheduler)"
-    return (f"deformkit-batch: {files} files on {where}: {len(cluster.workers)} workers, {cluster.slots} files at a "
-            f"time; dashboard: {shown}")
-
-
-def describe_executor(kind, args, cluster):
-    if cluster is None:
-        return {"kind": "local", "jobs": args.jobs or 1}
-    return {"kind": kind, "scheduler": cluster.address, "workers": cluster.workers, "dashboard": cluster.dashboard,
-            "retries": 2 if args.retries is None else args.retries, "redo_complete": args.redo_complete}

@@ -1,199 +1,25 @@
-"""The batch on a Dask cluster: each file one task (`run_job` in one `blender -b`, on the worker
-that picked it), through `distributed`'s scheduler and workers; inputs and outputs by path on
-storage every worker shares. Dask is imported here only, when a run asks for it: the package and
-the local executor need none.
+"""The batch's concurrent.futures executor on a Dask cluster (cluster.py opens it): each file one
+task (`run_job` in one `blender -b`, on the worker that picked it), inputs and outputs by path on
+storage every worker shares.
 
-- `Cluster.connect(address, timeout)` / `Cluster.start_local(workers, blender_per_worker)`: a
-  Client on an existing scheduler (bounded connect) or on a LocalCluster of this machine, and the
-  workers offering the blender resource;
-- `check_workers(client, ...)`: every worker reads the inputs, writes the output folder, sees the
-  staging folder and finds Blender, or the run stops before any file with the worker and path;
 - `DaskExecutor`: concurrent.futures' submit/shutdown for run_all. Tasks ask for the resource
   `blender=1`; each runs as attempts.run_attempt, and a task whose worker died (KilledWorker) is
-  sent again while attempts are left (attempts.py: nothing lost, nothing doubled).
+  sent again while attempts are left (attempts.py: nothing lost, nothing doubled);
+- `interrupt_run`: the worker's side of stopping a run (Ctrl+C on the launcher): no Blender of
+  the run starts any more, and those running get Ctrl+C as at a terminal.
 """
 import concurrent.futures
 import dataclasses
-import importlib.metadata
-import logging
-import os
 import signal
-import tempfile
 import threading
 import time
 
 from . import attempts
-from .run import BLENDERS, failed_row, input_problem
+from .cluster import RESOURCE
+from .run import BLENDERS, failed_row
 
-RESOURCE = "blender"
 # What a task whose worker died (or whose result died with it) raises on the client.
 WORKER_LOST = ("KilledWorker", "CommClosedError", "CommError", "StreamClosedError")
-PINS = "dask==2025.12.0 and distributed==2025.12.0 (requirements-dev.txt)"
-# The scheduler's HTTP server (the dashboard, or /health and /metrics without bokeh): this
-# machine's loopback only, a free port; ":0" would listen on every interface.
-LOOPBACK_DASHBOARD = "127.0.0.1:0"
-
-
-class DaskMissing(ImportError):
-    pass
-
-
-class ClusterError(RuntimeError):
-    """The cluster cannot run this batch: the message names the argument, the worker and the path."""
-
-
-def distributed_module():
-    try:
-        import distributed
-    except ImportError as exc:
-        raise DaskMissing(f"dask and distributed are not installed ({exc}); install {PINS}") from None
-    return distributed
-
-
-def _ignore_ctrl_c():
-    """A worker plugin: Ctrl+C in the terminal reaches a LocalCluster's worker processes (they are
-    in the launcher's process group); they let it pass, as the local pool's processes do, through
-    a handler that Blender's exec resets, so that the Blenders still get it. The launcher decides.
-    (Made here, as distributed is imported only here; cloudpickle sends the class by value.)"""
-    from distributed.diagnostics.plugin import WorkerPlugin
-
-    class IgnoreCtrlC(WorkerPlugin):
-        name = "deformkit-batch-ignore-ctrl-c"
-
-        def setup(self, worker):
-            signal.signal(signal.SIGINT, lambda signum, frame: None)
-
-    return IgnoreCtrlC()
-
-
-class Cluster:
-    """The Dask client a run uses, what it was opened on, and the workers that can run a file
-    ({address: units of the blender resource}). close() closes what was opened here only."""
-
-    def __init__(self, client, local=None, owns_client=False, wait=30.0):
-        self.client, self.local, self.owns_client = client, local, owns_client
-        try:
-            self.address = client.scheduler.address
-            self.workers = blender_workers(client, wait)
-            self.dashboard = dashboard(client)
-        except BaseException:
-            self.close()
-            raise
-
-    @classmethod
-    def connect(cls, address, timeout, security=None):
-        """On the scheduler at `address` (with `security`, a distributed.Security, for tls://):
-        ClusterError within about `timeout` seconds when it cannot be reached (or refuses this
-        client's certificate), or when no worker with the blender resource joins in that time."""
-        distributed = distributed_module()
-        try:
-            client = distributed.Client(address, timeout=timeout, set_as_default=False, security=security)
-        except (OSError, TimeoutError, ValueError) as exc:
-            hint = ("; is --tls-cert signed by the CA the scheduler trusts, and the scheduler's by --tls-ca-file?"
-                    if address.startswith("tls://") else "")
-            raise ClusterError(f"--scheduler: cannot reach the Dask scheduler {address} within {timeout:g} s "
-                               f"({exc}){hint}") from None
-        return cls(client, owns_client=True, wait=timeout)
-
-    @classmethod
-    def start_local(cls, workers, blender_per_worker):
-        """A LocalCluster: `workers` processes of this machine on 127.0.0.1 (under nannies, which
-        restart a worker that dies), each with `blender_per_worker` threads and as many units of
-        the blender resource."""
-        distributed = distributed_module()
-        import dask
-        # Dask's nanny sets OMP/MKL/OpenBLAS threads to 1 and a low malloc trim threshold in its
-        # workers (for numpy tasks); none here, so that the Blenders get the local executor's
-        # environment. Nor the workers' statistical profiler (a stack sample every 10 ms, 1.5% of a
-        # core per worker here): a task that waits for its Blender has nothing to show in it.
-        with dask.config.set({"distributed.nanny.pre-spawn-environ": {}, "distributed.worker.profile.enabled": False}):
-            local = distributed.LocalCluster(
-                n_workers=workers, threads_per_worker=blender_per_worker, processes=True, host="127.0.0.1",
-                resources={RESOURCE: blender_per_worker}, dashboard_address=LOOPBACK_DASHBOARD,
-                silence_logs=logging.ERROR)
-        try:
-            client = distributed.Client(local, set_as_default=False)
-            client.register_plugin(_ignore_ctrl_c())
-        except BaseException:
-            local.close()
-            raise
-        return cls(client, local=local, owns_client=True)
-
-    @property
-    def slots(self):
-        return int(sum(self.workers.values()))
-
-    def close(self):
-        if self.owns_client:
-            self.client.close()
-        if self.local is not None:
-            self.local.close()
-
-
-def dashboard(client):
-    """The dashboard's address, or None: the scheduler serves one when bokeh is installed beside it."""
-    if "dashboard" not in client.scheduler_info().get("services", {}):
-        return None
-    try:
-        client.run_on_scheduler(importlib.metadata.version, "bokeh")
-    except Exception:  # bokeh missing there (PackageNotFoundError), or run_on_scheduler refused
-        return None
-    return client.dashboard_link
-
-
-def blender_workers(client, timeout):
-    """{address: units of the blender resource} of the workers that can run a file; waits up to
-    `timeout` seconds for the first one to join."""
-    deadline = time.monotonic() + timeout
-    address = client.scheduler.address
-    while True:
-        joined = client.scheduler_info()["workers"]
-        found = {a: w.get("resources", {}).get(RESOURCE, 0) for a, w in joined.items()}
-        found = {a: n for a, n in found.items() if n > 0}
-        if found:
-            return found
-        if time.monotonic() > deadline:
-            seen = f"{len(joined)} worker(s) joined, none with it" if joined else "no worker joined"
-            raise ClusterError(f"--scheduler: no worker of {address} offers the resource '{RESOURCE}' after "
-                               f"{timeout:g} s ({seen}); start workers with "
-                               f"`dask worker {address} --resources {RESOURCE}=1 --nthreads 1`")
-        time.sleep(0.2)
-
-
-def worker_problems(inputs, out_dir, staging, blender):
-    """Runs on each worker (client.run): what it cannot do of what the run needs, as
-    (argument, path, problem) triples."""
-    import shutil
-    problems = [("inputs", path, problem) for path in inputs for problem in [input_problem(path)] if problem]
-    try:
-        fd, probe = tempfile.mkstemp(prefix=".deformkit-probe-", dir=out_dir)
-        os.close(fd)
-        os.unlink(probe)
-    except OSError as exc:
-        problems.append(("--out", out_dir, f"cannot write in it: {exc.strerror or exc}"))
-    for name in ("addons/deformkit_addon/__init__.py", "lib/deformkit/batch/job.py"):
-        if not os.path.isfile(os.path.join(staging, name)):
-            problems.append(("--out", os.path.join(staging, name), "cannot see the run's staging folder"))
-    found = shutil.which(blender) or (blender if os.path.isfile(blender) else None)
-    if found is None or not os.access(found, os.X_OK):
-        problems.append(("--blender", blender, "not found or not executable on this worker"))
-    return problems
-
-
-def check_workers(client, workers, inputs, out_dir, staging, blender):
-    """ClusterError naming the first worker and path that fails the run's needs (shared storage,
-    Blender). `inputs` are those the launcher itself can read: a worker must read them too."""
-    answers = client.run(worker_problems, inputs, out_dir, staging, blender, workers=list(workers),
-                         on_error="return")
-    for worker, found in sorted(answers.items()):
-        if isinstance(found, BaseException):
-            hint = " (is deformkit installed in the workers' Python?)" if isinstance(found, ImportError) else ""
-            raise ClusterError(f"--scheduler: worker {worker} could not check the run's files: "
-                               f"{type(found).__name__}: {found}{hint}")
-        for argument, path, problem in found[:1]:
-            more = f" (and {len(found) - 1} more problems)" if len(found) > 1 else ""
-            raise ClusterError(f"{argument}: worker {worker}: {path}: {problem}{more}; every worker must see the "
-                               "inputs and the output folder at the same paths (shared storage)")
 
 
 def interrupt_run(staging, grace=5.0):
@@ -281,7 +107,7 @@ class DaskExecutor(concurrent.futures.Executor):
                     _settle(future, attempts.lost_row(job, self.plan, "the task was cancelled", scheduler_lost=True))
                 elif future.running():  # started just before the run was stopped: not to be waited for
                     _settle(future, failed_row(job.input, job.output, "Cancelled",
-                                                        "the run was stopped as this file started"))
+                                               "the run was stopped as this file started"))
                 return
             try:
                 return _settle(future, task.result())
@@ -379,12 +205,3 @@ def _settle(future, row):
             future.set_result(row)
         except concurrent.futures.InvalidStateError:  # cancelled meanwhile
             pass
-
-
-def dask_installed():
-    try:
-        import dask  # noqa: F401
-        import distributed  # noqa: F401
-    except ImportError:
-        return False
-    return True

@@ -31,9 +31,7 @@ def start_failure(shared, exc, job_path):
                           + str(sys.executable) + ")")
     try:
         job = shared.read_json_file(job_path, shared.STATE_FILE_LIMIT)
-        result = {"file": job["input"], "output": job["output"], "status": "failed",
-                  "error": shared.describe_failure(record), "exception": record, "objects": [], "warnings": [],
-                  "python_prefix": sys.prefix}
+        result = shared.file_row(job["input"], job["output"], exception=record, python_prefix=sys.prefix)
         path = os.path.join(job["work"], f"{job['index']}.json")
         shared.write_json_atomically(path, result, job["token"])
     except Exception:

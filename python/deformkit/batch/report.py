@@ -1,4 +1,5 @@
 """The run's report file, console lines and (on a cluster) live progress line."""
+import datetime
 import os
 import shutil
 import sys
@@ -12,8 +13,7 @@ class Report:
 
     def __init__(self, path, token, header, inputs, outputs):
         self.path, self.token, self.header, self.lock, self.problem = path, token, header, threading.Lock(), ""
-        self.rows = [{"file": s, "output": d, "status": "pending", "error": "", "objects": [], "warnings": []}
-                     for s, d in zip(inputs, outputs)]
+        self.rows = [shared.file_row(s, d, "pending") for s, d in zip(inputs, outputs)]
         self.write()  # before any file: a report that cannot be written is a bad --report
 
     def write(self, complete=False):
@@ -22,6 +22,11 @@ class Report:
         shared.write_json_atomically(self.path, {
             **self.header, "complete": complete, "ok": len(done) - failed, "failed": failed,
             "pending": len(self.rows) - len(done), "files": self.rows}, self.token)
+
+    def finish(self):
+        """The run is over: the report gets its end time and is marked complete."""
+        self.header["finished"] = utc_now()
+        self.record(0, None, complete=True)
 
     def record(self, i, row, complete=False):
         with self.lock:
@@ -32,6 +37,10 @@ class Report:
                 self.problem = ""
             except OSError as exc:  # e.g. the disk filled up: keep going, say so at the end
                 self.problem = f"cannot write the report {self.path}: {exc.strerror or exc}"
+
+
+def utc_now():
+    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
 
 
 def console_line(n, total, result):

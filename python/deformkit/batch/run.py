@@ -86,10 +86,11 @@ def input_problem(path):
     return ""
 
 
-def failed_row(src, dst, kind, message, stage="start", seconds=0.0, **extra):
-    error = {"type": kind, "message": message, "stage": stage, "object": None, "entry": None}
-    return {"file": src, "output": dst, "status": "failed", "error": shared.describe_failure(error),
-            "exception": error, "objects": [], "warnings": [], "seconds": seconds, **extra}
+def failed_row(src, dst, kind, message, stage="start", seconds=0.0, obj=None, entry=None, **extra):
+    """The row of a file that failed outside Blender's worker (or whose worker gave no result):
+    an exception `kind` with `message`, at `stage` (and `obj`, `entry`, when known)."""
+    error = {"type": kind, "message": message, "stage": stage, "object": obj, "entry": entry}
+    return shared.file_row(src, dst, exception=error, seconds=seconds, **extra)
 
 
 def _read_result(path, stdout):
@@ -124,12 +125,9 @@ def _death(returncode):
 
 def _unfinished(src, dst, progress, message, kind, seconds, output):
     where = (progress or {}).get("stage") or {"stage": "start"}
-    row = failed_row(src, dst, kind, f"{message} during stage '{where.get('stage')}'", where.get("stage"),
-                     seconds, blender_output=output[-20:])
-    row["exception"].update(object=where.get("object"), entry=where.get("entry"))
-    row["error"] = shared.describe_failure(row["exception"])
-    row["warnings"] = (progress or {}).get("warnings", [])
-    return row
+    return failed_row(src, dst, kind, f"{message} during stage '{where.get('stage')}'", where.get("stage"),
+                      seconds, where.get("object"), where.get("entry"),
+                      warnings=(progress or {}).get("warnings", []), blender_output=output[-20:])
 
 
 class BlenderRegistry:
@@ -234,8 +232,9 @@ def _run_blender(job, job_path, environ):
     output = (stderr + stdout).strip().splitlines()
     result = _read_result(job.result_path, stdout)
     if outcome is None and result is not None and result.get("status") in ("ok", "failed"):
-        result["process_seconds"] = seconds  # Blender start-up included
-        return result
+        # A row of this file even from a worker that could not read its job file (in_blender.py
+        # then prints a result without the file); process_seconds: Blender's start-up included.
+        return {**shared.file_row(src, dst), **result, "process_seconds": seconds}
     if outcome is not None:
         return _unfinished(src, dst, result, outcome, "TimeoutExpired", seconds, output)
     return _unfinished(src, dst, result, _death(proc.returncode), "BlenderDied", seconds, output)

@@ -117,6 +117,19 @@ def exception_record(exc, stage, obj=None, entry=None):
             "where": [f"{os.path.basename(f.filename)}:{f.lineno} in {f.name}" for f in frames]}
 
 
+def file_row(src, dst, status="failed", exception=None, objects=None, warnings=None, **extra):
+    """One file's row of report.json, as the launcher and Blender's worker both make it: the
+    input and output, the status ("pending", "failed" or "ok"), the one-line error of
+    `exception` (a record as exception_record gives) and the record itself when there is one,
+    the objects and the warnings, then `extra` (seconds, python_prefix, ...), in this order."""
+    row = {"file": src, "output": dst, "status": status,
+           "error": "" if exception is None else describe_failure(exception)}
+    if exception is not None:
+        row["exception"] = exception
+    row.update(objects=[] if objects is None else objects, warnings=[] if warnings is None else warnings, **extra)
+    return row
+
+
 def describe_failure(error):
     """One line for the console and the report's "error": the message, then where it happened."""
     where = ", ".join(f"{k} {error[k]}" for k in ("object", "entry") if error.get(k) is not None)
