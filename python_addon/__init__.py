@@ -1,6 +1,6 @@
 """deformkit for Blender: Barr deformers, lattices, Laplacian surface editing and OpenSubdiv
 subdivision as non-destructive entries beside the modifier stack, deformation transfer of shape
-keys and animation between meshes (transfer.py), plus headless batch processing."""
+keys and animation between meshes (transfer/), plus headless batch processing."""
 
 bl_info = {
     "name": "deformkit",
@@ -19,7 +19,9 @@ if "bpy" in locals():  # F8 / script reload
     import importlib
     for _m in (native, cache, properties, outputs, meshdata, entries.common, entries.barr,  # noqa: F821
                entries.lattice, entries.laplacian, entries.subdivide, entries, evaluation,  # noqa: F821
-               api, operators.stack, operators, transfer, ui, handlers):  # noqa: F821
+               api, transfer.similarity, transfer.correspondence, transfer.storage,  # noqa: F821
+               transfer.system, transfer.keys, transfer.shape_keys, transfer.bake, transfer,  # noqa: F821
+               operators.stack, operators.transfer, operators, ui, handlers):  # noqa: F821
         importlib.reload(_m)
 else:
     from . import (api, cache, entries, evaluation, handlers, meshdata, native, operators, outputs, properties,
@@ -34,7 +36,7 @@ lattices, surface, subdivision = entries.lattice, entries.laplacian, entries.sub
 for _name, _module in (("lattices", lattices), ("surface", surface), ("subdivision", subdivision)):
     sys.modules[f"{__name__}.{_name}"] = _module
 
-classes = properties.classes + operators.classes + transfer.classes + ui.classes
+classes = properties.classes + operators.classes + ui.classes
 
 
 def register():
@@ -43,11 +45,11 @@ def register():
     properties.register()
     handlers.register()
     operators.register_keymaps()
-    transfer.register_menus()
+    operators.register_menus()
 
 
 def unregister():
-    transfer.unregister_menus()
+    operators.unregister_menus()
     operators.unregister_keymaps()
     handlers.unregister()
     properties.unregister()
