@@ -1,6 +1,7 @@
 """Reading the base mesh: the points the modifiers get (shape keys mixed, the edit mesh's in Edit
 Mode), vertex-group weights (kept between reads, the read is a slow Python loop), the polygons with a
-fingerprint of their connectivity, and edge selection."""
+fingerprint of their connectivity, their corners polygon by polygon, the parts they join, and
+selecting vertices, edges or faces."""
 import zlib
 from collections import namedtuple
 
@@ -102,10 +103,26 @@ def corner_order(topo):
     return np.concatenate([np.arange(s, s + t) for s, t in zip(topo.starts, topo.totals)])
 
 
+def in_polygon_order(topo, per_corner):
+    """Per-corner values (first axis: the mesh's corners, e.g. `topo.corners`, UVs, edges) polygon
+    by polygon, the order `polygons` gives the corners in."""
+    order = corner_order(topo)
+    return per_corner if order is None else per_corner[order]
+
+
+# vertices: the vertex of each polygon corner, polygon by polygon; starts: each polygon's first
+# corner in `vertices` (int64).
+Corners = namedtuple("Corners", "vertices starts")
+
+
+def polygon_corners(topo):
+    """The corners polygon by polygon (Corners), as `polygons` gives them."""
+    return Corners(in_polygon_order(topo, topo.corners), np.cumsum(topo.totals, dtype=np.int64) - topo.totals)
+
+
 def polygons(topo):
     """The polygons as deformkit takes them: an (m, k) array when all have k corners, else a list."""
-    order = corner_order(topo)
-    corners = topo.corners if order is None else topo.corners[order]
+    corners = in_polygon_order(topo, topo.corners)
     if topo.faces and (topo.totals == topo.totals[0]).all():
         return corners.reshape(topo.faces, int(topo.totals[0]))
     return np.split(corners, np.cumsum(topo.totals)[:-1])
@@ -176,14 +193,48 @@ def select_faces(obj, faces):
     chosen = np.zeros(len(mesh.polygons), bool)
     chosen[faces] = True
     topo = topology(mesh)
-    order = corner_order(topo)
     corner_face = np.repeat(chosen, topo.totals)  # corner by corner, polygon by polygon
-    corners = topo.corners if order is None else topo.corners[order]
     edge_of = np.empty(len(mesh.loops), np.int32)
     mesh.loops.foreach_get("edge_index", edge_of)
-    edge_of = edge_of if order is None else edge_of[order]
-    for items, members in ((mesh.vertices, corners), (mesh.edges, edge_of)):
+    for items, members in ((mesh.vertices, in_polygon_order(topo, topo.corners)),
+                           (mesh.edges, in_polygon_order(topo, edge_of))):
         flags = np.zeros(len(items), bool)
         flags[members[corner_face]] = True
         items.foreach_set("select", flags)
     mesh.polygons.foreach_set("select", chosen)
+
+
+def select_vertices(mesh, vertices):
+    """Exactly `vertices` selected, with the edges and faces between them (as Edit Mode's flush)."""
+    chosen = np.zeros(len(mesh.vertices), bool)
+    chosen[vertices] = True
+    mesh.vertices.foreach_set("select", chosen)
+    edges = np.empty(2 * len(mesh.edges), np.int32)
+    mesh.edges.foreach_get("vertices", edges)
+    mesh.edges.foreach_set("select", chosen[edges].reshape(-1, 2).all(1))
+    topo = topology(mesh)
+    if topo.faces:
+        corners, starts = polygon_corners(topo)
+        inside = np.minimum.reduceat(chosen[corners].astype(np.int8), starts).astype(bool)
+        mesh.polygons.foreach_set("select", inside)
+
+
+def face_components(topo):
+    """Each vertex's connected component through the polygons (a vertex in none is its own), as
+    dk.SurfaceDeformer groups them: labels are the smallest vertex index of the component.
+    Hooking and pointer jumping on numpy arrays (Shiloach-Vishkin): O(log n) rounds, no Python
+    loop over the mesh."""
+    parent = np.arange(topo.vertices)
+    a, starts = polygon_corners(topo)
+    b = np.repeat(a[starts], topo.totals)  # each corner joined to its polygon's first
+    while True:
+        ra, rb = parent[a], parent[b]
+        differ = ra != rb
+        if not differ.any():
+            return parent
+        np.minimum.at(parent, np.maximum(ra, rb)[differ], np.minimum(ra, rb)[differ])
+        while True:  # every vertex points at its root again
+            grand = parent[parent]
+            if np.array_equal(grand, parent):
+                break
+            parent = grand

@@ -346,40 +346,12 @@ def unanchored_line(count):
     return f"{count} unanchored parts stay in place"
 
 
-def face_components(topo):
-    """Each vertex's connected component through the polygons (a vertex in none is its own), as
-    dk.SurfaceDeformer groups them: labels are the smallest vertex index of the component.
-    Hooking and pointer jumping on numpy arrays (Shiloach-Vishkin): O(log n) rounds, no Python
-    loop over the mesh."""
-    parent = np.arange(topo.vertices)
-    a, offsets = _ordered_corners(topo)
-    b = np.repeat(a[offsets], topo.totals)  # each corner joined to its polygon's first
-    while True:
-        ra, rb = parent[a], parent[b]
-        differ = ra != rb
-        if not differ.any():
-            return parent
-        np.minimum.at(parent, np.maximum(ra, rb)[differ], np.minimum(ra, rb)[differ])
-        while True:  # every vertex points at its root again
-            grand = parent[parent]
-            if np.array_equal(grand, parent):
-                break
-            parent = grand
-
-
-def _ordered_corners(topo):
-    """The corners' vertices polygon by polygon, and each polygon's first corner in them."""
-    order = meshdata.corner_order(topo)
-    corners = np.asarray(topo.corners if order is None else topo.corners[order], np.int64)
-    return corners, np.cumsum(topo.totals, dtype=np.int64) - topo.totals
-
-
 def unanchored_vertices(obj, entry):
     """The vertices of the components of the mesh with no anchor and no handle (those the
     solver leaves where they are), sorted."""
     topo = meshdata.topology(obj.data)
     anchors, handles = members(obj, entry)
-    labels = face_components(topo)
+    labels = meshdata.face_components(topo)
     held = np.zeros(topo.vertices, bool)
     held[labels[np.concatenate([anchors, handles]).astype(np.int64)]] = True
     return np.flatnonzero(~held[labels])
@@ -438,17 +410,3 @@ def draw(col, obj, entry):
     else:
         col.operator("deformkit.laplacian_bind", text="Bind", icon="LINKED").index = index
 
-
-def select_vertices(mesh, vertices):
-    """Exactly `vertices` selected, with the edges and faces between them (as Edit Mode's flush)."""
-    chosen = np.zeros(len(mesh.vertices), bool)
-    chosen[vertices] = True
-    mesh.vertices.foreach_set("select", chosen)
-    edges = np.empty(2 * len(mesh.edges), np.int32)
-    mesh.edges.foreach_get("vertices", edges)
-    mesh.edges.foreach_set("select", chosen[edges].reshape(-1, 2).all(1))
-    topo = meshdata.topology(mesh)
-    if topo.faces:
-        corners, offsets = _ordered_corners(topo)
-        inside = np.minimum.reduceat(chosen[corners].astype(np.int8), offsets).astype(bool)
-        mesh.polygons.foreach_set("select", inside)

@@ -133,8 +133,7 @@ def subdivision_setup(obj, entry):
     if layer is not None:
         uvs = np.empty(len(mesh.loops) * 2, np.float32)
         layer.data.foreach_get("uv", uvs)
-        order = meshdata.corner_order(topo)
-        uvs = uvs.reshape(-1, 2) if order is None else uvs.reshape(-1, 2)[order]
+        uvs = meshdata.in_polygon_order(topo, uvs.reshape(-1, 2))
     material, smooth = np.empty(topo.faces, np.int32), np.empty(topo.faces, bool)
     mesh.polygons.foreach_get("material_index", material)
     mesh.polygons.foreach_get("use_smooth", smooth)
@@ -176,9 +175,8 @@ def subdivide(key, sub, level, cage):
     entries above, only costs the interpolation."""
     topo = sub.topo
     if level == 0:
-        order = meshdata.corner_order(topo)
-        return Result(cage, topo.corners if order is None else topo.corners[order],
-                      np.cumsum(topo.totals) - topo.totals, topo.totals, np.arange(topo.faces), sub.uvs)
+        corners, starts = meshdata.polygon_corners(topo)
+        return Result(cage, corners, starts, topo.totals, np.arange(topo.faces), sub.uvs)
     cached = cache.get("subdivide", key) if key else None
     try:
         if cached is not None and cached[0] == (sub.refine, level):

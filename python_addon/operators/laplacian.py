@@ -2,7 +2,7 @@
 entry's panel)."""
 import bpy
 
-from .. import api
+from .. import api, meshdata
 from ..entries import laplacian
 from .base import EntryOperator, mesh_object
 
@@ -64,7 +64,7 @@ class DEFORMKIT_OT_laplacian_select_unanchored(EntryOperator, bpy.types.Operator
         if obj.mode == "EDIT":
             bpy.ops.object.mode_set(mode="OBJECT")  # writes the edit mesh back, to read it
         vertices = laplacian.unanchored_vertices(obj, obj.deformkit.entries[index])
-        laplacian.select_vertices(obj.data, vertices)
+        meshdata.select_vertices(obj.data, vertices)
         bpy.ops.object.mode_set(mode="EDIT")
         self.report({"INFO"}, f"{len(vertices)} vertices selected")
 

@@ -520,7 +520,7 @@ def test_a_similarity_of_the_sphere_transfers_to_the_icosphere(scene, frame, cap
     target.data.vertices.foreach_set("co", (positions(target.data) @ turn.T).astype(np.float32).ravel())
     for name, axis in AXES.items():
         target.vertex_groups.new(name=name).add([nearest(target, turn @ np.array(axis, float))], 1.0, "REPLACE")
-    systems = counted_systems(monkeypatch, transfer)
+    systems = counted_systems(monkeypatch)
     first = transfer.transfer_shape_keys(source, target)
     rest = positions(target.data).astype(np.float64)
     truth = rest @ (turn @ motion @ np.linalg.inv(turn)).T
@@ -545,15 +545,16 @@ def test_a_similarity_of_the_sphere_transfers_to_the_icosphere(scene, frame, cap
 SHARED = REPO.parent / "shared" / "transfer"
 
 
-def counted_systems(monkeypatch, transfer):
+def counted_systems(monkeypatch):
     """The dk.DeformationTransfer systems the add-on builds from now on, in order (the work a
     reused correspondence saves is counted, not timed)."""
-    built, real = [], transfer.native.dk.DeformationTransfer
+    from deformkit_addon import native
+    built, real = [], native.dk.DeformationTransfer
 
     def counted(*args, **kwargs):
         built.append(real(*args, **kwargs))
         return built[-1]
-    monkeypatch.setattr(transfer.native.dk, "DeformationTransfer", counted)
+    monkeypatch.setattr(native.dk, "DeformationTransfer", counted)
     return built
 
 
@@ -629,7 +630,7 @@ def test_the_horse_poses_onto_the_camel(scene, capsys, monkeypatch):
     for k, (h, c) in enumerate(pairs):
         horse.vertex_groups.new(name=f"dt_{k:03d}").add([int(h)], 1.0, "REPLACE")
         camel.vertex_groups.new(name=f"dt_{k:03d}").add([int(c)], 1.0, "REPLACE")
-    systems = counted_systems(monkeypatch, transfer)
+    systems = counted_systems(monkeypatch)
     first = transfer.transfer_shape_keys(horse, camel)
     # The module on the same float32 points Blender holds.
     horse32, camel32 = positions(horse.data).astype(np.float64), positions(camel.data).astype(np.float64)

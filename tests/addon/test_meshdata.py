@@ -1,0 +1,73 @@
+"""meshdata's corners polygon by polygon, the one reading of a mesh's polygons the add-on shares
+(polygons, polygon_corners, face_components, select_vertices), checked against the polygons as
+built, a plain union-find and Blender's own per-polygon vertex lists. Meshes saved before Blender
+3.6 may store a polygon's corners anywhere (loop_start not ascending): the Topology below does."""
+import numpy as np
+
+from addon_helpers import make_object
+
+
+def stored_out_of_order(polys, vertices, rng):
+    """A meshdata.Topology of `polys` whose corner runs are stored in a shuffled order."""
+    from deformkit_addon import meshdata
+    totals = np.array([len(p) for p in polys], np.int32)
+    order = rng.permutation(len(polys))
+    corners = np.concatenate([polys[i] for i in order]).astype(np.int32)
+    starts = np.empty(len(polys), np.int32)
+    starts[order] = np.cumsum(totals[order]) - totals[order]
+    return meshdata.Topology(vertices, len(polys), 0, corners, starts, totals)
+
+
+def random_polygons(rng, vertices, faces):
+    return [rng.choice(vertices, int(k), replace=False) for k in rng.integers(3, 6, faces)]
+
+
+def union_find_labels(vertices, polys):
+    """Each vertex's component through the polygons, labelled by its smallest vertex."""
+    parent = list(range(vertices))
+
+    def root(v):
+        while parent[v] != v:
+            v = parent[v]
+        return v
+    for poly in polys:
+        for v in poly[1:]:
+            a, b = root(int(poly[0])), root(int(v))
+            parent[max(a, b)] = min(a, b)
+    return np.array([root(v) for v in range(vertices)])
+
+
+def test_the_corners_come_polygon_by_polygon_whatever_their_storage_order(addon):
+    from deformkit_addon import meshdata
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        polys = random_polygons(rng, 12, int(rng.integers(1, 10)))
+        topo = stored_out_of_order(polys, 12, rng)
+        corners, starts = meshdata.polygon_corners(topo)
+        for poly, start, total in zip(polys, starts, topo.totals):
+            np.testing.assert_array_equal(corners[start:start + total], poly)
+        got = meshdata.polygons(topo)
+        assert len(got) == len(polys) and all(np.array_equal(g, p) for g, p in zip(got, polys))
+
+
+def test_face_components_agree_with_a_union_find(addon):
+    from deformkit_addon import meshdata
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        vertices = int(rng.integers(6, 40))  # sparse polygons: several parts, some lone vertices
+        polys = random_polygons(rng, vertices, int(rng.integers(1, 6)))
+        topo = stored_out_of_order(polys, vertices, rng)
+        np.testing.assert_array_equal(meshdata.face_components(topo), union_find_labels(vertices, polys))
+
+
+def test_select_vertices_selects_the_edges_and_faces_between_them(scene):
+    import bpy
+    from deformkit_addon import meshdata
+    obj = make_object(bpy)
+    mesh = obj.data
+    chosen = {v.index for v in mesh.vertices if v.co.z > 0.3}
+    meshdata.select_vertices(mesh, sorted(chosen))
+    assert {v.index for v in mesh.vertices if v.select} == chosen
+    assert [e.select for e in mesh.edges] == [set(e.vertices) <= chosen for e in mesh.edges]
+    faces = [set(p.vertices) <= chosen for p in mesh.polygons]
+    assert [p.select for p in mesh.polygons] == faces and any(faces) and not all(faces)
