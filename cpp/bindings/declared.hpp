@@ -111,7 +111,6 @@ template <class R, class C, class... A>
 struct callable_traits<R (C::*)(A...) const> {
   using result = R;
   using args = std::tuple<A...>;  // a lambda's operator(): the lambda itself is not a parameter
-  using self = void;
 };
 template <class R, class C, class... A>
 struct callable_traits<R (C::*)(A...)> : callable_traits<R (C::*)(A...) const> {};
