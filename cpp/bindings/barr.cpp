@@ -1,5 +1,6 @@
 // Python bindings of Barr's deformers and Blender's Simple Deform.
 #include "common.hpp"
+#include "declared.hpp"
 
 #include <optional>
 #include <string>
@@ -29,12 +30,12 @@ std::shared_ptr<BarrDeformer> py_bind_simple(const SimpleDeform& d, const py::ob
 }  // namespace
 
 void bind_barr(py::module_& m) {
-  py::class_<BarrDeformer, Deformer, std::shared_ptr<BarrDeformer>>(m, "BarrDeformer", R"(A Barr operator placed in object space: the fixed map SimpleDeform.bind(points) returns.
+  Class<BarrDeformer, Deformer, std::shared_ptr<BarrDeformer>>(m, "BarrDeformer", R"(A Barr operator placed in object space: the fixed map SimpleDeform.bind(points) returns.
 
 The extent it spreads the amount over was measured once, on the bound points, so deforming any
 part of them gives what deforming all of them does; it carries the SimpleDeform's weights.)");
 
-  py::class_<Twist, Deformer, std::shared_ptr<Twist>>(m, "Twist", R"(Barr's twist about an axis.
+  Class<Twist, Deformer, std::shared_ptr<Twist>>(m, "Twist", R"(Barr's twist about an axis.
 
 x' = x cos(t) - y sin(t), y' = x sin(t) + y cos(t), z' = z with t = f(z) (Barr 1984, twisting).
 By default f(z) = rate * clamp(z, limits) (limits None: unbounded); with `profile=(z, theta)` f is
@@ -52,7 +53,7 @@ places the deformer's coordinates in object space.)")
            "rate"_a = py::none(), "axis"_a = "z", "limits"_a = py::none(), "profile"_a = py::none(),
            "extend"_a = "constant", "frame"_a = py::none(), "weights"_a = py::none());
 
-  py::class_<Taper, Deformer, std::shared_ptr<Taper>>(m, "Taper", R"(Barr's taper along an axis.
+  Class<Taper, Deformer, std::shared_ptr<Taper>>(m, "Taper", R"(Barr's taper along an axis.
 
 x' = r x, y' = r y, z' = z with r = f(z) (Barr 1984, tapering; det J = r^2). By default
 f(z) = 1 + rate * clamp(z, limits); `profile=(z, r)` gives r by a natural cubic spline.)")
@@ -67,7 +68,7 @@ f(z) = 1 + rate * clamp(z, limits); `profile=(z, r)` gives r by a natural cubic 
            "rate"_a = py::none(), "axis"_a = "z", "limits"_a = py::none(), "profile"_a = py::none(),
            "extend"_a = "constant", "frame"_a = py::none(), "weights"_a = py::none());
 
-  py::class_<Stretch, Deformer, std::shared_ptr<Stretch>>(m, "Stretch", R"(Blender's stretch along an axis.
+  Class<Stretch, Deformer, std::shared_ptr<Stretch>>(m, "Stretch", R"(Blender's stretch along an axis.
 
 With z^ = clamp(z, limits) and s = 1 + k (z^2 - 1): x' = s x, y' = s y, z' = z + k z^
 (MOD_simpledeform). Approximately volume preserving near |z| = 1 only.)")
@@ -82,7 +83,7 @@ With z^ = clamp(z, limits) and s = 1 + k (z^2 - 1): x' = s x, y' = s y, z' = z +
            "factor"_a = 0.785398163397448, "axis"_a = "z", "limits"_a = py::none(), "frame"_a = py::none(),
            "weights"_a = py::none());
 
-  py::class_<Bend, Deformer, std::shared_ptr<Bend>>(m, "Bend", R"(Barr's bend.
+  Class<Bend, Deformer, std::shared_ptr<Bend>>(m, "Bend", R"(Barr's bend.
 
 In canonical coordinates x is kept and the y axis bends toward +z on a circle of radius 1/k:
 t = k (y^ - y0) with y^ = clamp(y, region); y' = -sin(t)(z - 1/k) + y0 + cos(t)(y - y^),
@@ -101,7 +102,7 @@ length and bend directions follow cyclically (axis='z': length along x, bends to
            "curvature"_a = 0.785398163397448, "center"_a = 0.0, "region"_a = py::none(), "axis"_a = "x",
            "frame"_a = py::none(), "weights"_a = py::none());
 
-  py::class_<SimpleDeform, Deformer, std::shared_ptr<SimpleDeform>>(m, "SimpleDeform",
+  Class<SimpleDeform, Deformer, std::shared_ptr<SimpleDeform>>(m, "SimpleDeform",
                                                                      R"(Blender's Simple Deform modifier, reproduced.
 
 Settings as in Blender: mode ('TWIST', 'BEND', 'TAPER', 'STRETCH'), angle (twist, bend) or

@@ -1,5 +1,6 @@
 // Python bindings of the cage family: argument conversion and checking only.
 #include "common.hpp"
+#include "declared.hpp"
 
 #include <memory>
 #include <optional>
@@ -88,7 +89,7 @@ const char* storage_name(WeightStorage s) {
 }  // namespace
 
 void bind_cage(py::module_& m) {
-  py::class_<PyCageBinding>(m, "CageBinding", R"(Points bound to a cage: their coordinates, computed once.
+  Class<PyCageBinding>(m, "CageBinding", R"(Points bound to a cage: their coordinates, computed once.
 
 `cage.deform_bound(binding)` then deforms them with the cage's current points: one matrix
 product W c (W the weights, c the control values). `storage` is 'float64', 'float32' or
@@ -111,7 +112,7 @@ it.)")
 Columns are the cage's control values (MeanValueCage: its vertices); deform_bound = W c (then
 blended by the cage's per-point weights, if any).)");
 
-  py::class_<CageDeformer, Deformer, std::shared_ptr<CageDeformer>>(m, "CageDeformer",
+  Class<CageDeformer, Deformer, std::shared_ptr<CageDeformer>>(m, "CageDeformer",
                                                                     "Interface of the cage deformers: F(x) = sum_j w_j(x) c_j.")
       .def_property("cage_points", [](const CageDeformer& c) { return points_of(c.cage_points()); },
                     [](CageDeformer& c, const py::object& p) { c.set_cage_points(parse_cage_points(p, c)); },
@@ -143,7 +144,7 @@ precision 'float64' (default) or 'float32' stores the dense weights in that type
       .def("deform_bound", &py_deform_bound, "binding"_a, py::kw_only(), "out"_a = py::none(),
            "Deform bound points with the current cage: W c. The dtype is that of the bound points.");
 
-  py::class_<MeanValueCage, CageDeformer, std::shared_ptr<MeanValueCage>>(m, "MeanValueCage", R"(Mean value coordinates of a closed cage (Ju, Schaefer, Warren 2005).
+  Class<MeanValueCage, CageDeformer, std::shared_ptr<MeanValueCage>>(m, "MeanValueCage", R"(Mean value coordinates of a closed cage (Ju, Schaefer, Warren 2005).
 
 cage_points (m, 3) and cage_faces (an (f, k) integer array or a list of polygons) give the rest
 cage: closed, manifold, consistently oriented, not self-intersecting (an inward-facing cage is
@@ -158,7 +159,7 @@ determinant form of Thiery, Memari, Boubekeur 2018; Jacobians are exact.)")
            }),
            "cage_points"_a, "cage_faces"_a, py::kw_only(), "weights"_a = py::none());
 
-  py::class_<GreenCage, CageDeformer, std::shared_ptr<GreenCage>>(m, "GreenCage", R"(Green coordinates of a closed cage (Lipman, Levin, Cohen-Or 2008).
+  Class<GreenCage, CageDeformer, std::shared_ptr<GreenCage>>(m, "GreenCage", R"(Green coordinates of a closed cage (Lipman, Levin, Cohen-Or 2008).
 
 cage_points and cage_faces as for MeanValueCage. F(x) = sum_i phi_i(x) v'_i + sum_j psi_j(x) s_j n'_j
 over the cage's vertices v' and triangles (their unit outward normals n'), with Lipman's stretch

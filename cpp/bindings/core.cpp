@@ -1,5 +1,6 @@
 // Python bindings of the core: the Deformer interface every family shares, Stack, mesh volume.
 #include "common.hpp"
+#include "declared.hpp"
 
 #include <memory>
 #include <string>
@@ -50,7 +51,7 @@ double py_mesh_volume(const py::object& points, const py::object& faces) {
 }  // namespace
 
 void bind_core(py::module_& m) {
-  py::class_<Deformer, std::shared_ptr<Deformer>>(m, "Deformer",
+  Class<Deformer, std::shared_ptr<Deformer>>(m, "Deformer",
                                                   "Interface shared by every spatial deformer.")
       .def("deform", &py_deform, "points"_a, py::kw_only(), "out"_a = py::none(), kDeformDoc)
       .def("displacement", &py_displacement, "points"_a, py::kw_only(), "out"_a = py::none(), kDisplacementDoc)
@@ -59,7 +60,7 @@ void bind_core(py::module_& m) {
       .def("volume_ratio", &py_volume_ratio, "points"_a, py::kw_only(), "out"_a = py::none(), kVolumeDoc)
       .def_property_readonly("weights", &weights_of, "Per-point blend weights, or None.");
 
-  py::class_<Stack, Deformer, std::shared_ptr<Stack>>(m, "Stack", R"(Composition of deformers, applied in order.
+  Class<Stack, Deformer, std::shared_ptr<Stack>>(m, "Stack", R"(Composition of deformers, applied in order.
 
 F = F_n o ... o F_1, with the chain rule J = J_n(F_n-1(...)) ... J_1(x) for jacobian, normals and
 volume ratio. Stacks nest.)")
@@ -90,7 +91,7 @@ volume ratio. Stacks nest.)")
         return out;
       });
 
-  m.def("mesh_volume", &py_mesh_volume, "points"_a, "faces"_a,
+  def(m, "mesh_volume", &py_mesh_volume, "points"_a, "faces"_a,
         R"(Signed volume enclosed by a closed mesh: (1/6) sum a . (b x c) over its triangles (polygons fanned).
 
 faces: (m, k) corner indices or a list of polygons; outward-facing winding gives a positive volume. The deformed volume

@@ -1,5 +1,6 @@
 // Python bindings of the lattice family: argument conversion and checking only.
 #include "common.hpp"
+#include "declared.hpp"
 
 #include <cmath>
 #include <memory>
@@ -200,7 +201,7 @@ sum to be accurate (docs/lattice.md, "Far outside").)";
 }  // namespace
 
 void bind_lattice(py::module_& m) {
-  py::class_<PyBinding>(m, "LatticeBinding", R"(Points bound to a lattice: their lattice coordinates, found once.
+  Class<PyBinding>(m, "LatticeBinding", R"(Points bound to a lattice: their lattice coordinates, found once.
 
 `lattice.deform_bound(binding)` then deforms them with the lattice's current control points.)")
       .def("__len__", [](const PyBinding& b) { return b.binding->size(); })
@@ -216,14 +217,14 @@ Columns are flattened control points (i * nv + j) * nw + k; deform = x + strengt
 (then blended by the lattice's per-point weights, if any). Rows of points the lattice leaves
 unchanged are empty.)");
 
-  py::class_<PyDirect>(m, "DirectManipulation", "Result of Lattice.direct_manipulation.")
+  Class<PyDirect>(m, "DirectManipulation", "Result of Lattice.direct_manipulation.")
       .def_readonly("control_points", &PyDirect::control_points, "The new control points (nu, nv, nw, 3).")
       .def_readonly("displacement", &PyDirect::displacement, "New minus old control points.")
       .def_readonly("residual", &PyDirect::residual, "Distance from each deformed point to its target.")
       .def_readonly("max_residual", &PyDirect::max_residual)
       .def_readonly("rank", &PyDirect::rank, "Rank of the constraint matrix.");
 
-  py::class_<ControlLattice, Deformer, std::shared_ptr<ControlLattice>>(m, "Lattice", "Interface of the lattice deformers.")
+  Class<ControlLattice, Deformer, std::shared_ptr<ControlLattice>>(m, "Lattice", "Interface of the lattice deformers.")
       .def_property("control_points",
                     [](const ControlLattice& l) { return grid_array(l.control_points(), l.resolution()); },
                     [](ControlLattice& l, const py::object& g) {
@@ -258,7 +259,7 @@ With per-point weights (one per row of `points`) a point of weight w moves w tim
 deform() moves it, and the solve plans for that; a point of weight 0 cannot move. Returns a
 DirectManipulation; the lattice is not modified (assign result.control_points).)");
 
-  py::class_<FFD, ControlLattice, std::shared_ptr<FFD>>(m, "FFD", (std::string(R"(Sederberg-Parry free-form deformation.
+  Class<FFD, ControlLattice, std::shared_ptr<FFD>>(m, "FFD", (std::string(R"(Sederberg-Parry free-form deformation.
 
 One trivariate Bernstein polynomial of degree (l, m, n) (1..15 each), (l+1)(m+1)(n+1) control
 points (Sederberg and Parry 1986).)") + kPlacementDoc).c_str())
@@ -276,7 +277,7 @@ points (Sederberg and Parry 1986).)") + kPlacementDoc).c_str())
         return py::make_tuple(r[0] - 1, r[1] - 1, r[2] - 1);
       });
 
-  py::class_<BezierFFD, ControlLattice, std::shared_ptr<BezierFFD>>(m, "BezierFFD", (std::string(R"(Piecewise tricubic Bezier FFD blocks.
+  Class<BezierFFD, ControlLattice, std::shared_ptr<BezierFFD>>(m, "BezierFFD", (std::string(R"(Piecewise tricubic Bezier FFD blocks.
 
 blocks (a, b, c) give (3a+1, 3b+1, 3c+1) control points; neighbouring blocks share a face
 layer (C0); C1 holds where the three control points across a face are collinear and evenly
@@ -291,7 +292,7 @@ spaced. A point's block is floor(s * blocks), its local coordinate the fraction.
            "blocks"_a = 1, py::kw_only(), "origin"_a = py::none(), "edges"_a = py::none(), "frame"_a = py::none(),
            "control_points"_a = py::none(), "outside"_a = "clamp", "strength"_a = 1.0, "weights"_a = py::none());
 
-  py::class_<BSplineLattice, ControlLattice, std::shared_ptr<BSplineLattice>>(m, "BSplineLattice", (std::string(R"(Uniform cubic B-spline FFD (C2 everywhere).
+  Class<BSplineLattice, ControlLattice, std::shared_ptr<BSplineLattice>>(m, "BSplineLattice", (std::string(R"(Uniform cubic B-spline FFD (C2 everywhere).
 
 resolution >= 4 control points per axis, evenly spaced over the box at rest; the spline covers
 the box's inner part, s in [1/(n-1), (n-2)/(n-1)] per axis, and `outside` applies beyond it.)") +
@@ -307,7 +308,7 @@ the box's inner part, s in [1/(n-1), (n-2)/(n-1)] per axis, and `outside` applie
            "resolution"_a = 4, py::kw_only(), "origin"_a = py::none(), "edges"_a = py::none(), "frame"_a = py::none(),
            "control_points"_a = py::none(), "outside"_a = "clamp", "strength"_a = 1.0, "weights"_a = py::none());
 
-  py::class_<BlenderLattice, ControlLattice, std::shared_ptr<BlenderLattice>>(m, "BlenderLattice", (std::string(R"(Blender's Lattice modifier, reproduced.
+  Class<BlenderLattice, ControlLattice, std::shared_ptr<BlenderLattice>>(m, "BlenderLattice", (std::string(R"(Blender's Lattice modifier, reproduced.
 
 resolution 1..64 per axis (points_u/v/w), interpolation 'linear', 'cardinal', 'catmull_rom' or
 'bspline' (or Blender's 'KEY_...' names), one for all axes or (u, v, w). For a Lattice object
@@ -344,7 +345,7 @@ points take the boundary's displacement ('clamp', the default); 'unchanged' is a
                                            finite_param(strength, "strength"), newton);
     return finish(l, cps, weights);
   };
-  py::class_<ExtendedFFD, ControlLattice, std::shared_ptr<ExtendedFFD>>(m, "ExtendedFFD", R"(Coquillart's extended FFD.
+  Class<ExtendedFFD, ControlLattice, std::shared_ptr<ExtendedFFD>>(m, "ExtendedFFD", R"(Coquillart's extended FFD.
 
 A grid of tricubic Bezier blocks, rest_control_points (3a+1, 3b+1, 3c+1, 3), of any shape.
 Each point is located by a bounding-box (convex hull) test and Newton iteration from

@@ -1,6 +1,7 @@
 // Python bindings: argument conversion and checking only; the math lives in cpp/src. One
 // bind_<family> per binding file.
 #include "common.hpp"
+#include "declared.hpp"
 #include "deformkit/build_info.hpp"
 
 using namespace deformkit_py;
@@ -18,9 +19,11 @@ PYBIND11_MODULE(_core, m) {
   bind_rbf(m);
   bind_transfer(m);
 
-  m.def("build_info", []() {
+  def(m, "build_info", []() {
     py::dict info;
     for (const auto& [k, v] : build_info()) info[py::str(k)] = v;
     return info;
   }, "Versions compiled in, the SIMD instruction set chosen for this CPU and the thread count.");
+
+  publish_signatures(m);  // last: every class is registered by now
 }

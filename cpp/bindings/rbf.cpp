@@ -1,5 +1,6 @@
 // Python bindings of the RBF family: argument conversion and checking only.
 #include "common.hpp"
+#include "declared.hpp"
 
 #include <memory>
 #include <optional>
@@ -68,7 +69,7 @@ py::array rows_of(const std::vector<double>& p) {
 }  // namespace
 
 void bind_rbf(py::module_& m) {
-  py::class_<PyRbfBinding>(m, "RBFBinding", R"(Points bound to an RBF (RBF.bind).
+  Class<PyRbfBinding>(m, "RBFBinding", R"(Points bound to an RBF (RBF.bind).
 
 For a compact kernel it holds each point's kernel values at the controls within the support, so
 deform_bound is one sparse product with the coefficients; for a global kernel it holds the points
@@ -81,7 +82,7 @@ only (a table would be n x m) and deform_bound evaluates the kernel sums again.)
         return csr_tuple(std::move(w.indptr), std::move(w.indices), std::move(w.values));
       }, "Compact kernels: the kernel values phi(|x_i - c_j|) as CSR (indptr, indices, data).");
 
-  py::class_<RbfDeformer, Deformer, std::shared_ptr<RbfDeformer>>(m, "RBF", R"(Radial basis function deformation (de Boer, van der Schoot, Bijl 2007).
+  Class<RbfDeformer, Deformer, std::shared_ptr<RbfDeformer>>(m, "RBF", R"(Radial basis function deformation (de Boer, van der Schoot, Bijl 2007).
 
 control_points (m, 3) move to targets (m, 3; default: the controls, the identity); every other
 point x moves by d(x) = sum_j alpha_j phi(|x - c_j|) + p(x), the interpolant of the controls'

@@ -1,5 +1,6 @@
 // Python bindings of subdivision, limit-surface evaluation and the smoothness report.
 #include "common.hpp"
+#include "declared.hpp"
 
 #include "deformkit/subdivision/limit_surface.hpp"
 #include "deformkit/subdivision/smoothness_report.hpp"
@@ -220,7 +221,7 @@ void bind_subdivision(py::module_& m) {
   m.attr("SUBDIVISION_MAX_LEVEL") = kMaxSubdivisionLevel;
   m.attr("SUBDIVISION_MAX_FACES") = kDefaultMaxFaces;
 
-  py::class_<PySubdividedMesh>(m, "SubdividedMesh", "The result of subdivide().")
+  Class<PySubdividedMesh>(m, "SubdividedMesh", "The result of subdivide().")
       .def_readonly("points", &PySubdividedMesh::points,
                     "(N, 3) float64 refined vertices (on the limit surface with limit_surface=True).")
       .def_readonly("faces", &PySubdividedMesh::faces, "(M, 4) int32 quads (Catmull-Clark) or (M, 3) triangles (Loop).")
@@ -233,7 +234,7 @@ void bind_subdivision(py::module_& m) {
                std::to_string(s.points.shape(0)) + " points, " + std::to_string(s.faces.shape(0)) + " faces>";
       });
 
-  py::class_<PySubdivider>(m, "Subdivider", (std::string(R"(The refined topology of a control mesh at one level, kept to subdivide many cages of it
+  Class<PySubdivider>(m, "Subdivider", (std::string(R"(The refined topology of a control mesh at one level, kept to subdivide many cages of it
 (animation frames, deformations): subdivide(points) only interpolates the points again.
 
 )") + kTopologyDoc + kSubdivideDoc).c_str())
@@ -284,7 +285,7 @@ void bind_subdivision(py::module_& m) {
         return py::make_tuple(owned_array(std::move(ptex), {n}), owned_array(std::move(uv), {n, 2}));
       }, "(ptex (N,), uv (N, 2)): where each refined vertex lies on LimitSurface(points, faces) of the same settings.");
 
-  m.def("subdivide", [](const py::object& points, const py::object& faces, std::int64_t level_arg,
+  def(m, "subdivide", [](const py::object& points, const py::object& faces, std::int64_t level_arg,
                         const std::string& scheme, const std::string& boundary, const py::object& creases,
                         const py::object& corners, const py::object& sharpen_two_edge_vertices, const py::object& uvs,
                         const std::string& uv_smooth, std::int64_t max_faces, const py::object& limit_surface_arg) {
@@ -307,7 +308,7 @@ the refined topology for many cages.
 
 )") + kTopologyDoc + kSubdivideDoc).c_str());
 
-  py::class_<PyLimitSurface>(m, "LimitSurface", (std::string(R"(The limit surface of a control mesh (OpenSubdiv feature-adaptive patches in double precision:
+  Class<PyLimitSurface>(m, "LimitSurface", (std::string(R"(The limit surface of a control mesh (OpenSubdiv feature-adaptive patches in double precision:
 exact B-spline patches, and Gregory patches approximating it within 2^-4 of extraordinary
 vertices, whose derivatives are OpenSubdiv's approximate ones).
 
@@ -401,7 +402,7 @@ same topology (a deformed one) without rebuilding the patches.)")
       }, "points"_a = py::none(), py::kw_only(), "samples_per_edge"_a = 8, "reference"_a = py::none(),
          "worst"_a = 10, "deformer"_a = py::none(), "crease_grid"_a = 16, "The smoothness report (see deformkit.smoothness_report) of this surface or of another cage of it.");
 
-  py::class_<SmoothnessReport>(m, "SmoothnessReport", R"(How smooth a limit surface is across the control mesh's interior edges.
+  Class<SmoothnessReport>(m, "SmoothnessReport", R"(How smooth a limit surface is across the control mesh's interior edges.
 
 edges (E, 2) are the interior edges as sorted vertex pairs; edge_angle the largest normal angle
 along each (radians, atan2(|n1 x n2|, n1 . n2)); edge_gap the largest position gap divided by
@@ -459,7 +460,7 @@ the bounding-box diagonal; worst_edges indices into edges by decreasing angle.)"
                std::to_string(r.flipped_samples) + " flipped>";
       });
 
-  m.def("smoothness_report", [](const py::object& points, const py::object& faces, const std::string& scheme,
+  def(m, "smoothness_report", [](const py::object& points, const py::object& faces, const std::string& scheme,
                                 const std::string& boundary, const py::object& creases, const py::object& corners,
                                 const py::object& sharpen_two_edge_vertices, std::int64_t samples_per_edge,
                                 const py::object& reference, std::int64_t worst, const py::object& deformer,

@@ -1,5 +1,6 @@
 // Python bindings of the surface deformers: argument conversion and checking only.
 #include "common.hpp"
+#include "declared.hpp"
 
 #include "deformkit/surface/drag_start.hpp"
 #include "deformkit/surface/surface_deformer.hpp"
@@ -44,7 +45,7 @@ std::vector<int> parse_indices(const py::object& obj, const char* name, std::siz
 }  // namespace
 
 void bind_surface(py::module_& m) {
-  m.def("cotangent_laplacian", [](const py::object& points, const py::object& faces) {
+  def(m, "cotangent_laplacian", [](const py::object& points, const py::object& faces) {
     const PolygonMesh mesh = parse_mesh(points, faces);
     SparseMatrix l = cotangent_laplacian(mesh);  // symmetric: its column storage is its row storage
     l.makeCompressed();
@@ -55,7 +56,7 @@ void bind_surface(py::module_& m) {
 L_ij = -(cot a + cot b)/2 for an edge, L_ii = -sum of the row: symmetric, rows sum to 0. Polygons
 are fanned into triangles; cotangents are clamped to +-1e4 so degenerate triangles stay finite.)");
 
-  m.def("extrapolated_start", [](const py::object& previous, const py::object& earlier, const py::object& targets,
+  def(m, "extrapolated_start", [](const py::object& previous, const py::object& earlier, const py::object& targets,
                                  const py::object& previous_targets, const py::object& earlier_targets) {
     auto rows3 = [](const py::object& obj, const char* name, py::ssize_t rows, const char* like) {
       const py::array a = points_array(obj, name);
@@ -86,11 +87,11 @@ present step (targets - previous_targets) projected on their last (previous_targ
 earlier_targets), clipped to [0, 2]: 0, previous itself, when they stood still or turn back or
 across. A first-order predictor: ARAP from it converges in fewer iterations than from previous.)");
 
-  m.def("_forget_remembered_orderings", &SurfaceDeformer::forget_remembered_orderings,
+  def(m, "_forget_remembered_orderings", &SurfaceDeformer::forget_remembered_orderings,
         "For benchmarks: forget the fill-reducing orderings that binds remember per connectivity, so that the next "
         "bind of any mesh orders its system from scratch.");
 
-  py::class_<SurfaceDeformer, std::shared_ptr<SurfaceDeformer>>(m, "SurfaceDeformer", R"(Laplacian editing and as-rigid-as-possible deformation of a mesh.
+  Class<SurfaceDeformer, std::shared_ptr<SurfaceDeformer>>(m, "SurfaceDeformer", R"(Laplacian editing and as-rigid-as-possible deformation of a mesh.
 
 points (n, 3) and faces (an (m, k) integer array or a list of polygons) are copied. anchors stay
 at rest, handles move to the targets given to deform(); vertices outside roi (default: all

@@ -1,5 +1,6 @@
 // Python bindings of the transfer family: argument conversion and checking only.
 #include "common.hpp"
+#include "declared.hpp"
 
 #include <limits>
 #include <memory>
@@ -79,7 +80,7 @@ py::array_t<double, py::array::c_style> float_rows(const py::object& obj, const 
 }  // namespace
 
 void bind_transfer(py::module_& m) {
-  py::class_<DeformationTransfer, std::shared_ptr<DeformationTransfer>>(m, "DeformationTransfer", R"(Deformation transfer (Sumner and Popovic 2004): a source mesh's poses carried onto a target mesh.
+  Class<DeformationTransfer, std::shared_ptr<DeformationTransfer>>(m, "DeformationTransfer", R"(Deformation transfer (Sumner and Popovic 2004): a source mesh's poses carried onto a target mesh.
 
 source_points (n_s, 3) and source_faces give the source at rest, target_points (n_t, 3) and
 target_faces the target at rest. Polygons are fanned into triangles from their first corner.
