@@ -75,11 +75,11 @@ def on_depsgraph_update(scene, depsgraph):
             | {o.data for o in used if o.type == "LATTICE"}
         mesh_changed = obj.data in changed or (obj.data.shape_keys is not None and obj.data.shape_keys in changed)
         if evaluation.mode_changed(obj):
-            evaluation.evaluate(obj, Reason.MESH)  # Edit Mode entered or left: the input and where the result goes change
+            evaluation.evaluate(obj, Reason.MESH)  # Edit Mode entered or left: the input and the result's place change
         elif watched & changed or (watched and obj in moved):
             # The origin frame, the lattice or a handle object changed (or the object moved, which
-            # changes them in its space). The input is read again only if the mesh changed too;
-            # either way the mesh update that this write causes needs no second look.
+            # changes them in its space). The input is read again only if the mesh changed too (else
+            # as for a setting's edit); either way the mesh update that this write causes needs no second look.
             evaluation.evaluate(obj, Reason.FOLLOWED if mesh_changed else Reason.EDIT)
         elif obj.mode == "EDIT":
             if obj.data in reshaped:  # an edit, not a selection change
