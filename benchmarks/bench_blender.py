@@ -61,7 +61,7 @@ def stat(side, key):
 busy = 1 - (i1 - i0) / max(c1 - c0, 1)  # CPU busy fraction before the run
 blender_with_addon(args.addon)
 import bpy  # noqa: E402
-from deformkit_addon import api, evaluation, native, outputs  # noqa: E402
+from deformkit_addon import api, evaluation, native, outputs, stack_run  # noqa: E402
 dk = native.dk
 A, B, co = displaced_grid_pair(args.vertices)
 nverts, size = len(co), float(np.ptp(co, axis=0).max())
@@ -79,8 +79,10 @@ assert diff < 1e-4 * size and moved > 1e-3 * size and via_to_mesh == 0, (diff, m
 
 # Timers around the add-on's internals, keyed by phase ("set" = property callback, "dg" = depsgraph).
 T, phase = {}, ["set"]
-for name in ("evaluate", "input_positions", "_write_own_mesh", "_deformed", "is_echo_of_own_write"):
-    setattr(evaluation, name, timed(name, getattr(evaluation, name)))
+for owner, name, label in ((evaluation, "evaluate", "evaluate"), (evaluation, "input_positions", "input_positions"),
+                           (evaluation, "_write_own_mesh", "_write_own_mesh"), (stack_run, "deformed", "_deformed"),
+                           (evaluation, "is_echo_of_own_write", "is_echo_of_own_write")):
+    setattr(owner, name, timed(label, getattr(owner, name)))
 outputs.ensure_modifier = timed("ensure_modifier", outputs.ensure_modifier)
 native.dk = types.SimpleNamespace(**{**{n: getattr(dk, n) for n in dir(dk) if n[0] != "_"}, "Stack": timed_stack})
 

@@ -64,7 +64,7 @@ def add_entry(obj, type="TWIST", **params):
     stack = obj.deformkit
     entry = _insert_entry(stack, _place_for(stack, kind), kind, _unique_name(stack, kind.title()))
     set_params(entry, **params)
-    evaluation.evaluate(obj)
+    evaluation.evaluate(obj, evaluation.Reason.ADDED)
     return entry
 
 
@@ -123,7 +123,7 @@ def duplicate_entry(obj, index):
     source = stack.entries[index]  # add() may have moved it
     _copy_settings(source, copy)
     surface.copy_bind(source, copy)
-    evaluation.evaluate(obj, force=True)
+    evaluation.evaluate(obj, evaluation.Reason.STACK)
     return copy
 
 
@@ -150,7 +150,7 @@ def copy_entry_to(obj, index, targets):
         _copy_settings(source, copy)
         if surface.is_bound(source):
             copy.bind_copied_from = obj.name
-        evaluation.evaluate(target, force=True)
+        evaluation.evaluate(target, evaluation.Reason.STACK)
         copies.append(copy)
     return copies
 
@@ -177,7 +177,7 @@ def entries(obj):
 def evaluate(obj):
     """Recompute the result now; raises ValueError with the message an entry shows, if any."""
     evaluation.forget(obj)
-    evaluation.evaluate(obj, force=True)
+    evaluation.evaluate(obj, evaluation.Reason.SCRIPT)
     problems = [obj.deformkit.error] + [f"{e.name}: {e.error}" for e in obj.deformkit.entries if e.error]
     problems = [p for p in problems if p]
     if problems:
@@ -190,7 +190,7 @@ def remove_entry(obj, index):
         raise IndexError(f"index: {index} is out of range for {len(stack.entries)} entries")
     stack.entries.remove(index)
     stack.active_index = min(stack.active_index, max(0, len(stack.entries) - 1))
-    evaluation.evaluate(obj, force=True)
+    evaluation.evaluate(obj, evaluation.Reason.STACK)
 
 
 def move_entry(obj, index, direction):
@@ -201,7 +201,7 @@ def move_entry(obj, index, direction):
         raise IndexError(f"cannot move entry {index} by {direction}")
     stack.entries.move(index, target)
     stack.active_index = target
-    evaluation.evaluate(obj, force=True)
+    evaluation.evaluate(obj, evaluation.Reason.STACK)
 
 
 def move_entry_to(obj, index, where):
@@ -223,7 +223,7 @@ def move_entry_to(obj, index, where):
     if target != index:
         stack.entries.move(index, target)
     stack.active_index = target
-    evaluation.evaluate(obj, force=True)
+    evaluation.evaluate(obj, evaluation.Reason.STACK)
     return target
 
 
@@ -276,14 +276,14 @@ def bind_laplacian(obj, index):
     if obj.mode == "EDIT":
         raise ValueError("bind: leave edit mode first (edit mode holds its own copy of the mesh)")
     count = surface.bind(obj, entry, evaluation.entry_input(obj, index))
-    evaluation.evaluate(obj, force=True)
+    evaluation.evaluate(obj, evaluation.Reason.STACK)
     return count
 
 
 def unbind_laplacian(obj, index):
     """Forget entry `index`'s rest: it passes its input through until bound again."""
     surface.unbind(obj, laplacian_entry(obj, index))
-    evaluation.evaluate(obj, force=True)
+    evaluation.evaluate(obj, evaluation.Reason.STACK)
 
 
 # Cage entries ---------------------------------------------------------------------------------
@@ -295,14 +295,14 @@ def bind_cage(obj, index):
     entry = entry_of_type(obj, index, "CAGE")
     _require_mesh(obj)
     count = cages.bind(obj, entry)
-    evaluation.evaluate(obj, force=True)
+    evaluation.evaluate(obj, evaluation.Reason.STACK)
     return count
 
 
 def unbind_cage(obj, index):
     """Forget entry `index`'s rest cage: it passes its input through until bound again."""
     cages.unbind(entry_of_type(obj, index, "CAGE"))
-    evaluation.evaluate(obj, force=True)
+    evaluation.evaluate(obj, evaluation.Reason.STACK)
 
 
 # RBF entries ----------------------------------------------------------------------------------
@@ -316,14 +316,14 @@ def bind_rbf(obj, index):
     entry = entry_of_type(obj, index, "RBF")
     _require_mesh(obj)
     count = rbfs.bind(obj, entry)
-    evaluation.evaluate(obj, force=True)
+    evaluation.evaluate(obj, evaluation.Reason.STACK)
     return count
 
 
 def unbind_rbf(obj, index):
     """Forget entry `index`'s controls and rest: it passes its input through until bound again."""
     rbfs.unbind(entry_of_type(obj, index, "RBF"))
-    evaluation.evaluate(obj, force=True)
+    evaluation.evaluate(obj, evaluation.Reason.STACK)
 
 
 BINDS = {"LAPLACIAN": bind_laplacian, "CAGE": bind_cage, "RBF": bind_rbf}  # the entries that need a Bind
@@ -389,7 +389,7 @@ def bind_lattice(obj, index):
     points = evaluation.entry_input(obj, index)
     lattice = evaluation.entry_setup(obj, entry)[1].data
     counts = lattices.bind((key, index, "viewport"), lattice, points)[3]
-    evaluation.evaluate(obj, force=True)
+    evaluation.evaluate(obj, evaluation.Reason.STACK)
     return Bound(*counts)
 
 
@@ -408,7 +408,7 @@ def lattice_users(lattice_obj):
 
 def _evaluate_users(lattice_obj):
     for obj in {o for o, _ in lattice_users(lattice_obj)}:
-        evaluation.evaluate(obj, expect_echo=True)
+        evaluation.evaluate(obj, evaluation.Reason.FOLLOWED)
 
 
 def _entry_output(obj, index, vertex_indices):

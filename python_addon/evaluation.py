@@ -6,38 +6,75 @@ as offsets from them that a Geometry Nodes modifier named "deformkit" adds (outp
 object's own mesh, or in a per-object helper in Edit Mode and on a mesh shared by linked
 duplicates. So the result takes part in Blender's own modifier stack, saves with the file and
 survives with the add-on disabled; removing every entry removes the modifier and the attributes,
-which gives back the original mesh bit for bit. A Subdivide entry, last in the stack, subdivides
-that result into helper objects whose geometry the modifier then outputs instead
-(entries/subdivide.py). Each entry runs through its kind (entries/).
+which gives back the original mesh bit for bit. An entry whose kind changes the topology (LAST:
+Subdivide), last in the stack, turns that result into helper objects whose geometry the modifier
+then outputs instead, through the registry's hooks (entries/__init__.py).
+
+An evaluation is plan (what runs on which input; did anything change), run (stack_run.py: each
+entry through its kind, the volume ratio, the topology-changing entry) and publish (messages,
+outputs, modifier, cache). Its caller says why it asks (a Reason): what it may reuse follows.
 """
-import functools
+import enum
 import time
+from typing import NamedTuple, Optional
 
 import bpy
 import numpy as np
 
-from . import cache, entries, native, outputs
-from .entries import common, subdivide
-from .meshdata import base_positions, cache_key, input_positions, vertex_group_weights  # noqa: F401
+from . import cache, entries, native, outputs, stack_run
 from .errors import EntryError
+from .meshdata import base_positions, cache_key, input_positions, vertex_group_weights  # noqa: F401
 from .outputs import (ATTR_OFFSET, ATTR_OFFSET_RENDER, ATTR_VOLUME, MODIFIER_NAME, NODE_GROUP_NAME,  # noqa: F401
                       remove_outputs)
-
+from .stack_run import Built, EntryFailed, shown
 
 _evaluating = set()  # session_uids being evaluated: writes below re-enter through handlers
-# In the cache: "inputs", (cache key,) -> (fingerprint of the settings, input positions, {index:
-# message} of the entries that failed on them) last written;
-# "echo", (cache key,) -> time of the add-on's last write into the object's own mesh, whose
-# depsgraph echo is expected.
+# In the cache: "inputs", (cache key,) -> Inputs last written; "echo", (cache key,) -> time of the
+# add-on's last write into the object's own mesh, whose depsgraph echo is expected.
 ECHO_WINDOW = 1.0    # seconds within which a depsgraph update of the mesh counts as that echo
 
 
-class EntryFailed(EntryError):
-    """An entry that could not deform the points it was given (found while running the stack)."""
+class Reason(enum.Enum):
+    """Why a caller asks for an evaluation: what may have changed, which says what of the last
+    evaluation it may reuse (the sets below)."""
+    EDIT = enum.auto()       # a setting changed (property update, keyframe, driver), or a followed object alone
+    FOLLOWED = enum.auto()   # a followed object (lattice, handle) changed and the mesh may have too
+    FRAME = enum.auto()      # the frame changed (animated shape keys: the input is read again)
+    EDIT_MODE = enum.auto()  # the edit mesh changed in Edit Mode (the depsgraph holds the new input)
+    MESH = enum.auto()       # the base mesh or a shape-key value may have changed; Edit Mode entered or left
+    LINKS = enum.auto()      # objects were deleted or linked: an entry may have lost or found its object
+    LOAD = enum.auto()       # a file was loaded, or undo / redo (what was cached is forgotten)
+    READ = enum.auto()       # a script reads the result: brought up to date first
+    ADDED = enum.auto()      # the api added an entry (its property updates may have run it already)
+    STACK = enum.auto()      # the api changed the stack (removed, moved, copied, bound, unbound, applied)
+    SCRIPT = enum.auto()     # api.evaluate: a script asks for a fresh result
 
-    def __init__(self, index, message):
-        super().__init__(message)
-        self.index = index
+
+# What a reason lets an evaluation do; the others read everything again and run only on a change.
+_FORCED = {Reason.STACK, Reason.SCRIPT}  # run even when the settings and input look unchanged
+_REUSES_INPUT = {Reason.EDIT}  # the last input positions, while the vertex count is unchanged
+_REUSES_WEIGHTS = {Reason.EDIT, Reason.FRAME, Reason.EDIT_MODE}  # the vertex-group weights read last time
+_ECHOED = {Reason.EDIT, Reason.FOLLOWED}  # the mesh update this write causes is its echo (is_echo_of_own_write)
+
+
+class Inputs(NamedTuple):
+    """What the last evaluation ran on, kept in the cache's "inputs" space."""
+    key: tuple  # everything the result depended on besides the input positions (Plan.key)
+    base: np.ndarray  # the input positions
+    failures: dict  # {entry index: message} of the entries that failed on them
+
+
+class Plan(NamedTuple):
+    """What an evaluation runs, on what, and what it compares with the last one."""
+    uid: object  # the object's cache key
+    editing: bool  # in Edit Mode
+    per_object: bool  # the result goes into a per-object helper (Edit Mode, a shared mesh)
+    volume_ratio: bool  # the volume colors are shown
+    base: np.ndarray  # the input positions
+    built: list  # [stack_run.Built] of the entries that run pointwise, in order
+    last: Optional[Built]  # the topology-changing entry, run on their result, or None
+    key: tuple  # everything the result depends on besides `base`
+    cached: Optional[Inputs]  # the last evaluation's
 
 
 def object_problem(obj):
@@ -59,23 +96,6 @@ def shared_mesh(obj):
     return obj.data.users > 1 + int(obj.data.use_fake_user)
 
 
-def shown(entry, kind, editing):
-    """Whether the entry runs in the viewport (in Edit Mode: only with its Edit Mode toggle) or in renders."""
-    if kind == "render":
-        return entry.show_render
-    return entry.show_viewport and (entry.show_in_editmode or not editing)
-
-
-def origin_matrix(obj, entry):
-    """The origin object's frame in `obj`'s local space, as Simple Deform uses it."""
-    return entries.barr.origin_matrix(obj, entry)
-
-
-def entry_weights(obj, entry, reuse_weights=False):
-    """The entry's vertex-group weights as it applies them (inverted with Invert), or None."""
-    return common.influence_weights(obj, entry, reuse_weights)
-
-
 def entry_setup(obj, entry, reuse_weights=False):
     """(kind, common.Prepared) for one entry: its kind's setup, with the fingerprint that tells
     whether its result may have changed."""
@@ -85,148 +105,183 @@ def entry_setup(obj, entry, reuse_weights=False):
     return kind, prepared._replace(fingerprint=fingerprint)
 
 
-def entry_deformer(obj, entry, reuse_weights=False):
-    """The deformkit deformer for this entry: Simple Deform's map, or the entry's lattice (None
-    for kinds without a pointwise map: Laplacian, Subdivide)."""
-    return entry_setup(obj, entry, reuse_weights)[1].deformer
-
-
 def _set_if_changed(owner, prop, value):
     if getattr(owner, prop) != value:
         setattr(owner, prop, value)
 
 
-def evaluate(obj, force=False, reuse_base=False, expect_echo=False, reuse_weights=None, depsgraph=None):
+def evaluate(obj, reason, depsgraph=None):
     """Recompute `obj`'s deformkit result. Returns True if it wrote a new result.
 
-    With reuse_base, the input positions of the last evaluation are used when the settings changed
-    (a parameter edit); with expect_echo, the depsgraph update this write causes is recognised as
-    its echo (see is_echo_of_own_write). reuse_weights (default: as reuse_base) keeps the
-    vertex-group weights read last time. depsgraph: the one that just evaluated an edit (Edit Mode
-    reads its input from it). A problem of the object's goes on the stack and leaves the mesh as it
-    was; an entry that fails shows its message and is skipped, the others still run."""
+    reason: a Reason, what may have changed, which says what of the last evaluation is reused.
+    depsgraph: the one that just evaluated an edit (Edit Mode reads its input from it). A problem of
+    the object's goes on the stack and leaves the mesh as it was; an entry that fails shows its
+    message and is skipped, the others still run."""
     uid = cache_key(obj)
-    if uid in _evaluating:
-        return False
-    stack = obj.deformkit
-    problem = object_problem(obj)
-    _set_if_changed(stack, "error", problem)
-    if problem:
+    if uid in _evaluating or not _usable(obj):
         return False
     _evaluating.add(uid)
     try:
-        editing = obj.mode == "EDIT"
-        if len(stack.entries) == 0 or not any(e.show_viewport or e.show_render for e in stack.entries):
-            # Nothing shown anywhere: the original mesh, as with every modifier hidden.
-            subdivide.discard(obj)
-            remove_outputs(obj, mesh_attributes=not editing)  # Edit Mode: the edit mesh holds them
-            cache.forget(uid)
+        if not any(e.show_viewport or e.show_render for e in obj.deformkit.entries):
+            _clear(obj, uid)
             return True
-        weights = reuse_base if reuse_weights is None else reuse_weights
-        cached = cache.get("inputs", (uid,))
-        count = len(obj.data.vertices) if not editing else None
-        if reuse_base and cached is not None and (count is None or len(cached[1]) == count):
-            base = cached[1]
-        else:
-            base = input_positions(obj, weights, depsgraph)
-        per_object = editing or shared_mesh(obj)
-        built, key, sub = [], [len(base), stack.show_volume_ratio, editing, per_object], None
-        entries.prune(uid, stack.entries)
-        for index, entry in enumerate(stack.entries):
-            try:
-                if sub is not None:
-                    raise EntryError(f"comes after the {entries.LABELS[sub.entry.type]} entry '{sub.entry.name}', "
-                                     "which must be the last entry (it changes the topology): move this entry "
-                                     "above it")
-                kind, prepared = entry_setup(obj, entry, weights)
-            except ValueError as exc:
-                # As Blender skips a modifier it cannot run: its input goes on to the next entry.
-                _set_if_changed(entry, "error", str(exc))
-                key.append((index, str(exc)))
-                continue
-            if kind.LAST:
-                if not editing or entry.show_in_editmode:
-                    sub, sub_index = prepared.data, index  # its error is cleared once it has subdivided
-            else:
-                _set_if_changed(entry, "error", prepared.note)  # a note: the entry still runs
-                built.append((index, entry, kind, prepared))
-            key.append((prepared.fingerprint, entry.show_in_editmode))
-        key = tuple(key)
-        if (not force and cached is not None and cached[0] == key and np.array_equal(cached[1], base)
-                and _outputs_present(obj, per_object, sub is not None)):
-            for index, message in cached[2].items():  # the entries that failed on these inputs still do
-                _set_if_changed(stack.entries[index], "error", message)
-            _edit_mode_toggles(obj, stack)
+        plan = _plan(obj, uid, reason, depsgraph)
+        if reason not in _FORCED and _unchanged(obj, plan):
+            _show_failures(obj.deformkit, plan.cached.failures)  # the entries that failed on these inputs still do
+            outputs.follow_toggles(obj, obj.deformkit.entries)
             return False
-        viewport = [b for b in built if shown(b[1], "viewport", editing)]
-        render = [b for b in built if shown(b[1], "render", editing)]
-        pieces = [] if stack.show_volume_ratio else None
-        failures = {}  # entry index -> message of the entries that failed on their input (skipped)
-        same = [b[0] for b in render] == [b[0] for b in viewport]
-        # The common case (own mesh, one result for viewport and render): the offsets are computed
-        # straight into the mesh's attribute (outputs.vector_attribute_memory), the cheapest hand-over.
-        in_place = same and sub is None and not per_object and not editing
         try:
-            if in_place:
-                offsets = _deformed(uid, "viewport", viewport, base, pieces, failures, offsets_into=functools.partial(
-                    outputs.vector_attribute_memory, obj.data, ATTR_OFFSET, len(base)))
-                positions = render_positions = None
-            else:
-                positions = _deformed(uid, "viewport", viewport, base, pieces, failures)
-                render_positions = positions if same else _deformed(uid, "render", render, base, failures=failures)
-        except ValueError as exc:
-            _set_if_changed(stack, "error", str(exc))
+            result = stack_run.run(obj, plan)
+        except ValueError as exc:  # the stack as a whole could not run: the last result stays
+            _set_if_changed(obj.deformkit, "error", str(exc))
             return False
-        subdivided = None
-        if sub is not None:
-            try:
-                subdivided = subdivide.results(uid, sub, positions, render_positions)
-            except EntryError as exc:  # skipped as any failing entry: the cage is shown
-                failures[sub_index] = str(exc)
-            else:
-                _set_if_changed(sub.entry, "error", "")
-        for index, message in failures.items():
-            _set_if_changed(stack.entries[index], "error", message)
-        ratio = None
-        if stack.show_volume_ratio and viewport:
-            # Laplacian entries have no Jacobian: det J of the others, each run at its own input.
-            ratio = np.ones(len(base))
-            for deformers, points in pieces:
-                ratio *= native.dk.Stack(deformers).volume_ratio(points)
-        if sub is None:  # no Subdivide entry (any more): its refined topologies go
-            subdivide.forget(uid)
-        helpers = subdivided and subdivide.write(obj, sub, subdivided)  # None: nothing subdivided
-        subdivide.discard(obj, keep=helpers or ())
-        # In place: on a large mesh a second copy of the points costs as much as the deformation.
-        render_offsets = None if render_positions is positions else np.subtract(render_positions, base,
-                                                                                 out=render_positions)
-        if not in_place:
-            offsets = np.subtract(positions, base, out=positions)
-        if helpers:
-            outputs.ensure_modifier(obj, "subdivided", list(zip(outputs.HELPER_INPUTS, helpers))
-                                    + [(outputs.VERTICES_INPUT, len(base))])
-        elif per_object:
-            helper = outputs.result_helper(obj)
-            outputs.write_result_helper(helper, offsets, render_offsets, ratio)
-            outputs.ensure_modifier(obj, "per_object_volume" if ratio is not None else "per_object",
-                                    [(outputs.RESULT_INPUT, helper)])
-        else:
-            outputs.ensure_modifier(obj, "offsets_split" if render_offsets is not None else "offsets")
-        if not editing:
-            # Under a Subdivide entry's result too: the cage's offsets, for stored_positions (batch previews).
-            _write_own_mesh(obj, None if per_object else (None if in_place else offsets, render_offsets), ratio)
-        offsets = None  # in place, a view of Blender's memory: not to be kept
-        if not per_object:
-            outputs.discard_result_helper(obj)
-        _edit_mode_toggles(obj, stack)
-        cache.put("inputs", (uid,), (key, base, failures))
-        cache.put("mode", (uid,), obj.mode)
-        _set_if_changed(stack, "notice", "")
-        if expect_echo and not editing:
-            cache.put("echo", (uid,), time.monotonic())
+        _publish(obj, plan, stack_run.finish(plan, result), reason in _ECHOED)
         return True
     finally:
         _evaluating.discard(uid)
+
+
+def _usable(obj):
+    """Whether deformkit can run on obj; its problem, if any, goes on the stack (cleared if none)."""
+    problem = object_problem(obj)
+    _set_if_changed(obj.deformkit, "error", problem)
+    return not problem
+
+
+def _clear(obj, uid):
+    """Nothing shown anywhere: the original mesh, as with every modifier hidden."""
+    entries.discard_helpers(obj)
+    remove_outputs(obj, mesh_attributes=obj.mode != "EDIT")  # Edit Mode: the edit mesh holds them
+    cache.forget(uid)
+
+
+# -- plan --------------------------------------------------------------------------------------------
+
+def _plan(obj, uid, reason, depsgraph):
+    """What runs on which input: the input positions (the last ones, when the reason allows it),
+    each entry's setup and the key of everything the result depends on besides the input."""
+    stack, editing = obj.deformkit, obj.mode == "EDIT"
+    cached = cache.get("inputs", (uid,))
+    base = _input(obj, cached, reason, depsgraph)
+    per_object = editing or shared_mesh(obj)
+    entries.prune(uid, stack.entries)
+    built, last, fingerprints = _setup_entries(obj, reason in _REUSES_WEIGHTS, editing)
+    key = (len(base), stack.show_volume_ratio, editing, per_object, *fingerprints)
+    return Plan(uid, editing, per_object, stack.show_volume_ratio, base, built, last, key, cached)
+
+
+def _input(obj, cached, reason, depsgraph):
+    """The points the entries deform: the last evaluation's when the reason allows it and (out of
+    Edit Mode) the vertex count is unchanged, else read again."""
+    count = len(obj.data.vertices) if obj.mode != "EDIT" else None
+    if reason in _REUSES_INPUT and cached is not None and (count is None or len(cached.base) == count):
+        return cached.base
+    return input_positions(obj, reason in _REUSES_WEIGHTS, depsgraph)
+
+
+def _setup_entries(obj, reuse_weights, editing):
+    """([Built] of the pointwise entries, the topology-changing entry's Built or None, [fingerprint
+    per entry]). An entry that cannot set up shows why and is skipped, as Blender skips a modifier it
+    cannot run: its input goes on to the next entry."""
+    built, last, fingerprints = [], None, []
+    for index, entry in enumerate(obj.deformkit.entries):
+        try:
+            if last is not None:
+                raise EntryError(f"comes after the {entries.LABELS[last.entry.type]} entry '{last.entry.name}', "
+                                 "which must be the last entry (it changes the topology): move this entry above it")
+            kind, prepared = entry_setup(obj, entry, reuse_weights)
+        except ValueError as exc:
+            _set_if_changed(entry, "error", str(exc))
+            fingerprints.append((index, str(exc)))
+            continue
+        if kind.LAST:
+            if not editing or entry.show_in_editmode:
+                last = Built(index, entry, kind, prepared)  # its error is cleared once it has run
+        else:
+            _set_if_changed(entry, "error", prepared.note)  # a note: the entry still runs
+            built.append(Built(index, entry, kind, prepared))
+        fingerprints.append((prepared.fingerprint, entry.show_in_editmode))
+    return built, last, fingerprints
+
+
+def _unchanged(obj, plan):
+    """Whether the last evaluation ran on the same settings and input, and its outputs are still there."""
+    cached = plan.cached
+    return (cached is not None and cached.key == plan.key and np.array_equal(cached.base, plan.base)
+            and _outputs_present(obj, plan.per_object, plan.last is not None))
+
+
+def _outputs_present(obj, per_object, subdivided):
+    kind = outputs.modifier_kind(obj)
+    if kind is None:
+        return False
+    if subdivided:
+        return kind == "subdivided" and None not in outputs.helper_objects(obj)
+    if per_object:
+        return kind.startswith("per_object") and outputs.modifier_input(obj, outputs.RESULT_INPUT) is not None
+    return kind.startswith("offsets") and ATTR_OFFSET in obj.data.attributes
+
+
+# -- publish -----------------------------------------------------------------------------------------
+
+def _publish(obj, plan, result, expect_echo):
+    """Hand the result to Blender: the entries' messages, the topology-changing entry's helpers, the
+    offsets and volume colors, the modifier, and what the next evaluation compares with."""
+    stack = obj.deformkit
+    if plan.last is not None and plan.last.index not in result.failures:
+        _set_if_changed(plan.last.entry, "error", "")  # it ran: its message goes
+    _show_failures(stack, result.failures)
+    helpers = _write_helpers(obj, plan, result.finished)
+    # After the helpers (a level 0 result is the cage itself), in place: on a large mesh a second
+    # copy of the points costs as much as the deformation.
+    if result.in_place:
+        offsets, render_offsets = result.viewport, None
+    else:
+        offsets = np.subtract(result.viewport, plan.base, out=result.viewport)
+        render_offsets = None if result.render is result.viewport else np.subtract(result.render, plan.base,
+                                                                                   out=result.render)
+    _write_outputs(obj, plan, helpers, offsets, render_offsets, result)
+    outputs.follow_toggles(obj, stack.entries)
+    cache.put("inputs", (plan.uid,), Inputs(plan.key, plan.base, result.failures))
+    cache.put("mode", (plan.uid,), obj.mode)
+    _set_if_changed(stack, "notice", "")
+    if expect_echo and not plan.editing:
+        cache.put("echo", (plan.uid,), time.monotonic())
+
+
+def _show_failures(stack, failures):
+    for index, message in failures.items():
+        _set_if_changed(stack.entries[index], "error", message)
+
+
+def _write_helpers(obj, plan, finished):
+    """The topology-changing entry's results into its helper objects, the others of obj deleted.
+    Returns the helpers written, or None (nothing made)."""
+    if plan.last is None:  # no such entry (any more): what its kind keeps to refine the mesh goes
+        entries.forget_refined(plan.uid)
+    helpers = finished and plan.last.kind.write(obj, plan.last.prepared.data, finished)
+    entries.discard_helpers(obj, keep=helpers or ())
+    return helpers
+
+
+def _write_outputs(obj, plan, helpers, offsets, render_offsets, result):
+    """The modifier, fed with the helpers, the per-object helper or the mesh's own attributes."""
+    if helpers:
+        outputs.ensure_modifier(obj, "subdivided", list(zip(outputs.HELPER_INPUTS, helpers))
+                                + [(outputs.VERTICES_INPUT, len(plan.base))])
+    elif plan.per_object:
+        helper = outputs.result_helper(obj)
+        outputs.write_result_helper(helper, offsets, render_offsets, result.ratio)
+        outputs.ensure_modifier(obj, "per_object_volume" if result.ratio is not None else "per_object",
+                                [(outputs.RESULT_INPUT, helper)])
+    else:
+        outputs.ensure_modifier(obj, "offsets_split" if render_offsets is not None else "offsets")
+    if not plan.editing:
+        # Under a topology-changing entry's result too: the cage's offsets, for stored_positions.
+        own = None if plan.per_object else (None if result.in_place else offsets, render_offsets)
+        _write_own_mesh(obj, own, result.ratio)
+    if not plan.per_object:
+        outputs.discard_result_helper(obj)
 
 
 def _write_own_mesh(obj, offsets, ratio):
@@ -252,27 +307,7 @@ def _write_own_mesh(obj, offsets, ratio):
     mesh.update()
 
 
-def _edit_mode_toggles(obj, stack):
-    """The modifier's Edit Mode and On Cage follow the entries': shown in Edit Mode when one entry
-    is, on the cage when the last entry shown there is (one modifier shows the whole stack's result)."""
-    mod = outputs.our_modifier(obj)
-    if mod is None:
-        return
-    in_edit = [e for e in stack.entries if e.show_viewport and e.show_in_editmode]
-    _set_if_changed(mod, "show_in_editmode", bool(in_edit))
-    _set_if_changed(mod, "show_on_cage", bool(in_edit) and in_edit[-1].show_on_cage)
-
-
-def _outputs_present(obj, per_object, subdivided):
-    kind = outputs.modifier_kind(obj)
-    if kind is None:
-        return False
-    if subdivided:
-        return kind == "subdivided" and None not in outputs.helper_objects(obj)
-    if per_object:
-        return kind.startswith("per_object") and outputs.modifier_input(obj, outputs.RESULT_INPUT) is not None
-    return kind.startswith("offsets") and ATTR_OFFSET in obj.data.attributes
-
+# -- what the handlers and the api ask besides an evaluation ------------------------------------------
 
 def mode_changed(obj):
     """True when obj entered or left Edit Mode since its last evaluation."""
@@ -292,13 +327,13 @@ def modifier_gone(obj):
     stack = obj.deformkit
     cache.forget(uid)
     base = None if obj.mode == "EDIT" else input_positions(obj)
-    if base is None or np.array_equal(base, cached[1]):
+    if base is None or np.array_equal(base, cached.base):
         for entry in stack.entries:
             entry.show_viewport = entry.show_render = False
         stack.notice = ("The 'deformkit' modifier was removed, so the entries were turned off: turn one on to "
                         "show them again (the modifier comes back)")
     else:
-        subdivide.discard(obj)
+        entries.discard_helpers(obj)
         stack.entries.clear()
         stack.active_index = 0
         outputs.remove_outputs(obj)
@@ -319,78 +354,9 @@ def stored_positions(obj, kind="viewport"):
     if ATTR_OFFSET not in owner.attributes:
         return None
     name = ATTR_OFFSET_RENDER if kind == "render" and ATTR_OFFSET_RENDER in owner.attributes else ATTR_OFFSET
-    offsets = np.empty(len(cached[1]) * 3, np.float32)
+    offsets = np.empty(len(cached.base) * 3, np.float32)
     owner.attributes[name].data.foreach_get("vector", offsets)
-    return cached[1] + offsets.reshape(-1, 3)
-
-
-def _deformed(uid, kind, built, base, pieces=None, failures=None, offsets_into=None):
-    """Run the entries in order: runs of stackable (Barr) entries as one dk.Stack, each other
-    entry through its kind (a lattice through its binding, kept per object, entry and
-    viewport/render; a Laplacian entry through its solver). `pieces`, if a list, receives
-    (deformers, their input) for each stretch of entries between those without a Jacobian: the
-    factors of the volume ratio. `failures`, if a dict, receives {index: message} of the entries
-    that failed on their input, which are skipped (their input goes on, as Blender skips a modifier
-    that fails); without it the first failure raises EntryFailed.
-
-    offsets_into: a function giving a float32 (n, 3) array (Blender's own attribute memory); with
-    it, the result minus `base` is computed into that array and returned, the last step writing
-    straight into it, with no temporary result and no copy."""
-    points, pending, piece, piece_input = base, [], [], base
-    out = None  # offsets_into's array, once asked for
-    for position, (index, _entry, entry_kind, prepared) in enumerate(built):
-        if entry_kind.STACKABLE:
-            pending.append(prepared.deformer)
-            piece.append(prepared.deformer)
-            continue
-        if pending:
-            points, pending = native.dk.Stack(pending).deform(points), []
-        if prepared.deformer is None and pieces is not None and piece:  # no Jacobian: the piece ends here
-            pieces.append((piece, piece_input))
-        into = {}
-        if offsets_into is not None and position == len(built) - 1 and getattr(entry_kind, "DEFORMS_INTO", False) \
-                and points.dtype == np.float32:
-            out = offsets_into()
-            into = {"out": out}
-        try:
-            points = entry_kind.deform((uid, index, kind), prepared, points, **into)
-        except EntryError as exc:
-            if failures is None:
-                raise EntryFailed(index, str(exc)) from exc
-            failures.setdefault(index, str(exc))
-            continue  # skipped: contributes no factor to the volume ratio either
-        if prepared.deformer is None:
-            piece, piece_input = [], points
-        else:
-            piece.append(prepared.deformer)
-    if pieces is not None and piece:
-        pieces.append((piece, piece_input))
-    if offsets_into is not None:
-        return _offsets(points, pending, base, out, offsets_into)
-    if pending:
-        points = native.dk.Stack(pending).deform(points)
-    return base.copy() if points is base else points
-
-
-def _one_pass_displacements():
-    """The deformer types whose displacement is one pass of SIMD lanes (Barr's)."""
-    dk = native.dk
-    return (dk.BarrDeformer, dk.Twist, dk.Bend, dk.Taper, dk.Stretch, dk.SimpleDeform)
-
-
-def _offsets(points, pending, base, out, offsets_into):
-    """The end of _deformed with offsets_into: the pending stack run on `points`, minus base,
-    into offsets_into's array (`out` if already asked for). One Barr deformer on the base itself:
-    its displacement, which the lanes write in one pass (F(x) - x exactly); otherwise deform then
-    one numpy subtract, faster than the generic displacement's second pass (bridge_alternatives.py)."""
-    if out is None:
-        out = offsets_into()
-    if (len(pending) == 1 and points is base and points.dtype == out.dtype
-            and isinstance(pending[0], _one_pass_displacements())):
-        return pending[0].displacement(points, out=out)
-    if pending:
-        points = native.dk.Stack(pending).deform(points, **({"out": out} if points.dtype == out.dtype else {}))
-    return np.subtract(points, base, out=out, casting="same_kind")
+    return cached.base + offsets.reshape(-1, 3)
 
 
 def entry_input(obj, index, kind="viewport"):
@@ -402,11 +368,11 @@ def entry_input(obj, index, kind="viewport"):
             raise EntryError(f"{entry.name}: a {entries.LABELS[entry.type]} entry must be the last entry")
         if shown(entry, kind, obj.mode == "EDIT"):
             try:
-                built.append((i, entry, *entry_setup(obj, entry, reuse_weights=True)))
+                built.append(Built(i, entry, *entry_setup(obj, entry, reuse_weights=True)))
             except ValueError as exc:
                 raise EntryError(f"{entry.name}: {exc}") from exc
     try:
-        return _deformed(cache_key(obj), kind, built, input_positions(obj, reuse_weights=True))
+        return stack_run.deformed(cache_key(obj), kind, built, input_positions(obj, reuse_weights=True))
     except EntryFailed as exc:
         raise EntryError(f"{obj.deformkit.entries[exc.index].name}: {exc}") from exc
 
@@ -424,7 +390,7 @@ def is_echo_of_own_write(obj):
     written, cached = cache.pop("echo", (uid,)), cache.get("inputs", (uid,))
     if written is None or cached is None or time.monotonic() - written > ECHO_WINDOW:
         return False
-    return len(obj.data.vertices) == len(cached[1])
+    return len(obj.data.vertices) == len(cached.base)
 
 
 def forget_echoes():
@@ -434,9 +400,10 @@ def forget_echoes():
 
 
 def request_update(obj):
-    """Called by property updates: re-evaluate at once (parameter edits, keyframes, drivers)."""
+    """Called by property updates (properties.on_change): re-evaluate at once (parameter edits,
+    keyframes, drivers)."""
     if isinstance(obj, bpy.types.Object) and obj.type == "MESH":
-        evaluate(obj, reuse_base=True, expect_echo=True)
+        evaluate(obj, Reason.EDIT)
 
 
 def forget(obj=None):
@@ -461,7 +428,7 @@ def apply_entry(obj, index):
     kind.apply(obj, entry, prepared, base)
     stack.entries.remove(index)
     stack.active_index = min(stack.active_index, max(0, len(stack.entries) - 1))
-    evaluate(obj, force=True)
+    evaluate(obj, Reason.STACK)
     return "" if index == 0 else "Applied entry was not first, result may not be as expected"
 
 
@@ -470,7 +437,7 @@ def evaluated_positions(obj, depsgraph=None):
     brought up to date first, so a script that just edited the base mesh reads a current result."""
     stack = getattr(obj, "deformkit", None)  # None while the add-on is unregistered
     if depsgraph is None and obj.type == "MESH" and stack is not None and len(stack.entries) > 0:
-        evaluate(obj)
+        evaluate(obj, Reason.READ)
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     evaluated = obj.evaluated_get(depsgraph)
     mesh = evaluated.to_mesh()

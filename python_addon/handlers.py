@@ -7,8 +7,9 @@ are unchanged, which is also what stops the handlers from re-entering on their o
 import bpy
 from bpy.app.handlers import persistent
 
-from . import entries, evaluation, outputs
+from . import entries, evaluation, outputs, properties
 from .entries import common, lattice
+from .evaluation import Reason
 
 WATCHED = (bpy.types.Object, bpy.types.Mesh, bpy.types.Lattice, bpy.types.Collection, bpy.types.Key)
 
@@ -21,7 +22,7 @@ def _stack_objects(scene):
 def on_frame_change(scene, depsgraph=None):
     evaluation.forget_echoes()
     for obj in _stack_objects(scene):
-        evaluation.evaluate(obj, reuse_weights=True)
+        evaluation.evaluate(obj, Reason.FRAME)
 
 
 def _followed(obj):
@@ -66,7 +67,7 @@ def on_depsgraph_update(scene, depsgraph):
         if relinked and any([common.clear_deleted(e) for e in obj.deformkit.entries]):
             # Deleted in the UI: the fields are cleared at once, as Blender clears a modifier's, and
             # each entry says which object it lost (the rest of the stack keeps evaluating).
-            evaluation.evaluate(obj)
+            evaluation.evaluate(obj, Reason.LINKS)
             continue
         used = _followed(obj)
         # Lattice edits show as an update of the Lattice object and of its data.
@@ -74,19 +75,19 @@ def on_depsgraph_update(scene, depsgraph):
             | {o.data for o in used if o.type == "LATTICE"}
         mesh_changed = obj.data in changed or (obj.data.shape_keys is not None and obj.data.shape_keys in changed)
         if evaluation.mode_changed(obj):
-            evaluation.evaluate(obj)  # Edit Mode entered or left: the input and where the result goes change
+            evaluation.evaluate(obj, Reason.MESH)  # Edit Mode entered or left: the input and the result's place change
         elif watched & changed or (watched and obj in moved):
             # The origin frame, the lattice or a handle object changed (or the object moved, which
-            # changes them in its space). The input is read again only if the mesh changed too;
-            # either way the mesh update that this write causes needs no second look.
-            evaluation.evaluate(obj, reuse_base=not mesh_changed, expect_echo=True)
+            # changes them in its space). The input is read again only if the mesh changed too (else
+            # as for a setting's edit); either way the mesh update that this write causes needs no second look.
+            evaluation.evaluate(obj, Reason.FOLLOWED if mesh_changed else Reason.EDIT)
         elif obj.mode == "EDIT":
             if obj.data in reshaped:  # an edit, not a selection change
-                evaluation.evaluate(obj, reuse_weights=True, depsgraph=depsgraph)
+                evaluation.evaluate(obj, Reason.EDIT_MODE, depsgraph)
         elif mesh_changed and not evaluation.is_echo_of_own_write(obj):
-            evaluation.evaluate(obj)  # the base mesh or a shape-key value may have changed
+            evaluation.evaluate(obj, Reason.MESH)  # the base mesh or a shape-key value may have changed
         elif relinked and _pointer_gone(obj):
-            evaluation.evaluate(obj)  # show (or clear) the entry's message
+            evaluation.evaluate(obj, Reason.LINKS)  # show (or clear) the entry's message
 
 
 @persistent
@@ -102,7 +103,7 @@ def on_reload(*_args):
             with bpy.context.temp_override(scene=scene, view_layer=scene.view_layers[0]):
                 bpy.context.evaluated_depsgraph_get()
         for obj in objects:
-            evaluation.evaluate(obj)
+            evaluation.evaluate(obj, Reason.LOAD)
 
 
 @persistent
@@ -121,6 +122,7 @@ HANDLERS = (
 
 
 def register():
+    properties.on_change = evaluation.request_update  # property updates re-evaluate (properties._changed)
     for handler_list, fn in HANDLERS:
         if fn not in handler_list:
             handler_list.append(fn)
@@ -130,3 +132,4 @@ def unregister():
     for handler_list, fn in HANDLERS:
         if fn in handler_list:
             handler_list.remove(fn)
+    properties.on_change = None

@@ -108,6 +108,19 @@ def modifier_kind(obj):
     return None if mod is None else mod.node_group[MARKER]
 
 
+def follow_toggles(obj, entries):
+    """The modifier's Edit Mode and On Cage follow the entries': shown in Edit Mode when one entry
+    is, on the cage when the last entry shown there is (one modifier shows the whole stack's result)."""
+    mod = our_modifier(obj)
+    if mod is None:
+        return
+    in_edit = [e for e in entries if e.show_viewport and e.show_in_editmode]
+    on_cage = bool(in_edit) and in_edit[-1].show_on_cage
+    for prop, value in (("show_in_editmode", bool(in_edit)), ("show_on_cage", on_cage)):
+        if getattr(mod, prop) != value:
+            setattr(mod, prop, value)
+
+
 def _add_socket(group, name, in_out, socket_type):
     if hasattr(group, "interface"):  # Blender 4.0+
         return group.interface.new_socket(name, in_out=in_out, socket_type=socket_type).identifier

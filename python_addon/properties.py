@@ -135,9 +135,14 @@ UV_SMOOTH = [
 ]
 
 
+# What a property update calls with the object whose stack changed: evaluation.request_update, set at
+# registration (handlers.register), None before, so that properties need not import evaluation.
+on_change = None
+
+
 def _changed(self, context):
-    from . import evaluation
-    evaluation.request_update(self.id_data)
+    if on_change is not None:
+        on_change(self.id_data)
 
 
 def _origin_changed(self, context):
@@ -201,7 +206,7 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
                                 update=_changed)
     show_render: BoolProperty(name="Render", description="Use in renders", default=True, update=_changed)
     show_expanded: BoolProperty(name="Expanded", default=True, description="Show the entry's settings")
-    # Simple Deform's Edit Mode and On Cage toggles (one modifier shows the stack: see evaluation._edit_mode_toggles).
+    # Simple Deform's Edit Mode and On Cage toggles (one modifier shows the stack: see outputs.follow_toggles).
     show_in_editmode: BoolProperty(name="Edit Mode", default=True, update=_changed,
                                    description="Display the entry in Edit Mode")
     show_on_cage: BoolProperty(name="On Cage", default=False, update=_changed,

@@ -22,6 +22,14 @@ kind does not own properties but declares which of them it uses. A kind is a mod
     retyped(entry)  the entry became another kind: drop what only this kind keeps on it
     prune(object_key, entries)  drop what it keeps for the object beyond these entries of its kind
     draw(col, obj, entry)  its settings in the panel
+
+A kind with LAST is run by evaluation after the rest of the stack, through these members:
+    results(object_key, data, viewport, render) -> what `write` takes, or None when it makes nothing,
+                from its setup's data and the deformed cage of the viewport and of renders;
+                EntryError: the entry's failure (the cage is shown)
+    write(obj, data, results) -> the helper objects that now hold the results (the modifier shows them)
+    discard(obj, keep)  delete obj's helper objects except those in `keep` (discard_helpers)
+    forget(object_key)  drop what it keeps to make its results again (forget_refined)
 """
 from ..properties import ENTRY_TYPES
 from . import barr, cage, laplacian, lattice, rbf, subdivide
@@ -88,3 +96,18 @@ def volume_notes(entries):
     """The panel's notes on the volume colors, one per kind that has one for its entries here."""
     notes = [k.volume_note([e for e in entries if e.type in k.TYPES]) for k in KINDS]
     return [note for note in notes if note]
+
+
+def discard_helpers(obj, keep=()):
+    """The kinds that change the topology delete obj's helper objects, except those in `keep`."""
+    for other in KINDS:
+        if other.LAST:
+            other.discard(obj, keep)
+
+
+def forget_refined(object_key):
+    """The kinds that change the topology drop what they keep for the object to make their results
+    again (no entry of theirs runs on it any more)."""
+    for other in KINDS:
+        if other.LAST:
+            other.forget(object_key)

@@ -12,10 +12,11 @@ data: they are written on every evaluation, and deleted when the entry goes or s
 Carried over from the base mesh: the active UV map (face-varying, with UV Smooth), material
 indices and smooth shading (through each face's control face); other attributes are not.
 
-Here too: the entry's settings and panel. Refined topologies are kept in the cache's "subdivide"
-space ((object cache key, "viewport"/"render") -> (refine key, dk.Subdivider, Result without
-points)), and what each helper mesh holds in "subdivide_written" ((object cache key, helper mesh
-name) -> the key of the topology and face data written into it).
+Evaluation reaches this kind only through the registry's hooks for a kind with LAST (results, write,
+discard, forget: entries/__init__.py). Here too: the entry's settings and panel. Refined topologies
+are kept in the cache's "subdivide" space ((object cache key, "viewport"/"render") -> (refine key,
+dk.Subdivider, Result without points)), and what each helper mesh holds in "subdivide_written"
+((object cache key, helper mesh name) -> the key of the topology and face data written into it).
 """
 import re
 import zlib
