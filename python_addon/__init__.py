@@ -22,7 +22,7 @@ MODULES = (
     "errors", "native", "cache", "panel_text", "recipe_schema", "outputs", "shapekeys", "meshdata",
     "entries.common", "entries.barr", "entries.lattice", "entries.laplacian", "entries.cage", "entries.rbf",
     "entries.subdivide", "entries",
-    "properties", "evaluation", "api",
+    "properties", "stack_run", "evaluation", "api",
     "transfer.correspondence", "transfer.similarity", "transfer.storage", "transfer.keys", "transfer.system",
     "transfer.shape_keys", "transfer.bake", "transfer",
     "operators.base", "operators.stack", "operators.lattice", "operators.laplacian", "operators.cage",
