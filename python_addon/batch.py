@@ -74,7 +74,7 @@ def apply_recipe(recipe, objects=None, where=None):
             index = obj.deformkit.active_index  # the new entry: above a saved Subdivide entry, if any
             recipe_entries[(obj.name, index)] = where["entry"]
             if bind:
-                api.BINDS[kind](obj, index)
+                api.bind(obj, index)
         where["entry"] = None
     return objects
 

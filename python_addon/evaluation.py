@@ -91,6 +91,13 @@ def object_problem(obj):
     return ""
 
 
+def require_mesh(obj):
+    """ValueError saying why deformkit cannot run on `obj` (object_problem), if it cannot."""
+    problem = object_problem(obj)
+    if problem:
+        raise ValueError(problem)
+
+
 def shared_mesh(obj):
     """True when other objects use obj's mesh too (linked duplicates): the result is kept per object."""
     return obj.data.users > 1 + int(obj.data.use_fake_user)

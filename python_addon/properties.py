@@ -9,130 +9,19 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
                        FloatVectorProperty, IntProperty, IntVectorProperty, PointerProperty, StringProperty)
 
-# No icons: the Type row shows text only, like Simple Deform's, and stays readable in a narrow editor.
-ENTRY_TYPES = [
-    ("TWIST", "Twist", "Rotate around the deform axis (Barr's twist)", "NONE", 0),
-    ("BEND", "Bend", "Bend around the deform axis (Barr's bend)", "NONE", 1),
-    ("TAPER", "Taper", "Scale linearly along the deform axis (Barr's taper)", "NONE", 2),
-    ("STRETCH", "Stretch", "Stretch along the deform axis (Blender's stretch)", "NONE", 3),
-    ("LATTICE", "Lattice", "Free-form deformation by a Lattice object, edited with Blender's lattice tools",
-     "NONE", 4),
-    ("LAPLACIAN", "Laplacian", "Laplacian surface editing or as-rigid-as-possible deformation: anchors stay, "
-     "handles move and the rest of the surface keeps its shape (Bind first, as Laplacian Deform)", "NONE", 5),
-    ("CAGE", "Cage", "A closed mesh object (the cage) deforms the mesh through mean value or Green coordinates, "
-     "as Mesh Deform (Bind first)", "NONE", 7),  # saved as its number: listed before Subdivide, numbered after
-    ("RBF", "RBF", "Radial basis functions: the vertices of a mesh object (the controls) move from their rest "
-     "positions to where they are now, and the mesh follows smoothly (Bind first)", "NONE", 8),
-    ("SUBDIVIDE", "Subdivide", "OpenSubdiv subdivision (Catmull-Clark or Loop, with creases) of the mesh the "
-     "entries above make; the last entry of the stack", "NONE", 6),
-]
-CAGE_METHODS = [
-    ("MEAN_VALUE", "Mean Value", "Mean value coordinates (Ju, Schaefer, Warren 2005): smooth, interpolate the cage", 0),
-    ("GREEN", "Green", "Green coordinates (Lipman, Levin, Cohen-Or 2008): keep details' shape (quasi-conformal)", 1),
-]
-# RBF entries. The kernels are dk.RBF's, named as scipy.interpolate.RBFInterpolator names them
-# (the identifier lowercased): docs/math/rbf.md, "Kernels".
-RBF_KERNELS = [
-    ("THIN_PLATE_SPLINE", "Thin Plate Spline", "The smoothest fit with the least bending between the controls "
-     "(scipy's 'thin_plate_spline'); needs a Linear polynomial", 0),
-    ("CUBIC", "Cubic", "Smooth, a little stiffer than Thin Plate Spline (scipy's 'cubic'); needs a Linear polynomial",
-     1),
-    ("QUINTIC", "Quintic", "Smoother still, swings wider between far-apart controls (scipy's 'quintic'); needs a "
-     "Quadratic polynomial", 2),
-    ("LINEAR", "Linear", "Straight between the controls, creased at them (scipy's 'linear'); needs a Constant "
-     "polynomial", 3),
-    ("GAUSSIAN", "Gaussian", "Each control pulls a bell-shaped region about 1/Epsilon wide (scipy's 'gaussian')", 4),
-    ("MULTIQUADRIC", "Multiquadric", "Smooth and broad; Epsilon sets how round it is near the controls (scipy's "
-     "'multiquadric'); needs a Constant polynomial", 5),
-    ("INVERSE_MULTIQUADRIC", "Inverse Multiquadric", "Each control pulls a region about 1/Epsilon wide, fading "
-     "slowly (scipy's 'inverse_multiquadric')", 6),
-    ("INVERSE_QUADRATIC", "Inverse Quadratic", "Each control pulls a region about 1/Epsilon wide (scipy's "
-     "'inverse_quadratic')", 7),
-    ("WENDLAND_C0", "Wendland C0 (Compact)", "Each control moves only what is within Radius; creased at the "
-     "controls (deformkit's 'wendland_c0', not in scipy)", 8),
-    ("WENDLAND_C2", "Wendland C2 (Compact)", "Each control moves only what is within Radius; smooth (deformkit's "
-     "'wendland_c2', not in scipy)", 9),
-    ("WENDLAND_C4", "Wendland C4 (Compact)", "Each control moves only what is within Radius; smoother "
-     "(deformkit's 'wendland_c4', not in scipy)", 10),
-    ("CLIP", "Clip (Compact)", "The RBF note's (1 - distance/Radius)^2, equal to Wendland C0 (deformkit's 'clip', "
-     "not in scipy)", 11),
-]
-RBF_POLYNOMIALS = [  # dk.RBF's (and scipy's) degree: -1, 0, 1, 2
-    ("NONE", "None", "No polynomial term: with a Gaussian, inverse or compact kernel, what is far from every "
-     "control does not move (degree -1)", 0),
-    ("CONSTANT", "Constant", "Plus a common shift of every point (degree 0)", 1),
-    ("LINEAR", "Linear", "Plus an affine map: any move, turn, scale or shear of all the controls together moves "
-     "the mesh exactly so (degree 1; needs controls not all on a plane)", 2),
-    ("QUADRATIC", "Quadratic", "Plus a quadratic map (degree 2; needs at least 10 controls not on one quadric)", 3),
-]
-CONTROL_USE = [
-    ("ALL", "All Vertices", "Every vertex of the control object is a control point", 0),
-    ("SELECTED", "Selected", "The vertices selected in the control object when Bind is pressed", 1),
-    ("GROUP", "Vertex Group", "The vertices of a vertex group of the control object (weight above 0) when Bind is "
-     "pressed", 2),
-]
-REST_FROM = [
-    ("CURRENT", "Current Shape", "The control object's evaluated shape when Bind is pressed", 0),
-    ("OBJECT", "Object", "Another mesh object with the same vertex count (e.g. the body the clothes were made for, "
-     "the control object being the body they go to)", 1),
-    ("SHAPE_KEY", "Shape Key", "A shape key of the control object (e.g. the Basis: the controls then move as the "
-     "other keys move them)", 2),
-]
-AXES = [("X", "X", "Deform around the local X axis"), ("Y", "Y", "Deform around the local Y axis"),
-        ("Z", "Z", "Deform around the local Z axis")]
-LATTICE_BASES = [
-    ("BLENDER", "Blender", "Blender's Lattice modifier, with the lattice's own interpolation settings", 0),
-    ("BERNSTEIN", "Bernstein", "Sederberg-Parry FFD: one Bernstein polynomial of degree points - 1 per axis", 1),
-    ("BEZIER", "Bezier Blocks", "Piecewise tricubic Bezier blocks: 3k + 1 points per axis (4, 7, 10, ...)", 2),
-    ("BSPLINE", "B-Spline", "Uniform cubic B-spline FFD (C2): at least 4 points per axis", 3),
-]
-OUTSIDE = [
-    ("CLAMP", "Clamp", "Points outside the lattice move with its nearest boundary point, as in Blender", 0),
-    ("UNCHANGED", "Unchanged", "Points outside the lattice do not move", 1),
-    ("EXTRAPOLATE", "Extrapolate", "Continue the polynomial pieces outside the lattice (not with the Blender basis)",
-     2),
-]
+from . import entries
+from .entries import barr, laplacian
+# Each kind's enum tables are its own (entries/): the properties below take their items from there.
+from .entries.barr import AXES
+from .entries.cage import CAGE_METHODS
+from .entries.laplacian import HANDLE_TARGETS, SURFACE_METHODS, SURFACE_WEIGHTS
+from .entries.lattice import LATTICE_BASES, OUTSIDE
+from .entries.rbf import CONTROL_USE, REST_FROM, RBF_KERNELS, RBF_POLYNOMIALS
+from .entries.subdivide import BOUNDARY_SMOOTH, SCHEMES, UV_SMOOTH
 
-SURFACE_METHODS = [
-    ("ARAP", "As-Rigid-As-Possible", "Sorkine and Alexa 2007: local rotations and a global solve, repeated "
-     "Iterations times; keeps details under large rotations", 0),
-    ("ROTATION_INVARIANT", "Rotation Invariant", "Sorkine et al. 2004: the differential coordinates follow "
-     "each one-ring's linearised similarity transform, then Iterations passes rotate them by each one-ring's "
-     "rotation; keeps details under large rotations", 1),
-    ("LAPLACIAN", "Laplacian", "Least squares on the differential coordinates, without rotations: one solve", 2),
-]
-SURFACE_WEIGHTS = [
-    ("COTANGENT", "Cotangent", "Cotangent weights: follow the surface's geometry", 0),
-    ("UNIFORM", "Uniform", "Every neighbour counts the same: topology only", 1),
-]
-HANDLE_TARGETS = [
-    ("INCOMING", "Incoming", "The handles go where the mesh coming into this entry has them (the base mesh "
-     "through the entries above): move them by editing the mesh or with earlier entries, as with Laplacian "
-     "Deform", 0),
-    ("OBJECT", "Object", "The handles follow the handle object: they move as it moved since bind", 1),
-]
-
-SCHEMES = [
-    ("AUTO", "Auto", "Loop when every face is a triangle, Catmull-Clark otherwise", 0),
-    ("CATMULL_CLARK", "Catmull-Clark", "Catmull-Clark: quads out, any polygons in (as Blender's Subdivision "
-     "Surface)", 1),
-    ("LOOP", "Loop", "Loop: triangles out, triangle meshes only", 2),
-]
-# Blender's Subdivision Surface names and identifiers (boundary_smooth, uv_smooth).
-BOUNDARY_SMOOTH = [
-    ("PRESERVE_CORNERS", "Keep Corners", "Smooth boundaries, but corners are kept sharp", 0),
-    ("ALL", "All", "Smooth boundaries, including corners", 1),
-]
-UV_SMOOTH = [
-    ("NONE", "None", "UVs are not smoothed, boundaries are kept sharp", 0),
-    ("PRESERVE_CORNERS", "Keep Corners", "UVs are smoothed, corners on discontinuous boundary are kept sharp", 1),
-    ("PRESERVE_CORNERS_AND_JUNCTIONS", "Keep Corners, Junctions", "UVs are smoothed, corners on discontinuous "
-     "boundary and junctions of 3 or more regions are kept sharp", 2),
-    ("PRESERVE_CORNERS_JUNCTIONS_AND_CONCAVE", "Keep Corners, Junctions, Concave", "UVs are smoothed, corners on "
-     "discontinuous boundary, junctions of 3 or more regions and darts and concave corners are kept sharp", 3),
-    ("PRESERVE_BOUNDARIES", "Keep Boundaries", "UVs are smoothed, boundaries are kept sharp", 4),
-    ("SMOOTH_ALL", "All", "UVs and boundaries are smoothed", 5),
-]
+# The Type enum: every kind's rows, in the registry's order. No icons: the Type row shows text
+# only, like Simple Deform's, and stays readable in a narrow editor.
+ENTRY_TYPES = entries.ENTRY_TYPES
 
 
 # What a property update calls with the object whose stack changed: evaluation.request_update, set at
@@ -180,13 +69,11 @@ def _is_lattice(self, obj):
 
 
 def _type_changed(self, context):
-    from . import entries
     entries.type_changed(self)  # the kinds it is not drop what they kept on it (a Laplacian bind)
     _changed(self, context)
 
 
 def _handle_object_changed(self, context):
-    from .entries import laplacian
     previous, self.handle_object_name = self.handle_object_name, self.handle_object.name if self.handle_object else ""
     if laplacian.is_bound(self) and self.handle_object is not None and self.handle_object.name != previous:
         laplacian.record_handle_matrix(self)  # another object: its place now is its place at bind
@@ -350,7 +237,6 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
     @property
     def amount(self):
         """The one value Simple Deform uses: the angle for twist and bend, the factor otherwise."""
-        from .entries import barr
         return barr.amount(self)
 
 

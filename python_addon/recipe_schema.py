@@ -1,42 +1,31 @@
 """The batch recipe's schema, checked before any file is opened, without bpy.
 
-The accepted values of each entry parameter come from the add-on's own property definitions: this
-module reads DEFORMKIT_PG_entry in properties.py (its source, so the launcher needs no Blender) and
-takes each property's kind, hard min/max, vector size and enum identifiers from there. Only which
-parameters each entry type uses is written here, and the keys of a transfer step (TRANSFER_KEYS:
-the arguments of transfer.py's functions, which have no entry property). A value Blender would clamp, round to zero or
-reinterpret is refused, with the key path (`deformers[2].limits`) and what the key accepts.
+Everything an entry accepts comes from the add-on's own source, read as syntax trees (so the
+launcher needs no Blender): each property's kind, hard min/max, vector size and enum identifiers
+from DEFORMKIT_PG_entry in properties.py (the enum tables from the kind modules it imports them
+from), and which properties each entry type uses from the kinds themselves (entries/: the registry's
+MODULES, each kind's ENTRY_TYPES and FIELDS or TYPE_FIELDS). Written here are only the keys that
+are no entry property: "bind" (BATCH_ONLY, taken by the kinds with an Unbind, which deform nothing
+until bound) and the keys of a transfer step (TRANSFER_KEYS: the arguments of transfer.py's
+functions). A value Blender would clamp, round to zero or reinterpret is refused, with the key path
+(`deformers[2].limits`) and what the key accepts.
 """
 import ast
 import datetime
 import difflib
+import functools
 import math
 import os
 
-PROPERTIES_PY = os.path.join(os.path.dirname(os.path.abspath(__file__)), "properties.py")
+ADDON = os.path.dirname(os.path.abspath(__file__))
+PROPERTIES_PY = os.path.join(ADDON, "properties.py")
+REGISTRY_PY = os.path.join(ADDON, "entries", "__init__.py")
 FLT_MAX = 3.4028234663852886e38   # a FloatProperty without min/max: RNA's hard range is +-FLT_MAX
 FLT_TRUE_MIN = 1.401298464324817e-45  # smaller magnitudes are stored as 0.0 (float32)
 INT_MIN, INT_MAX = -2 ** 31, 2 ** 31 - 1
 
-# Which parameters each entry type uses (the panel shows exactly these; others would be ignored).
-COMMON = ("type", "name", "show_viewport", "show_render")
-SIMPLE = ("origin", "deform_axis", "limits", "vertex_group", "invert_vertex_group")
-LOCKS = ("lock_x", "lock_y", "lock_z")  # Simple Deform has no locks in Bend mode
-TYPE_KEYS = {
-    "TWIST": ("angle",) + SIMPLE + LOCKS,
-    "BEND": ("angle",) + SIMPLE,
-    "TAPER": ("factor",) + SIMPLE + LOCKS,
-    "STRETCH": ("factor",) + SIMPLE + LOCKS,
-    "LATTICE": ("lattice", "lattice_basis", "outside", "strength", "vertex_group", "invert_vertex_group"),
-    "LAPLACIAN": ("method", "weights", "iterations", "anchors_group", "handles_group", "handle_target",
-                  "handle_object", "bind"),
-    "CAGE": ("cage", "cage_method", "strength", "vertex_group", "invert_vertex_group", "bind"),
-    "RBF": ("controls", "controls_use", "controls_group", "rest_from", "rest_object", "rest_shape_key", "kernel",
-            "epsilon", "radius", "polynomial", "smoothing", "strength", "vertex_group", "invert_vertex_group", "bind"),
-    "SUBDIVIDE": ("levels", "render_levels", "scheme", "boundary_smooth", "use_creases", "uv_smooth", "use_limit_surface",
-                  "sharpen_two_edge_vertices"),
-}
-BATCH_ONLY = {"bind": {"kind": "bool"}}  # Laplacian, Cage and RBF entries: bound as they are added
+COMMON = ("type", "name", "show_viewport", "show_render")  # every deformer table's keys
+BATCH_ONLY = {"bind": {"kind": "bool"}}  # the kinds with an Unbind (Laplacian, Cage, RBF): bound as they are added
 TOP_LEVEL = {"objects": "a list of object names (\"*\": every mesh)", "deformers": "a non-empty list of tables",
              "replace": "true or false (clear the objects' stacks first)",
              "smoothness": "true or false (smoothness figures in the report)",
@@ -52,6 +41,87 @@ TRANSFER_KEYS = {"source": {"kind": "object"}, "target": {"kind": "object"},
 TRANSFER_REQUIRED = ("source", "target")
 
 
+@functools.lru_cache(maxsize=None)
+def _module(path):
+    """(syntax tree, {name: definition}) of an add-on module: each top-level assignment as
+    ("value", expression) and each relative import as ("module", file) or ("name", name, file)."""
+    with open(path, encoding="utf-8") as fh:
+        tree = ast.parse(fh.read(), path)
+    names = {}
+    for node in tree.body:
+        if isinstance(node, ast.Assign):
+            names.update({t.id: ("value", node.value) for t in node.targets if isinstance(t, ast.Name)})
+        elif isinstance(node, ast.ImportFrom) and node.level:
+            base = os.path.dirname(path)
+            for _ in range(node.level - 1):
+                base = os.path.dirname(base)
+            base = os.path.join(base, *(node.module or "").split("."))
+            for alias in node.names:
+                names[alias.asname or alias.name] = _imported(base, alias.name)
+    return tree, names
+
+
+def _imported(base, name):
+    for module in (os.path.join(base, name + ".py"), os.path.join(base, name, "__init__.py")):
+        if os.path.exists(module):
+            return ("module", module)
+    return ("name", name, os.path.join(base, "__init__.py") if os.path.isdir(base) else base + ".py")
+
+
+def _named(name, path):
+    """The literal value of `name` in the module at `path` (followed through relative imports)."""
+    found = _module(path)[1].get(name)
+    if found is None or found[0] == "module":
+        raise ValueError(f"{path}: {name} is no literal the recipe schema can read")
+    return _value(found[1], path) if found[0] == "value" else _named(found[1], found[2])
+
+
+def _module_of(name, path):
+    found = _module(path)[1].get(name)
+    if found is None or found[0] != "module":
+        raise ValueError(f"{path}: {name} is no add-on module")
+    return found[1]
+
+
+def _value(node, path):
+    """The value of a literal expression of the module at `path`: constants and containers of
+    them, names (and module.NAME) of such literals, and + of them (tuples joined)."""
+    if isinstance(node, ast.Name):
+        return _named(node.id, path)
+    if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name):
+        return _named(node.attr, _module_of(node.value.id, path))
+    if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add):
+        return _value(node.left, path) + _value(node.right, path)
+    if isinstance(node, (ast.Tuple, ast.List)):
+        items = [_value(item, path) for item in node.elts]
+        return tuple(items) if isinstance(node, ast.Tuple) else items
+    if isinstance(node, ast.Dict):
+        return {_value(k, path): _value(v, path) for k, v in zip(node.keys, node.values)}
+    return ast.literal_eval(node)
+
+
+def _defines(path, name):
+    """True when the module at `path` defines `name` at its top level (a function or a value)."""
+    tree, names = _module(path)
+    return name in names or any(isinstance(node, ast.FunctionDef) and node.name == name for node in tree.body)
+
+
+def read_type_keys(registry=REGISTRY_PY):
+    """{entry type: the keys its deformer table takes besides COMMON}, in the registry's order of
+    the kinds: the properties each type uses, and "bind" for the kinds with an Unbind."""
+    table = {}
+    for name in _module(registry)[1]["MODULES"][1].elts:
+        kind = _module_of(name.id, registry)
+        by_type = _named("TYPE_FIELDS", kind) if _defines(kind, "TYPE_FIELDS") else {}
+        bind = ("bind",) if _defines(kind, "unbind") else ()
+        for row in _named("ENTRY_TYPES", kind):
+            table[row[0]] = tuple(by_type[row[0]] if by_type else _named("FIELDS", kind)) + bind
+    return table
+
+
+TYPE_KEYS = read_type_keys()
+
+
 class RecipeError(ValueError):
     """A recipe that cannot run; str() names every bad key path."""
 
@@ -60,44 +130,36 @@ class RecipeError(ValueError):
         self.problems = list(problems)
 
 
-def _literal(node, names):
-    if isinstance(node, ast.Name) and node.id in names:
-        node = names[node.id]
-    return ast.literal_eval(node)
-
-
 def read_property_table(path=PROPERTIES_PY):
-    """{parameter: spec} for every property of DEFORMKIT_PG_entry, from properties.py's source."""
-    with open(path, encoding="utf-8") as fh:
-        tree = ast.parse(fh.read(), path)
-    names = {t.id: node.value for node in tree.body if isinstance(node, ast.Assign)
-             for t in node.targets if isinstance(t, ast.Name)}
+    """{parameter: spec} for every property of DEFORMKIT_PG_entry, from properties.py's source
+    (the Type enum's identifiers: every kind's, TYPE_KEYS')."""
+    tree = _module(path)[0]
     entry = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == "DEFORMKIT_PG_entry")
     table = {}
     for node in entry.body:
         if not (isinstance(node, ast.AnnAssign) and isinstance(node.annotation, ast.Call)):
             continue
         call, key = node.annotation, node.target.id
-        kw = {k.arg: k.value for k in call.keywords}
-        table[key] = _spec(call.func.id, {k: v for k, v in kw.items() if k in ("min", "max", "size", "items")},
-                           names)
+        kw = {k.arg: k.value for k in call.keywords if k.arg in ("min", "max", "size", "items")}
+        if key == "type":
+            table[key] = {"kind": "enum", "items": tuple(TYPE_KEYS)}
+        else:
+            table[key] = _spec(call.func.id, {k: _value(v, path) for k, v in kw.items()})
     return table
 
 
-def _spec(prop, kw, names):
+def _spec(prop, kw):
     if prop in ("FloatProperty", "FloatVectorProperty"):
-        spec = {"kind": "float", "min": float(_literal(kw["min"], names)) if "min" in kw else -FLT_MAX,
-                "max": float(_literal(kw["max"], names)) if "max" in kw else FLT_MAX}
+        spec = {"kind": "float", "min": float(kw.get("min", -FLT_MAX)), "max": float(kw.get("max", FLT_MAX))}
         if prop == "FloatVectorProperty":
-            spec["size"] = _literal(kw.get("size", ast.Constant(3)), names)
+            spec["size"] = kw.get("size", 3)
         return spec
     if prop == "IntProperty":
-        return {"kind": "int", "min": int(_literal(kw["min"], names)) if "min" in kw else INT_MIN,
-                "max": int(_literal(kw["max"], names)) if "max" in kw else INT_MAX}
+        return {"kind": "int", "min": int(kw.get("min", INT_MIN)), "max": int(kw.get("max", INT_MAX))}
     if prop == "BoolProperty":
         return {"kind": "bool"}
     if prop == "EnumProperty":
-        return {"kind": "enum", "items": tuple(item[0] for item in _literal(kw["items"], names))}
+        return {"kind": "enum", "items": tuple(item[0] for item in kw["items"])}
     if prop == "StringProperty":
         return {"kind": "string"}
     if prop == "PointerProperty":

@@ -147,9 +147,9 @@ def draw_entry(box, obj, entry):
 
 
 def type_label(entry):
-    """The Type row's label: "Mode" for the Barr kinds, whose types are Simple Deform's modes
-    (its deform_method is named Mode), "Type" for the others."""
-    return "Mode" if entries.kind(entry).TYPES == entries.barr.TYPES else "Type"
+    """The Type row's label, the kind's TYPE_LABEL: "Mode" for the Barr kinds, whose types are
+    Simple Deform's modes (its deform_method is named Mode), "Type" for the others."""
+    return entries.kind(entry).TYPE_LABEL
 
 
 def draw_smoothness(box, stack):

@@ -4,25 +4,49 @@ none of them switches on type strings.
 
 Every entry, of any kind, is one DEFORMKIT_PG_entry (properties.py), whose property names are the
 saved data paths (`deformkit.entries[i].angle`): keyframes, drivers and files depend on them, so a
-kind does not own properties but declares which of them it uses. A kind is a module with:
+kind does not own properties but declares which of them it uses. A kind is a module (listed in
+MODULES below) with these members; each table is a literal, which properties.py, this registry
+and recipe_schema.py (from the module's source, without bpy) all read.
 
-    TYPES       the entry.type identifiers it implements (properties.ENTRY_TYPES)
-    ICON        its icon in the panel and the Add menu
-    STACKABLE   its deformers compose with neighbouring ones in one dk.Stack (pointwise maps)
-    LAST        it changes the topology: the stack's last entry, run by evaluation after the rest
-    MENU        (operator, icon) items below the Add menu's entry types
-    FIELDS      every entry property it uses; fields(type): those one type of it uses
+Required:
+    ENTRY_TYPES  its rows of the Type enum: (identifier, label, description, icon, number); the
+                 number is what saved files store
+    TYPES        their identifiers: the entry.type values it implements
+    ICON         its icon in the panel and the Add menu
+    FIELDS       every entry property it uses, or TYPE_FIELDS {type: properties} when its types use
+                 different ones (FIELDS is then their union)
     setup(obj, entry, reuse_weights) -> common.Prepared (EntryError for a problem with its settings)
     deform(key, prepared, points) -> points, through what it keeps under `key`
-                (object cache key, entry index, "viewport"/"render"); EntryError: the entry's failure
-    DEFORMS_INTO  (optional, default False) deform also takes out=, a float32 array to write into
-    apply(obj, entry, prepared, base)  bakes the entry into the base mesh
-    followed(entry) -> [(object, remembered name)] of the objects it follows (lattice, handles)
-    volume_note(entries) -> the panel's note on the volume colors for these entries of the kind, or ""
-    retyped(entry)  the entry became another kind: drop what only this kind keeps on it
-    prune(object_key, entries)  drop what it keeps for the object beyond these entries of its kind
+                 (object cache key, entry index, "viewport"/"render"); EntryError: the entry's failure
     draw(col, obj, entry)  its settings in the panel
+and, as literals, the enum tables of its properties (e.g. lattice.LATTICE_BASES).
 
+Optional, with the default the registry gives a kind that leaves them out (as Blender's modifier
+type-info leaves a callback nullptr):
+    TYPE_LABEL    "Type": the label of the Type row in its entries' panels
+    STACKABLE     False: its deformers compose with neighbouring ones in one dk.Stack (pointwise maps)
+    LAST          False: it changes the topology: the stack's last entry, run by evaluation after the rest
+    DEFORMS_INTO  False: deform also takes out=, a float32 array to write into
+    MENU          (): (operator, icon) items below the Add menu's entry types
+    apply(obj, entry, prepared, base)  bakes the entry into the base mesh: writes
+                  prepared.deformer.deform(base) into it
+    followed(entry) -> [(object, remembered name)] of the objects it follows (lattice, handles): []
+    volume_note(entries) -> the panel's note on the volume colors for these entries of the kind: ""
+    retyped(entry)  the entry became another kind, drop what only this kind keeps on it: nothing
+    prune(object_key, entries)  drop what it keeps for the object beyond these entries of its kind:
+                  nothing
+The bind protocol, for kinds that record something at Bind (Laplacian, Cage, RBF; Lattice binds
+again), all optional:
+    bind(obj, entry, incoming) -> what Bind reports (a count, lattice.Bound); None: no Bind.
+                  incoming() returns the points coming into the entry (the base mesh through the
+                  entries above), computed only when called. ValueError if it cannot bind, with the
+                  entry left as it was
+    unbind(obj, entry)  forget the bind (the entry then passes its input through); None: no Unbind.
+                  A kind with an Unbind deforms nothing until bound: a batch recipe may bind it
+                  as it is added ("bind": true)
+    is_bound(entry) -> False
+    NOT_COPIED    (): entry properties a copy of any entry does not take (a bind belongs to its mesh)
+    copy_bind(source, copy)  give a Duplicate (same object) source's bind: nothing (it arrives unbound)
 A kind with LAST is run by evaluation after the rest of the stack, through these members:
     results(object_key, data, viewport, render) -> what `write` takes, or None when it makes nothing,
                 from its setup's data and the deformed cage of the viewport and of renders;
@@ -30,21 +54,95 @@ A kind with LAST is run by evaluation after the rest of the stack, through these
     write(obj, data, results) -> the helper objects that now hold the results (the modifier shows them)
     discard(obj, keep)  delete obj's helper objects except those in `keep` (discard_helpers)
     forget(object_key)  drop what it keeps to make its results again (forget_refined)
+The registry adds fields(type): the properties an entry of that type uses.
+
+Adding a kind costs its module (with these members), its line in MODULES (and its import), its
+properties in properties.py (annotations whose items are its enum tables) and, only for a recipe
+key that is no entry property, an entry in recipe_schema.py (whose "bind" already goes to every
+kind with an Unbind).
 """
-from ..properties import ENTRY_TYPES
-from . import barr, cage, laplacian, lattice, rbf, subdivide
+from . import barr, cage, common, laplacian, lattice, rbf, subdivide
 
-KINDS = (barr, lattice, laplacian, cage, rbf, subdivide)
+MODULES = (barr, lattice, laplacian, cage, rbf, subdivide)  # the Type enum lists their types in this order
 COMMON = ("name", "show_viewport", "show_render")  # every entry's parameters
-_BY_TYPE = {t: kind for kind in KINDS for t in kind.TYPES}
-if set(_BY_TYPE) != {t[0] for t in ENTRY_TYPES} or len(_BY_TYPE) != len(ENTRY_TYPES):
-    raise ImportError(f"deformkit entry kinds implement {sorted(_BY_TYPE)}, but the entry types are "
-                      f"{sorted(t[0] for t in ENTRY_TYPES)}: each type needs exactly one kind")
+REQUIRED = ("ENTRY_TYPES", "TYPES", "ICON", "setup", "deform", "draw")
 
-TYPES = tuple(t[0] for t in ENTRY_TYPES)
-LABELS = {t[0]: t[1] for t in ENTRY_TYPES}
+
+def _write_deformed(obj, entry, prepared, base):
+    """Apply: the entry's deformer takes the base mesh, which becomes its result."""
+    common.write_base(obj, prepared.deformer.deform(base))
+
+
+def _follows_nothing(entry):
+    return []
+
+
+def _no_note(entries):
+    return ""
+
+
+def _nothing(*args):
+    """Nothing to do: the kind keeps nothing there."""
+
+
+def _never_bound(entry):
+    return False
+
+
+DEFAULTS = {"TYPE_LABEL": "Type", "STACKABLE": False, "LAST": False, "DEFORMS_INTO": False, "MENU": (),
+            "apply": _write_deformed, "followed": _follows_nothing, "volume_note": _no_note, "retyped": _nothing,
+            "prune": _nothing, "bind": None, "unbind": None, "is_bound": _never_bound, "NOT_COPIED": (),
+            "copy_bind": _nothing}
+
+
+class Kind:
+    """A kind as the registry hands it out: its module's members, looked up there each time, and
+    the protocol's default for each optional member the module leaves out."""
+
+    def __init__(self, module):
+        self.module = module
+        missing = [name for name in REQUIRED if not hasattr(module, name)]
+        if not hasattr(module, "FIELDS") and not hasattr(module, "TYPE_FIELDS"):
+            missing.append("FIELDS")
+        if missing:
+            raise ImportError(f"the deformkit entry kind {module.__name__} lacks {', '.join(missing)}")
+        self.__name__ = module.__name__
+        by_type = getattr(module, "TYPE_FIELDS", None)
+        union = () if by_type is None else tuple(dict.fromkeys(f for t in module.TYPES for f in by_type[t]))
+        self._defaults = dict(DEFAULTS, FIELDS=union)
+
+    def __getattr__(self, name):
+        if name.startswith("_"):  # not the module's: this one's own, not set yet (copy, pickle)
+            raise AttributeError(name)
+        try:
+            return getattr(self.module, name)
+        except AttributeError:
+            if name in self._defaults:
+                return self._defaults[name]
+            raise
+
+    def __repr__(self):
+        return f"<deformkit entry kind {self.__name__}>"
+
+    def fields(self, entry_type):
+        """The entry properties an entry of this type uses (the panel shows exactly these)."""
+        return getattr(self.module, "TYPE_FIELDS", {}).get(entry_type, self.FIELDS)
+
+
+KINDS = tuple(Kind(module) for module in MODULES)
+ENTRY_TYPES = [row for k in KINDS for row in k.ENTRY_TYPES]  # properties.DEFORMKIT_PG_entry.type's items
+_BY_TYPE = {t: k for k in KINDS for t in k.TYPES}
+if len(_BY_TYPE) != len(ENTRY_TYPES) or len({row[4] for row in ENTRY_TYPES}) != len(ENTRY_TYPES):
+    raise ImportError("deformkit entry kinds: each entry type needs exactly one kind, and its own number "
+                      f"(got {[(row[0], row[4]) for row in ENTRY_TYPES]})")
+
+TYPES = tuple(row[0] for row in ENTRY_TYPES)
+LABELS = {row[0]: row[1] for row in ENTRY_TYPES}
 # Every parameter the api sets, in the order of the kinds.
-PARAMS = tuple(dict.fromkeys(COMMON + tuple(f for kind in KINDS for f in kind.FIELDS)))
+PARAMS = tuple(dict.fromkeys(COMMON + tuple(f for k in KINDS for f in k.FIELDS)))
+# What a copy of an entry does not take from it: its type and name (set first), its message, and
+# what any kind keeps of a bind or of its helper objects (copy_bind copies a bind where it is valid).
+NOT_COPIED = frozenset(("rna_type", "type", "name", "error") + tuple(p for k in KINDS for p in k.NOT_COPIED))
 
 
 def kind(entry):

@@ -7,23 +7,27 @@ import zlib
 import numpy as np
 
 from .. import native
-from .common import Prepared, deleted_name, draw_subpanel, draw_vertex_group, influence_weights, write_base
+from .common import Prepared, deleted_name, draw_subpanel, draw_vertex_group, influence_weights
 
-TYPES = ("TWIST", "BEND", "TAPER", "STRETCH")
+# Its rows of the Type enum (entries.ENTRY_TYPES): the numbers are what saved files store.
+ENTRY_TYPES = [
+    ("TWIST", "Twist", "Rotate around the deform axis (Barr's twist)", "NONE", 0),
+    ("BEND", "Bend", "Bend around the deform axis (Barr's bend)", "NONE", 1),
+    ("TAPER", "Taper", "Scale linearly along the deform axis (Barr's taper)", "NONE", 2),
+    ("STRETCH", "Stretch", "Stretch along the deform axis (Blender's stretch)", "NONE", 3),
+]
+TYPES = tuple(row[0] for row in ENTRY_TYPES)  # its entry.type identifiers
+AXES = [("X", "X", "Deform around the local X axis"), ("Y", "Y", "Deform around the local Y axis"),
+        ("Z", "Z", "Deform around the local Z axis")]
 ICON = "MOD_SIMPLEDEFORM"
+TYPE_LABEL = "Mode"  # the types are Simple Deform's modes (its deform_method is named Mode)
 STACKABLE = True   # composed with neighbouring Barr entries in one dk.Stack
-LAST = False       # keeps the topology
-MENU = ()          # (operator, icon) below the Add menu's entry types
 ANGLES = ("TWIST", "BEND")  # Simple Deform's amount is an angle in these modes, a factor otherwise
 _PLACE = ("origin", "deform_axis", "limits", "vertex_group", "invert_vertex_group")
 _LOCKS = ("lock_x", "lock_y", "lock_z")  # Simple Deform has no locks in Bend mode
-FIELDS = ("angle", "factor", "deform_axis", "origin", "limits") + _LOCKS + ("vertex_group", "invert_vertex_group")
-
-
-def fields(entry_type):
-    """The entry properties this mode uses (the panel shows exactly these)."""
-    amount = ("angle",) if entry_type in ANGLES else ("factor",)
-    return amount + _PLACE + (() if entry_type == "BEND" else _LOCKS)
+# The entry properties each mode uses (the panel shows exactly these).
+TYPE_FIELDS = {"TWIST": ("angle",) + _PLACE + _LOCKS, "BEND": ("angle",) + _PLACE,
+               "TAPER": ("factor",) + _PLACE + _LOCKS, "STRETCH": ("factor",) + _PLACE + _LOCKS}
 
 
 def amount(entry):
@@ -63,28 +67,6 @@ def setup(obj, entry, reuse_weights=False):
 
 def deform(key, prepared, points):
     return prepared.deformer.deform(points)
-
-
-def apply(obj, entry, prepared, base):
-    write_base(obj, prepared.deformer.deform(base))
-
-
-def followed(entry):
-    """(object, remembered name) of the objects the entry follows besides its origin (which every
-    entry's is watched for, see handlers): none."""
-    return []
-
-
-def volume_note(entries):
-    return ""
-
-
-def prune(object_key, entries):
-    """Nothing to drop: only Laplacian entries keep state per bind (their solvers)."""
-
-
-def retyped(entry):
-    """The entry became another kind: nothing of a Barr entry is hidden."""
 
 
 def draw(col, obj, entry):

@@ -9,7 +9,7 @@ moves the mesh, as with Mesh Deform. The mesh is bound to the rest cage once per
 (kept in the cache's "cage" space), and each evaluation is one product of the bound coordinates
 with the current cage.
 
-Here too: the entry's settings and panel, and its Bind and Unbind operators.
+Here too: the entry's settings and panel; its operators are in operators/cage.py.
 """
 import zlib
 from collections import namedtuple
@@ -19,19 +19,26 @@ import numpy as np
 
 from .. import cache, meshdata, native
 from ..errors import EntryError
+from . import binding
+from .binding import is_bound, new_bind_id, signed
 from .common import (Prepared, draw_vertex_group, evaluated_mesh_in, followed_mesh, forget_bindings,
-                     kept_binding, scaled_influence, store_array, weights_crc, write_base)
-from .laplacian import _signed, is_bound, new_bind_id
+                     kept_binding, scaled_influence, store_array, weights_crc)
 
-TYPES = ("CAGE",)
+ENTRY_TYPES = [  # saved as its number: listed before Subdivide, numbered after
+    ("CAGE", "Cage", "A closed mesh object (the cage) deforms the mesh through mean value or Green coordinates, "
+     "as Mesh Deform (Bind first)", "NONE", 7),
+]
+TYPES = tuple(row[0] for row in ENTRY_TYPES)  # its entry.type identifiers
+CAGE_METHODS = [
+    ("MEAN_VALUE", "Mean Value", "Mean value coordinates (Ju, Schaefer, Warren 2005): smooth, interpolate the cage", 0),
+    ("GREEN", "Green", "Green coordinates (Lipman, Levin, Cohen-Or 2008): keep details' shape (quasi-conformal)", 1),
+]
 ICON = "MOD_MESHDEFORM"
-STACKABLE = False  # deformed through its binding
-LAST = False
-MENU = ()
 FIELDS = ("cage", "cage_method", "strength", "vertex_group", "invert_vertex_group")
 CLASSES = {"MEAN_VALUE": "MeanValueCage", "GREEN": "GreenCage"}
 
 REST = "deformkit_cage_rest"  # the entry's ID property: the cage at bind, x y z per vertex, in this object's space
+NOT_COPIED = binding.NOT_COPIED  # a copy arrives unbound
 
 # deformer: the dk cage deformer with the current cage and the entry's influence; bind: the key its
 # deformer and bindings are kept under; fingerprint: everything besides the incoming points.
@@ -39,10 +46,6 @@ Setup = namedtuple("Setup", "deformer bind fingerprint")
 # In the cache: "cage_binding", (object cache key, entry index, "viewport"/"render") -> (bind key
 # (object cache key, bind id, method), points, binding); "cage_deformer", bind key -> (crc of the
 # per-point weights, deformer).
-
-
-def fields(entry_type):
-    return FIELDS
 
 
 def cage_object(entry, obj):
@@ -53,7 +56,7 @@ def evaluated_cage(obj, cage):
     """The cage's evaluated mesh (its modifiers, shape keys and edits applied) in obj's space:
     (points float64 (m, 3), faces, topology fingerprint (vertices, faces, crc))."""
     points, topo = evaluated_mesh_in(obj, cage, meshdata.topology)
-    return points, meshdata.polygons(topo), (topo.vertices, topo.faces, _signed(topo.crc))
+    return points, meshdata.polygons(topo), (topo.vertices, topo.faces, signed(topo.crc))
 
 
 def topology_change(entry, now):
@@ -112,9 +115,10 @@ def deform(key, prepared, points):
     return setup_.deformer.deform_bound(binding)
 
 
-def bind(obj, entry):
+def bind(obj, entry, incoming):
     """Record the cage's current evaluated shape as its rest (checked: a closed, consistently
-    oriented cage); nothing changes if that fails. Returns the cage's vertex count."""
+    oriented cage); nothing changes if that fails. Returns the cage's vertex count. The points
+    coming into the entry (incoming) play no part: the mesh is bound to the rest as it comes."""
     cage = cage_object(entry, obj)
     points, faces, topo = evaluated_cage(obj, cage)
     cls = getattr(native.dk, CLASSES[entry.cage_method], None)
@@ -128,22 +132,12 @@ def bind(obj, entry):
     return topo[0]
 
 
-def unbind(entry):
-    if REST in entry:
-        del entry[REST]
-    entry.bind_id = 0
-
-
-def apply(obj, entry, prepared, base):
-    write_base(obj, prepared.deformer.deform(base))
+def unbind(obj, entry):
+    binding.forget(entry, (REST,))
 
 
 def followed(entry):
     return [(entry.cage, entry.cage_name)]
-
-
-def volume_note(entries):
-    return ""
 
 
 def prune(object_key, entries):
@@ -154,7 +148,7 @@ def prune(object_key, entries):
 
 
 def retyped(entry):
-    unbind(entry)
+    binding.forget(entry, (REST,))
 
 
 def draw(col, obj, entry):

@@ -1,14 +1,13 @@
-"""What several entry kinds share: the value a setup returns, the objects entries follow and
-their evaluated meshes in the entry's space, the vertex-group influence, bindings kept between
-evaluations, the operator base for acting on one entry of a kind, and panel rows."""
+"""What several entry kinds share: the value a setup returns, the entry at an index of a stack, the
+objects entries follow and their evaluated meshes in the entry's space, the vertex-group influence,
+bindings kept between evaluations, and panel rows."""
 import zlib
 from collections import namedtuple
 
 import bpy
 import numpy as np
-from bpy.props import IntProperty
 
-from .. import cache, meshdata, native
+from .. import cache, meshdata
 from ..errors import EntryError
 
 # deformer: a dk.Deformer with a Jacobian (in dk.Stack and the volume ratio), or None for kinds
@@ -18,6 +17,22 @@ from ..errors import EntryError
 Prepared = namedtuple("Prepared", "deformer fingerprint data note", defaults=("",))
 # Entry properties that point at objects, each with a <prop>_name remembering the object's name.
 POINTERS = ("origin", "lattice", "handle_object", "cage", "controls", "rest_object")
+
+
+def check_index(stack, index):
+    """IndexError unless `index` is an entry of the stack (obj.deformkit)."""
+    if not 0 <= index < len(stack.entries):
+        raise IndexError(f"index: {index} is out of range for {len(stack.entries)} entries")
+
+
+def entry_of_type(obj, index, entry_type):
+    """Entry `index` of obj's stack, which must be of `entry_type`."""
+    stack = obj.deformkit
+    check_index(stack, index)
+    entry = stack.entries[index]
+    if entry.type != entry_type:
+        raise ValueError(f"entry '{entry.name}' is a {entry.type.title()} entry, not a {entry_type.title()} entry")
+    return entry
 
 
 def deleted_name(entry, prop):
@@ -156,66 +171,6 @@ def store_array(entry, name, values):
 def write_base(obj, points):
     """Apply: the deformed points become the base mesh."""
     obj.data.vertices.foreach_set("co", points.ravel())
-
-
-def mesh_object(context):
-    obj = context.object
-    return obj if obj is not None and obj.type == "MESH" else None
-
-
-def core_missing(operator):
-    """True, with the reason as the operator's poll message, when the compiled core is missing."""
-    if not native.available():
-        operator.poll_message_set(native.IMPORT_ERROR)
-        return True
-    return False
-
-
-class KindOperator:
-    """Acts on one entry of the kind whose TYPES the operator names: the given index, else the
-    active entry if it is of the kind, else the kind's first entry. `run(context)` does the work;
-    a ValueError or IndexError from it is reported and cancels."""
-    bl_options = {"REGISTER", "UNDO"}
-    index: IntProperty(name="Index", default=-1, options={"SKIP_SAVE"})
-    TYPES = ()
-
-    @classmethod
-    def has_entry(cls, obj):
-        return any(e.type in cls.TYPES for e in obj.deformkit.entries)
-
-    def target(self, context):
-        """(mesh object, entry index) on the active mesh."""
-        obj = context.object
-        entries = obj.deformkit.entries
-        if self.index >= 0:
-            return obj, self.index
-        active = obj.deformkit.active_index
-        if 0 <= active < len(entries) and entries[active].type in self.TYPES:
-            return obj, active
-        return obj, [e.type in self.TYPES for e in entries].index(True)
-
-    def execute(self, context):
-        try:
-            return self.run(context)
-        except (ValueError, IndexError) as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
-
-
-class EntryOperator(KindOperator):
-    """A KindOperator available on a mesh with an entry of its kind (NEEDS: the poll message
-    otherwise, "Needs a mesh with a Cage entry")."""
-    NEEDS = ""
-
-    @classmethod
-    def poll(cls, context):
-        if core_missing(cls):
-            return False
-        obj = context.object
-        if obj is not None and obj.type == "MESH" and cls.has_entry(obj):
-            return True
-        cls.poll_message_set(cls.NEEDS)
-        return False
 
 
 def draw_subpanel(col, entry, prop, label):

@@ -13,9 +13,8 @@ Building the solver factorises its system (the expensive part). It is kept in me
 and bind, and built again from the saved rest when it is missing (file load, undo) or when what it
 depends on changes: method, weights, iterations (ARAP, rotation-invariant), anchors, handles.
 
-Here too: the entry's settings and panel, and its Bind and Unbind operators.
+Here too: the entry's settings and panel; its operators are in operators/laplacian.py.
 """
-import random
 import re
 import zlib
 from collections import namedtuple
@@ -26,16 +25,39 @@ import numpy as np
 from .. import cache, meshdata, native
 from ..errors import EntryError
 from ..panel_text import label_wrapped
+from . import binding
+from .binding import is_bound, new_bind_id, signed
 from .common import Prepared, followed_object, store_array, write_base
 
-TYPES = ("LAPLACIAN",)
+ENTRY_TYPES = [
+    ("LAPLACIAN", "Laplacian", "Laplacian surface editing or as-rigid-as-possible deformation: anchors stay, "
+     "handles move and the rest of the surface keeps its shape (Bind first, as Laplacian Deform)", "NONE", 5),
+]
+TYPES = tuple(row[0] for row in ENTRY_TYPES)  # its entry.type identifiers
+SURFACE_METHODS = [
+    ("ARAP", "As-Rigid-As-Possible", "Sorkine and Alexa 2007: local rotations and a global solve, repeated "
+     "Iterations times; keeps details under large rotations", 0),
+    ("ROTATION_INVARIANT", "Rotation Invariant", "Sorkine et al. 2004: the differential coordinates follow "
+     "each one-ring's linearised similarity transform, then Iterations passes rotate them by each one-ring's "
+     "rotation; keeps details under large rotations", 1),
+    ("LAPLACIAN", "Laplacian", "Least squares on the differential coordinates, without rotations: one solve", 2),
+]
+SURFACE_WEIGHTS = [
+    ("COTANGENT", "Cotangent", "Cotangent weights: follow the surface's geometry", 0),
+    ("UNIFORM", "Uniform", "Every neighbour counts the same: topology only", 1),
+]
+HANDLE_TARGETS = [
+    ("INCOMING", "Incoming", "The handles go where the mesh coming into this entry has them (the base mesh "
+     "through the entries above): move them by editing the mesh or with earlier entries, as with Laplacian "
+     "Deform", 0),
+    ("OBJECT", "Object", "The handles follow the handle object: they move as it moved since bind", 1),
+]
 ICON = "MOD_MESHDEFORM"
-STACKABLE = False  # needs the whole mesh
-LAST = False
-MENU = ()  # (operator, icon) below the Add menu's entry types
 FIELDS = ("method", "weights", "iterations", "anchors_group", "handles_group", "handle_target", "handle_object")
 
 REST = "deformkit_rest"  # the entry's ID property: the rest, x y z per vertex, float32
+# A copy does not take the bind, the handle object's place at bind, nor where it was copied from.
+NOT_COPIED = binding.NOT_COPIED + ("handle_matrix", "bind_copied_from")
 
 # solver: the dk.SurfaceDeformer, None for an unbound entry (which passes its input through);
 # targets: the handles' targets (OBJECT), or None to take them from the incoming points (INCOMING);
@@ -44,19 +66,6 @@ Setup = namedtuple("Setup", "solver handles targets fingerprint")
 # settings: what the factorisation depends on besides the groups; rest: kept for OBJECT targets.
 Solver = namedtuple("Solver", "settings anchors handles rest deformer")
 # Solvers are kept in the cache's "laplacian" space: (object cache key, bind id) -> Solver.
-
-
-def fields(entry_type):
-    return FIELDS
-
-
-def is_bound(entry):
-    return entry.bind_id != 0
-
-
-def _signed(crc):
-    """crc32 in an IntProperty, which is signed 32-bit."""
-    return crc - (1 << 32) if crc >= 1 << 31 else crc
 
 
 def _settings(entry, topo):
@@ -68,7 +77,7 @@ def check_topology(entry, topo):
     if (topo.vertices, topo.faces) != (entry.bind_vertices, entry.bind_faces):
         raise EntryError(f"Mesh changed since bind: vertices from {entry.bind_vertices} to {topo.vertices}, "
                          f"faces from {entry.bind_faces} to {topo.faces}; Unbind and Bind again")
-    if _signed(topo.crc) != entry.bind_topology:
+    if signed(topo.crc) != entry.bind_topology:
         raise EntryError(f"Mesh connectivity changed since bind ({topo.vertices} vertices and {topo.faces} "
                          "faces, as then); Unbind and Bind again")
 
@@ -261,31 +270,26 @@ def surface_deform(entry_setup, points, warm_key=None):
 
 
 def bind(obj, entry, incoming):
-    """Record `incoming` as the rest and build the solver; nothing changes if that fails."""
+    """Record the points coming into the entry (incoming()) as the rest, with the handle object's
+    place, and build the solver; nothing changes if that fails. Returns the number of vertices."""
+    if obj.mode == "EDIT":
+        raise EntryError("bind: leave edit mode first (edit mode holds its own copy of the mesh)")
+    points = incoming()
     topo = meshdata.topology(obj.data)
     anchors, handles = members(obj, entry)
     matrix = _bind_matrix(obj, entry.handle_object) if entry.handle_object is not None else np.eye(4)
-    rest = np.array(incoming, np.float32).reshape(-1, 3)
+    rest = np.array(points, np.float32).reshape(-1, 3)
     deformer = build(entry, rest, topo, anchors, handles)
     key = meshdata.cache_key(obj)
     cache.pop("laplacian", (key, entry.bind_id))
     bind_id = new_bind_id(obj)
     store_array(entry, REST, rest.ravel())
-    entry.bind_vertices, entry.bind_faces, entry.bind_topology = topo.vertices, topo.faces, _signed(topo.crc)
+    entry.bind_vertices, entry.bind_faces, entry.bind_topology = topo.vertices, topo.faces, signed(topo.crc)
     entry.handle_matrix = matrix.ravel().tolist()
     entry.bind_id = bind_id
     entry.bind_copied_from = ""
     cache.put("laplacian", (key, bind_id), Solver(_settings(entry, topo), anchors, handles, rest, deformer))
     return topo.vertices
-
-
-def new_bind_id(obj):
-    """An id no entry of obj uses: solvers are kept per (object, bind id)."""
-    used = {e.bind_id for e in obj.deformkit.entries}
-    bind_id = 0
-    while bind_id == 0 or bind_id in used:
-        bind_id = random.randrange(1, 1 << 31)
-    return bind_id
 
 
 def copy_bind(source, target):
@@ -308,9 +312,8 @@ def unbind(obj, entry):
 
 
 def clear(entry):
-    if entry.get(REST) is not None:
-        del entry[REST]
-    entry.bind_id = entry.bind_vertices = entry.bind_faces = entry.bind_topology = 0
+    binding.forget(entry, (REST,))
+    entry.bind_vertices = entry.bind_faces = entry.bind_topology = 0
 
 
 def status(obj, entry):

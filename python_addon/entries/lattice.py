@@ -15,33 +15,46 @@ from collections import namedtuple
 import bpy
 import numpy as np
 
-from .. import cache, native
+from .. import cache, meshdata, native
 from ..errors import EntryError
-from .common import Prepared, draw_vertex_group, followed_object, influence_weights, write_base
+from .common import Prepared, draw_vertex_group, followed_object, influence_weights, stack_index
 
-TYPES = ("LATTICE",)
+ENTRY_TYPES = [
+    ("LATTICE", "Lattice", "Free-form deformation by a Lattice object, edited with Blender's lattice tools",
+     "NONE", 4),
+]
+TYPES = tuple(row[0] for row in ENTRY_TYPES)  # its entry.type identifiers
+LATTICE_BASES = [
+    ("BLENDER", "Blender", "Blender's Lattice modifier, with the lattice's own interpolation settings", 0),
+    ("BERNSTEIN", "Bernstein", "Sederberg-Parry FFD: one Bernstein polynomial of degree points - 1 per axis", 1),
+    ("BEZIER", "Bezier Blocks", "Piecewise tricubic Bezier blocks: 3k + 1 points per axis (4, 7, 10, ...)", 2),
+    ("BSPLINE", "B-Spline", "Uniform cubic B-spline FFD (C2): at least 4 points per axis", 3),
+]
+OUTSIDE = [
+    ("CLAMP", "Clamp", "Points outside the lattice move with its nearest boundary point, as in Blender", 0),
+    ("UNCHANGED", "Unchanged", "Points outside the lattice do not move", 1),
+    ("EXTRAPOLATE", "Extrapolate", "Continue the polynomial pieces outside the lattice (not with the Blender basis)",
+     2),
+]
 ICON = "MOD_LATTICE"
-STACKABLE = False  # deformed through its binding, not in a dk.Stack
 DEFORMS_INTO = True  # deform takes out=: the result is written into the given array
-LAST = False
 MENU = (("deformkit.add_lattice", "OUTLINER_OB_LATTICE"),)  # below the Add menu's entry types
-FIELDS = ("lattice", "lattice_basis", "strength", "outside", "vertex_group", "invert_vertex_group")
+FIELDS = ("lattice", "lattice_basis", "outside", "strength", "vertex_group", "invert_vertex_group")
 
+BASES = tuple(b[0] for b in LATTICE_BASES)
 CLASSES = {"BLENDER": "BlenderLattice", "BERNSTEIN": "FFD", "BEZIER": "BezierFFD", "BSPLINE": "BSplineLattice"}
 
 
 # deformer: the dk lattice; layout: what a binding depends on; local: lattice-local -> object space
 # (4x4); co: the rest grid as Blender stores it (u fastest).
 Setup = namedtuple("Setup", "deformer fingerprint layout lattice local co")
+# The vertex counts of a binding (Bind's report).
+Bound = namedtuple("Bound", "inside outside not_placed")
 
 # Bindings are kept in the cache's "lattice" space: (object cache key, entry index, "viewport"/"render")
 # -> (layout, bound points, binding, counts). The rest grids are not: they belong to Lattice data
 # (session_uid or name), not to a mesh object, and are dropped on file load only.
 _rest = {}  # Lattice data -> (resolution, rest grid `co`) read outside edit mode
-
-
-def fields(entry_type):
-    return FIELDS
 
 
 def lattice_object(entry):
@@ -180,21 +193,33 @@ def deform(key, prepared, points, out=None):
     lattice = prepared.data
     cached = cache.get("lattice", key)
     if cached is None or cached[0] != lattice.layout:
-        cached = bind(key, lattice, points)
+        cached = bind_points(key, lattice, points)
     elif cached[1] is not points:
         if not np.array_equal(cached[1], points):
-            cached = bind(key, lattice, points)
+            cached = bind_points(key, lattice, points)
         else:  # the same positions read again: keep this array, which the next evaluation may reuse
             cached = cache.put("lattice", key, (cached[0], points) + cached[2:])
     return lattice.deformer.deform_bound(cached[2], out=out)
 
 
-def bind(key, lattice_setup, points):
+def bind_points(key, lattice_setup, points):
+    """Bind the points to the lattice, kept in the cache's "lattice" space under `key`."""
     binding = lattice_setup.deformer.bind(points)
     status = np.asarray(binding.status)
     counts = tuple(int(np.count_nonzero(status == s)) for s in (0, 1, 2))
     # The points are kept, not copied: evaluation never writes into base positions or results.
     return cache.put("lattice", key, (lattice_setup.layout, points, binding, counts))
+
+
+def bind(obj, entry, incoming):
+    """Bind the points coming into the entry (incoming()) to its lattice again, dropping the
+    object's other lattice bindings (each entry makes its own again by itself when its points or
+    its lattice's layout change); returns the vertex counts (Bound)."""
+    key = meshdata.cache_key(obj)
+    cache.forget(key, "lattice")
+    points = incoming()
+    lattice = lattice_setup(obj, entry, influence_weights(obj, entry))
+    return Bound(*bind_points((key, stack_index(entry), "viewport"), lattice, points)[3])
 
 
 def binding_counts(object_key, index):
@@ -206,25 +231,9 @@ def binding_counts(object_key, index):
     return None
 
 
-def apply(obj, entry, prepared, base):
-    write_base(obj, prepared.deformer.deform(base))
-
-
 def followed(entry):
     """(object, remembered name) of the objects the entry follows: its lattice."""
     return [(entry.lattice, entry.lattice_name)]
-
-
-def volume_note(entries):
-    return ""
-
-
-def prune(object_key, entries):
-    """Nothing to drop: only Laplacian entries keep state per bind (their solvers)."""
-
-
-def retyped(entry):
-    """The entry became another kind: its bindings go with the next evaluation's fingerprint."""
 
 
 def forget_rest_grids():
@@ -257,7 +266,6 @@ def users(lattice_obj, objects):
 
 def draw(col, obj, entry):
     """Laid out like Blender's Lattice modifier panel, then the binding and the lattice tools."""
-    from ..meshdata import cache_key
     index = list(obj.deformkit.entries).index(entry)
     col.prop(entry, "lattice", text="Object")
     col.prop(entry, "lattice_basis")
@@ -265,7 +273,7 @@ def draw(col, obj, entry):
     col.prop(entry, "strength", slider=True)
     draw_vertex_group(col, obj, entry)
     col.separator()
-    bound = binding_counts(cache_key(obj), index)
+    bound = binding_counts(meshdata.cache_key(obj), index)
     if bound is None:
         col.label(text="Not bound yet", icon="UNLINKED")
     else:

@@ -15,7 +15,7 @@ settings and the influence stay, and an evaluation only assigns its targets (a b
 and deforms the mesh through a binding kept per incoming points (cache spaces "rbf_deformer" and
 "rbf_binding").
 
-Here too: the entry's settings and panel, and its Bind and Unbind operators.
+Here too: the entry's settings and panel; its operators are in operators/rbf.py.
 """
 import zlib
 from collections import namedtuple
@@ -25,22 +25,71 @@ import numpy as np
 
 from .. import cache, meshdata, native
 from ..errors import EntryError
-from ..properties import RBF_KERNELS, RBF_POLYNOMIALS
+from . import binding
+from .binding import is_bound, new_bind_id
 from .common import (Prepared, draw_vertex_group, evaluated_mesh_in, followed_mesh, followed_object,
-                     forget_bindings, in_space_of, kept_binding, scaled_influence, store_array, weights_crc,
-                     write_base)
-from .laplacian import is_bound, new_bind_id
+                     forget_bindings, in_space_of, kept_binding, scaled_influence, store_array, weights_crc)
 
-TYPES = ("RBF",)
+ENTRY_TYPES = [
+    ("RBF", "RBF", "Radial basis functions: the vertices of a mesh object (the controls) move from their rest "
+     "positions to where they are now, and the mesh follows smoothly (Bind first)", "NONE", 8),
+]
+TYPES = tuple(row[0] for row in ENTRY_TYPES)  # its entry.type identifiers
+# The kernels are dk.RBF's, named as scipy.interpolate.RBFInterpolator names them (the identifier
+# lowercased): docs/math/rbf.md, "Kernels".
+RBF_KERNELS = [
+    ("THIN_PLATE_SPLINE", "Thin Plate Spline", "The smoothest fit with the least bending between the controls "
+     "(scipy's 'thin_plate_spline'); needs a Linear polynomial", 0),
+    ("CUBIC", "Cubic", "Smooth, a little stiffer than Thin Plate Spline (scipy's 'cubic'); needs a Linear polynomial",
+     1),
+    ("QUINTIC", "Quintic", "Smoother still, swings wider between far-apart controls (scipy's 'quintic'); needs a "
+     "Quadratic polynomial", 2),
+    ("LINEAR", "Linear", "Straight between the controls, creased at them (scipy's 'linear'); needs a Constant "
+     "polynomial", 3),
+    ("GAUSSIAN", "Gaussian", "Each control pulls a bell-shaped region about 1/Epsilon wide (scipy's 'gaussian')", 4),
+    ("MULTIQUADRIC", "Multiquadric", "Smooth and broad; Epsilon sets how round it is near the controls (scipy's "
+     "'multiquadric'); needs a Constant polynomial", 5),
+    ("INVERSE_MULTIQUADRIC", "Inverse Multiquadric", "Each control pulls a region about 1/Epsilon wide, fading "
+     "slowly (scipy's 'inverse_multiquadric')", 6),
+    ("INVERSE_QUADRATIC", "Inverse Quadratic", "Each control pulls a region about 1/Epsilon wide (scipy's "
+     "'inverse_quadratic')", 7),
+    ("WENDLAND_C0", "Wendland C0 (Compact)", "Each control moves only what is within Radius; creased at the "
+     "controls (deformkit's 'wendland_c0', not in scipy)", 8),
+    ("WENDLAND_C2", "Wendland C2 (Compact)", "Each control moves only what is within Radius; smooth (deformkit's "
+     "'wendland_c2', not in scipy)", 9),
+    ("WENDLAND_C4", "Wendland C4 (Compact)", "Each control moves only what is within Radius; smoother "
+     "(deformkit's 'wendland_c4', not in scipy)", 10),
+    ("CLIP", "Clip (Compact)", "The RBF note's (1 - distance/Radius)^2, equal to Wendland C0 (deformkit's 'clip', "
+     "not in scipy)", 11),
+]
+RBF_POLYNOMIALS = [  # dk.RBF's (and scipy's) degree: -1, 0, 1, 2
+    ("NONE", "None", "No polynomial term: with a Gaussian, inverse or compact kernel, what is far from every "
+     "control does not move (degree -1)", 0),
+    ("CONSTANT", "Constant", "Plus a common shift of every point (degree 0)", 1),
+    ("LINEAR", "Linear", "Plus an affine map: any move, turn, scale or shear of all the controls together moves "
+     "the mesh exactly so (degree 1; needs controls not all on a plane)", 2),
+    ("QUADRATIC", "Quadratic", "Plus a quadratic map (degree 2; needs at least 10 controls not on one quadric)", 3),
+]
+CONTROL_USE = [
+    ("ALL", "All Vertices", "Every vertex of the control object is a control point", 0),
+    ("SELECTED", "Selected", "The vertices selected in the control object when Bind is pressed", 1),
+    ("GROUP", "Vertex Group", "The vertices of a vertex group of the control object (weight above 0) when Bind is "
+     "pressed", 2),
+]
+REST_FROM = [
+    ("CURRENT", "Current Shape", "The control object's evaluated shape when Bind is pressed", 0),
+    ("OBJECT", "Object", "Another mesh object with the same vertex count (e.g. the body the clothes were made for, "
+     "the control object being the body they go to)", 1),
+    ("SHAPE_KEY", "Shape Key", "A shape key of the control object (e.g. the Basis: the controls then move as the "
+     "other keys move them)", 2),
+]
 ICON = "MOD_WARP"
-STACKABLE = False  # deformed through its binding
-LAST = False
-MENU = ()
 FIELDS = ("controls", "controls_use", "controls_group", "rest_from", "rest_object", "rest_shape_key", "kernel",
           "epsilon", "radius", "polynomial", "smoothing", "strength", "vertex_group", "invert_vertex_group")
 
 REST = "deformkit_rbf_rest"        # the controls at bind, x y z per control, float32, in this object's space
 INDICES = "deformkit_rbf_indices"  # which of the control object's vertices they are
+NOT_COPIED = binding.NOT_COPIED  # a copy arrives unbound
 
 KERNEL_LABELS = {k[0]: k[1] for k in RBF_KERNELS}
 DEGREES = {"NONE": -1, "CONSTANT": 0, "LINEAR": 1, "QUADRATIC": 2}
@@ -59,10 +108,6 @@ Setup = namedtuple("Setup", "rbf bind fingerprint")
 # In the cache: "rbf_deformer", (object cache key, bind id) -> (fit settings, weights crc, dk.RBF);
 # "rbf_binding", (object cache key, entry index, "viewport"/"render") -> (bind key (object cache
 # key, bind id, kernel settings), points, binding).
-
-
-def fields(entry_type):
-    return FIELDS
 
 
 def kernel_settings(entry):
@@ -186,9 +231,10 @@ def _rest_points(obj, controls, entry, count):
     return in_space_of(obj, controls, co.reshape(-1, 3))
 
 
-def bind(obj, entry):
+def bind(obj, entry, incoming):
     """Record the controls (indices) and their rest positions, checked by fitting them with the
-    entry's settings; nothing changes if that fails (ValueError). Returns the number of controls."""
+    entry's settings; nothing changes if that fails (ValueError). Returns the number of controls.
+    The points coming into the entry (incoming) play no part: they are bound as they come."""
     controls = control_object(entry, obj)
     if not hasattr(native.dk, "RBF"):
         raise ValueError(f"this build of deformkit has no RBF deformer: {native.BUILD_HINT}")
@@ -217,23 +263,12 @@ def bind(obj, entry):
     return len(chosen)
 
 
-def unbind(entry):
-    for prop in (REST, INDICES):
-        if prop in entry:
-            del entry[prop]
-    entry.bind_id = 0
-
-
-def apply(obj, entry, prepared, base):
-    write_base(obj, prepared.deformer.deform(base))
+def unbind(obj, entry):
+    binding.forget(entry, (REST, INDICES))
 
 
 def followed(entry):
     return [(entry.controls, entry.controls_name)]
-
-
-def volume_note(entries):
-    return ""
 
 
 def prune(object_key, entries):
@@ -244,7 +279,7 @@ def prune(object_key, entries):
 
 
 def retyped(entry):
-    unbind(entry)
+    binding.forget(entry, (REST, INDICES))
 
 
 def draw(col, obj, entry):

@@ -29,16 +29,40 @@ from .. import cache, meshdata, native, outputs
 from ..errors import EntryError
 from .common import Prepared
 
-TYPES = ("SUBDIVIDE",)
+ENTRY_TYPES = [
+    ("SUBDIVIDE", "Subdivide", "OpenSubdiv subdivision (Catmull-Clark or Loop, with creases) of the mesh the "
+     "entries above make; the last entry of the stack", "NONE", 6),
+]
+TYPES = tuple(row[0] for row in ENTRY_TYPES)  # its entry.type identifiers
+SCHEMES = [
+    ("AUTO", "Auto", "Loop when every face is a triangle, Catmull-Clark otherwise", 0),
+    ("CATMULL_CLARK", "Catmull-Clark", "Catmull-Clark: quads out, any polygons in (as Blender's Subdivision "
+     "Surface)", 1),
+    ("LOOP", "Loop", "Loop: triangles out, triangle meshes only", 2),
+]
+# Blender's Subdivision Surface names and identifiers (boundary_smooth, uv_smooth).
+BOUNDARY_SMOOTH = [
+    ("PRESERVE_CORNERS", "Keep Corners", "Smooth boundaries, but corners are kept sharp", 0),
+    ("ALL", "All", "Smooth boundaries, including corners", 1),
+]
+UV_SMOOTH = [
+    ("NONE", "None", "UVs are not smoothed, boundaries are kept sharp", 0),
+    ("PRESERVE_CORNERS", "Keep Corners", "UVs are smoothed, corners on discontinuous boundary are kept sharp", 1),
+    ("PRESERVE_CORNERS_AND_JUNCTIONS", "Keep Corners, Junctions", "UVs are smoothed, corners on discontinuous "
+     "boundary and junctions of 3 or more regions are kept sharp", 2),
+    ("PRESERVE_CORNERS_JUNCTIONS_AND_CONCAVE", "Keep Corners, Junctions, Concave", "UVs are smoothed, corners on "
+     "discontinuous boundary, junctions of 3 or more regions and darts and concave corners are kept sharp", 3),
+    ("PRESERVE_BOUNDARIES", "Keep Boundaries", "UVs are smoothed, boundaries are kept sharp", 4),
+    ("SMOOTH_ALL", "All", "UVs and boundaries are smoothed", 5),
+]
 ICON = "MOD_SUBSURF"
-STACKABLE = False
 LAST = True  # changes the topology: the last entry of a stack
-MENU = ()  # (operator, icon) below the Add menu's entry types
 FIELDS = ("levels", "render_levels", "scheme", "boundary_smooth", "use_creases", "uv_smooth", "use_limit_surface",
           "sharpen_two_edge_vertices")
 
-SCHEMES = {"AUTO": "auto", "CATMULL_CLARK": "catmull_clark", "LOOP": "loop"}
-BOUNDARIES = {"PRESERVE_CORNERS": "edge_and_corner", "ALL": "edge_only"}
+NOT_COPIED = ("subdivision_viewport", "subdivision_render")  # a copy makes its own helpers
+DK_SCHEMES = {"AUTO": "auto", "CATMULL_CLARK": "catmull_clark", "LOOP": "loop"}  # dk's names
+DK_BOUNDARIES = {"PRESERVE_CORNERS": "edge_and_corner", "ALL": "edge_only"}
 KINDS = ("viewport", "render")
 OWNER = "deformkit_subdivision_of"  # on a helper object: the name of the object it belongs to
 
@@ -48,10 +72,6 @@ Setup = namedtuple("Setup", "entry topo kwargs uvs uv_name uv_smooth material sm
 # One result: points and polygons (flat corners, starts, totals), the control face of each polygon,
 # per-corner UVs or None.
 Result = namedtuple("Result", "points corners starts totals face_origin uvs")
-
-
-def fields(entry_type):
-    return FIELDS
 
 
 def crease_to_sharpness(crease):
@@ -104,7 +124,7 @@ def topology_kwargs(mesh, entry=None):
     scheme, boundary = (entry.scheme, entry.boundary_smooth) if entry else ("CATMULL_CLARK", "ALL")
     creases, corners = read_creases(mesh) if entry is None or entry.use_creases else (None, None)
     sharpen = entry.sharpen_two_edge_vertices if entry else True
-    return dict(scheme=SCHEMES[scheme], boundary=BOUNDARIES[boundary], creases=creases, corners=corners,
+    return dict(scheme=DK_SCHEMES[scheme], boundary=DK_BOUNDARIES[boundary], creases=creases, corners=corners,
                 sharpen_two_edge_vertices=sharpen)
 
 
@@ -393,20 +413,8 @@ def forget(object_key):
     cache.forget(object_key, "subdivide")
 
 
-def followed(entry):
-    return []
-
-
 def volume_note(entries):
     return "Volume colors are not carried through a Subdivide entry" if entries else ""
-
-
-def prune(object_key, entries):
-    """Nothing to drop: only Laplacian entries keep state per bind (their solvers)."""
-
-
-def retyped(entry):
-    """The entry became another kind: its helpers go with the next evaluation (discard)."""
 
 
 def draw(col, obj, entry):
