@@ -25,7 +25,7 @@
 """
 import re
 
-from . import evaluation, lattice_tools, smoothness
+from . import evaluation, lattice_tools, meshdata, smoothness
 from . import entries as kinds  # api.entries(obj) lists an object's entries
 from .entries import common
 
@@ -38,7 +38,7 @@ def add_entry(obj, type="TWIST", **params):
     Subdivide; case-insensitive) at the end of the stack, or just above a Subdivide entry (which
     must stay the last one), and evaluate. Laplacian, Cage and RBF entries start unbound (see
     add_laplacian, bind_cage, bind_rbf)."""
-    evaluation.require_mesh(obj)
+    meshdata.require_mesh(obj)
     kind = str(type).upper()
     if kind not in TYPES:
         raise ValueError(f"type: expected one of {', '.join(TYPES)}, got {type!r}")
@@ -201,7 +201,7 @@ def apply(obj, index=0):
     """Bake entry `index` into the mesh; returns Blender's warning when it was not first."""
     stack = obj.deformkit
     common.check_index(stack, index)
-    evaluation.require_mesh(obj)
+    meshdata.require_mesh(obj)
     return evaluation.apply_entry(obj, index)
 
 
@@ -236,7 +236,7 @@ def bind(obj, index):
     kind = kinds.kind(entry)
     if kind.bind is None:
         raise ValueError(f"entry '{entry.name}' is a {kinds.LABELS[entry.type]} entry, which has no bind")
-    evaluation.require_mesh(obj)
+    meshdata.require_mesh(obj)
     result = kind.bind(obj, entry, lambda: evaluation.entry_input(obj, index))
     evaluation.evaluate(obj, evaluation.Reason.STACK)
     return result

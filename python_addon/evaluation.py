@@ -21,9 +21,9 @@ from typing import NamedTuple, Optional
 import bpy
 import numpy as np
 
-from . import cache, entries, native, outputs, stack_run
+from . import cache, entries, outputs, stack_run
 from .errors import EntryError
-from .meshdata import base_positions, cache_key, input_positions, vertex_group_weights  # noqa: F401
+from .meshdata import base_positions, cache_key, input_positions, object_problem, vertex_group_weights  # noqa: F401
 from .outputs import (ATTR_OFFSET, ATTR_OFFSET_RENDER, ATTR_VOLUME, MODIFIER_NAME, NODE_GROUP_NAME,  # noqa: F401
                       remove_outputs)
 from .stack_run import Built, EntryFailed, shown
@@ -75,27 +75,6 @@ class Plan(NamedTuple):
     last: Optional[Built]  # the topology-changing entry, run on their result, or None
     key: tuple  # everything the result depends on besides `base`
     cached: Optional[Inputs]  # the last evaluation's
-
-
-def object_problem(obj):
-    """Why deformkit cannot run on `obj`, or '' if it can."""
-    if obj.type != "MESH":
-        return f"'{obj.name}' is not a mesh; deformkit entries work on meshes"
-    if len(obj.data.vertices) == 0 and obj.mode != "EDIT":
-        return "the mesh has no vertices"
-    mod = obj.modifiers.get(MODIFIER_NAME)
-    if mod is not None and mod.type != "NODES":
-        return f"a {mod.type.lower()} modifier named '{MODIFIER_NAME}' is in the way; rename it"
-    if not native.available():
-        return native.IMPORT_ERROR
-    return ""
-
-
-def require_mesh(obj):
-    """ValueError saying why deformkit cannot run on `obj` (object_problem), if it cannot."""
-    problem = object_problem(obj)
-    if problem:
-        raise ValueError(problem)
 
 
 def shared_mesh(obj):

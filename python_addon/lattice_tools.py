@@ -19,7 +19,7 @@ def fit_lattice(obj, resolution=(4, 4, 4), basis="BLENDER", selected_only=False,
     """A new Lattice object fitted to the bounding box of the mesh (as the stack leaves it; with
     selected_only, of its selected vertices) in its local frame, widened by `margin` of the box's
     largest side so that no vertex lies outside by rounding (api.add_lattice adds the entry)."""
-    evaluation.require_mesh(obj)
+    meshdata.require_mesh(obj)
     resolution = tuple(int(n) for n in resolution)
     if len(resolution) != 3 or not all(1 <= n <= 64 for n in resolution):
         raise ValueError(f"resolution: expected three counts in 1..64, got {resolution}")

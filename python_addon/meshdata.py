@@ -1,19 +1,41 @@
-"""Reading the base mesh: the points the modifiers get (shape keys mixed, the edit mesh's in Edit
-Mode), vertex-group weights (kept between reads, the read is a slow Python loop), the polygons with a
-fingerprint of their connectivity, their corners polygon by polygon, the parts they join, and
-selecting vertices, edges or faces."""
+"""Reading the base mesh: whether deformkit can run on the object at all (object_problem), the points
+the modifiers get (shape keys mixed, the edit mesh's in Edit Mode), vertex-group weights (kept between
+reads, the read is a slow Python loop), the polygons with a fingerprint of their connectivity, their
+corners polygon by polygon, the parts they join, and selecting vertices, edges or faces."""
 import zlib
 from collections import namedtuple
 
 import numpy as np
 
-from . import cache
+from . import cache, native
 from .errors import EntryError
+from .outputs import MODIFIER_NAME
 
 
 def cache_key(obj):
     # session_uid (Blender 3.5+) survives renames; 3.4 has only the name.
     return getattr(obj, "session_uid", None) or obj.name_full
+
+
+def object_problem(obj):
+    """Why deformkit cannot run on `obj`, or '' if it can."""
+    if obj.type != "MESH":
+        return f"'{obj.name}' is not a mesh; deformkit entries work on meshes"
+    if len(obj.data.vertices) == 0 and obj.mode != "EDIT":
+        return "the mesh has no vertices"
+    mod = obj.modifiers.get(MODIFIER_NAME)
+    if mod is not None and mod.type != "NODES":
+        return f"a {mod.type.lower()} modifier named '{MODIFIER_NAME}' is in the way; rename it"
+    if not native.available():
+        return native.IMPORT_ERROR
+    return ""
+
+
+def require_mesh(obj):
+    """ValueError saying why deformkit cannot run on `obj` (object_problem), if it cannot."""
+    problem = object_problem(obj)
+    if problem:
+        raise ValueError(problem)
 
 
 def base_positions(mesh):

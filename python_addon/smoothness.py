@@ -14,7 +14,7 @@ def check_smoothness(obj, select=True, worst=10, min_angle=1e-6, samples_per_edg
     selects the worst edges whose angle exceeds min_angle radians (above rounding, so a smooth
     surface selects none) and deselects the rest. Returns the report's to_dict() plus
     "worst_edge" (its vertices) and "selected_edges" (Blender edge indices)."""
-    evaluation.require_mesh(obj)
+    meshdata.require_mesh(obj)
     mesh = obj.data
     if obj.mode == "EDIT":
         # Edit mode keeps the mesh in its own copy, and attributes (creases) read through it: read a

@@ -111,7 +111,7 @@ def deformed(uid, kind, built, base, pieces=None, failures=None, offsets_into=No
         if b.prepared.deformer is None and pieces is not None and piece:  # no Jacobian: the piece ends here
             pieces.append((piece, piece_input))
         into = {}
-        if offsets_into is not None and position == len(built) - 1 and getattr(b.kind, "DEFORMS_INTO", False) \
+        if offsets_into is not None and position == len(built) - 1 and b.kind.DEFORMS_INTO \
                 and points.dtype == np.float32:
             out = offsets_into()
             into = {"out": out}

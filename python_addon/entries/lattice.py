@@ -12,7 +12,6 @@ import functools
 import zlib
 from collections import namedtuple
 
-import bpy
 import numpy as np
 
 from .. import cache, meshdata, native

@@ -20,7 +20,6 @@ Here too: the entry's settings and panel; its operators are in operators/rbf.py.
 import zlib
 from collections import namedtuple
 
-import bpy
 import numpy as np
 
 from .. import cache, meshdata, native
