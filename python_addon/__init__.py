@@ -1,6 +1,6 @@
 """deformkit for Blender: Barr deformers, lattices, Laplacian surface editing and OpenSubdiv
 subdivision as non-destructive entries beside the modifier stack, deformation transfer of shape
-keys and animation between meshes (transfer.py), plus headless batch processing."""
+keys and animation between meshes (transfer/), plus headless batch processing."""
 
 bl_info = {
     "name": "deformkit",

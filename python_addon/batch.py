@@ -8,14 +8,12 @@ exception's type and message, the stage, the object and the recipe entry it was 
 launcher's report says what happened instead of "Blender exited with status 1"."""
 import json
 import os
-import sys
 import time
 
 import bpy
 import numpy as np
 
-from . import api, batch_checks, evaluation, meshdata, recipe_schema, transfer
-from .entries import subdivide
+from . import api, batch_checks, entries, evaluation, meshdata, recipe_schema, transfer
 from .entries import common
 
 
@@ -29,7 +27,7 @@ def resolve_objects(selectors):
     found = []
     for name in selectors:
         if name == "*":
-            found += [o for o in bpy.data.objects if o.type == "MESH" and subdivide.OWNER not in o]
+            found += [o for o in bpy.data.objects if o.type == "MESH" and not entries.is_helper(o)]
             continue
         obj = bpy.data.objects.get(name)
         if obj is None:
@@ -88,7 +86,7 @@ def transfer_object(spec, key, i):
 
 
 def run_transfers(recipe, where=None):
-    """The recipe's transfers, in order, through the operator's own functions (transfer.py): each
+    """The recipe's transfers, in order, through the operator's own functions (transfer/): each
     table's source shape keys (or, with "mode": "ANIMATION", its frames) onto its target. Returns
     one report line per transfer. `where` (a dict) follows the transfer being worked on."""
     where = {} if where is None else where

@@ -23,9 +23,8 @@ import numpy as np
 
 from . import cache, entries, outputs, stack_run
 from .errors import EntryError
-from .meshdata import base_positions, cache_key, input_positions, object_problem, vertex_group_weights  # noqa: F401
-from .outputs import (ATTR_OFFSET, ATTR_OFFSET_RENDER, ATTR_VOLUME, MODIFIER_NAME, NODE_GROUP_NAME,  # noqa: F401
-                      remove_outputs)
+from .meshdata import base_positions, cache_key, input_positions, object_problem
+from .outputs import ATTR_OFFSET, ATTR_OFFSET_RENDER, ATTR_VOLUME, MODIFIER_NAME, remove_outputs
 from .stack_run import Built, EntryFailed, shown
 
 _evaluating = set()  # session_uids being evaluated: writes below re-enter through handlers

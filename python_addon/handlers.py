@@ -8,7 +8,7 @@ import bpy
 from bpy.app.handlers import persistent
 
 from . import entries, evaluation, outputs, properties
-from .entries import common, lattice
+from .entries import common
 from .evaluation import Reason
 
 WATCHED = (bpy.types.Object, bpy.types.Mesh, bpy.types.Lattice, bpy.types.Collection, bpy.types.Key)
@@ -108,7 +108,7 @@ def on_reload(*_args):
 
 @persistent
 def on_load(*args):
-    lattice.forget_rest_grids()
+    entries.file_loaded()
     on_reload(*args)
 
 

@@ -6,7 +6,7 @@ from DEFORMKIT_PG_entry in properties.py (the enum tables from the kind modules 
 from), and which properties each entry type uses from the kinds themselves (entries/: the registry's
 MODULES, each kind's ENTRY_TYPES and FIELDS or TYPE_FIELDS). Written here are only the keys that
 are no entry property: "bind" (BATCH_ONLY, taken by the kinds with an Unbind, which deform nothing
-until bound) and the keys of a transfer step (TRANSFER_KEYS: the arguments of transfer.py's
+until bound) and the keys of a transfer step (TRANSFER_KEYS: the arguments of the transfer package's
 functions). A value Blender would clamp, round to zero or reinterpret is refused, with the key path
 (`deformers[2].limits`) and what the key accepts.
 """

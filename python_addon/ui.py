@@ -18,7 +18,7 @@ class DEFORMKIT_MT_add(bpy.types.Menu):
         for kind in entries.KINDS:
             for operator, icon in kind.MENU:
                 self.layout.operator(operator, icon=icon)
-        self.layout.separator()  # shape keys onto this mesh from another (transfer.py)
+        self.layout.separator()  # shape keys onto this mesh from another (transfer/)
         self.layout.operator("deformkit.transfer_deformation", icon="MOD_DATA_TRANSFER")
 
 

@@ -35,6 +35,8 @@ type-info leaves a callback nullptr):
     retyped(entry)  the entry became another kind, drop what only this kind keeps on it: nothing
     prune(object_key, entries)  drop what it keeps for the object beyond these entries of its kind:
                   nothing
+    loaded()      a file was loaded: drop what it keeps by name across files (file_loaded): nothing
+    owns(obj) -> whether obj is one of the helper objects it writes (is_helper): False
 The bind protocol, for kinds that record something at Bind (Laplacian, Cage, RBF; Lattice binds
 again), all optional:
     bind(obj, entry, incoming) -> what Bind reports (a count, lattice.Bound); None: no Bind.
@@ -85,14 +87,14 @@ def _nothing(*args):
     """Nothing to do: the kind keeps nothing there."""
 
 
-def _never_bound(entry):
+def _never_bound(entry_or_object):
     return False
 
 
 DEFAULTS = {"TYPE_LABEL": "Type", "STACKABLE": False, "LAST": False, "DEFORMS_INTO": False, "MENU": (),
             "apply": _write_deformed, "followed": _follows_nothing, "volume_note": _no_note, "retyped": _nothing,
             "prune": _nothing, "bind": None, "unbind": None, "is_bound": _never_bound, "NOT_COPIED": (),
-            "copy_bind": _nothing}
+            "copy_bind": _nothing, "loaded": _nothing, "owns": _never_bound}
 
 
 class Kind:
@@ -209,3 +211,14 @@ def forget_refined(object_key):
     for other in KINDS:
         if other.LAST:
             other.forget(object_key)
+
+
+def file_loaded():
+    """Every kind drops what it keeps by name, which another file's objects may reuse."""
+    for other in KINDS:
+        other.loaded()
+
+
+def is_helper(obj):
+    """Whether obj is a helper object some kind writes (a Subdivide entry's result), not the user's."""
+    return any(other.owns(obj) for other in KINDS)

@@ -235,7 +235,7 @@ def followed(entry):
     return [(entry.lattice, entry.lattice_name)]
 
 
-def forget_rest_grids():
+def loaded():
     """On file load: another file's lattice may have the same name (Blender 3.4 has no session_uid)."""
     _rest.clear()
 

@@ -288,6 +288,11 @@ def fill(mesh, result, sub, materials=True):
         mesh.polygons.foreach_set("use_smooth", smooth)
 
 
+def owns(obj):
+    """Whether obj is one of the helper objects a Subdivide entry writes (the batch's "*" skips them)."""
+    return OWNER in obj
+
+
 def _owner_uses(owner, helper):
     return any(getattr(e, f"subdivision_{kind}", None) == helper for e in owner.deformkit.entries for kind in KINDS)
 
