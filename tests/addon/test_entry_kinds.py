@@ -19,8 +19,9 @@ def test_every_entry_type_has_exactly_one_kind(addon):
 
 
 def test_each_type_takes_the_parameters_of_the_recipe_table(addon):
-    """recipe_schema.TYPE_KEYS is the batch's table, written on its own: both say which
-    properties a type uses (the panel shows exactly these)."""
+    """recipe_schema.TYPE_KEYS is the batch's table, read from the kinds' source without bpy: it
+    must say which properties a type uses exactly as the registry does at run time (the panel shows
+    exactly these)."""
     from deformkit_addon import entries, recipe_schema
     for entry_type in entries.TYPES:
         recipe = set(recipe_schema.COMMON + recipe_schema.TYPE_KEYS[entry_type]) - {"type"} - set(recipe_schema.BATCH_ONLY)
