@@ -2,7 +2,7 @@
 the status bar, and cancels (the operator's undo step is then not pushed)."""
 from bpy.props import IntProperty
 
-from .. import native
+from .. import api, native
 
 
 def mesh_object(context):
@@ -33,10 +33,11 @@ class Operator:
 class EntryOperator(Operator):
     """Acts on one entry: `index` if given, else the active entry if it is of TYPES (all types when
     empty), else the first entry of TYPES. Available on a mesh with such an entry; NEEDS is the poll
-    message otherwise ("Needs a mesh with a Cage entry")."""
+    message otherwise ("Needs a mesh with a Cage entry"); with OBJECT_MODE, not in Edit Mode."""
     index: IntProperty(name="Index", default=-1, options={"SKIP_SAVE"})
     TYPES = ()
     NEEDS = ""
+    OBJECT_MODE = False  # not in Edit Mode, which holds its own copy of the mesh
 
     @classmethod
     def of_kind(cls, entry):
@@ -47,11 +48,14 @@ class EntryOperator(Operator):
         if core_missing(cls):
             return False
         obj = mesh_object(context)
-        if obj is not None and any(cls.of_kind(e) for e in obj.deformkit.entries):
-            return True
-        if cls.NEEDS:
-            cls.poll_message_set(cls.NEEDS)
-        return False
+        if obj is None or not any(cls.of_kind(e) for e in obj.deformkit.entries):
+            if cls.NEEDS:
+                cls.poll_message_set(cls.NEEDS)
+            return False
+        if cls.OBJECT_MODE and obj.mode == "EDIT":
+            cls.poll_message_set("Leave edit mode first")
+            return False
+        return True
 
     def target(self, context):
         """(mesh object, entry index) on the active mesh."""
@@ -65,3 +69,21 @@ class EntryOperator(Operator):
         return obj, [self.of_kind(e) for e in entries].index(True)
 
 
+
+
+class BindOperator(EntryOperator):
+    """A kind's Bind button: api.bind on the entry, then REPORT, formatted with the object's name
+    (`obj`), the entry's (`entry`) and what the kind's bind returned (`result`)."""
+    REPORT = "Bound '{entry}'"
+
+    def run(self, context):
+        obj, index = self.target(context)
+        result = api.bind(obj, index)
+        self.report({"INFO"}, self.REPORT.format(obj=obj.name, entry=obj.deformkit.entries[index].name, result=result))
+
+
+class UnbindOperator(EntryOperator):
+    """A kind's Unbind button: api.unbind on the entry."""
+
+    def run(self, context):
+        api.unbind(*self.target(context))

@@ -2,53 +2,33 @@
 entry's panel)."""
 import bpy
 
-from .. import api, meshdata
+from .. import meshdata
 from ..entries import laplacian
-from .base import EntryOperator, mesh_object
+from .base import BindOperator, EntryOperator, UnbindOperator, mesh_object
 
 
-class _LaplacianOperator(EntryOperator):
-    """Acts on a Laplacian entry of the active mesh: the given one, else the active entry if it is
-    one, else the first; not in Edit Mode, which holds its own copy of the mesh."""
-    TYPES = ("LAPLACIAN",)
-    NEEDS = "Needs a mesh with a Laplacian entry"
-
-    @classmethod
-    def poll(cls, context):
-        if not super().poll(context):
-            return False
-        if context.object.mode == "EDIT":
-            cls.poll_message_set("Leave edit mode first")
-            return False
-        return True
+TYPES, NEEDS = ("LAPLACIAN",), "Needs a mesh with a Laplacian entry"
 
 
-class DEFORMKIT_OT_laplacian_bind(_LaplacianOperator, bpy.types.Operator):
+class DEFORMKIT_OT_laplacian_bind(BindOperator, bpy.types.Operator):
     """Record the mesh as it comes into the entry as the rest shape, and prepare the solver"""
     bl_idname = "deformkit.laplacian_bind"
     bl_label = "Bind"
-
-    def run(self, context):
-        obj, index = self.target(context)
-        count = api.bind(obj, index)
-        self.report({"INFO"}, f"Bound '{obj.deformkit.entries[index].name}': {count} vertices")
+    TYPES, NEEDS, OBJECT_MODE, REPORT = TYPES, NEEDS, True, "Bound '{entry}': {result} vertices"
 
 
-class DEFORMKIT_OT_laplacian_unbind(_LaplacianOperator, bpy.types.Operator):
+class DEFORMKIT_OT_laplacian_unbind(UnbindOperator, bpy.types.Operator):
     """Forget the rest shape: the entry passes the mesh through until bound again"""
     bl_idname = "deformkit.laplacian_unbind"
     bl_label = "Unbind"
-
-    def run(self, context):
-        api.unbind(*self.target(context))
+    TYPES, NEEDS, OBJECT_MODE = TYPES, NEEDS, True
 
 
 class DEFORMKIT_OT_laplacian_select_unanchored(EntryOperator, bpy.types.Operator):
     """Select the parts of the mesh that have no anchor and no handle, which the entry leaves where they are (in Edit Mode)"""
     bl_idname = "deformkit.laplacian_select_unanchored"
     bl_label = "Select Parts Without Anchors"
-    TYPES = ("LAPLACIAN",)
-    NEEDS = "Needs a mesh with a Laplacian entry"
+    TYPES, NEEDS = TYPES, NEEDS
 
     @classmethod
     def poll(cls, context):
