@@ -37,7 +37,8 @@ def add_entry(obj, type="TWIST", **params):
     """Add an entry of `type` (Twist, Taper, Bend, Stretch, Lattice, Laplacian, Cage, RBF,
     Subdivide; case-insensitive) at the end of the stack, or just above a Subdivide entry (which
     must stay the last one), and evaluate. Laplacian, Cage and RBF entries start unbound (see
-    add_laplacian, bind_cage, bind_rbf)."""
+    add_laplacian, bind_cage, bind_rbf). Parameters left out take a new entry's values (the
+    properties' defaults, but a Laplacian entry's method: Rotation Invariant)."""
     meshdata.require_mesh(obj)
     kind = str(type).upper()
     if kind not in TYPES:
@@ -45,7 +46,7 @@ def add_entry(obj, type="TWIST", **params):
     kinds.check_params(kind, params)  # before the entry is added: a refused call changes nothing
     stack = obj.deformkit
     entry = _insert_entry(stack, _place_for(stack, kind), kind, _unique_name(stack, kind.title()))
-    set_params(entry, **params)
+    set_params(entry, **{**kinds.kind(kind).NEW_ENTRY, **params})
     evaluation.evaluate(obj, evaluation.Reason.ADDED)
     return entry
 

@@ -7,8 +7,7 @@ when missing: nothing here is ever the only copy of the user's data.
 
 Spaces: "inputs" and "echo" (evaluation: the last settings and base, the last write's time),
 "weights" (vertex-group weights read from the mesh), "lattice" (bindings), "laplacian" (factorised
-solvers), "laplacian_previous" (a viewport ARAP entry's last two results, its next warm start),
-"subdivide" (refined topologies) and "subdivide_written" (what each helper mesh holds).
+solvers), "subdivide" (refined topologies) and "subdivide_written" (what each helper mesh holds).
 """
 _store = {}  # (space, key) -> value, key[0]: the owning object's cache key
 

@@ -28,6 +28,9 @@ type-info leaves a callback nullptr):
     LAST          False: it changes the topology: the stack's last entry, run by evaluation after the rest
     DEFORMS_INTO  False: deform also takes out=, a float32 array to write into
     MENU          (): (operator, icon) items below the Add menu's entry types
+    NEW_ENTRY     {}: settings a new entry of the kind starts with (api.add_entry: the Add menu, the
+                  scripting API, recipes) where they differ from the properties' defaults, which
+                  saved entries keep (a file stores only the properties that were set)
     apply(obj, entry, prepared, base)  bakes the entry into the base mesh: writes
                   prepared.deformer.deform(base) into it
     followed(entry) -> [(object, remembered name)] of the objects it follows (lattice, handles): []
@@ -91,7 +94,7 @@ def _never_bound(entry_or_object):
     return False
 
 
-DEFAULTS = {"TYPE_LABEL": "Type", "STACKABLE": False, "LAST": False, "DEFORMS_INTO": False, "MENU": (),
+DEFAULTS = {"TYPE_LABEL": "Type", "STACKABLE": False, "LAST": False, "DEFORMS_INTO": False, "MENU": (), "NEW_ENTRY": {},
             "apply": _write_deformed, "followed": _follows_nothing, "volume_note": _no_note, "retyped": _nothing,
             "prune": _nothing, "bind": None, "unbind": None, "is_bound": _never_bound, "NOT_COPIED": (),
             "copy_bind": _nothing, "loaded": _nothing, "owns": _never_bound}

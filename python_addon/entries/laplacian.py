@@ -19,7 +19,6 @@ import re
 import zlib
 from collections import namedtuple
 
-import bpy
 import numpy as np
 
 from .. import cache, meshdata, native
@@ -42,6 +41,12 @@ SURFACE_METHODS = [
      "rotation; keeps details under large rotations", 1),
     ("LAPLACIAN", "Laplacian", "Least squares on the differential coordinates, without rotations: one solve", 2),
 ]
+# A new entry's settings where they differ from the properties' defaults, which stay as they were
+# because a saved entry stores only what was set: an entry saved with the default method is ARAP.
+# Rotation Invariant bends a tube smoothly, as Laplacian Deform does, where ARAP (at any number of
+# iterations: converged, it pinches two necks) kinks near the anchor and handle rings
+# (tests/addon/test_laplacian_determinism.py).
+NEW_ENTRY = {"method": "ROTATION_INVARIANT"}
 SURFACE_WEIGHTS = [
     ("COTANGENT", "Cotangent", "Cotangent weights: follow the surface's geometry", 0),
     ("UNIFORM", "Uniform", "Every neighbour counts the same: topology only", 1),
@@ -214,7 +219,7 @@ def surface_setup(obj, entry, reuse_weights=False):
 def deform(key, prepared, points):
     """The entry's result for the incoming points; a failure is the entry's (EntryError)."""
     try:
-        return surface_deform(prepared.data, points, warm_key=key)
+        return surface_deform(prepared.data, points)
     except EntryError:
         raise
     except ValueError as exc:
@@ -225,30 +230,12 @@ def apply(obj, entry, prepared, base):
     write_base(obj, surface_deform(prepared.data, base))  # the handles come from the base mesh (INCOMING)
 
 
-def warm_starts(solver, key):
-    """ARAP in the viewport starts from the previous evaluations while the frame stays the same (a
-    handle dragged a little converges in a few iterations). Playback, a render and a background run
-    (the batch) start from R = I, so that a frame's result never depends on what was evaluated
-    before it (docs/blender_addon.md, the Laplacian entries)."""
-    return key is not None and key[2] == "viewport" and solver.method == "arap" and not bpy.app.background
-
-
-def drag_start(history, targets):
-    """The initial guess from this frame's last evaluations [(targets, result), ...] (oldest first):
-    none, the last result, or the last two extrapolated along the handles' drag
-    (dk.extrapolated_start)."""
-    if not history:
-        return None
-    if len(history) == 1:
-        return history[-1][1]
-    (earlier_targets, earlier), (previous_targets, previous) = history[-2:]
-    return native.dk.extrapolated_start(previous, earlier, targets, previous_targets, earlier_targets)
-
-
-def surface_deform(entry_setup, points, warm_key=None):
-    """The entry's result for the incoming points (float32, like every other entry's). warm_key:
-    the evaluation's (object, entry, kind) key, under which a viewport ARAP entry keeps its last two
-    results, their targets and the frame, to start the next evaluation of the same frame from."""
+def surface_deform(entry_setup, points):
+    """The entry's result for the incoming points (float32, like every other entry's): a function
+    of them and the entry's settings alone. ARAP starts every evaluation from R = I, never from an
+    earlier evaluation's result: a start from the last result during a drag would make what the
+    viewport shows depend on the drag's path, and with a fixed number of iterations differ from the
+    render, the batch and the reopened file (docs/blender_addon.md, the Laplacian entries)."""
     if entry_setup.solver is None:
         return points
     targets = entry_setup.targets
@@ -256,17 +243,7 @@ def surface_deform(entry_setup, points, warm_key=None):
         targets = points[entry_setup.handles].astype(np.float64)
         if not np.isfinite(targets).all():
             raise EntryError("the handles' incoming positions are not finite")
-    solver = entry_setup.solver
-    if not warm_starts(solver, warm_key):
-        return solver.deform(targets).astype(np.float32)
-    scene = getattr(bpy.context, "scene", None)
-    frame = scene.frame_current_final if scene is not None else None
-    last = cache.get("laplacian_previous", warm_key)
-    # Only this very solver's results (a rebind makes a new one), and only at the same frame.
-    history = last[2] if last is not None and last[0] is solver and last[1] == frame else []
-    result = solver.deform(targets, initial=drag_start(history, targets))
-    cache.put("laplacian_previous", warm_key, (solver, frame, (history + [(np.array(targets, np.float64), result)])[-2:]))
-    return result.astype(np.float32)
+    return entry_setup.solver.deform(targets).astype(np.float32)
 
 
 def bind(obj, entry, incoming):
