@@ -20,9 +20,10 @@ FIXTURES := blend_fixtures/.fixtures-made
 
 # The main job: the batch command over the .blend fixtures (twist, then bend, on every mesh), with
 # the outputs, report.json and a before/after PNG per file in demo_out/batch; the saved lattice and
-# Laplacian (ARAP) entries re-evaluated; the core library on a real mesh (OBJ + PNG in
+# Laplacian entries re-evaluated; the core library on a real mesh (OBJ + PNG in
 # demo_out/core); and a twisted cage subdivided with OpenSubdiv and checked for smoothness
-# (demo_out/subdivision); Sumner's horse poses transferred onto the camel (demo_out/transfer).
+# (demo_out/subdivision); Sumner's horse poses transferred onto the camel (demo_out/transfer); a
+# tube bent by a new Laplacian entry beside Blender's Laplacian Deform (demo_out/laplacian_vs_blender).
 demo: build $(FIXTURES)
 	scripts/deformkit-batch 'blend_fixtures/*.blend' --recipe blend_fixtures/demo_recipe.json \
 	    --out demo_out/batch --jobs $(JOBS) --preview
@@ -31,6 +32,7 @@ demo: build $(FIXTURES)
 	$(PY) scripts/demo.py --out demo_out/core
 	$(PY) scripts/demo_subdivision.py --out demo_out/subdivision
 	$(PY) scripts/demo_transfer.py --out demo_out/transfer
+	$(PY) scripts/demo_laplacian.py --out demo_out/laplacian_vs_blender
 
 $(FIXTURES): blend_fixtures/make_fixtures.py $(VENV)/.deformkit-installed
 	@mkdir -p build

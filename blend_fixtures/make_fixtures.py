@@ -94,7 +94,8 @@ def main():
     api.evaluate(vase)
     save(out_dir, "lattice_vase")
 
-    fresh()  # a bound Laplacian entry (ARAP): the hand follows an empty moved and turned after bind
+    fresh()  # a bound Laplacian entry (new, so Rotation Invariant): the hand follows an empty moved and turned
+    # after bind
     bpy.ops.mesh.primitive_cylinder_add(vertices=24, depth=3.0, radius=0.4, end_fill_type="TRIFAN")
     arm = subdivided(bpy.context.active_object, 6)
     arm.name = "Arm"
