@@ -29,8 +29,9 @@ type-info leaves a callback nullptr):
     DEFORMS_INTO  False: deform also takes out=, a float32 array to write into
     MENU          (): (operator, icon) items below the Add menu's entry types
     NEW_ENTRY     {}: settings a new entry of the kind starts with (api.add_entry: the Add menu, the
-                  scripting API, recipes) where they differ from the properties' defaults, which
-                  saved entries keep (a file stores only the properties that were set)
+                  scripting API, recipes; or a Type change, for the settings the entry never had
+                  set) where they differ from the properties' defaults, which saved entries keep
+                  (a file stores only the properties that were set)
     apply(obj, entry, prepared, base)  bakes the entry into the base mesh: writes
                   prepared.deformer.deform(base) into it
     followed(entry) -> [(object, remembered name)] of the objects it follows (lattice, handles): []
@@ -189,10 +190,14 @@ def prune(object_key, stack_entries):
 
 
 def type_changed(entry):
-    """Each kind the entry is not (any more) drops what it kept on it."""
+    """Each kind the entry is not (any more) drops what it kept on it; its new kind gives it a new
+    entry's settings (NEW_ENTRY) where it has none of its own (a file stores only what was set)."""
     for other in KINDS:
         if entry.type not in other.TYPES:
             other.retyped(entry)
+    for name, value in kind(entry).NEW_ENTRY.items():
+        if not entry.is_property_set(name):
+            setattr(entry, name, value)
 
 
 def volume_notes(entries):

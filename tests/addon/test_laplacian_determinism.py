@@ -165,3 +165,33 @@ def test_a_new_entry_bends_a_tube_as_smoothly_as_laplacian_deform(scene, degrees
     assert jumps[1] < 0.25  # the measure: Blender's bend has no kink
     assert jumps[0] <= max(jumps[1], 0.1)
     assert necks[0] >= necks[1] - 0.01
+
+
+def test_new_entries_are_rotation_invariant_and_saved_ones_keep_their_method(scene, tmp_path):
+    """Every way to make a Laplacian entry gives the new method (the API and the Add menu's
+    operator, a recipe, a Type change of a new entry); an entry whose method was set keeps it
+    through a Type change and back; an entry saved with the property's default (ARAP, stored as
+    nothing) opens as ARAP."""
+    import bpy
+    from deformkit_addon import api, batch
+    obj = plain_tube(bpy)
+    api.add_entry(obj, "LAPLACIAN")
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.deformkit.entry_add(type="LAPLACIAN")
+    batch.apply_recipe({"objects": [obj.name], "deformers": [{"type": "LAPLACIAN"}]})
+    twist = api.add_entry(obj, "TWIST")
+    twist.type = "LAPLACIAN"
+    assert [e.method for e in obj.deformkit.entries] == ["ROTATION_INVARIANT"] * 4
+    chosen = api.add_entry(obj, "LAPLACIAN", method="ARAP")
+    chosen.type = "TWIST"
+    chosen.type = "LAPLACIAN"
+    assert chosen.method == "ARAP"
+    saved = obj.deformkit.entries.add()  # as a file saved before issue 31 has it: the method never set
+    saved.type = "TWIST"
+    saved.property_unset("type")
+    saved["type"] = 5  # the Laplacian's number (ENTRY_TYPES), as a file stores it, no update run
+    assert saved.type == "LAPLACIAN" and not saved.is_property_set("method")
+    path = str(tmp_path / "saved.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    assert bpy.data.objects["Tube"].deformkit.entries[-1].method == "ARAP"
