@@ -67,11 +67,16 @@ def action_lists(anim):
             seen.add(key)
             lists.append(fcurves)
 
-    add(anim.action, _slot(anim))
-    for track in anim.nla_tracks:
-        for strip in _strips(track.strips):
-            add(strip.action, _slot(strip))
+    for holder in _holders(anim):
+        add(holder.action, _slot(holder))
     return lists
+
+
+def _holders(anim):
+    """What plays an action for AnimData `anim`: itself and each of its NLA strips."""
+    yield anim
+    for track in anim.nla_tracks:
+        yield from _strips(track.strips)
 
 
 def _strips(strips):
@@ -108,11 +113,40 @@ def _reading_targets(obj):
                             yield (target, *found)
 
 
+def own_actions(obj, touched):
+    """Copy each action obj plays that another ID plays too, before obj's keys on an entry i with
+    touched(i) are rewritten or copied in it: the other ID's entries keep their keys (as Make
+    Single User). Blender rewrites a shared action for every user on a modifier rename, but there
+    both users' modifiers are renamed alike; here another object's stack does not move with obj's."""
+    anim = obj.animation_data
+    if anim is None:
+        return
+    copies = {}
+    for holder in list(_holders(anim)):
+        action = holder.action
+        if action is None:
+            continue
+        if action.as_pointer() not in copies:
+            fcurves = action_fcurves(action, _slot(holder)) or []
+            paths = (entry_path(f.data_path) for f in fcurves)
+            users = bpy.data.user_map(subset=[action]).get(action, set())
+            shared = any(u != obj for u in users) and any(p is not None and touched(p[0]) for p in paths)
+            copies[action.as_pointer()] = action.copy() if shared else None
+        copy = copies[action.as_pointer()]
+        if copy is not None:
+            slot = _slot(holder)
+            identifier = slot.identifier if slot is not None else None
+            holder.action = copy
+            if identifier is not None:
+                holder.action_slot = next(s for s in copy.slots if s.identifier == identifier)
+
+
 # Changes of positions -------------------------------------------------------------------------
 
 def reindex(obj, new_index, removed_names=None):
     """Rewrite every path into obj's entries from entry i to entry new_index(i); where that is None
     (the entry is removed), its F-curves and drivers go and variables reading it point at nothing."""
+    own_actions(obj, lambda i: new_index(i) != i)
     for fcurves in animation_lists(obj):
         gone = []
         for fcurve in fcurves:
@@ -161,6 +195,12 @@ def removed(obj, index):
     reindex(obj, lambda i: None if i == index else (i - 1 if i > index else i), names)
 
 
+def cleared(obj):
+    """Every entry is about to be removed (a recipe's replace): their F-curves and drivers go."""
+    names = {i: entry.name for i, entry in enumerate(obj.deformkit.entries)}
+    reindex(obj, lambda i: None, names)
+
+
 # Copies -----------------------------------------------------------------------------------------
 
 def _copy_fcurve(fcurves, source, data_path):
@@ -205,6 +245,7 @@ def copy_animation(source_obj, index, target_obj, target_index):
     if anim is None:
         return
     if source_obj == target_obj:
+        own_actions(source_obj, lambda i: i == index)
         for fcurves in action_lists(anim):
             for fcurve, rest in _entry_curves(fcurves, index):
                 _copy_fcurve(fcurves, fcurve, path + rest)

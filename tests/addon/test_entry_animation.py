@@ -272,3 +272,62 @@ def test_nla_strip_actions_follow(bpy_module, rig):
     api.remove_entry(obj, 0)
     assert driven(obj, fcurves_of(obj, strip), "key") == {("Twist", "angle", "key")}
     check_scrubbing(bpy, obj, {"Twist": EXPECTED["Twist"], "Taper": EXPECTED["Taper"]})
+
+
+def test_the_operators_carry_keys_and_undo_brings_them_back(bpy_module, rig):
+    """The panel's Move and Remove operators as the api (headless, their undo steps are pushed here)."""
+    bpy = bpy_module
+    obj = rig
+    bpy.ops.ed.undo_push(message="keyed")
+    assert bpy.ops.deformkit.entry_move(index=0, direction="LAST") == {"FINISHED"}
+    bpy.ops.ed.undo_push(message="moved")
+    assert [e.name for e in obj.deformkit.entries] == ["Bend", "Taper", "Twist"]
+    assert animation(obj) == BEFORE
+    check_scrubbing(bpy, obj)
+    assert bpy.ops.deformkit.entry_remove(index=2) == {"FINISHED"}
+    bpy.ops.ed.undo_push(message="removed")
+    assert animation(obj) == {("Bend", "angle", "key"), ("Taper", "factor", "driver")}
+    obj = undone(bpy)
+    assert [e.name for e in obj.deformkit.entries] == ["Bend", "Taper", "Twist"]
+    assert animation(obj) == BEFORE
+    check_scrubbing(bpy, obj)
+    obj = undone(bpy)
+    assert [e.name for e in obj.deformkit.entries] == ["Twist", "Bend", "Taper"]
+    assert animation(obj) == BEFORE
+    check_scrubbing(bpy, obj)
+
+
+def test_a_recipe_that_replaces_the_stack_takes_the_old_keys(bpy_module, rig):
+    """A batch recipe with replace: the new entries at the old ones' places are not animated by
+    the old entries' keys and drivers; an Empty that read the old Twist reads nothing."""
+    bpy = bpy_module
+    from deformkit_addon import batch
+    obj = rig
+    batch.apply_recipe({"objects": ["Obj"], "replace": True,
+                        "deformers": [{"type": "BEND", "angle": 0.2}, {"type": "TWIST", "angle": 0.3},
+                                      {"type": "TAPER", "factor": 0.4}]})
+    assert animation(obj) == set()
+    assert read_entry(bpy) is None
+    check_scrubbing(bpy, obj, {"Bend": ("angle", lambda f: 0.2), "Twist": ("angle", lambda f: 0.3),
+                               "Taper": ("factor", lambda f: 0.4)}, reader=False)
+
+
+def test_an_action_shared_with_a_twin_keeps_the_twin_keyed(bpy_module, rig):
+    """A twin playing the same action (a linked duplicate) keeps its keys on its own entries when
+    obj's stack changes: obj gets its own copy of the action, as Make Single User."""
+    bpy = bpy_module
+    from deformkit_addon import api
+    obj = rig
+    twin = obj.copy()
+    twin.name = "Twin"
+    twin.animation_data.action = obj.animation_data.action
+    bpy.context.scene.collection.objects.link(twin)
+    shared = obj.animation_data.action
+    api.move_entry_to(obj, 0, "LAST")
+    api.duplicate_entry(obj, 2)
+    assert [e.name for e in obj.deformkit.entries] == ["Bend", "Taper", "Twist", "Twist.001"]
+    assert driven(twin, fcurves_of(twin), "key") == {("Twist", "angle", "key"), ("Bend", "angle", "key")}
+    assert animation(obj) == BEFORE | {("Twist.001", "angle", "key")}
+    assert twin.animation_data.action == shared and obj.animation_data.action != shared
+    check_scrubbing(bpy, obj)
+    check_scrubbing(bpy, twin, {"Twist": EXPECTED["Twist"], "Bend": EXPECTED["Bend"]})
