@@ -113,9 +113,10 @@ def _reading_targets(obj):
                             yield (target, *found)
 
 
-def own_actions(obj, touched):
+def own_actions(obj, touched, adding=False):
     """Copy each action obj plays that another ID plays too, before obj's keys on an entry i with
-    touched(i) are rewritten or copied in it: the other ID's entries keep their keys (as Make
+    touched(i) are rewritten or copied in it (with adding: before any keys are added to it): the
+    other ID's entries keep their keys (as Make
     Single User). Blender rewrites a shared action for every user on a modifier rename, but there
     both users' modifiers are renamed alike; here another object's stack does not move with obj's."""
     anim = obj.animation_data
@@ -130,7 +131,7 @@ def own_actions(obj, touched):
             fcurves = action_fcurves(action, _slot(holder)) or []
             paths = (entry_path(f.data_path) for f in fcurves)
             users = bpy.data.user_map(subset=[action]).get(action, set())
-            shared = any(u != obj for u in users) and any(p is not None and touched(p[0]) for p in paths)
+            shared = any(u != obj for u in users) and (adding or any(p is not None and touched(p[0]) for p in paths))
             copies[action.as_pointer()] = action.copy() if shared else None
         copy = copies[action.as_pointer()]
         if copy is not None:
@@ -258,6 +259,7 @@ def copy_animation(source_obj, index, target_obj, target_index):
         return
     theirs = target_obj.animation_data_create()
     if keyed:
+        own_actions(target_obj, None, adding=True)
         if theirs.action is None:
             theirs.action = bpy.data.actions.new(f"{target_obj.name}Action")
         fcurves = action_fcurves(theirs.action, _slot(theirs), target_obj, create=True)

@@ -331,3 +331,24 @@ def test_an_action_shared_with_a_twin_keeps_the_twin_keyed(bpy_module, rig):
     assert twin.animation_data.action == shared and obj.animation_data.action != shared
     check_scrubbing(bpy, obj)
     check_scrubbing(bpy, twin, {"Twist": EXPECTED["Twist"], "Bend": EXPECTED["Bend"]})
+
+
+def test_copy_to_a_keyed_target_whose_action_a_twin_plays(bpy_module, rig):
+    """Copy to Selected onto a target with its own keys, in an action a twin of it plays too: the
+    target's keys stay on its entry, the copy's go beside them, and the twin's action is unchanged."""
+    bpy = bpy_module
+    from deformkit_addon import api
+    obj = rig
+    other = make_object(bpy, "Other", location=(3, 0, 0))
+    api.add_entry(other, "BEND", deform_axis="Z")
+    key_linear(other, "deformkit.entries[0].angle", [(1, bend(1)), (10, bend(10))])
+    twin = other.copy()
+    twin.name = "OtherTwin"
+    twin.animation_data.action = other.animation_data.action
+    bpy.context.scene.collection.objects.link(twin)
+    api.copy_entry_to(obj, 0, [other])
+    assert [e.name for e in other.deformkit.entries] == ["Bend", "Twist"]
+    assert animation(other) == {("Bend", "angle", "key"), ("Twist", "angle", "key")}
+    assert [f.data_path for f in fcurves_of(twin)] == ["deformkit.entries[0].angle"]
+    check_scrubbing(bpy, other, reader=False)
+    check_scrubbing(bpy, twin, {"Bend": EXPECTED["Bend"]}, reader=False)
