@@ -99,10 +99,11 @@ def _all_ids():
 
 
 def _reading_targets(obj):
-    """(target, entry index, rest) of every driver variable target of any ID that reads obj's entries."""
+    """(target, entry index, rest) of every driver variable target of any local ID (linked data
+    cannot be edited) that reads obj's entries."""
     for id in _all_ids():
         anim = getattr(id, "animation_data", None)
-        if anim is None:
+        if anim is None or id.library is not None:
             continue
         for fcurve in anim.drivers:
             for var in fcurve.driver.variables:
@@ -114,11 +115,12 @@ def _reading_targets(obj):
 
 
 def own_actions(obj, touched, adding=False):
-    """Copy each action obj plays that another ID plays too, before obj's keys on an entry i with
-    touched(i) are rewritten or copied in it (with adding: before any keys are added to it): the
-    other ID's entries keep their keys (as Make
-    Single User). Blender rewrites a shared action for every user on a modifier rename, but there
-    both users' modifiers are renamed alike; here another object's stack does not move with obj's."""
+    """Copy each action obj plays that another ID plays too, or that is linked from a library (and
+    cannot be edited), before obj's keys on an entry i with touched(i) are rewritten or copied in it
+    (with adding: before any keys are added to it), as Make Single User / Make Local: the other
+    ID's entries keep their keys. Blender rewrites a shared action for every user on a modifier
+    rename, but there both users' modifiers are renamed alike; another object's stack does not
+    move with obj's."""
     anim = obj.animation_data
     if anim is None:
         return
@@ -131,7 +133,8 @@ def own_actions(obj, touched, adding=False):
             fcurves = action_fcurves(action, _slot(holder)) or []
             paths = (entry_path(f.data_path) for f in fcurves)
             users = bpy.data.user_map(subset=[action]).get(action, set())
-            shared = any(u != obj for u in users) and (adding or any(p is not None and touched(p[0]) for p in paths))
+            shared = action.library is not None or any(u != obj for u in users)
+            shared = shared and (adding or any(p is not None and touched(p[0]) for p in paths))
             copies[action.as_pointer()] = action.copy() if shared else None
         copy = copies[action.as_pointer()]
         if copy is not None:

@@ -352,3 +352,30 @@ def test_copy_to_a_keyed_target_whose_action_a_twin_plays(bpy_module, rig):
     assert [f.data_path for f in fcurves_of(twin)] == ["deformkit.entries[0].angle"]
     check_scrubbing(bpy, other, reader=False)
     check_scrubbing(bpy, twin, {"Bend": EXPECTED["Bend"]}, reader=False)
+
+
+def test_a_linked_action_is_made_local_before_its_keys_move(bpy_module, rig, tmp_path):
+    """Keys in an action linked from another file cannot be rewritten there: obj gets a local copy
+    whose keys follow the move (the library's action is left as it is)."""
+    bpy = bpy_module
+    from deformkit_addon import api
+    obj = rig
+    library = tmp_path / "actions.blend"
+    bpy.data.libraries.write(str(library), {obj.animation_data.action})
+    with bpy.data.libraries.load(str(library), link=True) as (theirs, ours):
+        ours.actions = list(theirs.actions)
+    linked = ours.actions[0]
+    assert linked.library is not None
+    slot = getattr(obj.animation_data, "action_slot", None)
+    identifier = slot.identifier if slot is not None else None
+    obj.animation_data.action = linked
+    if identifier is not None:
+        obj.animation_data.action_slot = next(s for s in linked.slots if s.identifier == identifier)
+    check_scrubbing(bpy, obj)
+    api.move_entry_to(obj, 0, "LAST")
+    assert obj.animation_data.action.library is None
+    assert animation(obj) == BEFORE
+    check_scrubbing(bpy, obj)
+    anim = obj.animation_data
+    anim.action = linked
+    assert sorted(f.data_path for f in fcurves_of(obj)) == ["deformkit.entries[0].angle", "deformkit.entries[1].angle"]
