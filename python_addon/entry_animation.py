@@ -22,18 +22,16 @@ def entry_path(path):
 
 # Where F-curves live: one helper for Blender 3.4 (action.fcurves) and 4.4+ (layered actions) ------
 
-def action_fcurves(action, slot, id=None, create=False):
+def action_fcurves(action, slot, create=False):
     """The F-curves of `action` that animate through `slot` (Blender 4.4+: the channelbag of that
     slot in the action's keyframe strip; before: the action's one list), or None. With create, the
-    layer, strip, slot (for `id`) and channelbag are made when missing."""
+    layer, strip and channelbag are made when missing."""
     if action is None:
         return None
     if not hasattr(action, "layers"):  # Blender < 4.4: an action animates one ID through one list
         return action.fcurves
     if slot is None:
-        if not create:
-            return None
-        slot = action.slots.new(id_type=id.id_type, name=id.name)
+        return None
     if create and len(action.layers) == 0:
         action.layers.new("Layer").strips.new(type="KEYFRAME")
     for layer in action.layers:
@@ -47,6 +45,16 @@ def action_fcurves(action, slot, id=None, create=False):
 
 def _slot(holder):
     return getattr(holder, "action_slot", None)  # None before Blender 4.4, where there are no slots
+
+
+def own_fcurves(id):
+    """The F-curves of id's action, the action (and in Blender 4.4+ its slot for id) made if missing."""
+    anim = id.animation_data_create()
+    if anim.action is None:
+        anim.action = bpy.data.actions.new(f"{id.name}Action")
+    if hasattr(anim, "action_slot") and anim.action_slot is None:
+        anim.action_slot = anim.action.slots.new(id_type=id.id_type, name=id.name)
+    return action_fcurves(anim.action, _slot(anim), create=True)
 
 
 def animation_lists(id):
@@ -263,11 +271,7 @@ def copy_animation(source_obj, index, target_obj, target_index):
     theirs = target_obj.animation_data_create()
     if keyed:
         own_actions(target_obj, None, adding=True)
-        if theirs.action is None:
-            theirs.action = bpy.data.actions.new(f"{target_obj.name}Action")
-        fcurves = action_fcurves(theirs.action, _slot(theirs), target_obj, create=True)
-        if hasattr(theirs, "action_slot") and theirs.action_slot is None:
-            theirs.action_slot = theirs.action.slots[-1]  # the slot action_fcurves made for it
+        fcurves = own_fcurves(target_obj)
         for fcurve, rest in keyed:
             _copy_fcurve(fcurves, fcurve, path + rest)
     for fcurve, rest in driven:

@@ -254,7 +254,8 @@ def test_apply_takes_its_keys_and_shifts_the_rest(bpy_module, rig):
 
 
 def test_nla_strip_actions_follow(bpy_module, rig):
-    """The keys pushed down into an NLA strip's action follow a move, and go with a removed entry."""
+    """The keys pushed down into an NLA strip's action follow a move, go with a removed entry and
+    are copied with a duplicated one."""
     bpy = bpy_module
     from deformkit_addon import api
     obj = rig
@@ -272,6 +273,10 @@ def test_nla_strip_actions_follow(bpy_module, rig):
     api.remove_entry(obj, 0)
     assert driven(obj, fcurves_of(obj, strip), "key") == {("Twist", "angle", "key")}
     check_scrubbing(bpy, obj, {"Twist": EXPECTED["Twist"], "Taper": EXPECTED["Taper"]})
+    api.duplicate_entry(obj, 1)
+    assert [e.name for e in obj.deformkit.entries] == ["Taper", "Twist", "Twist.001"]
+    assert driven(obj, fcurves_of(obj, strip), "key") == {("Twist", "angle", "key"), ("Twist.001", "angle", "key")}
+    check_scrubbing(bpy, obj, {"Twist": EXPECTED["Twist"], "Twist.001": EXPECTED["Twist"], "Taper": EXPECTED["Taper"]})
 
 
 def test_the_operators_carry_keys_and_undo_brings_them_back(bpy_module, rig):
