@@ -319,6 +319,7 @@ def modifier_gone(obj):
                         "show them again (the modifier comes back)")
     else:
         entries.discard_helpers(obj)
+        entry_animation.cleared(obj)
         stack.entries.clear()
         stack.active_index = 0
         outputs.remove_outputs(obj)

@@ -384,3 +384,21 @@ def test_a_linked_action_is_made_local_before_its_keys_move(bpy_module, rig, tmp
     anim = obj.animation_data
     anim.action = linked
     assert sorted(f.data_path for f in fcurves_of(obj)) == ["deformkit.entries[0].angle", "deformkit.entries[1].angle"]
+
+
+def test_applying_the_helper_modifier_takes_the_entries_keys(bpy_module, rig):
+    """Ctrl+A on the "deformkit" modifier bakes the result and removes the entries: their keys and
+    drivers go too, so an entry added afterwards is not animated by them."""
+    bpy = bpy_module
+    from deformkit_addon import api
+    obj = rig
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == obj)
+    with bpy.context.temp_override(object=obj, active_object=obj):
+        bpy.ops.object.modifier_apply(modifier="deformkit")
+    bpy.context.view_layer.update()
+    assert len(obj.deformkit.entries) == 0
+    api.add_entry(obj, "TWIST", angle=0.7)
+    assert animation(obj) == set()
+    assert read_entry(bpy) is None
+    check_scrubbing(bpy, obj, {"Twist": ("angle", lambda f: 0.7)}, reader=False)
