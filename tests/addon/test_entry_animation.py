@@ -164,6 +164,7 @@ def test_remove_takes_its_keys_and_drivers(bpy_module, rig):
     assert animation(obj) == {("Bend", "angle", "key"), ("Taper", "factor", "driver")}
     assert read_entry(bpy) is None  # as a driver reading a deleted modifier: it reads nothing
     check_scrubbing(bpy, obj, reader=False)
+    assert not bpy.data.objects["Reader"].animation_data.drivers[0].driver.is_valid
     api.remove_entry(obj, 1)  # the driven Taper
     assert animation(obj) == {("Bend", "angle", "key")}
     api.add_entry(obj, "TWIST", angle=0.7)  # takes the index the removed entries had: not animated
