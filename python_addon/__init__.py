@@ -22,7 +22,7 @@ MODULES = (
     "errors", "native", "cache", "panel_text", "recipe_schema", "outputs", "shapekeys", "meshdata",
     "entries.common", "entries.binding", "entries.barr", "entries.lattice", "entries.laplacian",
     "entries.cage", "entries.rbf", "entries.subdivide", "entries",
-    "properties", "stack_run", "evaluation", "lattice_tools", "smoothness", "api",
+    "properties", "stack_run", "entry_animation", "evaluation", "lattice_tools", "smoothness", "api",
     "transfer.correspondence", "transfer.similarity", "transfer.storage", "transfer.keys", "transfer.system",
     "transfer.shape_keys", "transfer.bake", "transfer",
     "operators.base", "operators.stack", "operators.lattice", "operators.laplacian", "operators.cage",

@@ -25,7 +25,7 @@
 """
 import re
 
-from . import evaluation, lattice_tools, meshdata, smoothness
+from . import entry_animation, evaluation, lattice_tools, meshdata, smoothness
 from . import entries as kinds  # api.entries(obj) lists an object's entries
 from .entries import common
 
@@ -62,6 +62,7 @@ def _insert_entry(stack, at, entry_type, name):
     entry.type = entry_type
     entry.name = name
     if at < len(stack.entries) - 1:
+        entry_animation.inserted(stack.id_data, at)
         stack.entries.move(len(stack.entries) - 1, at)
         entry = stack.entries[at]  # the moved item: the old reference points at the end of the list
     stack.active_index = at
@@ -101,6 +102,7 @@ def duplicate_entry(obj, index):
     source = stack.entries[index]  # add() may have moved it
     _copy_settings(source, copy)
     kinds.kind(source).copy_bind(source, copy)
+    entry_animation.copy_animation(obj, index, obj, index + 1)
     evaluation.evaluate(obj, evaluation.Reason.STACK)
     return copy
 
@@ -126,6 +128,7 @@ def copy_entry_to(obj, index, targets):
         copy = _insert_entry(theirs, _place_for(theirs, source.type), source.type,
                              _unique_name(theirs, source.name))
         _copy_settings(source, copy)
+        entry_animation.copy_animation(obj, index, target, theirs.active_index)
         if kinds.kind(source).is_bound(source):
             copy.bind_copied_from = obj.name
         evaluation.evaluate(target, evaluation.Reason.STACK)
@@ -160,6 +163,7 @@ def evaluate(obj):
 def remove_entry(obj, index):
     stack = obj.deformkit
     common.check_index(stack, index)
+    entry_animation.removed(obj, index)
     stack.entries.remove(index)
     stack.active_index = min(stack.active_index, max(0, len(stack.entries) - 1))
     evaluation.evaluate(obj, evaluation.Reason.STACK)
@@ -172,6 +176,7 @@ def move_entry(obj, index, direction):
     if not (0 <= index < len(stack.entries) and 0 <= target < len(stack.entries)):
         raise IndexError(f"cannot move entry {index} by {direction}")
     stack.entries.move(index, target)
+    entry_animation.moved(obj, index, target)
     stack.active_index = target
     evaluation.evaluate(obj, evaluation.Reason.STACK)
 
@@ -193,6 +198,7 @@ def move_entry_to(obj, index, where):
         target = kinds.last_index(others)
     if target != index:
         stack.entries.move(index, target)
+        entry_animation.moved(obj, index, target)
     stack.active_index = target
     evaluation.evaluate(obj, evaluation.Reason.STACK)
     return target

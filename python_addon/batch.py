@@ -13,7 +13,7 @@ import time
 import bpy
 import numpy as np
 
-from . import api, batch_checks, entries, evaluation, meshdata, recipe_schema, transfer
+from . import api, batch_checks, entries, entry_animation, evaluation, meshdata, recipe_schema, transfer
 from .entries import common
 
 
@@ -53,6 +53,7 @@ def apply_recipe(recipe, objects=None, where=None):
     for obj in objects:
         where["object"] = obj.name
         if recipe.get("replace", False):
+            entry_animation.cleared(obj)
             obj.deformkit.entries.clear()
         for i, spec in enumerate(recipe.get("deformers", [])):
             where["entry"] = f"deformers[{i}]"

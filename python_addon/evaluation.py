@@ -21,7 +21,7 @@ from typing import NamedTuple, Optional
 import bpy
 import numpy as np
 
-from . import cache, entries, outputs, stack_run
+from . import cache, entries, entry_animation, outputs, stack_run
 from .errors import EntryError
 from .meshdata import base_positions, cache_key, input_positions, object_problem
 from .outputs import ATTR_OFFSET, ATTR_OFFSET_RENDER, ATTR_VOLUME, MODIFIER_NAME, remove_outputs
@@ -319,6 +319,7 @@ def modifier_gone(obj):
                         "show them again (the modifier comes back)")
     else:
         entries.discard_helpers(obj)
+        entry_animation.cleared(obj)
         stack.entries.clear()
         stack.active_index = 0
         outputs.remove_outputs(obj)
@@ -411,6 +412,7 @@ def apply_entry(obj, index):
     base = base_positions(obj.data)
     kind, prepared = entry_setup(obj, entry)
     kind.apply(obj, entry, prepared, base)
+    entry_animation.removed(obj, index)
     stack.entries.remove(index)
     stack.active_index = min(stack.active_index, max(0, len(stack.entries) - 1))
     evaluate(obj, Reason.STACK)
