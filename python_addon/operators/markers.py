@@ -1,0 +1,89 @@
+"""The marker-pair tools of Transfer Deformation (docs/blender_addon.md, "Marker pairs"): the work
+is transfer/markers.py's; the target is the active mesh and the source the other mesh in Edit Mode
+with it (or, in Object Mode, the other selected mesh)."""
+import bpy
+from bpy.props import StringProperty
+
+from ..transfer import DEFAULT_PREFIX, markers
+from .base import Operator, mesh_object
+
+PREFIX = StringProperty(name="Prefix", default=DEFAULT_PREFIX,
+                        description="The marker vertex groups' common prefix (Transfer Deformation's Marker Prefix)")
+
+
+def the_two(context):
+    """(source, target) for the marker tools."""
+    active = context.object
+    if active is not None and active.mode == "EDIT":
+        others = getattr(context, "objects_in_mode", ())
+    else:
+        others = getattr(context, "selected_objects", ())
+    return markers.pair_objects(active, others)
+
+
+def pair_name(context, name):
+    """`name`, else the active vertex group's name."""
+    if name:
+        return name
+    obj = context.object
+    group = obj.vertex_groups.active if obj is not None else None
+    if group is None:
+        raise ValueError("name: empty and no active vertex group; name the pair (e.g. 'dt_001')")
+    return group.name
+
+
+class MarkerOperator(Operator):
+    @classmethod
+    def poll(cls, context):
+        if mesh_object(context) is None:
+            cls.poll_message_set("Needs an active mesh object (the target) and the source mesh")
+            return False
+        return True
+
+
+class DEFORMKIT_OT_add_marker_pair(MarkerOperator, bpy.types.Operator):
+    """Mark the one selected vertex of each of two meshes in Edit Mode as corresponding points for \
+Transfer Deformation: a vertex group of the next number (dt_001, dt_002, ...) on each"""
+    bl_idname = "deformkit.add_marker_pair"
+    bl_label = "Add Marker Pair"
+    prefix: PREFIX
+
+    @classmethod
+    def poll(cls, context):
+        obj = mesh_object(context)
+        if obj is None or obj.mode != "EDIT":
+            cls.poll_message_set("Needs two meshes in Edit Mode together, one vertex selected on each")
+            return False
+        return True
+
+    def run(self, context):
+        source, target = the_two(context)
+        name = markers.add_selected_pair(source, target, self.prefix)
+        self.report({"INFO"}, f"Marker pair '{name}' on '{source.name}' and '{target.name}'")
+
+
+class DEFORMKIT_OT_select_marker_pair(MarkerOperator, bpy.types.Operator):
+    """Select the pair's two marker vertices (and nothing else) on both meshes"""
+    bl_idname = "deformkit.select_marker_pair"
+    bl_label = "Select Marker Pair"
+    name: StringProperty(name="Name", description="The pair's vertex group name (empty: the active group)")
+    prefix: PREFIX
+
+    def run(self, context):
+        source, target = the_two(context)
+        markers.select_pair(source, target, pair_name(context, self.name), self.prefix)
+
+
+class DEFORMKIT_OT_remove_marker_pair(MarkerOperator, bpy.types.Operator):
+    """Remove the pair's vertex group from both meshes"""
+    bl_idname = "deformkit.remove_marker_pair"
+    bl_label = "Remove Marker Pair"
+    name: StringProperty(name="Name", description="The pair's vertex group name (empty: the active group)")
+    prefix: PREFIX
+
+    def run(self, context):
+        source, target = the_two(context)
+        markers.remove_pair(source, target, pair_name(context, self.name), self.prefix)
+
+
+classes = (DEFORMKIT_OT_add_marker_pair, DEFORMKIT_OT_select_marker_pair, DEFORMKIT_OT_remove_marker_pair)

@@ -1,0 +1,198 @@
+"""Making marker pairs (correspondence.py reads them): a pair is one vertex group of the same
+numbered name on each mesh ("dt_001"), holding its one marker vertex with weight 1. Plain
+functions on two mesh objects, in Object Mode or in (multi-object) Edit Mode, whose copy of the
+mesh (bmesh) is what the user sees and what leaving Edit Mode writes; the operators
+(operators/markers.py) and the tests call them alike."""
+import re
+
+import bmesh
+import numpy as np
+
+from ..errors import EntryError
+from .correspondence import DEFAULT_PREFIX
+
+
+
+class Vertices:
+    """One mesh object's vertices, read and written through bmesh in Edit Mode, else the mesh."""
+
+    def __init__(self, obj):
+        if obj is None or obj.type != "MESH":
+            raise EntryError(f"'{getattr(obj, 'name', obj)}' is not a mesh object: markers are vertices of meshes")
+        self.obj = obj
+        self.bm = None
+        if obj.mode == "EDIT":
+            self.bm = bmesh.from_edit_mesh(obj.data)
+            self.bm.verts.ensure_lookup_table()
+            self.bm.verts.index_update()  # the indices leaving Edit Mode will give
+            self.deform = self.bm.verts.layers.deform.verify()
+
+    def __len__(self):
+        return len(self.bm.verts) if self.bm is not None else len(self.obj.data.vertices)
+
+    def positions(self):
+        """float64 (n, 3), in the object's space."""
+        if self.bm is not None:
+            return np.array([v.co for v in self.bm.verts], np.float64).reshape(-1, 3)
+        co = np.empty(len(self.obj.data.vertices) * 3, np.float32)
+        self.obj.data.vertices.foreach_get("co", co)
+        return co.reshape(-1, 3).astype(np.float64)
+
+    def selected(self):
+        if self.bm is not None:
+            return [v.index for v in self.bm.verts if v.select and not v.hide]
+        return [v.index for v in self.obj.data.vertices if v.select]
+
+    def marker(self, name):
+        """The group's member of highest weight (the first of equals), as marker_pairs reads it;
+        None when the group is missing or empty."""
+        return self.markers([name]).get(name)
+
+    def markers(self, names):
+        """{name: marker vertex} of the named groups that have members; one pass over the vertices."""
+        index_of = {self.obj.vertex_groups[n].index: n for n in names if self.obj.vertex_groups.get(n) is not None}
+        best = {}
+        if self.bm is not None:
+            weights = ((v.index, v[self.deform].items()) for v in self.bm.verts)
+        else:
+            weights = ((v.index, [(g.group, g.weight) for g in v.groups]) for v in self.obj.data.vertices)
+        for vertex, groups in weights:
+            for group, weight in groups:
+                name = index_of.get(group)
+                if name is not None and (name not in best or weight > best[name][1]):
+                    best[name] = (vertex, weight)
+        return {name: vertex for name, (vertex, _w) in best.items()}
+
+    def assign(self, name, vertex):
+        """A new group `name` holding `vertex` alone, weight 1."""
+        group = self.obj.vertex_groups.new(name=name)
+        if self.bm is not None:
+            self.bm.verts[vertex][self.deform][group.index] = 1.0
+        else:
+            group.add([int(vertex)], 1.0, "REPLACE")
+
+    def select_only(self, vertex):
+        if self.bm is not None:
+            for items in (self.bm.faces, self.bm.edges, self.bm.verts):
+                for item in items:
+                    item.select = False
+            self.bm.verts[vertex].select = True
+            self.bm.select_flush_mode()
+        else:
+            mesh = self.obj.data
+            for items in (mesh.polygons, mesh.edges, mesh.vertices):
+                items.foreach_set("select", np.zeros(len(items), bool))
+            mesh.vertices[vertex].select = True
+
+    def done(self):
+        if self.bm is not None:
+            bmesh.update_edit_mesh(self.obj.data)
+        else:
+            self.obj.data.update()
+
+
+def numbered(prefix):
+    return re.compile(re.escape(prefix) + r"(\d+)$")
+
+
+def next_pair_name(objects, prefix=DEFAULT_PREFIX):
+    """prefix + the next number (three digits at least) after every numbered marker group on
+    either object: "dt_001", "dt_002", ..."""
+    pattern = numbered(prefix)
+    used = [int(m.group(1)) for obj in objects for g in obj.vertex_groups if (m := pattern.match(g.name))]
+    return f"{prefix}{max(used, default=0) + 1:03d}"
+
+
+def pair_names(source, target, prefix=DEFAULT_PREFIX):
+    """The names of the marker groups on both objects (the pairs), sorted."""
+    there = {g.name for g in target.vertex_groups}
+    return sorted(g.name for g in source.vertex_groups if g.name.startswith(prefix) and g.name in there)
+
+
+def check_prefix(prefix):
+    if not prefix:
+        raise EntryError("prefix: empty; the marker vertex groups need a common prefix, e.g. 'dt_'")
+
+
+def add_pair(source, source_vertex, target, target_vertex, prefix=DEFAULT_PREFIX):
+    """A new numbered pair marking source_vertex on source and target_vertex on target; returns its
+    name. Refused (EntryError naming the pair) when either vertex already marks a pair."""
+    check_prefix(prefix)
+    sides = [(Vertices(source), int(source_vertex)), (Vertices(target), int(target_vertex))]
+    names = pair_names(source, target, prefix)
+    for side, vertex in sides:
+        if not 0 <= vertex < len(side):
+            raise EntryError(f"vertex {vertex} of '{side.obj.name}': out of range (it has {len(side)} vertices)")
+        taken = next((n for n, v in side.markers(names).items() if v == vertex), None)
+        if taken is not None:
+            raise EntryError(f"vertex {vertex} of '{side.obj.name}' already marks the pair '{taken}': "
+                             "remove that pair first, or pick another vertex")
+    return written_pair(sides, prefix)
+
+
+def written_pair(sides, prefix):
+    name = next_pair_name([side.obj for side, _vertex in sides], prefix)
+    for side, vertex in sides:
+        side.assign(name, vertex)
+        side.done()
+    return name
+
+
+def the_selected_vertex(obj):
+    selected = Vertices(obj).selected()
+    if len(selected) != 1:
+        got = "none" if not selected else f"{len(selected)} vertices"
+        raise EntryError(f"'{obj.name}' has {got} selected: select exactly one vertex on each mesh "
+                         "(Add Marker Pair marks the one selected vertex of each)")
+    return selected[0]
+
+
+def add_selected_pair(source, target, prefix=DEFAULT_PREFIX):
+    """Add Marker Pair: the one selected vertex of each mesh (in Edit Mode) becomes a pair."""
+    for obj in (source, target):
+        if obj.mode != "EDIT":
+            raise EntryError(f"'{obj.name}' is not in Edit Mode: select both meshes, enter Edit Mode with both "
+                             "and select one vertex on each")
+    return add_pair(source, the_selected_vertex(source), target, the_selected_vertex(target), prefix)
+
+
+def pair_objects(active, others):
+    """(source, target): the active mesh is the target (as in Transfer Deformation), the one other
+    mesh the source; EntryError naming what is there otherwise."""
+    if active is None or active.type != "MESH":
+        raise EntryError("no active mesh: make the target mesh active and select the source mesh too")
+    meshes = [o for o in others if o != active and o.type == "MESH"]
+    if len(meshes) != 1:
+        listed = ", ".join(f"'{o.name}'" for o in meshes) or "none"
+        raise EntryError(f"marker pairs need exactly two meshes, the target '{active.name}' (active) and one "
+                         f"source; the other meshes selected (or in Edit Mode) are: {listed}")
+    return meshes[0], active
+
+
+def existing_pair(source, target, name, prefix=DEFAULT_PREFIX):
+    if name not in pair_names(source, target, prefix):
+        where = [o.name for o in (source, target) if o.vertex_groups.get(name) is not None]
+        found = f"only on '{where[0]}'" if len(where) == 1 else "on neither"
+        raise EntryError(f"pair '{name}': no marker group of that name on both '{source.name}' and "
+                         f"'{target.name}' ({found})")
+
+
+def select_pair(source, target, name, prefix=DEFAULT_PREFIX):
+    """Selects the pair's marker vertex on each mesh, and nothing else."""
+    existing_pair(source, target, name, prefix)
+    for obj in (source, target):
+        side = Vertices(obj)
+        vertex = side.marker(name)
+        if vertex is None:
+            raise EntryError(f"marker vertex group '{name}' on '{obj.name}' is empty: assign the marker vertex")
+        side.select_only(vertex)
+        side.done()
+
+
+def remove_pair(source, target, name, prefix=DEFAULT_PREFIX):
+    """Removes the pair's group from both meshes."""
+    existing_pair(source, target, name, prefix)
+    for obj in (source, target):
+        side = Vertices(obj)
+        obj.vertex_groups.remove(obj.vertex_groups[name])
+        side.done()

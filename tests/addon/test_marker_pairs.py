@@ -1,0 +1,184 @@
+"""Marker pairs for Transfer Deformation between unlike meshes (issue 31, section 6): Add Marker
+Pair in multi-object Edit Mode, the list's select and remove, the X-mirrored pair, the first guess
+from a similarity fit, and the dialog's Target. Truths: the vertices the test selected (read back by
+marker_pairs and from the mesh's own groups), nearest vertices to mirrored positions computed here
+with numpy, a similarity the test applied itself (and Horn's fit of the published horse/camel
+markers), and the transfer's result against the shape the test knows."""
+import types
+
+import numpy as np
+import pytest
+
+from addon_helpers import CheckingLayout, group_members, positions
+
+
+def two_meshes(bpy, target_turn=np.eye(3)):
+    """A bumpy UV sphere ("Source") and a bumpy icosphere ("Target", its data turned by
+    target_turn), both symmetric about their own X = 0 (bumps in y and z only)."""
+    def bumpy(points):
+        out = np.array(points, np.float64)
+        out[:, 2] *= 1.3
+        out[:, 1] += 0.15 * out[:, 2] ** 2
+        return out
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=24, ring_count=12, radius=1.0)
+    source = bpy.context.active_object
+    source.name = "Source"
+    source.data.vertices.foreach_set("co", bumpy(positions(source.data)).astype(np.float32).ravel())
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=3, radius=1.0)
+    target = bpy.context.active_object
+    target.name = "Target"
+    quarter = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # Blender's icosphere: mirror in y
+    target.data.vertices.foreach_set("co", (bumpy(positions(target.data) @ quarter.T) @ np.asarray(target_turn).T)
+                                     .astype(np.float32).ravel())
+    for obj in (source, target):
+        obj.data.update()
+    return source, target
+
+
+def edit_both(bpy, source, target):
+    """Both in Edit Mode together, the target active."""
+    for obj in bpy.context.scene.objects:
+        obj.select_set(obj in (source, target))
+    bpy.context.view_layer.objects.active = target
+    bpy.ops.object.mode_set(mode="EDIT")
+    assert source.mode == "EDIT" and target.mode == "EDIT"
+
+
+def select_in_edit(obj, indices):
+    import bmesh
+    bm = bmesh.from_edit_mesh(obj.data)
+    for items in (bm.faces, bm.edges, bm.verts):
+        for item in items:
+            item.select = False
+    bm.verts.ensure_lookup_table()
+    for i in indices:
+        bm.verts[i].select = True
+    bmesh.update_edit_mesh(obj.data)
+
+
+def selected_in_edit(obj):
+    import bmesh
+    return sorted(v.index for v in bmesh.from_edit_mesh(obj.data).verts if v.select)
+
+
+def members_with_weights(obj, name):
+    index = obj.vertex_groups[name].index
+    return {v.index: g.weight for v in obj.data.vertices for g in v.groups if g.group == index}
+
+
+def refused(call, *args, **kwargs):
+    """The operator's ERROR report (bpy.ops raises it as a RuntimeError)."""
+    with pytest.raises(RuntimeError) as error:
+        call(*args, **kwargs)
+    message = str(error.value)
+    assert "Traceback" not in message, message
+    return message
+
+
+def test_add_marker_pair_marks_the_selected_vertex_of_each_mesh(scene):
+    import bpy
+    from deformkit_addon import transfer
+    source, target = two_meshes(bpy)
+    edit_both(bpy, source, target)
+    chosen = [(3, 7), (100, 41), (250, 600 % 162), (17, 5)]
+    for k, (s, t) in enumerate(chosen):
+        select_in_edit(source, [s])
+        select_in_edit(target, [t])
+        assert bpy.ops.deformkit.add_marker_pair() == {"FINISHED"}
+        assert f"dt_{k + 1:03d}" in source.vertex_groups and f"dt_{k + 1:03d}" in target.vertex_groups
+    bpy.ops.object.mode_set(mode="OBJECT")
+    for k, (s, t) in enumerate(chosen):
+        name = f"dt_{k + 1:03d}"
+        assert members_with_weights(source, name) == {s: 1.0} and members_with_weights(target, name) == {t: 1.0}
+    pairs = transfer.marker_pairs(source, target)
+    assert pairs.names == ("dt_001", "dt_002", "dt_003", "dt_004")
+    assert list(pairs.source) == [s for s, _t in chosen] and list(pairs.target) == [t for _s, t in chosen]
+
+
+def test_the_next_number_follows_the_highest_on_either_mesh(scene):
+    import bpy
+    from deformkit_addon.transfer import markers
+    source, target = two_meshes(bpy)
+    source.vertex_groups.new(name="dt_007")
+    target.vertex_groups.new(name="dt_nose")  # named, not numbered: no number taken
+    assert markers.add_pair(source, 1, target, 2) == "dt_008"
+    assert markers.add_pair(source, 3, target, 4, prefix="mk_") == "mk_001"
+    assert group_members(source, "dt_008").tolist() == [1] and group_members(target, "mk_001").tolist() == [4]
+
+
+def test_add_marker_pair_names_what_is_wrong_with_the_selection(scene):
+    import bpy
+    source, target = two_meshes(bpy)
+    bpy.context.view_layer.objects.active = target
+    assert not bpy.ops.deformkit.add_marker_pair.poll()  # Object Mode
+    for obj in bpy.context.scene.objects:
+        obj.select_set(obj == target)
+    bpy.ops.object.mode_set(mode="EDIT")  # the target alone
+    select_in_edit(target, [5])
+    message = refused(bpy.ops.deformkit.add_marker_pair)
+    assert "exactly two meshes" in message and "'Target'" in message and "none" in message
+    bpy.ops.object.mode_set(mode="OBJECT")
+    edit_both(bpy, source, target)
+    select_in_edit(source, [])
+    select_in_edit(target, [5])
+    assert "'Source' has none selected: select exactly one vertex on each mesh" in refused(
+        bpy.ops.deformkit.add_marker_pair)
+    select_in_edit(source, [1])
+    select_in_edit(target, [5, 6, 9])
+    assert "'Target' has 3 vertices selected" in refused(bpy.ops.deformkit.add_marker_pair)
+    select_in_edit(target, [5])
+    assert bpy.ops.deformkit.add_marker_pair() == {"FINISHED"}
+    select_in_edit(source, [2])
+    assert "vertex 5 of 'Target' already marks the pair 'dt_001'" in refused(bpy.ops.deformkit.add_marker_pair)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    assert [g.name for g in source.vertex_groups] == ["dt_001"] == [g.name for g in target.vertex_groups]
+
+
+def test_the_list_selects_and_removes_both_of_a_pair(scene):
+    import bpy
+    from deformkit_addon import ui_markers
+    from deformkit_addon.transfer import markers
+    source, target = two_meshes(bpy)
+    target.vertex_groups.new(name="Other")
+    for s, t in ((10, 20), (30, 40), (50, 60)):
+        markers.add_pair(source, s, target, t)
+    source.vertex_groups.new(name="dt_lonely")  # on the source only: not a pair
+    edit_both(bpy, source, target)
+    select_in_edit(source, [1, 2])
+    assert bpy.ops.deformkit.select_marker_pair(name="dt_002") == {"FINISHED"}
+    assert selected_in_edit(source) == [30] and selected_in_edit(target) == [40]
+    target.vertex_groups.active_index = target.vertex_groups["dt_003"].index
+    assert bpy.ops.deformkit.select_marker_pair() == {"FINISHED"}  # the active group's pair
+    assert selected_in_edit(source) == [50] and selected_in_edit(target) == [60]
+    assert "pair 'dt_lonely': no marker group of that name on both" in refused(
+        bpy.ops.deformkit.select_marker_pair, name="dt_lonely")
+    assert bpy.ops.deformkit.remove_marker_pair(name="dt_002") == {"FINISHED"}
+    bpy.ops.object.mode_set(mode="OBJECT")
+    assert [g.name for g in source.vertex_groups] == ["dt_001", "dt_003", "dt_lonely"]
+    assert [g.name for g in target.vertex_groups] == ["Other", "dt_001", "dt_003"]
+    assert group_members(source, "dt_003").tolist() == [50] and group_members(target, "dt_003").tolist() == [60]
+    # The list shows the marker groups only, the pairs with select and remove buttons.
+    flags, order = ui_markers.DEFORMKIT_UL_marker_pairs.filter_items(
+        types.SimpleNamespace(bitflag_filter_item=1 << 30), bpy.context, target, "vertex_groups")
+    assert [g.name for g, f in zip(target.vertex_groups, flags) if f] == ["dt_001", "dt_003"] and order == []
+    log = []
+    with bpy.context.temp_override(object=target, active_object=target, selected_objects=[source, target]):
+        ui_markers.DEFORMKIT_UL_marker_pairs.draw_item(None, bpy.context, CheckingLayout(log), target,
+                                                       target.vertex_groups["dt_001"], 0, target, "active_index")
+        assert ("operator", "deformkit.select_marker_pair") in log and ("operator", "deformkit.remove_marker_pair") in log
+        layout = ListLayout(log)
+        ui_markers.DEFORMKIT_PT_marker_pairs.draw(types.SimpleNamespace(layout=layout), bpy.context)
+    assert ("label", "With 'Source'") in log and ("list", "DEFORMKIT_UL_marker_pairs") in log
+    for idname in ("add_marker_pair",):
+        assert ("operator", f"deformkit.{idname}") in log
+
+
+class ListLayout(CheckingLayout):
+    def template_list(self, list_type, _list_id, data, propname, active_data, active_propname, **_kw):
+        assert propname in data.bl_rna.properties and active_propname in active_data.bl_rna.properties
+        self.log.append(("list", list_type))
+
+    def row(self, **_kw):
+        return ListLayout(self.log)
+
+    column = row
