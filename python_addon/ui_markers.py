@@ -60,6 +60,7 @@ class DEFORMKIT_PT_marker_pairs(bpy.types.Panel):
                              "active_index", rows=4)
         col = layout.column(align=True)
         col.operator("deformkit.add_marker_pair", icon="ADD")
+        col.operator("deformkit.mirror_marker_pair", icon="MOD_MIRROR")
 
 
 classes = (DEFORMKIT_UL_marker_pairs, DEFORMKIT_PT_marker_pairs)

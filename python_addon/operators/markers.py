@@ -2,7 +2,7 @@
 is transfer/markers.py's; the target is the active mesh and the source the other mesh in Edit Mode
 with it (or, in Object Mode, the other selected mesh)."""
 import bpy
-from bpy.props import StringProperty
+from bpy.props import FloatProperty, StringProperty
 
 from ..transfer import DEFAULT_PREFIX, markers
 from .base import Operator, mesh_object
@@ -86,4 +86,22 @@ class DEFORMKIT_OT_remove_marker_pair(MarkerOperator, bpy.types.Operator):
         markers.remove_pair(source, target, pair_name(context, self.name), self.prefix)
 
 
-classes = (DEFORMKIT_OT_add_marker_pair, DEFORMKIT_OT_select_marker_pair, DEFORMKIT_OT_remove_marker_pair)
+class DEFORMKIT_OT_mirror_marker_pair(MarkerOperator, bpy.types.Operator):
+    """Add the X-mirrored pair of a pair on symmetric meshes: on each mesh the vertex nearest the \
+marker's mirror image about the object's own X = 0"""
+    bl_idname = "deformkit.mirror_marker_pair"
+    bl_label = "Mirror Marker Pair"
+    name: StringProperty(name="Name", description="The pair to mirror (empty: the active group)")
+    tolerance: FloatProperty(name="Tolerance", default=markers.MIRROR_TOLERANCE, min=1e-6, max=1.0,
+                             description="How far the nearest vertex may be from the mirrored position, as a "
+                             "fraction of the mesh's bounding-box diagonal")
+    prefix: PREFIX
+
+    def run(self, context):
+        source, target = the_two(context)
+        name = markers.mirror_pair(source, target, pair_name(context, self.name), self.tolerance, self.prefix)
+        self.report({"INFO"}, f"Mirrored pair '{name}'")
+
+
+classes = (DEFORMKIT_OT_add_marker_pair, DEFORMKIT_OT_select_marker_pair, DEFORMKIT_OT_remove_marker_pair,
+           DEFORMKIT_OT_mirror_marker_pair)

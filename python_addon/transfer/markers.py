@@ -11,6 +11,7 @@ import numpy as np
 from ..errors import EntryError
 from .correspondence import DEFAULT_PREFIX
 
+MIRROR_TOLERANCE = 0.01  # of the mesh's bounding-box diagonal
 
 
 class Vertices:
@@ -196,3 +197,37 @@ def remove_pair(source, target, name, prefix=DEFAULT_PREFIX):
         side = Vertices(obj)
         obj.vertex_groups.remove(obj.vertex_groups[name])
         side.done()
+
+
+def nearest_vertex(points, point):
+    distance = np.linalg.norm(points - point, axis=1)
+    index = int(np.argmin(distance))
+    return index, float(distance[index])
+
+
+def mirror_pair(source, target, name, tolerance=MIRROR_TOLERANCE, prefix=DEFAULT_PREFIX):
+    """The X-mirrored pair of `name` (x -> -x in each object's own space, as Blender's mesh X
+    mirror): on each mesh the vertex nearest the marker's mirrored position, which must lie within
+    tolerance (a fraction of the mesh's bounding-box diagonal) of it. Returns the new pair's name."""
+    existing_pair(source, target, name, prefix)
+    if not tolerance > 0:
+        raise EntryError(f"tolerance: {tolerance}; expected a fraction of the mesh's size above 0, e.g. 0.01")
+    found = []
+    for obj in (source, target):
+        side = Vertices(obj)
+        points = side.positions()
+        vertex = side.marker(name)
+        if vertex is None:
+            raise EntryError(f"marker vertex group '{name}' on '{obj.name}' is empty: assign the marker vertex")
+        mirrored = points[vertex] * (-1.0, 1.0, 1.0)
+        index, distance = nearest_vertex(points, mirrored)
+        allowed = tolerance * float(np.linalg.norm(points.max(0) - points.min(0)))
+        if distance > allowed:
+            raise EntryError(f"'{obj.name}' has no vertex within {allowed:.4g} (tolerance {tolerance:g} of its size) "
+                             f"of the X mirror of '{name}' (vertex {vertex}) at ({mirrored[0]:.4g}, "
+                             f"{mirrored[1]:.4g}, {mirrored[2]:.4g}): the nearest, vertex {index}, is {distance:.4g} "
+                             "away; the mesh is not symmetric about its own X = 0 there")
+        found.append((vertex, index))
+    if all(vertex == index for vertex, index in found):
+        raise EntryError(f"pair '{name}' lies on the mirror plane (X = 0) of both meshes: its mirror is itself")
+    return add_pair(source, found[0][1], target, found[1][1], prefix)

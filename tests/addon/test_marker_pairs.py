@@ -169,7 +169,7 @@ def test_the_list_selects_and_removes_both_of_a_pair(scene):
         layout = ListLayout(log)
         ui_markers.DEFORMKIT_PT_marker_pairs.draw(types.SimpleNamespace(layout=layout), bpy.context)
     assert ("label", "With 'Source'") in log and ("list", "DEFORMKIT_UL_marker_pairs") in log
-    for idname in ("add_marker_pair",):
+    for idname in ("add_marker_pair", "mirror_marker_pair"):
         assert ("operator", f"deformkit.{idname}") in log
 
 
@@ -182,3 +182,45 @@ class ListLayout(CheckingLayout):
         return ListLayout(self.log)
 
     column = row
+
+
+def mirror_truth(obj, vertex):
+    """The vertex nearest vertex's mirror image about the object's X = 0, and its distance."""
+    co = positions(obj.data).astype(np.float64)
+    distance = np.linalg.norm(co - co[vertex] * np.array([-1.0, 1.0, 1.0]), axis=1)
+    return int(np.argmin(distance)), float(distance.min())
+
+
+def test_the_mirrored_pair_marks_the_vertices_nearest_the_mirror_images(scene):
+    import bpy
+    from deformkit_addon.transfer import markers
+    source, target = two_meshes(bpy)
+    co_s, co_t = positions(source.data), positions(target.data)
+    s = int(np.argmax(co_s[:, 0] + 0.5 * co_s[:, 2]))  # off the plane, on the +X side
+    t = int(np.argmax(co_t[:, 0] + 0.5 * co_t[:, 2]))
+    markers.add_pair(source, s, target, t)
+    edit_both(bpy, source, target)
+    assert bpy.ops.deformkit.mirror_marker_pair(name="dt_001") == {"FINISHED"}
+    bpy.ops.object.mode_set(mode="OBJECT")
+    (ms, ds), (mt, dt) = mirror_truth(source, s), mirror_truth(target, t)
+    assert ms != s and mt != t and ds < 1e-5 and dt < 1e-5
+    assert members_with_weights(source, "dt_002") == {ms: 1.0} and members_with_weights(target, "dt_002") == {mt: 1.0}
+    # On the plane of both: its own mirror.
+    on_plane_s, on_plane_t = int(np.argmax(co_s[:, 2])), int(np.argmax(co_t[:, 2]))  # the poles, x = 0
+    markers.add_pair(source, on_plane_s, target, on_plane_t)
+    with pytest.raises(ValueError, match="pair 'dt_003' lies on the mirror plane"):
+        markers.mirror_pair(source, target, "dt_003")
+    # A target made lopsided: no vertex near the mirror image, refused, naming the mesh and the distance.
+    co_t = positions(target.data).astype(np.float64)
+    co_t[co_t[:, 0] < -1e-6, 1] += 0.3
+    target.data.vertices.foreach_set("co", co_t.astype(np.float32).ravel())
+    target.data.update()
+    _nearest, distance = mirror_truth(target, t)
+    with pytest.raises(ValueError, match=r"'Target' has no vertex within .* of the X mirror of 'dt_001'") as error:
+        markers.mirror_pair(source, target, "dt_001")
+    assert f"{distance:.4g} away" in str(error.value)
+    with pytest.raises(ValueError, match=f"vertex {ms} of 'Source' already marks the pair 'dt_002'"):
+        markers.mirror_pair(source, target, "dt_001", tolerance=0.5)  # mirrored already
+    markers.remove_pair(source, target, "dt_002")
+    assert markers.mirror_pair(source, target, "dt_001", tolerance=0.5) == "dt_004"  # a looser tolerance takes it
+    assert group_members(target, "dt_004").tolist() == [mirror_truth(target, t)[0]]
