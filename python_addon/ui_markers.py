@@ -60,7 +60,9 @@ class DEFORMKIT_PT_marker_pairs(bpy.types.Panel):
                              "active_index", rows=4)
         col = layout.column(align=True)
         col.operator("deformkit.add_marker_pair", icon="ADD")
-        col.operator("deformkit.mirror_marker_pair", icon="MOD_MIRROR")
+        row = col.row(align=True)
+        row.operator("deformkit.mirror_marker_pair", icon="MOD_MIRROR")
+        row.operator("deformkit.guess_marker_pairs", icon="VIEWZOOM")
 
 
 classes = (DEFORMKIT_UL_marker_pairs, DEFORMKIT_PT_marker_pairs)

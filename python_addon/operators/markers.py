@@ -2,7 +2,7 @@
 is transfer/markers.py's; the target is the active mesh and the source the other mesh in Edit Mode
 with it (or, in Object Mode, the other selected mesh)."""
 import bpy
-from bpy.props import FloatProperty, StringProperty
+from bpy.props import FloatProperty, IntProperty, StringProperty
 
 from ..transfer import DEFAULT_PREFIX, markers
 from .base import Operator, mesh_object
@@ -103,5 +103,21 @@ marker's mirror image about the object's own X = 0"""
         self.report({"INFO"}, f"Mirrored pair '{name}'")
 
 
+class DEFORMKIT_OT_guess_marker_pairs(MarkerOperator, bpy.types.Operator):
+    """Propose marker pairs to correct: well-spread source vertices paired with the nearest target \
+vertices once the source is placed on the target by a similarity fit (from the pairs already made, \
+if three or more)"""
+    bl_idname = "deformkit.guess_marker_pairs"
+    bl_label = "Guess Marker Pairs"
+    count: IntProperty(name="Count", default=20, min=1, soft_max=200, description="How many pairs to propose")
+    prefix: PREFIX
+
+    def run(self, context):
+        source, target = the_two(context)
+        names = markers.guess_pairs(source, target, self.count, self.prefix)
+        self.report({"INFO"}, f"Proposed {len(names)} marker pairs: check them (Select) and correct or remove "
+                    "the wrong ones")
+
+
 classes = (DEFORMKIT_OT_add_marker_pair, DEFORMKIT_OT_select_marker_pair, DEFORMKIT_OT_remove_marker_pair,
-           DEFORMKIT_OT_mirror_marker_pair)
+           DEFORMKIT_OT_mirror_marker_pair, DEFORMKIT_OT_guess_marker_pairs)

@@ -7,11 +7,15 @@ import re
 
 import bmesh
 import numpy as np
+from mathutils.kdtree import KDTree
 
 from ..errors import EntryError
 from .correspondence import DEFAULT_PREFIX
+from .similarity import Similarity, applied, fitted_similarity
 
 MIRROR_TOLERANCE = 0.01  # of the mesh's bounding-box diagonal
+ICP_SAMPLES = 2000  # points per side in the first guess's fit: enough to place, few enough to be quick
+ICP_STEPS = 40
 
 
 class Vertices:
@@ -231,3 +235,112 @@ def mirror_pair(source, target, name, tolerance=MIRROR_TOLERANCE, prefix=DEFAULT
     if all(vertex == index for vertex, index in found):
         raise EntryError(f"pair '{name}' lies on the mirror plane (X = 0) of both meshes: its mirror is itself")
     return add_pair(source, found[0][1], target, found[1][1], prefix)
+
+
+def spread_vertices(points, count, first):
+    """`count` well-spread vertices: farthest-point sampling from `first` (each next vertex the
+    farthest from those taken)."""
+    taken = [first]
+    distance = np.linalg.norm(points - points[first], axis=1)
+    for _ in range(count - 1):
+        taken.append(int(np.argmax(distance)))
+        distance = np.minimum(distance, np.linalg.norm(points - points[taken[-1]], axis=1))
+    return taken
+
+
+def kd_tree(points):
+    tree = KDTree(len(points))
+    for index, point in enumerate(points):
+        tree.insert(point, index)
+    tree.balance()
+    return tree
+
+
+def nearest_indices(tree, points):
+    return np.array([tree.find(p)[1] for p in points], np.int64)
+
+
+def principal_starts(source, target):
+    """The four proper similarities taking source's principal axes onto target's (the axes' signs
+    are undetermined, up to a rotation), scaled by the ratio of their spreads."""
+    frames = []
+    for points in (source, target):
+        centred = points - points.mean(0)
+        _values, axes = np.linalg.eigh(centred.T @ centred)
+        frames.append((points.mean(0), axes[:, ::-1], np.sqrt((centred ** 2).sum(1).mean())))
+    (ms, axes_s, spread_s), (mt, axes_t, spread_t) = frames
+    starts = []
+    for signs in ((1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1)):
+        rotation = (axes_t * signs) @ axes_s.T
+        if np.linalg.det(rotation) < 0:
+            rotation = (axes_t * np.array(signs) * (1, 1, -1)) @ axes_s.T
+        scale = spread_t / spread_s
+        starts.append(Similarity(scale, rotation, mt - scale * rotation @ ms))
+    return starts
+
+
+def fitted_to(source, target, start):
+    """Iterative closest points with a similarity (Besl and McKay 1992, with Umeyama's fit), both
+    ways (source samples to their nearest target points and back) so the scale cannot shrink onto
+    a part of the target; returns (similarity, mean squared distance of both ways)."""
+    fit = start
+    target_tree = kd_tree(target)
+    for _ in range(ICP_STEPS):
+        moved = applied(fit, source)
+        forward = nearest_indices(target_tree, moved)
+        backward = nearest_indices(kd_tree(moved), target)
+        fit = fitted_similarity(np.vstack([source, source[backward]]), np.vstack([target[forward], target]))
+    moved = applied(fit, source)
+    residual = (((moved - target[nearest_indices(target_tree, moved)]) ** 2).sum(1).mean()
+                + ((target - moved[nearest_indices(kd_tree(moved), target)]) ** 2).sum(1).mean())
+    return fit, residual
+
+
+def samples(points, limit=ICP_SAMPLES):
+    return points[:: max(1, len(points) // limit)]
+
+
+def similarity_fit(source, target, prefix=DEFAULT_PREFIX):
+    """The similarity placing source's vertices on target's: from the pairs already made when there
+    are three or more, else from the best of the principal-axis starts; refined by closest points."""
+    src, tgt = Vertices(source), Vertices(target)
+    a, b = samples(src.positions()), samples(tgt.positions())
+    names = pair_names(source, target, prefix)
+    ms, mt = src.markers(names), tgt.markers(names)
+    marked = [(ms[n], mt[n]) for n in names if n in ms and n in mt]
+    if len(marked) >= 3:
+        s, t = np.array(marked).T
+        starts = [fitted_similarity(src.positions()[s], tgt.positions()[t])]
+    else:
+        starts = principal_starts(a, b)
+    return min((fitted_to(a, b, start) for start in starts), key=lambda fit: fit[1])[0]
+
+
+def guess_pairs(source, target, count, prefix=DEFAULT_PREFIX):
+    """A first guess of `count` pairs for the user to correct: well-spread source vertices (not
+    already markers) each paired with the target vertex nearest its place under the similarity
+    fit of the two meshes (similarity_fit). Returns the new pairs' names; a source vertex whose
+    nearest target vertex is already taken is skipped."""
+    check_prefix(prefix)
+    src, tgt = Vertices(source), Vertices(target)
+    if not isinstance(count, int) or not 1 <= count <= len(src):
+        raise EntryError(f"count: {count!r}; expected a whole number from 1 to the source's {len(src)} vertices")
+    if len(src) < 3 or len(tgt) < 3:
+        raise EntryError(f"'{source.name}' and '{target.name}' need three vertices each for a similarity fit")
+    fit = similarity_fit(source, target, prefix)
+    points, onto = src.positions(), tgt.positions()
+    names = pair_names(source, target, prefix)
+    taken_s, taken_t = set(src.markers(names).values()), set(tgt.markers(names).values())
+    centre = points.mean(0)
+    first = int(np.argmax(np.linalg.norm(points - centre, axis=1)))
+    candidates = [v for v in spread_vertices(points, min(len(points), count + len(taken_s)), first)
+                  if v not in taken_s][:count]
+    tree = kd_tree(onto)
+    made = []
+    for vertex in candidates:
+        match = tree.find(applied(fit, points[vertex][None])[0])[1]
+        if match in taken_t:
+            continue
+        taken_t.add(match)
+        made.append(written_pair([(src, vertex), (tgt, match)], prefix))
+    return made

@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 
 from addon_helpers import CheckingLayout, group_members, positions
+from test_transfer_addon import (SHARED, dome, horn_similarity, key_points, mesh_object, read_obj, require_unlike,
+                                 rotation)
 
 
 def two_meshes(bpy, target_turn=np.eye(3)):
@@ -169,7 +171,7 @@ def test_the_list_selects_and_removes_both_of_a_pair(scene):
         layout = ListLayout(log)
         ui_markers.DEFORMKIT_PT_marker_pairs.draw(types.SimpleNamespace(layout=layout), bpy.context)
     assert ("label", "With 'Source'") in log and ("list", "DEFORMKIT_UL_marker_pairs") in log
-    for idname in ("add_marker_pair", "mirror_marker_pair"):
+    for idname in ("add_marker_pair", "mirror_marker_pair", "guess_marker_pairs"):
         assert ("operator", f"deformkit.{idname}") in log
 
 
@@ -224,3 +226,102 @@ def test_the_mirrored_pair_marks_the_vertices_nearest_the_mirror_images(scene):
     markers.remove_pair(source, target, "dt_002")
     assert markers.mirror_pair(source, target, "dt_001", tolerance=0.5) == "dt_004"  # a looser tolerance takes it
     assert group_members(target, "dt_004").tolist() == [mirror_truth(target, t)[0]]
+
+
+def similar_meshes(bpy, motion, shift):
+    """A blob made from a UV sphere (Source, with a "Dome" key) and the same blob made from a finer
+    icosphere then moved by p -> motion p + shift (Target): unlike meshes of one shape."""
+    def blob(points):
+        out = np.array(points, np.float64) * (1.6, 1.0, 0.7)
+        out[:, 0] += 0.3 * out[:, 1] ** 2
+        out[:, 2] += 0.2 * np.maximum(out[:, 0], 0.0)
+        return out
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=1.0)
+    source = bpy.context.active_object
+    source.name = "Source"
+    rest = blob(positions(source.data))
+    source.data.vertices.foreach_set("co", rest.astype(np.float32).ravel())
+    source.data.update()
+    source.shape_key_add(name="Basis")
+    source.shape_key_add(name="Dome", from_mix=False).data.foreach_set(
+        "co", dome(positions(source.data).astype(np.float64)).astype(np.float32).ravel())
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=4, radius=1.0)
+    target = bpy.context.active_object
+    target.name = "Target"
+    target.data.vertices.foreach_set("co", (blob(positions(target.data)) @ motion.T + shift).astype(np.float32).ravel())
+    target.data.update()
+    return source, target
+
+
+def test_the_first_guess_pairs_like_points_and_transfers_within_a_bound(scene, capsys):
+    """The target is the source's shape remeshed and moved by a similarity M p + c (turned 2 rad,
+    scaled 1.5): each guessed pair's target vertex lies within one target edge of M p + c, and the
+    source's "Dome" key transferred through the guessed pairs is the same dome on the target
+    within 2% of its size (measured 0.45%, pairs at most 0.4 target edges off)."""
+    import bpy
+    from deformkit_addon import transfer
+    require_unlike()
+    motion, shift = 1.5 * rotation((1, -2, 0.5), 2.0), np.array([0.7, -2.0, 1.1])
+    source, target = similar_meshes(bpy, motion, shift)
+    for obj in bpy.context.scene.objects:
+        obj.select_set(True)
+    bpy.context.view_layer.objects.active = target
+    assert bpy.ops.deformkit.guess_marker_pairs(count=12) == {"FINISHED"}
+    pairs = transfer.marker_pairs(source, target)
+    assert len(pairs.names) == 12 and len(set(pairs.source)) == 12 and len(set(pairs.target)) == 12
+    rest_s, rest_t = positions(source.data).astype(np.float64), positions(target.data).astype(np.float64)
+    edge = max(np.linalg.norm(rest_t[e.vertices[0]] - rest_t[e.vertices[1]]) for e in target.data.edges)
+    off = np.linalg.norm(rest_t[pairs.target] - (rest_s[pairs.source] @ motion.T + shift), axis=1)
+    spread = np.linalg.norm(rest_s[pairs.source][:, None] - rest_s[pairs.source][None], axis=2)
+    size = float(np.linalg.norm(rest_s.max(0) - rest_s.min(0)))
+    assert off.max() < edge  # like points
+    assert spread[~np.eye(12, dtype=bool)].min() > 0.15 * size  # well spread
+    result = transfer.transfer_shape_keys(source, target)
+    truth = dome((rest_t - shift) @ np.linalg.inv(motion).T) @ motion.T + shift
+    error = np.abs(key_points(target.data.shape_keys.key_blocks["Dome"]) - truth).max() / np.abs(rest_t - shift).max()
+    with capsys.disabled():
+        print(f"\nfirst guess (12 pairs): pairs off the truth by at most {off.max() / edge:.2f} target edges; "
+              f"the Dome transferred through them off by {error:.3g} of the size; {result.unmatched} unmatched")
+    assert error < 0.02
+
+
+def test_the_first_guess_refuses_a_bad_count_and_keeps_the_pairs_made(scene):
+    import bpy
+    from deformkit_addon.transfer import markers
+    source, target = similar_meshes(bpy, np.eye(3), np.zeros(3))
+    with pytest.raises(ValueError, match=r"count: 0; expected a whole number from 1 to the source's \d+ vertices"):
+        markers.guess_pairs(source, target, 0)
+    markers.add_pair(source, 0, target, 5)
+    made = markers.guess_pairs(source, target, 4)
+    assert made == ["dt_002", "dt_003", "dt_004", "dt_005"]
+    assert group_members(source, "dt_001").tolist() == [0] and group_members(target, "dt_001").tolist() == [5]
+    marked = [group_members(source, n)[0] for n in made]
+    assert 0 not in marked  # a vertex already marked is not proposed again
+
+
+def test_the_first_guess_fit_of_the_horse_onto_the_camel_agrees_with_the_published_markers(scene, capsys):
+    """With no pairs, the fit of Sumner's horse onto the camel (../shared/transfer) against Horn's
+    fit of the 107 published marker pairs: the same turn within 0.02 rad and scale within 2%
+    (measured 0.006 rad and 0.6%)."""
+    import bpy
+    from deformkit_addon.transfer import markers
+    from deformkit_addon.transfer.similarity import applied
+    if not SHARED.is_dir():
+        pytest.skip(f"{SHARED} not found: the shared transfer data is not beside this checkout")
+    horse_rest, horse_faces = read_obj(SHARED / "horse_ref.obj")
+    camel_rest, camel_faces = read_obj(SHARED / "camel_ref.obj")
+    pairs = np.loadtxt(SHARED / "horse_camel.cons", delimiter=",", skiprows=1, dtype=np.int64)
+    horse = mesh_object(bpy, "Horse", horse_rest, horse_faces)
+    camel = mesh_object(bpy, "Camel", camel_rest, camel_faces)
+    fit = markers.similarity_fit(horse, camel)
+    truth = horn_similarity(horse_rest[pairs[:, 0]], camel_rest[pairs[:, 1]])
+    probe = horse_rest[pairs[:, 0]]
+    # Horn's fit as a map: its linear part from the probe points' differences.
+    linear = np.linalg.lstsq(probe - probe.mean(0), truth(probe) - truth(probe).mean(0), rcond=None)[0].T
+    scale = np.cbrt(np.linalg.det(linear))
+    angle = np.arccos(np.clip((np.trace(linear / scale @ fit.rotation.T) - 1) / 2, -1, 1))
+    off = np.linalg.norm(applied(fit, probe) - truth(probe), axis=1).max() / np.linalg.norm(np.ptp(camel_rest, 0))
+    with capsys.disabled():
+        print(f"\nhorse -> camel first-guess fit: turn off by {angle:.3g} rad, scale {fit.scale / scale - 1:.3g}, "
+              f"markers placed {off:.3g} of the camel's diagonal from Horn's fit")
+    assert angle < 0.02 and abs(fit.scale / scale - 1) < 0.02
