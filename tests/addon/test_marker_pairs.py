@@ -325,3 +325,23 @@ def test_the_first_guess_fit_of_the_horse_onto_the_camel_agrees_with_the_publish
         print(f"\nhorse -> camel first-guess fit: turn off by {angle:.3g} rad, scale {fit.scale / scale - 1:.3g}, "
               f"markers placed {off:.3g} of the camel's diagonal from Horn's fit")
     assert angle < 0.02 and abs(fit.scale / scale - 1) < 0.02
+
+
+def test_the_dialog_opens_on_the_active_object_as_target(scene):
+    """invoke fills Target with the active object (and Source with the other selected mesh) each time
+    the dialog opens, replacing the last run's remembered names (Blender remembers an operator's
+    last settings)."""
+    import bpy
+    from deformkit_addon.operators.transfer import DEFORMKIT_OT_transfer_deformation as Op
+    source, target = two_meshes(bpy)
+    bpy.ops.mesh.primitive_cube_add()
+    third = bpy.context.active_object
+    opened = []
+    wm = types.SimpleNamespace(invoke_props_dialog=lambda op: opened.append((op.source, op.target)) or {"RUNNING_MODAL"})
+    settings = types.SimpleNamespace(source="", target="")
+    Op.invoke(settings, types.SimpleNamespace(object=target, selected_objects=[source, target], window_manager=wm), None)
+    Op.invoke(settings, types.SimpleNamespace(object=third, selected_objects=[target, third], window_manager=wm), None)
+    # Nothing else selected: the last Source stays (it is another mesh), unless it is now the target.
+    Op.invoke(settings, types.SimpleNamespace(object=source, selected_objects=[source], window_manager=wm), None)
+    Op.invoke(settings, types.SimpleNamespace(object=target, selected_objects=[target], window_manager=wm), None)
+    assert opened == [("Source", "Target"), ("Target", "Cube"), ("Target", "Source"), ("", "Target")]
