@@ -1,9 +1,21 @@
 """The marker pairs' panel (Properties > Object Data, beside Vertex Groups): the pairs of the
 active mesh and its partner (the other mesh in Edit Mode with it, else the other selected mesh) as
-a list of the active mesh's marker vertex groups, with the tools of operators/markers.py."""
+a list of the active mesh's marker vertex groups, with the tools of operators/markers.py; and the
+pairs drawn in the 3D Viewport as numbered points on both meshes (the active pair in white)."""
+import blf
 import bpy
+import gpu
+import numpy as np
+from gpu_extras.batch import batch_for_shader
 
 from .transfer import DEFAULT_PREFIX, markers
+
+# By "is the active pair": cyan apart from Edit Mode's orange selection, the active pair white.
+COLOURS = {False: (0.2, 0.85, 1.0, 1.0), True: (1.0, 1.0, 1.0, 1.0)}
+POINT_SIZE = 9.0
+LABEL_SIZE = 13
+HANDLES = []
+DRAWN = []  # what draw_points drew, for draw_labels in the same redraw (reading the groups is the cost)
 
 
 def partner(context):
@@ -39,16 +51,20 @@ class DEFORMKIT_UL_marker_pairs(bpy.types.UIList):
 
 
 class DEFORMKIT_PT_marker_pairs(bpy.types.Panel):
-    """Deformation transfer's marker pairs between the active mesh (the target) and the other."""
+    """Deformation transfer's marker pairs between the active mesh (the target) and the other:
+    under Vertex Groups, shown when there is another mesh to pair with or the mesh has markers."""
     bl_label = "deformkit Marker Pairs"
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
     bl_context = "data"
-    bl_options = {"DEFAULT_CLOSED"}
+    bl_parent_id = "DATA_PT_vertex_groups"
 
     @classmethod
     def poll(cls, context):
-        return context.object is not None and context.object.type == "MESH"
+        obj = context.object
+        if obj is None or obj.type != "MESH":
+            return False
+        return partner(context) is not None or any(g.name.startswith(DEFAULT_PREFIX) for g in obj.vertex_groups)
 
     def draw(self, context):
         obj = context.object
@@ -63,6 +79,85 @@ class DEFORMKIT_PT_marker_pairs(bpy.types.Panel):
         row = col.row(align=True)
         row.operator("deformkit.mirror_marker_pair", icon="MOD_MIRROR")
         row.operator("deformkit.guess_marker_pairs", icon="VIEWZOOM")
+
+
+def shown_markers(context):
+    """[(label, world position, is the active pair)] for both meshes of the active mesh's pairs,
+    or [] when there is no partner or the viewport's overlays are off."""
+    space = getattr(context, "space_data", None)
+    overlay = getattr(space, "overlay", None)
+    obj = context.object
+    if (overlay is not None and not overlay.show_overlays) or obj is None or obj.type != "MESH":
+        return []
+    other = partner(context)
+    if other is None:
+        return []
+    try:
+        sides = markers.marker_points(other, obj)
+    except ValueError:
+        return []
+    active = obj.vertex_groups.active.name if obj.vertex_groups.active is not None else None
+    return [(label(name), point, name == active) for _obj, names, points in sides for name, point in zip(names, points)]
+
+
+def label(name):
+    number = name[len(DEFAULT_PREFIX):]
+    return str(int(number)) if number.isdigit() else number
+
+
+def region_point(region, region_data, point):
+    """The pixel of a world point in the region, or None behind the view."""
+    clip = np.array(region_data.perspective_matrix, np.float64) @ np.append(point, 1.0)
+    if clip[3] <= 0:
+        return None
+    return (region.width * (1.0 + clip[0] / clip[3]) / 2, region.height * (1.0 + clip[1] / clip[3]) / 2)
+
+
+def draw_points(context=None):
+    shown = shown_markers(context or bpy.context)
+    DRAWN[:] = shown
+    if not shown:
+        return
+    # Blender 4.0 dropped the "3D_" of the built-in shaders' names.
+    shader = gpu.shader.from_builtin("UNIFORM_COLOR" if bpy.app.version >= (4, 0, 0) else "3D_UNIFORM_COLOR")
+    gpu.state.point_size_set(POINT_SIZE)
+    for active in (False, True):
+        points = [tuple(point) for _label, point, is_active in shown if is_active == active]
+        if points:
+            batch = batch_for_shader(shader, "POINTS", {"pos": points})
+            shader.uniform_float("color", COLOURS[active])
+            batch.draw(shader)
+    gpu.state.point_size_set(1.0)
+
+
+def draw_labels(context=None):
+    """The pairs' numbers beside the points draw_points drew in this redraw."""
+    context = context or bpy.context
+    region, region_data = getattr(context, "region", None), getattr(context, "region_data", None)
+    shown = DRAWN if region is not None and region_data is not None else []
+    if not shown:
+        return
+    try:
+        blf.size(0, LABEL_SIZE)
+    except TypeError:  # Blender before 3.6 also asks for the dpi
+        blf.size(0, LABEL_SIZE, 72)
+    for text, point, active in shown:
+        at = region_point(region, region_data, point)
+        if at is not None:
+            blf.color(0, *COLOURS[active])
+            blf.position(0, at[0] + 6, at[1] + 6, 0)
+            blf.draw(0, text)
+
+
+def register():
+    view3d = bpy.types.SpaceView3D
+    HANDLES.append(view3d.draw_handler_add(draw_points, (), "WINDOW", "POST_VIEW"))
+    HANDLES.append(view3d.draw_handler_add(draw_labels, (), "WINDOW", "POST_PIXEL"))
+
+
+def unregister():
+    while HANDLES:
+        bpy.types.SpaceView3D.draw_handler_remove(HANDLES.pop(), "WINDOW")
 
 
 classes = (DEFORMKIT_UL_marker_pairs, DEFORMKIT_PT_marker_pairs)

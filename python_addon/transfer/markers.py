@@ -30,7 +30,7 @@ class Vertices:
             self.bm = bmesh.from_edit_mesh(obj.data)
             self.bm.verts.ensure_lookup_table()
             self.bm.verts.index_update()  # the indices leaving Edit Mode will give
-            self.deform = self.bm.verts.layers.deform.verify()
+            self.deform = self.bm.verts.layers.deform.active  # None until a vertex has a group
 
     def __len__(self):
         return len(self.bm.verts) if self.bm is not None else len(self.obj.data.vertices)
@@ -42,6 +42,9 @@ class Vertices:
         co = np.empty(len(self.obj.data.vertices) * 3, np.float32)
         self.obj.data.vertices.foreach_get("co", co)
         return co.reshape(-1, 3).astype(np.float64)
+
+    def co(self, vertex):
+        return tuple((self.bm.verts if self.bm is not None else self.obj.data.vertices)[vertex].co)
 
     def selected(self):
         if self.bm is not None:
@@ -57,6 +60,8 @@ class Vertices:
         """{name: marker vertex} of the named groups that have members; one pass over the vertices."""
         index_of = {self.obj.vertex_groups[n].index: n for n in names if self.obj.vertex_groups.get(n) is not None}
         best = {}
+        if not index_of or (self.bm is not None and self.deform is None):
+            return best
         if self.bm is not None:
             weights = ((v.index, v[self.deform].items()) for v in self.bm.verts)
         else:
@@ -72,6 +77,7 @@ class Vertices:
         """A new group `name` holding `vertex` alone, weight 1."""
         group = self.obj.vertex_groups.new(name=name)
         if self.bm is not None:
+            self.deform = self.bm.verts.layers.deform.verify()
             self.bm.verts[vertex][self.deform][group.index] = 1.0
         else:
             group.add([int(vertex)], 1.0, "REPLACE")
@@ -344,3 +350,20 @@ def guess_pairs(source, target, count, prefix=DEFAULT_PREFIX):
         taken_t.add(match)
         made.append(written_pair([(src, vertex), (tgt, match)], prefix))
     return made
+
+
+def marker_points(source, target, prefix=DEFAULT_PREFIX):
+    """What the viewport draws: for each mesh, (object, pair names, its marker vertices in world
+    space (k, 3) float64) of the pairs on both meshes that have a marker vertex on both."""
+    names = pair_names(source, target, prefix)
+    if not names:
+        return [(obj, [], np.zeros((0, 3))) for obj in (source, target)]
+    sides = [Vertices(obj) for obj in (source, target)]
+    found = [side.markers(names) for side in sides]
+    names = [n for n in names if all(n in f for f in found)]
+    out = []
+    for side, marked in zip(sides, found):
+        matrix = np.array(side.obj.matrix_world, np.float64)
+        local = np.array([side.co(marked[n]) for n in names], np.float64).reshape(-1, 3)
+        out.append((side.obj, names, local @ matrix[:3, :3].T + matrix[:3, 3]))
+    return out

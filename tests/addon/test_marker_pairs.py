@@ -173,6 +173,14 @@ def test_the_list_selects_and_removes_both_of_a_pair(scene):
     assert ("label", "With 'Source'") in log and ("list", "DEFORMKIT_UL_marker_pairs") in log
     for idname in ("add_marker_pair", "mirror_marker_pair", "guess_marker_pairs"):
         assert ("operator", f"deformkit.{idname}") in log
+    # Under Vertex Groups, shown with another mesh to pair with or markers on the mesh, not on any mesh.
+    poll = ui_markers.DEFORMKIT_PT_marker_pairs.poll
+    assert ui_markers.DEFORMKIT_PT_marker_pairs.bl_parent_id == "DATA_PT_vertex_groups"
+    bpy.ops.mesh.primitive_cube_add()
+    cube = bpy.context.active_object
+    assert poll(types.SimpleNamespace(object=cube, selected_objects=[cube])) is False
+    assert poll(types.SimpleNamespace(object=cube, selected_objects=[cube, source])) is True
+    assert poll(types.SimpleNamespace(object=target, selected_objects=[target])) is True  # its markers
 
 
 class ListLayout(CheckingLayout):
@@ -345,3 +353,92 @@ def test_the_dialog_opens_on_the_active_object_as_target(scene):
     Op.invoke(settings, types.SimpleNamespace(object=source, selected_objects=[source], window_manager=wm), None)
     Op.invoke(settings, types.SimpleNamespace(object=target, selected_objects=[target], window_manager=wm), None)
     assert opened == [("Source", "Target"), ("Target", "Cube"), ("Target", "Source"), ("", "Target")]
+
+
+class Recorder:
+    """Stands in for gpu, gpu_extras' batch_for_shader and blf (there is no GPU in the background):
+    records the points drawn with their colour, and the text drawn at each pixel."""
+
+    def __init__(self):
+        self.points, self.texts, self.colour = [], [], None
+        self.shader = types.SimpleNamespace(from_builtin=lambda name: self)
+        self.state = types.SimpleNamespace(point_size_set=lambda size: None)
+
+    def uniform_float(self, name, value):
+        self.colour = tuple(value)
+
+    def batch_for_shader(self, shader, kind, data):
+        assert kind == "POINTS"
+        return types.SimpleNamespace(draw=lambda _shader: self.points.extend((p, self.colour) for p in data["pos"]))
+
+    # blf
+    def size(self, *_args):
+        pass
+
+    def color(self, _font, *colour):
+        self.colour = colour
+
+    def position(self, _font, x, y, _z):
+        self.at = (x, y)
+
+    def draw(self, _font, text):
+        self.texts.append((text, self.at, self.colour))
+
+
+def test_the_viewport_draws_each_pair_as_numbered_points_on_both_meshes(scene, monkeypatch):
+    """The points drawn are the pairs' marker vertices in world space (the objects moved, turned and
+    scaled: matrix_world applied here with numpy), on both meshes, the active pair in its own colour;
+    each number is drawn beside its point's pixel as Blender's own view3d_utils projects it."""
+    import bpy
+    from bpy_extras.view3d_utils import location_3d_to_region_2d
+    from mathutils import Matrix
+    from deformkit_addon import ui_markers
+    from deformkit_addon.transfer import markers
+    source, target = two_meshes(bpy)
+    source.location, source.rotation_euler, source.scale = (2.0, -1.0, 0.5), (0.3, 0.2, -0.4), (1.5, 1.5, 1.5)
+    target.location, target.rotation_euler = (-1.0, 0.5, 0.2), (0.0, 0.6, 1.0)
+    chosen = [(3, 7), (100, 41), (250, 120)]
+    for s, t in chosen:
+        markers.add_pair(source, s, target, t)
+    target.vertex_groups.active_index = target.vertex_groups["dt_002"].index
+    bpy.context.view_layer.update()
+    gpu = Recorder()
+    for name in ("gpu", "blf"):
+        monkeypatch.setattr(ui_markers, name, gpu)
+    monkeypatch.setattr(ui_markers, "batch_for_shader", gpu.batch_for_shader)
+    view = Matrix(((0.9, 0.1, 0.0, 0.2), (-0.1, 0.8, 0.3, -0.1), (0.05, -0.3, 0.7, -6.0), (0.0, 0.0, 0.0, 1.0)))
+    projection = Matrix(((1.2, 0, 0, 0), (0, 1.6, 0, 0), (0, 0, -1.02, -0.2), (0, 0, -1, 0)))
+    region = types.SimpleNamespace(width=640, height=480)
+    region_data = types.SimpleNamespace(perspective_matrix=projection @ view)
+    context = types.SimpleNamespace(object=target, selected_objects=[source, target], region=region,
+                                    region_data=region_data, space_data=types.SimpleNamespace(
+                                        overlay=types.SimpleNamespace(show_overlays=True)))
+    ui_markers.draw_points(context)
+    ui_markers.draw_labels(context)
+
+    def world(obj, vertex):
+        m = np.array(obj.matrix_world)
+        return m[:3, :3] @ positions(obj.data)[vertex].astype(np.float64) + m[:3, 3]
+    expected = [(world(obj, pair[side]), k == 1) for side, obj in enumerate((source, target))
+                for k, pair in enumerate(chosen)]
+    drawn = sorted(gpu.points, key=lambda p: p[0])
+    truth = sorted(((tuple(p), ui_markers.COLOURS[active]) for p, active in expected), key=lambda p: p[0])
+    assert len(drawn) == 6
+    for (point, colour), (true_point, true_colour) in zip(drawn, truth):
+        assert np.abs(np.array(point) - true_point).max() < 1e-5 and colour == true_colour
+    assert sorted(t for t, _at, _c in gpu.texts) == ["1", "1", "2", "2", "3", "3"]
+    for text, at, colour in gpu.texts:
+        k = int(text) - 1
+        pixels = [location_3d_to_region_2d(region, region_data, world(obj, chosen[k][side]))
+                  for side, obj in enumerate((source, target))]
+        assert any(np.abs(np.array(at) - (np.array(p) + 6)).max() < 1e-3 for p in pixels), (text, at)
+        assert colour == ui_markers.COLOURS[k == 1]
+    # Overlays off, or no partner: nothing.
+    gpu.points.clear()
+    context.space_data.overlay.show_overlays = False
+    ui_markers.draw_points(context)
+    context.space_data.overlay.show_overlays = True
+    context.selected_objects = [target]
+    ui_markers.draw_points(context)
+    assert gpu.points == []
+    assert len(ui_markers.HANDLES) == 2  # registered with the add-on
