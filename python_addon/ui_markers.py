@@ -15,7 +15,12 @@ COLOURS = {False: (0.2, 0.85, 1.0, 1.0), True: (1.0, 1.0, 1.0, 1.0)}
 POINT_SIZE = 9.0
 LABEL_SIZE = 13
 HANDLES = []
-DRAWN = []  # what draw_points drew, for draw_labels in the same redraw (reading the groups is the cost)
+DRAWN = []  # what draw_points drew, for draw_labels in the same redraw
+# The marker points by (source, target, their modes): reading the groups walks every vertex in
+# Python (0.1 s on the horse and camel), so a redraw that changed nothing (navigating the view)
+# reuses them; any depsgraph update (an edit, a group assigned, an object moved), undo or load
+# clears them.
+CACHE = {}
 
 
 def partner(context):
@@ -92,10 +97,13 @@ def shown_markers(context):
     other = partner(context)
     if other is None:
         return []
-    try:
-        sides = markers.marker_points(other, obj)
-    except ValueError:
-        return []
+    key = (other.name, obj.name, other.mode, obj.mode)
+    if key not in CACHE:
+        try:
+            CACHE[key] = markers.marker_points(other, obj)
+        except ValueError:
+            return []
+    sides = CACHE[key]
     active = obj.vertex_groups.active.name if obj.vertex_groups.active is not None else None
     return [(label(name), point, name == active) for _obj, names, points in sides for name, point in zip(names, points)]
 
@@ -149,15 +157,30 @@ def draw_labels(context=None):
             blf.draw(0, text)
 
 
+@bpy.app.handlers.persistent
+def forget_drawn(*_args):
+    CACHE.clear()
+
+
+CLEARED_BY = ("depsgraph_update_post", "undo_post", "redo_post", "load_post")
+
+
 def register():
     view3d = bpy.types.SpaceView3D
     HANDLES.append(view3d.draw_handler_add(draw_points, (), "WINDOW", "POST_VIEW"))
     HANDLES.append(view3d.draw_handler_add(draw_labels, (), "WINDOW", "POST_PIXEL"))
+    for name in CLEARED_BY:
+        getattr(bpy.app.handlers, name).append(forget_drawn)
 
 
 def unregister():
     while HANDLES:
         bpy.types.SpaceView3D.draw_handler_remove(HANDLES.pop(), "WINDOW")
+    for name in CLEARED_BY:
+        handlers = getattr(bpy.app.handlers, name)
+        while forget_drawn in handlers:
+            handlers.remove(forget_drawn)
+    CACHE.clear()
 
 
 classes = (DEFORMKIT_UL_marker_pairs, DEFORMKIT_PT_marker_pairs)

@@ -442,3 +442,12 @@ def test_the_viewport_draws_each_pair_as_numbered_points_on_both_meshes(scene, m
     ui_markers.draw_points(context)
     assert gpu.points == []
     assert len(ui_markers.HANDLES) == 2  # registered with the add-on
+    # A marker moved to another vertex (and the object moved): the next redraw shows it there.
+    context.selected_objects = [source, target]
+    target.vertex_groups["dt_002"].add([chosen[1][1]], 0.0, "REPLACE")
+    target.vertex_groups["dt_002"].add([11], 1.0, "REPLACE")
+    target.location.x += 1.0
+    bpy.context.view_layer.update()
+    ui_markers.draw_points(context)
+    assert any(np.abs(np.array(p) - world(target, 11)).max() < 1e-5 for p, _c in gpu.points)
+    assert not any(np.abs(np.array(p) - world(target, chosen[1][1])).max() < 1e-5 for p, _c in gpu.points)
