@@ -97,6 +97,29 @@ def test_add_marker_pair_marks_the_selected_vertex_of_each_mesh(scene):
     assert list(pairs.source) == [s for s, _t in chosen] and list(pairs.target) == [t for _s, t in chosen]
 
 
+def test_add_marker_pair_undoes_and_redoes_in_edit_mode(scene):
+    import bpy
+    source, target = two_meshes(bpy)
+    edit_both(bpy, source, target)
+    select_in_edit(source, [3])
+    select_in_edit(target, [7])
+    bpy.ops.ed.undo_push(message="start")
+    assert bpy.ops.deformkit.add_marker_pair("EXEC_DEFAULT", True) == {"FINISHED"}
+    bpy.ops.ed.undo()
+    source, target = bpy.data.objects["Source"], bpy.data.objects["Target"]  # undo rebuilds the data
+    assert target.mode == "EDIT"
+    if bpy.app.version >= (3, 5, 0):
+        assert len(source.vertex_groups) == 0 == len(target.vertex_groups)
+    else:  # Blender 3.4's Edit Mode undo restores the weights but keeps the groups' names: empty groups
+        bpy.ops.object.mode_set(mode="OBJECT")
+        assert members_with_weights(source, "dt_001") == {} == members_with_weights(target, "dt_001")
+        bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.ed.redo()
+    source, target = bpy.data.objects["Source"], bpy.data.objects["Target"]
+    bpy.ops.object.mode_set(mode="OBJECT")
+    assert members_with_weights(source, "dt_001") == {3: 1.0} and members_with_weights(target, "dt_001") == {7: 1.0}
+
+
 def test_the_next_number_follows_the_highest_on_either_mesh(scene):
     import bpy
     from deformkit_addon.transfer import markers
