@@ -82,8 +82,9 @@ class DEFORMKIT_PT_marker_pairs(bpy.types.Panel):
         col = layout.column(align=True)
         col.operator("deformkit.add_marker_pair", icon="ADD")
         row = col.row(align=True)
-        row.operator("deformkit.mirror_marker_pair", icon="MOD_MIRROR")
-        row.operator("deformkit.guess_marker_pairs", icon="VIEWZOOM")
+        row.operator("deformkit.mirror_marker_pair", text="Mirror", icon="MOD_MIRROR")
+        row.operator("deformkit.mirror_marker_pair", text="Mirror All", icon="MOD_MIRROR").all_pairs = True
+        col.operator("deformkit.guess_marker_pairs", icon="VIEWZOOM")
 
 
 def shown_markers(context):

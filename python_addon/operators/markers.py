@@ -2,7 +2,7 @@
 is transfer/markers.py's; the target is the active mesh and the source the other mesh in Edit Mode
 with it (or, in Object Mode, the other selected mesh)."""
 import bpy
-from bpy.props import FloatProperty, IntProperty, StringProperty
+from bpy.props import BoolProperty, FloatProperty, IntProperty, StringProperty
 
 from ..transfer import DEFAULT_PREFIX, markers
 from .base import Operator, mesh_object
@@ -87,20 +87,27 @@ class DEFORMKIT_OT_remove_marker_pair(MarkerOperator, bpy.types.Operator):
 
 
 class DEFORMKIT_OT_mirror_marker_pair(MarkerOperator, bpy.types.Operator):
-    """Add the X-mirrored pair of a pair on symmetric meshes: on each mesh the vertex nearest the \
-marker's mirror image about the object's own X = 0"""
+    """Add the X-mirrored pair of a pair (or of every pair) on symmetric meshes: on each mesh the \
+vertex nearest the marker's mirror image about the object's own X = 0"""
     bl_idname = "deformkit.mirror_marker_pair"
     bl_label = "Mirror Marker Pair"
     name: StringProperty(name="Name", description="The pair to mirror (empty: the active group)")
     tolerance: FloatProperty(name="Tolerance", default=markers.MIRROR_TOLERANCE, min=1e-6, max=1.0,
                              description="How far the nearest vertex may be from the mirrored position, as a "
                              "fraction of the mesh's bounding-box diagonal")
+    all_pairs: BoolProperty(name="All Pairs", default=False,
+                            description="Mirror every pair (skipping those on the plane or mirrored already)")
     prefix: PREFIX
 
     def run(self, context):
         source, target = the_two(context)
-        name = markers.mirror_pair(source, target, pair_name(context, self.name), self.tolerance, self.prefix)
-        self.report({"INFO"}, f"Mirrored pair '{name}'")
+        if not self.all_pairs:
+            name = markers.mirror_pair(source, target, pair_name(context, self.name), self.tolerance, self.prefix)
+            self.report({"INFO"}, f"Mirrored pair '{name}'")
+            return
+        made, skipped = markers.mirror_all(source, target, self.tolerance, self.prefix)
+        why = f"; skipped {len(skipped)}: " + "; ".join(skipped.values()) if skipped else ""
+        self.report({"INFO"} if made else {"WARNING"}, f"Mirrored {len(made)} pairs{why}")
 
 
 class DEFORMKIT_OT_guess_marker_pairs(MarkerOperator, bpy.types.Operator):

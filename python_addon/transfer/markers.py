@@ -215,6 +215,18 @@ def nearest_vertex(points, point):
     return index, float(distance[index])
 
 
+def mirror_all(source, target, tolerance=MIRROR_TOLERANCE, prefix=DEFAULT_PREFIX):
+    """mirror_pair on every pair there is now; returns (the new pairs' names, {pair: why it was
+    skipped}) (on the plane, mirrored already, no vertex near the image)."""
+    made, skipped = [], {}
+    for name in pair_names(source, target, prefix):
+        try:
+            made.append(mirror_pair(source, target, name, tolerance, prefix))
+        except EntryError as exc:
+            skipped[name] = str(exc)
+    return made, skipped
+
+
 def mirror_pair(source, target, name, tolerance=MIRROR_TOLERANCE, prefix=DEFAULT_PREFIX):
     """The X-mirrored pair of `name` (x -> -x in each object's own space, as Blender's mesh X
     mirror): on each mesh the vertex nearest the marker's mirrored position, which must lie within

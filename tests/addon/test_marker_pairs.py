@@ -259,6 +259,35 @@ def test_the_mirrored_pair_marks_the_vertices_nearest_the_mirror_images(scene):
     assert group_members(target, "dt_004").tolist() == [mirror_truth(target, t)[0]]
 
 
+def test_mirror_all_mirrors_every_pair_once(scene):
+    """Pairs on the +X side of both meshes and one on the plane: Mirror All makes each +X pair's
+    mirror (the vertices nearest the images, computed here), skips the plane's and, run again,
+    skips every pair (mirrored already)."""
+    import bpy
+    from deformkit_addon.transfer import markers
+    source, target = two_meshes(bpy)
+    co_s, co_t = positions(source.data), positions(target.data)
+    picks = []
+    for direction in ((1, 0, 0.3), (1, 0.5, -0.4), (0.6, -0.8, 0.1)):
+        picks.append((int(np.argmax(co_s @ np.array(direction, np.float32))),
+                      int(np.argmax(co_t @ np.array(direction, np.float32)))))
+    picks.append((int(np.argmax(co_s[:, 2])), int(np.argmax(co_t[:, 2]))))  # the poles: on the plane
+    for s, t in picks:
+        markers.add_pair(source, s, target, t)
+    for obj in bpy.context.scene.objects:
+        obj.select_set(True)
+    bpy.context.view_layer.objects.active = target
+    assert bpy.ops.deformkit.mirror_marker_pair(all_pairs=True) == {"FINISHED"}
+    for k, (s, t) in enumerate(picks[:3]):
+        name = f"dt_{k + 5:03d}"
+        assert group_members(source, name).tolist() == [mirror_truth(source, s)[0]]
+        assert group_members(target, name).tolist() == [mirror_truth(target, t)[0]]
+    assert len(source.vertex_groups) == 7 == len(target.vertex_groups)
+    made, skipped = markers.mirror_all(source, target)
+    assert made == [] and len(skipped) == 7
+    assert "lies on the mirror plane" in skipped["dt_004"] and "already marks the pair 'dt_005'" in skipped["dt_001"]
+
+
 def similar_meshes(bpy, motion, shift):
     """A blob made from a UV sphere (Source, with a "Dome" key) and the same blob made from a finer
     icosphere then moved by p -> motion p + shift (Target): unlike meshes of one shape."""
