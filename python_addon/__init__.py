@@ -24,10 +24,10 @@ MODULES = (
     "entries.cage", "entries.rbf", "entries.subdivide", "entries",
     "properties", "stack_run", "entry_animation", "evaluation", "lattice_tools", "smoothness", "api",
     "transfer.correspondence", "transfer.similarity", "transfer.storage", "transfer.keys", "transfer.system",
-    "transfer.shape_keys", "transfer.bake", "transfer",
+    "transfer.shape_keys", "transfer.bake", "transfer.markers", "transfer",
     "operators.base", "operators.stack", "operators.lattice", "operators.laplacian", "operators.cage",
-    "operators.rbf", "operators.transfer", "operators",
-    "ui", "handlers", "batch_checks", "batch",
+    "operators.rbf", "operators.transfer", "operators.markers", "operators",
+    "ui", "ui_markers", "handlers", "batch_checks", "batch",
 )
 
 import importlib  # noqa: E402

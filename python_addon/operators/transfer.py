@@ -55,8 +55,11 @@ keys (deformation transfer: also between different meshes, through marker vertex
         return True
 
     def invoke(self, context, event):
-        if not self.source:
-            found = selected_source(context, context.object)
+        """The dialog opens on what is selected: the active object as the Target and the other
+        selected mesh as the Source (the last run's names are remembered, so they are replaced)."""
+        self.target = context.object.name
+        found = selected_source(context, context.object)
+        if found is not None or bpy.data.objects.get(self.source) in (None, context.object):
             self.source = found.name if found is not None else ""
         return context.window_manager.invoke_props_dialog(self)
 

@@ -6,7 +6,8 @@ the tests alike.
 * Same vertex count and faces: direct (vertex i of one is vertex i of the other).
 * Otherwise marker pairs (correspondence.py): vertex groups named alike on both meshes with a
   common prefix ("dt_" by default); each group's marker is its member of highest weight (the first
-  of equals). The correspondence (Sumner and Popovic 2004, section 5) is computed once and stored
+  of equals); markers.py makes them (Add Marker Pair, select, remove, mirror, a first guess). The
+  correspondence (Sumner and Popovic 2004, section 5) is computed once and stored
   on the target (ID property STORE, storage.py) with a fingerprint of both rests, faces and the
   markers, so a later run reuses it and an edit of either mesh recomputes it.
 * Both rests are brought into one frame first (see docs/blender_addon.md, "Transfer Deformation"):

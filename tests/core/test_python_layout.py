@@ -5,7 +5,7 @@ import pathlib
 import sys
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
-BLENDER = {"bpy", "bmesh", "mathutils", "gpu", "gpu_extras", "bl_math", "bl_ui", "addon_utils", "idprop"}
+BLENDER = {"bpy", "bmesh", "mathutils", "gpu", "gpu_extras", "blf", "bl_math", "bl_ui", "addon_utils", "idprop"}
 
 
 def imported_modules(path):
