@@ -6,8 +6,10 @@ the value belongs to (meshdata.cache_key), so one `forget` drops an object's val
 when missing: nothing here is ever the only copy of the user's data.
 
 Spaces: "inputs" and "echo" (evaluation: the last settings and base, the last write's time),
-"weights" (vertex-group weights read from the mesh), "lattice" (bindings), "laplacian" (factorised
-solvers), "subdivide" (refined topologies) and "subdivide_written" (what each helper mesh holds).
+"weights" (vertex-group weights read from the mesh), "lattice" (bindings, and each entry's lattice,
+moved to the new control points while nothing else changes), "barr" (each Barr entry's deformer,
+while its settings and weights stay), "laplacian" (factorised solvers), "subdivide" (refined
+topologies) and "subdivide_written" (what each helper mesh holds).
 """
 _store = {}  # (space, key) -> value, key[0]: the owning object's cache key
 

@@ -149,10 +149,17 @@ def _plan(obj, uid, reason, depsgraph):
     cached = cache.get("inputs", (uid,))
     base = _input(obj, cached, reason, depsgraph)
     per_object = editing or shared_mesh(obj)
-    entries.prune(uid, stack.entries)
     built, last, fingerprints = _setup_entries(obj, reason in _REUSES_WEIGHTS, editing)
     key = (len(base), stack.show_volume_ratio, editing, per_object, *fingerprints)
+    if not _same_stack(cached, key):  # what the kinds keep for entries gone: the same stack keeps it all
+        entries.prune(uid, stack.entries)
     return Plan(uid, editing, per_object, stack.show_volume_ratio, base, built, last, key, cached)
+
+
+def _same_stack(cached, key):
+    """Whether the last evaluation, published, ran the same entries with the same settings (its key):
+    what it pruned and the helpers it discarded are as it left them."""
+    return cached is not None and cached.key == key
 
 
 def _input(obj, cached, reason, depsgraph):
@@ -242,6 +249,8 @@ def _show_failures(stack, failures):
 def _write_helpers(obj, plan, finished):
     """The topology-changing entry's results into its helper objects, the others of obj deleted.
     Returns the helpers written, or None (nothing made)."""
+    if plan.last is None and _same_stack(plan.cached, plan.key):
+        return None  # as the last evaluation left them: none made, the others deleted then
     if plan.last is None:  # no such entry (any more): what its kind keeps to refine the mesh goes
         entries.forget_refined(plan.uid)
     helpers = finished and plan.last.kind.write(obj, plan.last.prepared.data, finished)

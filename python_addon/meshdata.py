@@ -2,6 +2,7 @@
 the modifiers get (shape keys mixed, the edit mesh's in Edit Mode), vertex-group weights (kept between
 reads, the read is a slow Python loop), the polygons with a fingerprint of their connectivity, their
 corners polygon by polygon, the parts they join, and selecting vertices, edges or faces."""
+import weakref
 import zlib
 from collections import namedtuple
 
@@ -98,7 +99,41 @@ def group_weights(obj, name, reuse=False):
     if reuse and cached is not None and len(cached) == len(obj.data.vertices) \
             and obj.vertex_groups.get(name) is not None:
         return cached
-    return cache.put("weights", key, vertex_group_weights(obj, name))
+    weights = vertex_group_weights(obj, name)
+    weights.flags.writeable = False  # kept and shared (kept_for): nobody may change it
+    return cache.put("weights", key, weights)
+
+
+_kept = {}  # (id(array), name) -> value made from the array (kept_for), dropped with the array
+
+
+def kept_for(array, name, make):
+    """make(array), made once per read-only array (group_weights' are): a 1M-vertex group's
+    checksum or inverse costs milliseconds, which evaluations that reuse the weights would pay
+    every time. A writeable array could change under the kept value: it is made afresh."""
+    if array.flags.writeable:
+        return make(array)
+    key = (id(array), name)
+    if key not in _kept:
+        _kept[key] = make(array)
+        weakref.finalize(array, _kept.pop, key, None)
+    return _kept[key]
+
+
+def weights_crc(weights):
+    """A fingerprint of per-point weights (None: no weights)."""
+    if weights is None:
+        return None
+    return kept_for(weights, "crc", lambda w: zlib.crc32(np.ascontiguousarray(w).tobytes()))
+
+
+def inverted(weights):
+    """1 - weights (read-only, as the weights), kept with them (kept_for)."""
+    def invert(w):
+        result = 1.0 - w
+        result.flags.writeable = False
+        return result
+    return kept_for(weights, "inverted", invert)
 
 
 # corners: the vertex of each polygon corner, polygon by polygon; starts, totals: each polygon's

@@ -2,12 +2,10 @@
 Deform modifier (dk.SimpleDeform), with its settings and panel.
 
 Their deformers are pointwise maps with a Jacobian, so runs of them go through one dk.Stack."""
-import zlib
-
 import numpy as np
 
-from .. import native
-from .common import Prepared, deleted_name, draw_subpanel, draw_vertex_group, influence_weights
+from .. import cache, meshdata, native
+from .common import Prepared, deleted_name, draw_subpanel, draw_vertex_group, influence_weights, stack_index
 
 # Its rows of the Type enum (entries.ENTRY_TYPES): the numbers are what saved files store.
 ENTRY_TYPES = [
@@ -52,17 +50,30 @@ def origin_note(entry):
 
 
 def setup(obj, entry, reuse_weights=False):
+    """The entry's dk.SimpleDeform; the one made last time for the same settings and weights when
+    there is one (with a vertex group, a new one copies and checks every weight)."""
     weights = influence_weights(obj, entry, reuse_weights)
     lo, hi = entry.limits
     origin = origin_matrix(obj, entry)
+    fingerprint = (entry.type, amount(entry), entry.deform_axis, tuple(entry.limits), entry.lock_x, entry.lock_y,
+                   entry.lock_z, entry.invert_vertex_group, None if origin is None else origin.tobytes(),
+                   meshdata.weights_crc(weights))
+    key = (meshdata.cache_key(obj), stack_index(entry))
+    kept = cache.get("barr", key)
+    if kept is not None and kept[0] == fingerprint and kept[1] is weights:
+        return Prepared(kept[2], fingerprint, None, origin_note(entry))
     deformer = native.dk.SimpleDeform(
         mode=entry.type, angle=amount(entry), deform_axis=entry.deform_axis, origin=origin,
         limits=(min(lo, hi), hi),  # Blender clamps the lower limit to the upper one
         lock_x=entry.lock_x, lock_y=entry.lock_y, lock_z=entry.lock_z, weights=weights)
-    fingerprint = (amount(entry), entry.deform_axis, tuple(entry.limits), entry.lock_x, entry.lock_y, entry.lock_z,
-                   entry.invert_vertex_group, None if origin is None else origin.tobytes(),
-                   None if weights is None else zlib.crc32(deformer.weights.tobytes()))
+    cache.put("barr", key, (fingerprint, weights, deformer))
     return Prepared(deformer, fingerprint, None, origin_note(entry))
+
+
+def prune(object_key, entries):
+    """The deformers kept for places no Barr entry has any more go."""
+    alive = {stack_index(e) for e in entries}
+    cache.forget(object_key, "barr", keep=lambda k: k[1] in alive)
 
 
 def deform(key, prepared, points):

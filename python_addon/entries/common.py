@@ -1,7 +1,6 @@
 """What several entry kinds share: the value a setup returns, the entry at an index of a stack, the
 objects entries follow and their evaluated meshes in the entry's space, the vertex-group influence,
 bindings kept between evaluations, and panel rows."""
-import zlib
 from collections import namedtuple
 
 import bpy
@@ -115,7 +114,7 @@ def influence_weights(obj, entry, reuse_weights=False):
     if not entry.vertex_group:
         return None
     weights = meshdata.group_weights(obj, entry.vertex_group, reuse_weights)
-    return 1.0 - weights if entry.invert_vertex_group else weights
+    return meshdata.inverted(weights) if entry.invert_vertex_group else weights
 
 
 def scaled_influence(obj, entry, reuse_weights=False):
@@ -127,8 +126,8 @@ def scaled_influence(obj, entry, reuse_weights=False):
 
 
 def weights_crc(weights):
-    """A fingerprint of per-point weights (None: no weights)."""
-    return None if weights is None else zlib.crc32(np.ascontiguousarray(weights).tobytes())
+    """A fingerprint of per-point weights (None: no weights), kept with read-only ones."""
+    return meshdata.weights_crc(weights)
 
 
 def kept_binding(space, key, bind_key, points, bind):

@@ -145,12 +145,15 @@ def check_basis(basis, outside, resolution, name="the lattice"):
 
 def setup(obj, entry, reuse_weights=False):
     """The entry as evaluation runs it: its lattice, with its strength and vertex-group influence."""
-    lattice = lattice_setup(obj, entry, influence_weights(obj, entry, reuse_weights))
+    kept = (meshdata.cache_key(obj), stack_index(entry), "setup")
+    lattice = lattice_setup(obj, entry, influence_weights(obj, entry, reuse_weights), kept=kept)
     return Prepared(lattice.deformer, lattice.fingerprint, lattice)
 
 
-def lattice_setup(obj, entry, weights=None, strength=None):
-    """The entry's deformkit lattice for `obj`. strength=None takes the entry's."""
+def lattice_setup(obj, entry, weights=None, strength=None, kept=None):
+    """The entry's deformkit lattice for `obj`. strength=None takes the entry's. kept: a key of the
+    cache's "lattice" space under which the deformer is kept for the next setup, which then only
+    moves its control points if nothing else changed (a new deformer copies and checks the weights)."""
     lat = lattice_object(entry)
     data = lat.data
     resolution = (data.points_u, data.points_v, data.points_w)
@@ -165,25 +168,43 @@ def lattice_setup(obj, entry, weights=None, strength=None):
     box = np.diag([*size, 1.0])
     box[:3, 3] = center
     frame = local @ box
-    kwargs = dict(frame=frame, outside=outside.lower(), weights=weights,
-                  strength=entry.strength if strength is None else strength)
+    strength = entry.strength if strength is None else strength
     interpolation = None
     if basis == "BLENDER":
         interpolation = (data.interpolation_type_u, data.interpolation_type_v, data.interpolation_type_w)
-        deformer = cls(resolution, interpolation, **kwargs)
-    elif basis == "BERNSTEIN":
-        deformer = cls(tuple(n - 1 for n in resolution), **kwargs)
-    elif basis == "BEZIER":
-        deformer = cls(tuple((n - 1) // 3 for n in resolution), **kwargs)
-    else:
-        deformer = cls(resolution, **kwargs)
-    offsets = to_grid(deformed - co, resolution).astype(np.float64)  # float32 difference, as Blender's
-    if offsets.any():  # else the rest lattice: the identity exactly
-        deformer.control_points = deformer.rest_control_points + offsets @ local[:3, :3].T
     layout = (basis, resolution, interpolation, outside, frame.tobytes())
-    fingerprint = (layout, deformer.strength, zlib.crc32(offsets.tobytes()),
-                   None if weights is None else zlib.crc32(np.ascontiguousarray(weights).tobytes()))
+    offsets = to_grid(deformed - co, resolution).astype(np.float64)  # float32 difference, as Blender's
+    deformer = _deformer(cls, layout, frame, strength, weights, offsets @ local[:3, :3].T, kept)
+    fingerprint = (layout, deformer.strength, zlib.crc32(offsets.tobytes()), meshdata.weights_crc(weights))
     return Setup(deformer, fingerprint, layout, lat, local, co)
+
+
+def _deformer(cls, layout, frame, strength, weights, offsets, kept):
+    """The lattice of this layout, strength and weights with control points rest + offsets (in the
+    object's space): the one kept under `kept` if made for the same, else a new one (kept there)."""
+    was = None if kept is None else cache.get("lattice", kept)
+    if was is not None and was[0] == (layout, strength) and was[1] is weights:
+        deformer = was[2]
+        if np.array_equal(was[3], offsets):
+            return deformer
+    else:
+        basis, resolution, interpolation, outside = layout[:4]
+        kwargs = dict(frame=frame, outside=outside.lower(), weights=weights, strength=strength)
+        if basis == "BLENDER":
+            deformer = cls(resolution, interpolation, **kwargs)
+        elif basis == "BERNSTEIN":
+            deformer = cls(tuple(n - 1 for n in resolution), **kwargs)
+        elif basis == "BEZIER":
+            deformer = cls(tuple((n - 1) // 3 for n in resolution), **kwargs)
+        else:
+            deformer = cls(resolution, **kwargs)
+    if offsets.any():
+        deformer.control_points = deformer.rest_control_points + offsets
+    elif was is not None:  # back at rest: the identity exactly, as a new lattice is
+        deformer.control_points = deformer.rest_control_points
+    if kept is not None:
+        cache.put("lattice", kept, ((layout, strength), weights, deformer, offsets))
+    return deformer
 
 
 def deform(key, prepared, points, out=None):
@@ -219,6 +240,13 @@ def bind(obj, entry, incoming):
     points = incoming()
     lattice = lattice_setup(obj, entry, influence_weights(obj, entry))
     return Bound(*bind_points((key, stack_index(entry), "viewport"), lattice, points)[3])
+
+
+def prune(object_key, entries):
+    """The lattices kept for places no Lattice entry has any more go (bindings stay: they are
+    checked against the points and layout when used)."""
+    alive = {stack_index(e) for e in entries}
+    cache.forget(object_key, "lattice", keep=lambda k: k[2] != "setup" or k[1] in alive)
 
 
 def binding_counts(object_key, index):
