@@ -24,30 +24,33 @@ struct Layout {
   const ControlMesh& mesh;
   const int* edges;
   std::unordered_map<std::int64_t, int> edge_of;  // vertex pair -> Blender edge
+  std::vector<int> corner_edge;                   // per control corner: the edge to the next corner
+  std::vector<int> first_corner;                  // per face: its first corner there
   std::vector<int> inner_start;                   // per face: its first inner vertex
   int n = 0, m = 0;
   int edge_start = 0;                             // first edge vertex: after the control vertices
 
-  // The vertex `d` (0..n) steps from `a` along the control edge a-b.
-  int on_edge(int a, int b, int d) const {
+  // The vertex `d` (0..n) steps from `a` along control edge e, from a to b.
+  int on_edge(int e, int a, int b, int d) const {
     if (d == 0) return a;
     if (d == n) return b;
-    const int e = edge_of.at(pair_key(a, b, mesh.vertex_count()));
     return edge_start + e * (n - 1) + (edges[2 * e] == a ? d - 1 : n - 1 - d);
   }
+  // The same along the edge from corner j of face f to corner j + 1.
+  int on_side(const int* c, const int* e, int k, int j, int d) const { return on_edge(e[j], c[j], c[(j + 1) % k], d); }
 
-  int in_quad(const int* c, int x, int y, int start) const {
+  int in_quad(const int* c, const int* e, int x, int y, int start) const {
     if (x > 0 && x < n && y > 0 && y < n) return start + (y - 1) * (n - 1) + (x - 1);
-    if (y == 0) return on_edge(c[0], c[1], x);
-    if (y == n) return on_edge(c[2], c[3], n - x);
-    return x == n ? on_edge(c[1], c[2], y) : on_edge(c[3], c[0], n - y);
+    if (y == 0) return on_side(c, e, 4, 0, x);
+    if (y == n) return on_side(c, e, 4, 2, n - x);
+    return x == n ? on_side(c, e, 4, 1, y) : on_side(c, e, 4, 3, n - y);
   }
 
-  int in_ngon(const int* c, int k, int j, int x, int y, int start) const {
+  int in_ngon(const int* c, const int* e, int k, int j, int x, int y, int start) const {
     const int prev = (j + k - 1) % k, per_corner = (m - 1) * m;
     if (x == m && y == m) return start;
-    if (y == 0) return on_edge(c[j], c[(j + 1) % k], x);
-    if (x == 0) return on_edge(c[prev], c[j], n - y);
+    if (y == 0) return on_side(c, e, k, j, x);
+    if (x == 0) return on_side(c, e, k, prev, n - y);
     if (y == m) return start + 1 + prev * per_corner + (x - 1) * m + (m - 1);  // sub-quad j - 1's x = m side
     return start + 1 + j * per_corner + (y - 1) * m + (x - 1);
   }
@@ -55,7 +58,8 @@ struct Layout {
   int at(std::size_t f, int j, int x, int y) const {
     const int k = mesh.face_size(f);
     const int* c = mesh.polygons.face(f);
-    return k == 4 ? in_quad(c, x, y, inner_start[f]) : in_ngon(c, k, j, x, y, inner_start[f]);
+    const int* e = corner_edge.data() + first_corner[f];
+    return k == 4 ? in_quad(c, e, x, y, inner_start[f]) : in_ngon(c, e, k, j, x, y, inner_start[f]);
   }
 };
 
@@ -128,14 +132,6 @@ std::array<int, 4> sorted(std::array<int, 4> q) {
   return q;
 }
 
-struct QuadHash {
-  std::size_t operator()(const std::array<int, 4>& q) const {
-    std::size_t h = 0;
-    for (int v : q) h = h * 1000003u ^ std::size_t(v);
-    return h;
-  }
-};
-
 int grid_step(double t, int size) { return int(std::lround(t * size)); }
 
 Layout make_layout(const Subdivider& subdivider, const int* edges, std::size_t edge_count) {
@@ -144,7 +140,7 @@ Layout make_layout(const Subdivider& subdivider, const int* edges, std::size_t e
     throw std::invalid_argument("scheme: Blender's order is defined for Catmull-Clark only, got " +
                                 scheme_name(mesh.scheme));
   const std::size_t nv = mesh.vertex_count();
-  Layout layout{mesh, edges, {}, {}, 1 << subdivider.level(), 1 << (subdivider.level() - 1), int(nv)};
+  Layout layout{mesh, edges, {}, {}, {}, {}, 1 << subdivider.level(), 1 << (subdivider.level() - 1), int(nv)};
   for (std::size_t e = 0; e < edge_count; ++e) {
     const int a = edges[2 * e], b = edges[2 * e + 1];
     if (a < 0 || b < 0 || std::size_t(a) >= nv || std::size_t(b) >= nv || a == b)
@@ -158,10 +154,14 @@ Layout make_layout(const Subdivider& subdivider, const int* edges, std::size_t e
   for (std::size_t f = 0; f < mesh.face_count(); ++f) {
     const int k = mesh.face_size(f);
     const int* c = mesh.polygons.face(f);
-    for (int j = 0; j < k; ++j)
-      if (!layout.edge_of.count(pair_key(c[j], c[(j + 1) % k], nv)))
+    layout.first_corner.push_back(int(layout.corner_edge.size()));
+    for (int j = 0; j < k; ++j) {
+      const auto found = layout.edge_of.find(pair_key(c[j], c[(j + 1) % k], nv));
+      if (found == layout.edge_of.end())
         throw std::invalid_argument("edges: the edge (" + std::to_string(c[j]) + ", " +
                                     std::to_string(c[(j + 1) % k]) + ") of face " + std::to_string(f) + " is missing");
+      layout.corner_edge.push_back(found->second);
+    }
     layout.inner_start.push_back(next);
     next += k == 4 ? (layout.n - 1) * (layout.n - 1) : 1 + k * (layout.m - 1) * layout.m;
   }
@@ -196,31 +196,39 @@ BlenderOrder blender_order(const Subdivider& subdivider, const int* edges, std::
   }
   for (std::size_t e = 0; e < edge_count; ++e)
     for (int d = 0; d < n; ++d)
-      out.edges.insert(out.edges.end(), {layout.on_edge(edges[2 * e], edges[2 * e + 1], d),
-                                         layout.on_edge(edges[2 * e], edges[2 * e + 1], d + 1)});
-  std::unordered_map<std::array<int, 4>, std::pair<int, int>, QuadHash> blender_face;  // corners -> index, first
-  int index = 0;
+      out.edges.insert(out.edges.end(), {layout.on_edge(int(e), edges[2 * e], edges[2 * e + 1], d),
+                                         layout.on_edge(int(e), edges[2 * e], edges[2 * e + 1], d + 1)});
+  std::vector<std::array<int, 4>> blender_faces;  // Blender's faces, from their first corner
   for (std::size_t f = 0; f < mesh.face_count(); ++f) {
     const int k = mesh.face_size(f);
     for (const Span& s : face_edges(k, n, m))
       out.edges.insert(out.edges.end(), {layout.at(f, s[0], s[1], s[2]), layout.at(f, s[0], s[3], s[4])});
-    for (const Cell& c : face_cells(k, n, m)) {
-      const std::array<int, 4> q{layout.at(f, c.j, c.x, c.y), layout.at(f, c.j, c.x + 1, c.y),
-                                 layout.at(f, c.j, c.x + 1, c.y + 1), layout.at(f, c.j, c.x, c.y + 1)};
-      blender_face.emplace(sorted(q), std::make_pair(index++, q[0]));
-    }
+    for (const Cell& c : face_cells(k, n, m))
+      blender_faces.push_back({layout.at(f, c.j, c.x, c.y), layout.at(f, c.j, c.x + 1, c.y),
+                               layout.at(f, c.j, c.x + 1, c.y + 1), layout.at(f, c.j, c.x, c.y + 1)});
   }
+  // Blender's faces by their lowest vertex (counting sort), to find each of ours among a few.
+  std::vector<int> bucket(params.size() + 1, 0), by_lowest(blender_faces.size());
+  for (const auto& q : blender_faces) ++bucket[*std::min_element(q.begin(), q.end()) + 1];
+  for (std::size_t v = 0; v < params.size(); ++v) bucket[v + 1] += bucket[v];
+  std::vector<int> fill(bucket.begin(), bucket.end() - 1);
+  for (std::size_t b = 0; b < blender_faces.size(); ++b)
+    by_lowest[fill[*std::min_element(blender_faces[b].begin(), blender_faces[b].end())]++] = int(b);
   const std::vector<int>& faces = subdivider.faces();
   const std::size_t face_count = faces.size() / 4;
-  out.face.resize(face_count);
+  out.face.assign(face_count, -1);
   out.face_start.resize(face_count);
   for (std::size_t f = 0; f < face_count; ++f) {
     std::array<int, 4> q;
     for (int c = 0; c < 4; ++c) q[c] = out.vertex[faces[4 * f + c]];
-    const auto found = blender_face.find(sorted(q));
-    if (found == blender_face.end()) throw std::logic_error("blender_order: face " + std::to_string(f) + " not found");
-    out.face[f] = found->second.first;
-    out.face_start[f] = int(std::find(q.begin(), q.end(), found->second.second) - q.begin());
+    const std::array<int, 4> key = sorted(q);
+    for (int i = bucket[key[0]]; i < bucket[key[0] + 1]; ++i)
+      if (sorted(blender_faces[by_lowest[i]]) == key) {
+        out.face[f] = by_lowest[i];
+        out.face_start[f] = int(std::find(q.begin(), q.end(), blender_faces[by_lowest[i]][0]) - q.begin());
+        break;
+      }
+    if (out.face[f] < 0) throw std::logic_error("blender_order: face " + std::to_string(f) + " not found");
   }
   return out;
 }
