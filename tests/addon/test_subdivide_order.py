@@ -146,3 +146,20 @@ def test_a_loose_edge_keeps_dks_order(scene):
     ours, theirs = topology(bpy, obj), topology(bpy, twin)
     assert entry.error == "" and not ours[4]
     assert len(ours[0]) == len(theirs[0]) - 3 and len(ours[2]) == len(theirs[2])
+
+
+def test_apply_gives_the_mesh_blenders_apply_gives(scene):
+    """Applying the entry writes the base mesh in the order applying Blender's modifier does."""
+    import bpy
+    from deformkit_addon import api
+    ours, theirs = make_mixed(bpy), make_mixed(bpy)
+    api.add_entry(ours, "SUBDIVIDE", levels=2, use_limit_surface=False)
+    assert api.apply(ours, 0) == ""
+    mod = theirs.modifiers.new("Subdivision", "SUBSURF")
+    mod.levels, mod.use_limit_surface = 2, False
+    with bpy.context.temp_override(object=theirs, active_object=theirs):
+        bpy.ops.object.modifier_apply(modifier="Subdivision")
+    a, b = topology(bpy, ours), topology(bpy, theirs)
+    assert np.abs(a[0] - b[0]).max() < 1e-5 and not a[4]
+    np.testing.assert_array_equal(a[1], b[1])
+    assert a[2] == b[2]
