@@ -21,10 +21,8 @@ def blender_edges(mesh, corners, starts, totals):
     numbering could not be Blender's. (Blender 3.4's stored loose flags can be stale: counted here.)"""
     edges = np.empty(len(mesh.edges) * 2, np.int32)
     mesh.edges.foreach_get("vertices", edges)
-    following = np.arange(1, len(corners) + 1)
-    ends = np.asarray(starts, np.int64) + totals - 1
-    following[ends] = starts
-    a, b = np.asarray(corners, np.int64), np.asarray(corners, np.int64)[following]
+    a = np.asarray(corners, np.int64)
+    b = a[next_corners(starts, totals)]
     keys = np.unique(np.minimum(a, b) * max(len(mesh.vertices), 1) + np.maximum(a, b))
     return edges.reshape(-1, 2) if len(keys) == len(mesh.edges) else None
 
@@ -52,7 +50,14 @@ def gathered(points, gather):
     return points if gather is None else points[gather]
 
 
-def set_edges(mesh, edges, corners, write):
+def next_corners(starts, totals):
+    """For every corner of polygons (starts, totals, polygon order), the index of the next corner."""
+    following = np.arange(1, int(np.sum(totals)) + 1)
+    following[np.asarray(starts, np.int64) + totals - 1] = starts
+    return following
+
+
+def set_edges(mesh, edges, corners, starts, totals, write):
     """Write these edges (in this order) and every corner's edge, the edge to the next corner; or,
     with edges None, let Blender make them from the polygons."""
     if edges is None:
@@ -62,16 +67,10 @@ def set_edges(mesh, edges, corners, write):
     mesh.edges.add(len(edges))
     mesh.edges.foreach_set("vertices", edges.ravel())
     n = np.int64(len(mesh.vertices))
-    low, high = edges.min(axis=1).astype(np.int64), edges.max(axis=1).astype(np.int64)
-    keys = low * n + high
+    keys = edges.min(axis=1).astype(np.int64) * n + edges.max(axis=1)
     order = np.argsort(keys)
-    count = len(mesh.polygons)
-    k = len(corners) // count if count else 0
-    ring = corners.reshape(count, k)
-    nxt = np.roll(ring, -1, axis=1).ravel().astype(np.int64)
     here = corners.astype(np.int64)
-    wanted = np.minimum(here, nxt) * n + np.maximum(here, nxt)
-    found = order[np.searchsorted(keys, wanted, sorter=order)]
+    nxt = here[next_corners(starts, totals)]
+    found = order[np.searchsorted(keys, np.minimum(here, nxt) * n + np.maximum(here, nxt), sorter=order)]
     write(mesh, mesh.loops, "edge_index", ".corner_edge", "CORNER", "INT", np.ascontiguousarray(found, np.int32))
     mesh.update()
-

@@ -202,7 +202,7 @@ def subdivide(key, sub, level, cage):
     topo = sub.topo
     if level == 0:
         corners, starts = meshdata.polygon_corners(topo)
-        return Result(cage, corners, starts, topo.totals, np.arange(topo.faces), sub.uvs, None)
+        return Result(cage, corners, starts, topo.totals, np.arange(topo.faces), sub.uvs, sub.edges)
     cached = cache.get("subdivide", key) if key else None
     try:
         if cached is not None and cached[0] == (sub.refine, level):
@@ -272,7 +272,7 @@ def fill(mesh, result, sub, materials=True):
     _write(mesh, mesh.loops, "vertex_index", ".corner_vert", "CORNER", "INT", corners)  # 4.0+: an attribute
     mesh.polygons.foreach_set("loop_start", np.ascontiguousarray(result.starts, np.int32))
     mesh.polygons.foreach_set("loop_total", np.ascontiguousarray(result.totals, np.int32))  # 3.x needs it
-    subdivision_order.set_edges(mesh, result.edges, corners, _write)
+    subdivision_order.set_edges(mesh, result.edges, corners, result.starts, result.totals, _write)
     if result.uvs is not None:
         layer = mesh.uv_layers.new(name=sub.uv_name)
         _write(mesh, layer.data, "uv", layer.name, "CORNER", "FLOAT2",

@@ -163,3 +163,19 @@ def test_apply_gives_the_mesh_blenders_apply_gives(scene):
     assert np.abs(a[0] - b[0]).max() < 1e-5 and not a[4]
     np.testing.assert_array_equal(a[1], b[1])
     assert a[2] == b[2]
+
+
+def test_level_zero_keeps_the_meshs_own_numbering(scene):
+    """Levels Viewport 0 (renders subdivided) shows the base mesh as Blender's modifier does: its
+    own vertices, edges and faces, in its own order."""
+    import bpy
+    from deformkit_addon import api
+    obj = make_cube(bpy)  # its edges are not in the order Blender would make them from its faces
+    mesh = obj.data
+    base_edges = np.empty(len(mesh.edges) * 2, np.int32)
+    mesh.edges.foreach_get("vertices", base_edges)
+    entry = api.add_entry(obj, "SUBDIVIDE", levels=0, render_levels=2, use_limit_surface=False)
+    assert entry.error == "" and entry.subdivision_viewport is not None
+    shown = topology(bpy, obj)
+    np.testing.assert_array_equal(shown[1], base_edges.reshape(-1, 2))
+    assert shown[2] == [tuple(p.vertices) for p in mesh.polygons] and not shown[4]
