@@ -20,6 +20,7 @@ bl_info = {
 # module registers its `classes`, then runs its `register()` if it has one; unregistering reverses.
 MODULES = (
     "errors", "native", "cache", "panel_text", "recipe_schema", "outputs", "shapekeys", "meshdata",
+    "subdivision_order",
     "entries.common", "entries.binding", "entries.barr", "entries.lattice", "entries.laplacian",
     "entries.cage", "entries.rbf", "entries.subdivide", "entries",
     "properties", "stack_run", "entry_animation", "evaluation", "lattice_tools", "smoothness", "api",

@@ -2,6 +2,7 @@
 #include "common.hpp"
 #include "declared.hpp"
 
+#include "deformkit/subdivision/blender_order.hpp"
 #include "deformkit/subdivision/limit_surface.hpp"
 #include "deformkit/subdivision/smoothness_report.hpp"
 #include "deformkit/subdivision/subdivide.hpp"
@@ -283,7 +284,31 @@ void bind_subdivision(py::module_& m) {
         for (std::size_t i = 0; i < params.size(); ++i) ptex[i] = params[i].ptex, uv[2 * i] = params[i].u, uv[2 * i + 1] = params[i].v;
         const auto n = py::ssize_t(params.size());
         return py::make_tuple(owned_array(std::move(ptex), {n}), owned_array(std::move(uv), {n, 2}));
-      }, "(ptex (N,), uv (N, 2)): where each refined vertex lies on LimitSurface(points, faces) of the same settings.");
+      }, "(ptex (N,), uv (N, 2)): where each refined vertex lies on LimitSurface(points, faces) of the same settings.")
+      .def("blender_order", [](const PySubdivider& s, const py::object& edges_arg) {
+        const std::vector<std::int64_t> wide = int_rows(edges_arg, "edges", 2);
+        std::vector<int> edges(wide.size());
+        for (std::size_t i = 0; i < wide.size(); ++i) {
+          if (wide[i] < 0 || wide[i] > std::numeric_limits<int>::max())
+            throw py::value_error("edges: vertex index " + std::to_string(wide[i]) + " is out of range");
+          edges[i] = int(wide[i]);
+        }
+        BlenderOrder order;
+        {
+          py::gil_scoped_release release;
+          order = blender_order(*s.subdivider, edges.data(), edges.size() / 2);
+        }
+        const auto nv = py::ssize_t(order.vertex.size()), nf = py::ssize_t(order.face.size());
+        const auto ne = py::ssize_t(order.edges.size() / 2);
+        return py::make_tuple(owned_array(std::move(order.vertex), {nv}), owned_array(std::move(order.face), {nf}),
+                              owned_array(std::move(order.face_start), {nf}),
+                              owned_array(std::move(order.edges), {ne, 2}));
+      }, "edges"_a, R"((vertex (N,), face (M,), face_start (M,), edges (K, 2)), int32: how Blender's Subdivision
+Surface modifier numbers this Catmull-Clark subdivision. vertex[i] and face[f] are the indices
+Blender gives refined vertex i and face f, corner face_start[f] of face f is Blender's first
+corner, and edges are Blender's edges in its order and vertex numbering. edges (E, 2): the
+control mesh's edges as Blender numbers and orients them (mesh.edges[i].vertices), exactly the
+edges of its faces (no loose edges).)");
 
   def(m, "subdivide", [](const py::object& points, const py::object& faces, std::int64_t level_arg,
                         const std::string& scheme, const std::string& boundary, const py::object& creases,

@@ -9,13 +9,15 @@ the entry's pointers and the modifier's inputs; the modifier's node group then o
 geometry (Object Info, original space) in place of its input. Helpers are output, not the user's
 data: they are written on every evaluation, and deleted when the entry goes or stops subdividing.
 
-Carried over from the base mesh: the active UV map (face-varying, with UV Smooth), material
-indices and smooth shading (through each face's control face); other attributes are not.
+Results are numbered as Blender's Subdivision Surface numbers its own (subdivision_order), but
+for Loop (the modifier has none) and meshes with loose edges (it subdivides those too). Carried
+over from the base mesh: the active UV map (face-varying, with UV Smooth), material indices and
+smooth shading (through each face's control face); other attributes are not.
 
 Evaluation reaches this kind only through the registry's hooks for a kind with LAST (results, write,
 discard, forget: entries/__init__.py). Here too: the entry's settings and panel. Refined topologies
 are kept in the cache's "subdivide" space ((object cache key, "viewport"/"render") -> (refine key,
-dk.Subdivider, Result without points)), and what each helper mesh holds in "subdivide_written"
+dk.Subdivider, Result without points, gather)), and what each helper mesh holds in "subdivide_written"
 ((object cache key, helper mesh name) -> the key of the topology and face data written into it).
 """
 import re
@@ -25,7 +27,7 @@ from collections import namedtuple
 import bpy
 import numpy as np
 
-from .. import cache, meshdata, native, outputs
+from .. import cache, meshdata, native, outputs, subdivision_order
 from ..errors import EntryError
 from .common import Prepared
 
@@ -67,11 +69,12 @@ KINDS = ("viewport", "render")
 OWNER = "deformkit_subdivision_of"  # on a helper object: the name of the object it belongs to
 
 # topo: meshdata.Topology; kwargs: dk's topology arguments; refine: what a refined topology depends
-# on; fingerprint: everything the result depends on besides the cage's positions.
-Setup = namedtuple("Setup", "entry topo kwargs uvs uv_name uv_smooth material smooth materials refine fingerprint")
+# on; fingerprint: everything the result depends on besides the cage's positions; edges: Blender's (E, 2).
+Setup = namedtuple("Setup", "entry topo kwargs uvs uv_name uv_smooth material smooth materials edges refine "
+                    "fingerprint")
 # One result: points and polygons (flat corners, starts, totals), the control face of each polygon,
-# per-corner UVs or None.
-Result = namedtuple("Result", "points corners starts totals face_origin uvs")
+# per-corner UVs or None, edges (K, 2) or None (then Blender makes them from the polygons).
+Result = namedtuple("Result", "points corners starts totals face_origin uvs edges")
 
 
 def crease_to_sharpness(crease):
@@ -159,14 +162,16 @@ def subdivision_setup(obj, entry):
     mesh.polygons.foreach_get("material_index", material)
     mesh.polygons.foreach_get("use_smooth", smooth)
     materials = tuple(mesh.materials)
+    edges = subdivision_order.blender_edges(mesh, *meshdata.polygon_corners(topo), topo.totals)
     creases = kwargs["creases"] or (None, None)
     corners = kwargs["corners"] or (None, None)
-    refine = (topo.vertices, topo.crc, entry.scheme, entry.boundary_smooth, entry.uv_smooth, _crc(*creases, *corners),
-              None if uvs is None else _crc(uvs), entry.sharpen_two_edge_vertices, entry.use_limit_surface)
+    refine = (topo.vertices, topo.crc, entry.scheme, entry.boundary_smooth, entry.uv_smooth,
+              _crc(*creases, *corners, edges), None if uvs is None else _crc(uvs), entry.sharpen_two_edge_vertices,
+              entry.use_limit_surface, edges is None)
     fingerprint = (entry.levels, entry.render_levels,
                    refine, layer.name if layer else "", _crc(material, smooth), tuple(m and m.name for m in materials))
     return Setup(entry, topo, kwargs, uvs, layer.name if layer else "", entry.uv_smooth.lower(), material, smooth,
-                 materials, refine, fingerprint)
+                 materials, edges, refine, fingerprint)
 
 
 def level(entry, kind):
@@ -197,25 +202,24 @@ def subdivide(key, sub, level, cage):
     topo = sub.topo
     if level == 0:
         corners, starts = meshdata.polygon_corners(topo)
-        return Result(cage, corners, starts, topo.totals, np.arange(topo.faces), sub.uvs)
+        return Result(cage, corners, starts, topo.totals, np.arange(topo.faces), sub.uvs, sub.edges)
     cached = cache.get("subdivide", key) if key else None
     try:
         if cached is not None and cached[0] == (sub.refine, level):
-            return cached[2]._replace(points=cached[1].subdivide(cage))
+            return cached[2]._replace(points=subdivision_order.gathered(cached[1].subdivide(cage), cached[3]))
         subdivider = native.dk.Subdivider(cage, meshdata.polygons(topo), level, uvs=sub.uvs,
                                           uv_smooth=sub.uv_smooth, limit_surface=sub.entry.use_limit_surface,
                                           **sub.kwargs)
         m = subdivider.mesh(cage)
+        numbering = subdivision_order.numbering(subdivider, m, sub.edges)
     except (ValueError, TypeError) as exc:
         raise EntryError(in_ui_terms(str(exc), "Render" if key and key[1] == "render" else "Levels Viewport")) \
             from exc
     except MemoryError:
         raise EntryError(f"not enough memory for level {level}: lower the level") from None
-    count, k = m.faces.shape
-    result = Result(m.points, m.faces.ravel(), np.arange(count, dtype=np.int32) * k, np.full(count, k, np.int32),
-                    m.face_origin, m.uvs)
+    result = Result(subdivision_order.gathered(m.points, numbering.gather), *numbering[1:])
     if key:
-        cache.put("subdivide", key, ((sub.refine, level), subdivider, result._replace(points=None)))
+        cache.put("subdivide", key, ((sub.refine, level), subdivider, result._replace(points=None), numbering.gather))
     return result
 
 
@@ -268,7 +272,7 @@ def fill(mesh, result, sub, materials=True):
     _write(mesh, mesh.loops, "vertex_index", ".corner_vert", "CORNER", "INT", corners)  # 4.0+: an attribute
     mesh.polygons.foreach_set("loop_start", np.ascontiguousarray(result.starts, np.int32))
     mesh.polygons.foreach_set("loop_total", np.ascontiguousarray(result.totals, np.int32))  # 3.x needs it
-    mesh.update(calc_edges=True)
+    subdivision_order.set_edges(mesh, result.edges, corners, result.starts, result.totals, _write)
     if result.uvs is not None:
         layer = mesh.uv_layers.new(name=sub.uv_name)
         _write(mesh, layer.data, "uv", layer.name, "CORNER", "FLOAT2",

@@ -88,6 +88,18 @@ def polygons(mesh):
     return [list(p.vertices) for p in mesh.polygons]
 
 
+def in_blenders_order(mesh, subdivided, level, **settings):
+    """Points of dk's subdivision of mesh (its polygons) to `level`, in dk's order, renumbered as
+    Blender's Subdivision Surface (and so the Subdivide entry) numbers them."""
+    import deformkit as dk
+    edges = np.empty(len(mesh.edges) * 2, np.int32)
+    mesh.edges.foreach_get("vertices", edges)
+    vertex = dk.Subdivider(positions(mesh), polygons(mesh), level, **settings).blender_order(edges.reshape(-1, 2))[0]
+    out = np.empty_like(subdivided)
+    out[vertex] = subdivided
+    return out
+
+
 def twin_with_simple_deform(bpy, obj, **settings):
     """A copy of obj with Blender's own Simple Deform modifier and the same settings."""
     twin = obj.copy()

@@ -9,7 +9,8 @@ import shutil
 import numpy as np
 import pytest
 
-from addon_helpers import REPO, axis_weights, close, evaluated, group_members, lattice_points, polygons, positions
+from addon_helpers import (REPO, axis_weights, close, evaluated, group_members, in_blenders_order, lattice_points,
+                           polygons, positions)
 from saved_stack import BLEND, DRIVERS, FRAMES, KEYFRAMES, POSITIONS, STACKS, VOLUME_COLORS, driven_value, keyed_value
 
 DATA = REPO / "tests/addon/data"
@@ -124,9 +125,10 @@ def expected_smooth(bpy, frame, level):
     twist = simple_deform(dk, bpy, obj, "TWIST", params_at("Smooth", 0, frame))
     p = STACKS["Smooth"][1][1]
     assert (p["boundary_smooth"], p["use_creases"]) == ("PRESERVE_CORNERS", False)
-    return dk.subdivide(twist.deform(positions(obj.data)), polygons(obj.data), level, scheme="catmull_clark",
-                        boundary="edge_and_corner", sharpen_two_edge_vertices=p["sharpen_two_edge_vertices"],
-                        limit_surface=p["use_limit_surface"]).points
+    points = dk.subdivide(twist.deform(positions(obj.data)), polygons(obj.data), level, scheme="catmull_clark",
+                          boundary="edge_and_corner", sharpen_two_edge_vertices=p["sharpen_two_edge_vertices"],
+                          limit_surface=p["use_limit_surface"]).points
+    return in_blenders_order(obj.data, points, level, scheme="catmull_clark")  # as the entry numbers it
 
 
 def render_attribute(obj):
@@ -196,7 +198,10 @@ def test_evaluation_gives_the_same_positions(saved, frame):
             if forced:
                 api.evaluate(obj)
             ours = evaluated(obj)
-            assert close(ours, recorded[f"{name}/{frame}/viewport"], 3.0), (name, frame, forced)
+            saved = recorded[f"{name}/{frame}/viewport"]
+            if name == "Smooth":  # 0.1.0 numbered its subdivision as dk does; now it is Blender's order
+                saved = in_blenders_order(obj.data, saved, STACKS["Smooth"][1][1]["levels"], scheme="catmull_clark")
+            assert close(ours, saved, 3.0), (name, frame, forced)
         barrs = bpy.data.objects["Barrs"]
         assert close(evaluated(barrs), expected_barrs(bpy, frame), 3.0)
         assert close(render_attribute(barrs), expected_barrs(bpy, frame, render=True), 3.0)

@@ -18,6 +18,7 @@ from deformkit._arguments import parse_signature
 
 CUBE = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
 CUBE_FACES = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
+CUBE_EDGES = np.array(sorted({tuple(sorted(p)) for f in CUBE_FACES.tolist() for p in zip(f, f[1:] + f[:1])}))
 GRID = np.array([[x, y, 0.1 * x * y] for y in range(3) for x in range(3)], float)
 QUADS = np.array([[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6], [4, 5, 8, 7]])
 PTS = np.random.default_rng(5).uniform(0.1, 0.9, (6, 3))
@@ -63,6 +64,7 @@ METHOD_CALLS = {
     "deform_bound": lambda d: ((d.bind(PTS),), {}),
     "subdivide": lambda d: ((), {"points": CUBE}), "mesh": lambda d: ((), {"points": CUBE}),
     "limit_points": lambda d: ((), {"points": CUBE}),
+    "blender_order": lambda d: ((CUBE_EDGES,), {}),
     "evaluate": lambda d: (([0], np.array([[0.5, 0.5]])), {"points": CUBE}),
     "smoothness_report": lambda d: ((), {"points": CUBE, "reference": CUBE}),
     "transfer": lambda d: ((GRID,), {"fixed_positions": GRID[:1]}),

@@ -132,3 +132,30 @@ def test_large_polygon_is_checked_quickly():
     face = list(range(k - 1)) + [0]
     with pytest.raises(ValueError, match="^faces: face 0 repeats vertex 0"):
         dk.subdivide(points, [face], 1)
+
+
+def test_blender_order_refuses_edges_that_are_not_the_faces_edges():
+    """Subdivider.blender_order numbers by the control edges: they must be exactly the faces' edges."""
+    points, faces = np.asarray(CUBE_POINTS, float), np.asarray(CUBE_FACES)
+    s = dk.Subdivider(points, faces, 2, scheme="catmull_clark")
+    edges = np.array(sorted({tuple(sorted((f[i], f[(i + 1) % 4]))) for f in faces.tolist() for i in range(4)}))
+    assert len(s.blender_order(edges)[0]) == s.vertex_count
+    # the first face, in order, that has the last edge: its corners name the edge
+    face, a, b = next((i, f[j], f[(j + 1) % 4]) for i, f in enumerate(faces.tolist()) for j in range(4)
+                      if sorted((f[j], f[(j + 1) % 4])) == edges[-1].tolist())
+    cases = [
+        (edges[:-1], f"edges: the edge ({a}, {b}) of face {face} is missing"),
+        (np.vstack([edges, [0, 7]]), "edges: 13 edges, more than the faces have (loose edges are not subdivided)"),
+        (np.vstack([edges, edges[:1]]), "edges: edge 12 repeats an earlier edge"),
+        (np.vstack([edges[:-1], [8, 0]]), "edges: edge 11 (8, 0) is not a pair of distinct vertices 0..7"),
+        (np.vstack([edges[:-1], [3, 3]]), "edges: edge 11 (3, 3) is not a pair of distinct vertices 0..7"),
+        (edges[:, :1], "edges: expected shape (k, 2), got (12, 1)"),
+    ]
+    for bad, message in cases:
+        with pytest.raises(ValueError) as info:
+            s.blender_order(bad)
+        assert str(info.value) == message
+    loop = dk.Subdivider(np.asarray(OCTAHEDRON_POINTS, float), OCTAHEDRON_FACES, 1, scheme="loop")
+    with pytest.raises(ValueError, match=r"^scheme: Blender's order is defined for Catmull-Clark only, got loop$"):
+        loop.blender_order(np.array([[0, 1]]))
+

@@ -38,7 +38,9 @@ void check_level(int level) {
 // A face's corners in the ptex parameters of the chart they lie in.
 struct ChartFace {
   int ptex = -1;  // -1: a Catmull-Clark n-gon of the control mesh, split into charts at level 1
-  std::vector<std::array<double, 2>> corners;
+  std::array<std::array<double, 2>, 4> corners{};  // fixed: no allocation per refined face
+  int count = 0;
+  void add(std::array<double, 2> p) { corners[std::size_t(count++)] = p; }
 };
 
 // The control faces' charts: a quad's corners at (0,0), (1,0), (1,1), (0,1), a Loop triangle's
@@ -47,8 +49,8 @@ std::vector<ChartFace> control_charts(const ControlMesh& mesh, const std::vector
   static const std::array<double, 2> quad[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}}, tri[3] = {{0, 0}, {1, 0}, {0, 1}};
   std::vector<ChartFace> out(mesh.face_count());
   for (std::size_t f = 0; f < mesh.face_count(); ++f) {
-    if (mesh.scheme == SubdivisionScheme::Loop) out[f] = {ptex_offset[f], {tri[0], tri[1], tri[2]}};
-    else if (mesh.face_size(f) == 4) out[f] = {ptex_offset[f], {quad[0], quad[1], quad[2], quad[3]}};
+    if (mesh.scheme == SubdivisionScheme::Loop) out[f] = {ptex_offset[f], {tri[0], tri[1], tri[2]}, 3};
+    else if (mesh.face_size(f) == 4) out[f] = {ptex_offset[f], {quad[0], quad[1], quad[2], quad[3]}, 4};
   }
   return out;
 }
@@ -71,7 +73,7 @@ Role role_in_parent(const Far::TopologyLevel& parent, int face, int vertex) {
 
 // In the parent's chart: a corner's parameters, an edge's midpoint, the centre.
 std::array<double, 2> in_chart(const ChartFace& chart, Role r) {
-  const std::size_t k = chart.corners.size();
+  const std::size_t k = std::size_t(chart.count);
   const auto& a = chart.corners[r.index];
   if (r.kind == Role::Corner) return a;
   if (r.kind == Role::Edge) {
@@ -79,7 +81,7 @@ std::array<double, 2> in_chart(const ChartFace& chart, Role r) {
     return {0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])};
   }
   std::array<double, 2> c{0, 0};
-  for (const auto& p : chart.corners) c[0] += p[0] / double(k), c[1] += p[1] / double(k);
+  for (std::size_t i = 0; i < k; ++i) c[0] += chart.corners[i][0] / double(k), c[1] += chart.corners[i][1] / double(k);
   return c;
 }
 
@@ -106,12 +108,12 @@ std::vector<ChartFace> child_charts(const Far::TopologyLevel& parent, const Far:
       ChartFace& made = out[cf];
       if (chart.ptex >= 0) {
         made.ptex = chart.ptex;
-        for (const Role& r : roles) made.corners.push_back(in_chart(chart, r));
+        for (const Role& r : roles) made.add(in_chart(chart, r));
         continue;
       }
       const int j = std::find_if(roles.begin(), roles.end(), [](const Role& r) { return r.kind == Role::Corner; })->index;
       made.ptex = ptex_offset[pf] + j;
-      for (const Role& r : roles) made.corners.push_back(in_sub_quad(r, j));
+      for (const Role& r : roles) made.add(in_sub_quad(r, j));
     }
   }
   return out;
