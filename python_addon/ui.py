@@ -36,6 +36,9 @@ class DEFORMKIT_MT_entry_specials(bpy.types.Menu):
         layout = self.layout
         layout.operator("deformkit.entry_apply", text="Apply", icon="CHECKMARK").index = index
         layout.separator()
+        if not smoothness_applies(stack):  # else it is under the stack
+            layout.operator("deformkit.check_smoothness", icon="MOD_SMOOTH")
+            layout.separator()
         layout.operator("deformkit.entry_copy_to_selected", text="Copy to Selected", icon="COPYDOWN").index = index
         sub = layout.column()
         sub.enabled = not entries.kind(entry).LAST  # the operator's description says why
@@ -99,7 +102,8 @@ class DEFORMKIT_PT_stack(bpy.types.Panel):
             panel_text.label_wrapped(layout, note, "INFO", budget)
         for entry in stack.entries:
             draw_entry(layout.box(), obj, entry)
-        draw_smoothness(layout.box(), stack)
+        if smoothness_applies(stack):
+            draw_smoothness(layout.box(), stack)
 
 
 def draw_modifier_place(layout, obj, budget):
@@ -116,14 +120,18 @@ def draw_entry(box, obj, entry):
     """Laid out like Blender's modifier panels: the header, then the kind's settings."""
     row = box.row()
     row.context_pointer_set("deformkit_entry", entry)
-    row.prop(entry, "show_expanded", text="", emboss=False,
-             icon="DOWNARROW_HLT" if entry.show_expanded else "RIGHTARROW")
+    # The buttons in two aligned groups beside the name (no gaps within them): the box inside the
+    # panel is narrower than a modifier's header, and the name field gets what is left ("Laplacian"
+    # and "Subdivide" read whole at the default width; five gaps left "Lapl…" in Blender 3.4).
+    start = row.row(align=True)
+    start.prop(entry, "show_expanded", text="", emboss=False,
+               icon="DOWNARROW_HLT" if entry.show_expanded else "RIGHTARROW")
     # The kind's icon, pressed on the active entry (the one Ctrl+A applies): a click makes it active,
     # as a click on a modifier's panel does.
     index = list(obj.deformkit.entries).index(entry)
     active = index == obj.deformkit.active_index
-    row.operator("deformkit.entry_set_active", text="", icon=ICONS[entry.type], emboss=active,
-                 depress=active).index = index
+    start.operator("deformkit.entry_set_active", text="", icon=ICONS[entry.type], emboss=active,
+                   depress=active).index = index
     row.prop(entry, "name", text="")
     toggles = row.row(align=True)
     if entry.show_in_editmode:  # Blender's order and icons; On Cage only where Edit Mode is on
@@ -131,8 +139,9 @@ def draw_entry(box, obj, entry):
     toggles.prop(entry, "show_in_editmode", text="", icon="EDITMODE_HLT")
     toggles.prop(entry, "show_viewport", text="", icon="RESTRICT_VIEW_OFF" if entry.show_viewport else "RESTRICT_VIEW_ON")
     toggles.prop(entry, "show_render", text="", icon="RESTRICT_RENDER_OFF" if entry.show_render else "RESTRICT_RENDER_ON")
-    row.menu(DEFORMKIT_MT_entry_specials.bl_idname, text="", icon="DOWNARROW_HLT")
-    row.operator("deformkit.entry_remove", text="", icon="X", emboss=False).index = index
+    end = toggles  # the menu and X join the toggles: one gap less for the name
+    end.menu(DEFORMKIT_MT_entry_specials.bl_idname, text="", icon="DOWNARROW_HLT")
+    end.operator("deformkit.entry_remove", text="", icon="X", emboss=False).index = index
     if entry.error:
         alert = box.row()
         alert.alert = True
@@ -150,6 +159,12 @@ def type_label(entry):
     """The Type row's label, the kind's TYPE_LABEL: "Mode" for the Barr kinds, whose types are
     Simple Deform's modes (its deform_method is named Mode), "Type" for the others."""
     return entries.kind(entry).TYPE_LABEL
+
+
+def smoothness_applies(stack):
+    """Check Smoothness (of the cage a Subdivide entry refines) under the stack only with such an
+    entry, or to show the figures of a check run from an entry's menu."""
+    return stack.smoothness.checked or any(entries.kind(e).LAST for e in stack.entries)
 
 
 def draw_smoothness(box, stack):

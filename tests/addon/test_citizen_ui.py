@@ -44,3 +44,125 @@ def test_a_new_entry_without_its_object_is_a_hint_not_an_error(scene, entry_type
     entry = obj.deformkit.entries[0]
     assert "no longer exists" in entry.error or "deleted" in entry.error, entry.error
     assert entries.kind(entry).HINT not in labels(draw_panel(obj))
+
+
+# ---------------------------------------------------------------------------------------------
+# Entry names: the type's label ("RBF", not "Rbf"), read whole in the header at the default width
+
+class HeaderLayout:
+    """Records a header row as nested groups: ("align" or "row", [children]) and leaf buttons."""
+
+    def __init__(self, align=False):
+        self.align, self.items, self.alert, self.enabled, self.use_property_split = align, [], False, True, False
+
+    def row(self, align=False, **_kw):
+        child = HeaderLayout(align)
+        self.items.append(child)
+        return child
+
+    column = box = row
+
+    def context_pointer_set(self, *_args):
+        pass
+
+    def prop(self, data, name, text=None, **_kw):
+        self.items.append("name" if name == "name" else "button")
+
+    def operator(self, *_args, **_kw):
+        self.items.append("button")
+        return types.SimpleNamespace()
+
+    def menu(self, *_args, **_kw):
+        self.items.append("button")
+
+    def label(self, **_kw):
+        pass
+
+
+# Measured in Blender 3.4's screenshots at the default width (333 px), icon buttons 20 px: main's
+# header (six items, five gaps) left the name field 50 px, in which "Lapl…" (32 px) showed and
+# "Laplacian" (50 px) did not; with two gaps fewer it was 66 px and "Laplacian" showed whole. So the
+# row is 250 px, a gap 8 px, and a name needs its width plus Blender's text margins (2 x 8 px).
+ROW_WIDTH, BUTTON, GAP, TEXT_PADDING = 250.0, 20.0, 8.0, 16.0
+
+
+def fixed_width(layout):
+    """(width of the buttons and gaps, number of name fields) of a recorded layout."""
+    width, names = 0.0, 0
+    for item in layout.items:
+        if item == "name":
+            names += 1
+        elif item == "button":
+            width += BUTTON
+        else:
+            inner, inner_names = fixed_width(item)
+            width, names = width + inner, names + inner_names
+    gaps = 0 if layout.align else len(layout.items) - 1
+    return width + GAP * gaps, names
+
+
+def test_new_entries_are_named_by_their_type_label(scene):
+    import bpy
+    from deformkit_addon import api, entries
+    obj = make_object(bpy)
+    for entry_type in entries.TYPES:
+        api.add_entry(obj, entry_type)
+    names = [e.name for e in obj.deformkit.entries]
+    labels_ = [entries.LABELS[e.type] for e in obj.deformkit.entries]
+    assert names == labels_ and "RBF" in names
+    with pytest.raises(ValueError, match="is a RBF entry, not a Lattice entry"):
+        api.entry_of_type(obj, names.index("RBF"), "LATTICE")
+
+
+def test_every_type_label_reads_whole_in_an_entry_header_at_the_default_width(scene):
+    import blf
+    import bpy
+    from deformkit_addon import api, entries, ui
+    obj = make_object(bpy)
+    for entry_type in entries.TYPES:
+        api.add_entry(obj, entry_type).name = entries.LABELS[entry_type]
+    blf.size(0, 11)
+    for entry in obj.deformkit.entries:
+        entry.show_expanded = False  # the header only
+        box = HeaderLayout()
+        ui.draw_entry(box, obj, entry)
+        header = box.items[0]
+        width, fields = fixed_width(header)
+        assert fields == 1
+        text = blf.dimensions(0, entry.name)[0]
+        assert text > 0, "blf measures nothing here"
+        assert text + TEXT_PADDING <= ROW_WIDTH - width, (entry.name, ROW_WIDTH - width)
+
+
+def test_a_recipe_names_the_rbf_kind_as_the_panel_does():
+    from deformkit_addon import recipe_schema
+    problems = recipe_schema.entry_problems({"type": "rbf", "angle": 1.0}, "deformers[0]")
+    assert any("(for a RBF entry)" in p for p in problems), problems
+
+
+# ---------------------------------------------------------------------------------------------
+# Check Smoothness under the stack only where it applies (a Subdivide entry), else in the entry's menu
+
+def draw_entry_menu(obj, index):
+    from deformkit_addon import ui
+    log = []
+    ui.DEFORMKIT_MT_entry_specials.draw(types.SimpleNamespace(layout=CheckingLayout(log)),
+                                        types.SimpleNamespace(object=obj, deformkit_entry=obj.deformkit.entries[index]))
+    return log
+
+
+def test_check_smoothness_shows_where_it_applies(scene):
+    import bpy
+    from deformkit_addon import api
+    check = ("operator", "deformkit.check_smoothness")
+    obj = make_object(bpy)
+    api.add_entry(obj, "TWIST")
+    assert check not in draw_panel(obj)
+    assert check in draw_entry_menu(obj, 0)  # still at hand
+    api.add_entry(obj, "SUBDIVIDE", levels=1)
+    assert draw_panel(obj).count(check) == 1
+    assert check not in draw_entry_menu(obj, 0) and check not in draw_entry_menu(obj, 1)
+    api.remove_entry(obj, 1)
+    assert check not in draw_panel(obj)
+    api.check_smoothness(obj)  # run from the menu: its figures show under the stack
+    assert obj.deformkit.smoothness.checked and check in draw_panel(obj)
