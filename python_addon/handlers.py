@@ -126,6 +126,11 @@ def register():
     for handler_list, fn in HANDLERS:
         if fn not in handler_list:
             handler_list.append(fn)
+    # Enabled again in a session: meshes, lattices or cages edited while the add-on was off would
+    # show their old results until some other edit, so every stack is evaluated now, as on load. At
+    # startup the data is not open yet (restricted) and load_post evaluates the file instead.
+    if hasattr(bpy.data, "scenes"):
+        on_reload()
 
 
 def unregister():

@@ -166,3 +166,25 @@ def test_check_smoothness_shows_where_it_applies(scene):
     assert check not in draw_panel(obj)
     api.check_smoothness(obj)  # run from the menu: its figures show under the stack
     assert obj.deformkit.smoothness.checked and check in draw_panel(obj)
+
+
+# ---------------------------------------------------------------------------------------------
+# Enabling the add-on again evaluates every stack: edits made while it was off show at once
+
+def test_enabling_the_addon_again_evaluates_what_changed_while_it_was_off(scene, addon):
+    import bpy
+    from addon_helpers import close, evaluated, positions, twin_with_simple_deform
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    api.add_entry(obj, "TWIST", angle=1.1, deform_axis="Z")
+    addon.unregister()
+    try:
+        co = positions(obj.data)
+        co[:, 0] *= 1.5  # an edit while the add-on is off: nothing re-evaluates it
+        obj.data.vertices.foreach_set("co", co.ravel())
+        obj.data.update()
+        bpy.context.view_layer.update()
+    finally:
+        addon.register()
+    twin = twin_with_simple_deform(bpy, obj, deform_method="TWIST", angle=1.1, deform_axis="Z")
+    assert close(evaluated(obj), evaluated(twin))  # the edit shows in the result, with no other edit
