@@ -336,6 +336,11 @@ def result_helper(obj, create=True):
     return helper
 
 
+def is_helper_object(obj):
+    """Whether obj is a per-object helper (the user's objects never carry RESULT_OWNER)."""
+    return RESULT_OWNER in obj
+
+
 def _owned_by(obj, helper):
     """A per-object helper is obj's if made for it, or for an object of a name that is gone (obj renamed)."""
     owner = helper.get(RESULT_OWNER)

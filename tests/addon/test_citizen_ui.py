@@ -188,3 +188,72 @@ def test_enabling_the_addon_again_evaluates_what_changed_while_it_was_off(scene,
         addon.register()
     twin = twin_with_simple_deform(bpy, obj, deform_method="TWIST", angle=1.1, deform_axis="Z")
     assert close(evaluated(obj), evaluated(twin))  # the edit shows in the result, with no other edit
+
+
+# ---------------------------------------------------------------------------------------------
+# Helper objects go with their owner and stay out of the object pickers
+
+def helper_objects(bpy):
+    return sorted(o.name for o in bpy.data.objects if o.get("deformkit_result_of") or o.get("deformkit_subdivision_of"))
+
+
+def delete_in_the_ui(bpy, obj):
+    for other in bpy.context.selected_objects:
+        other.select_set(False)
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.delete()
+    bpy.context.view_layer.update()
+
+
+def test_helper_objects_go_with_the_object_they_belong_to(scene):
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    api.add_entry(obj, "TWIST", angle=1.0)
+    for other in bpy.context.selected_objects:
+        other.select_set(False)
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.duplicate(linked=True)  # Alt D: a shared mesh, so each shows its result through a helper
+    dup = bpy.context.active_object
+    api.add_entry(dup, "TAPER", factor=0.3)
+    bpy.context.view_layer.update()
+    assert helper_objects(bpy) == sorted([f"{obj.name} deformkit result", f"{dup.name} deformkit result"])
+    delete_in_the_ui(bpy, dup)
+    assert helper_objects(bpy) == []  # obj is back in its own mesh; dup's helper went with dup
+    assert not [m.name for m in bpy.data.meshes if "deformkit result" in m.name]
+    sub = make_object(bpy, "Sub")
+    api.add_entry(sub, "SUBDIVIDE", levels=1, render_levels=2)
+    assert len(helper_objects(bpy)) == 2  # viewport and render
+    delete_in_the_ui(bpy, sub)
+    assert helper_objects(bpy) == [] and not [m.name for m in bpy.data.meshes if "subdivided" in m.name]
+    assert [o.name for o in bpy.data.objects] == [obj.name]
+
+
+def test_the_object_pickers_do_not_list_helper_objects(scene):
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    mesh = make_object(bpy, "Mesh")
+    sub = make_object(bpy, "Sub")
+    api.add_entry(sub, "SUBDIVIDE", levels=1, render_levels=2)
+    edited = make_object(bpy, "Edited")
+    api.add_entry(edited, "TWIST")
+    bpy.ops.object.select_all(action="DESELECT")
+    edited.select_set(True)
+    bpy.context.view_layer.objects.active = edited
+    bpy.ops.object.mode_set(mode="EDIT")  # Edit Mode: the result is shown through a per-object helper
+    api.evaluate(edited)
+    helpers = [o for o in bpy.data.objects if o.get("deformkit_result_of") or o.get("deformkit_subdivision_of")]
+    assert len(helpers) >= 2
+    entry = api.add_entry(obj, "CAGE")
+    annotations = type(entry).__annotations__
+    pickers = [name for name, prop in annotations.items() if "poll" in getattr(prop, "keywords", {})]
+    for name in pickers:
+        poll = annotations[name].keywords["poll"]
+        assert not [h.name for h in helpers if poll(entry, h)], name
+        assert not poll(entry, obj), name  # nor the object itself
+    assert {"cage", "controls", "rest_object", "handle_object", "origin"} <= set(pickers)
+    for name in ("cage", "controls", "rest_object", "handle_object", "origin"):
+        assert annotations[name].keywords["poll"](entry, mesh), name  # the user's mesh is listed
