@@ -16,7 +16,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .. import cache, meshdata, native
+from .. import cache, meshdata, native, panel_text
 from ..errors import EntryError
 from . import binding
 from .binding import is_bound, new_bind_id, signed
@@ -159,7 +159,7 @@ def draw(col, obj, entry):
     index = list(obj.deformkit.entries).index(entry)
     col.prop(entry, "cage", text="Object")
     if entry.cage is None and not entry.cage_name:
-        col.label(text=HINT, icon="INFO")
+        panel_text.label_wrapped(col, HINT, "INFO")  # a label is cut, not wrapped
     col.prop(entry, "cage_method", text="Method")
     col.prop(entry, "strength", slider=True)
     draw_vertex_group(col, obj, entry)

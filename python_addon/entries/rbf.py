@@ -22,7 +22,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .. import cache, meshdata, native
+from .. import cache, meshdata, native, panel_text
 from ..errors import EntryError
 from . import binding
 from .binding import is_bound, new_bind_id
@@ -290,7 +290,7 @@ def draw(col, obj, entry):
     controls = entry.controls
     col.prop(entry, "controls", text="Object")
     if controls is None and not entry.controls_name:
-        col.label(text=HINT, icon="INFO")
+        panel_text.label_wrapped(col, HINT, "INFO")  # a label is cut, not wrapped
     at_bind = col.column()
     at_bind.enabled = not is_bound(entry)  # read at bind: Unbind to change them
     at_bind.prop(entry, "controls_use")

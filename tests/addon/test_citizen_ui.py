@@ -31,7 +31,9 @@ def test_a_new_entry_without_its_object_is_a_hint_not_an_error(scene, entry_type
     entry = api.add_entry(obj, entry_type)
     assert entry.error == "" and obj.deformkit.error == ""
     text = labels(draw_panel(obj))
-    assert entries.kind(entry).HINT in text
+    from deformkit_addon import panel_text
+    hint = panel_text.wrap(entries.kind(entry).HINT, panel_text.char_budget())
+    assert len(hint) > 1 and all(line in text for line in hint)  # wrapped, not cut, at the default width
     assert not any("See the message" in t or "no cage" in t or "no control" in t for t in text), text
     # Something actually wrong is still said: Bind without the object, and an object that is deleted.
     with pytest.raises(ValueError, match="no (cage|control) object set"):
@@ -43,7 +45,7 @@ def test_a_new_entry_without_its_object_is_a_hint_not_an_error(scene, entry_type
         api.evaluate(obj)
     entry = obj.deformkit.entries[0]
     assert "no longer exists" in entry.error or "deleted" in entry.error, entry.error
-    assert entries.kind(entry).HINT not in labels(draw_panel(obj))
+    assert hint[0] not in labels(draw_panel(obj))
 
 
 # ---------------------------------------------------------------------------------------------
