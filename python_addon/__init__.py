@@ -19,7 +19,7 @@ bl_info = {
 # (tests/core/test_addon_layout.py checks that this is every module there is, in that order). A
 # module registers its `classes`, then runs its `register()` if it has one; unregistering reverses.
 MODULES = (
-    "errors", "native", "cache", "panel_text", "recipe_schema", "outputs", "shapekeys", "meshdata",
+    "errors", "native", "cache", "panel_text", "recipe_schema", "node_builder", "outputs", "shapekeys", "meshdata",
     "entries.common", "entries.binding", "entries.barr", "entries.lattice", "entries.laplacian",
     "entries.cage", "entries.rbf", "entries.subdivide", "entries",
     "properties", "stack_run", "evaluation", "lattice_tools", "smoothness", "api",

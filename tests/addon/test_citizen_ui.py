@@ -259,3 +259,75 @@ def test_the_object_pickers_do_not_list_helper_objects(scene):
     assert {"cage", "controls", "rest_object", "handle_object", "origin"} <= set(pickers)
     for name in ("cage", "controls", "rest_object", "handle_object", "origin"):
         assert annotations[name].keywords["poll"](entry, mesh), name  # the user's mesh is listed
+
+
+# ---------------------------------------------------------------------------------------------
+# The helper modifier: a name that reads right, its plumbing hidden where Blender allows, and a
+# stray edit repaired at the next evaluation
+
+def twisted_with_twin(bpy, name="Obj"):
+    from addon_helpers import twin_with_simple_deform
+    from deformkit_addon import api
+    obj = make_object(bpy, name)
+    api.add_entry(obj, "TWIST", angle=1.1, deform_axis="Z")
+    twin = twin_with_simple_deform(bpy, obj, deform_method="TWIST", angle=1.1, deform_axis="Z")
+    return obj, twin
+
+
+def test_the_helper_modifier_reads_right_and_hides_its_plumbing(scene):
+    import bpy
+    obj, _twin = twisted_with_twin(bpy)
+    mod = obj.modifiers["deformkit"]
+    assert mod.node_group.name == "deformkit result"
+    assert "Needs" not in mod.node_group.name  # reads like an error while everything works
+    if hasattr(mod, "show_group_selector"):  # Blender 4.2+ (3.4 cannot hide these)
+        assert not mod.show_group_selector and not mod.show_manage_panel
+    sub = make_object(bpy, "Sub")
+    from deformkit_addon import api
+    api.add_entry(sub, "SUBDIVIDE", levels=1)
+    group = sub.modifiers["deformkit"].node_group
+    assert group.name == "deformkit result (subdivided)"
+    if hasattr(group, "interface"):
+        inputs = [i for i in group.interface.items_tree if i.in_out == "INPUT"]
+        assert {i.name for i in inputs} == {"Geometry", "Viewport", "Render", "Vertices"}
+        if hasattr(inputs[0], "hide_in_modifier"):
+            assert all(i.hide_in_modifier == (i.name != "Geometry") for i in inputs)
+
+
+def test_a_group_of_an_older_file_is_renamed_and_still_used(scene):
+    import bpy
+    from addon_helpers import close, evaluated
+    obj, twin = twisted_with_twin(bpy)
+    group = obj.modifiers["deformkit"].node_group
+    group.name = "Needs deformkit add-on"  # as saved before issue 31
+    obj.deformkit.entries[0].angle = 1.1 + 1e-3
+    obj.deformkit.entries[0].angle = 1.1
+    bpy.context.view_layer.update()
+    assert obj.modifiers["deformkit"].node_group == group and group.name == "deformkit result"
+    assert close(evaluated(obj), evaluated(twin))
+
+
+@pytest.mark.parametrize("breakage", ["no_group", "other_group", "link_removed", "node_removed"])
+def test_a_broken_helper_modifier_repairs_itself_at_the_next_evaluation(scene, breakage):
+    import bpy
+    from addon_helpers import close, evaluated
+    from deformkit_addon import api
+    obj, twin = twisted_with_twin(bpy)
+    other, _ = twisted_with_twin(bpy, "Other")  # shares the group
+    mod = obj.modifiers["deformkit"]
+    group = mod.node_group
+    built = (len(group.nodes), len(group.links))
+    if breakage == "no_group":
+        mod.node_group = None
+    elif breakage == "other_group":
+        mod.node_group = bpy.data.node_groups.new("Some Group", "GeometryNodeTree")
+    elif breakage == "link_removed":
+        group.links.remove(group.links[len(group.links) // 2])
+    else:
+        group.nodes.remove([n for n in group.nodes if n.bl_idname == "ShaderNodeVectorMath"][0])
+    api.evaluate(obj)
+    mod = obj.modifiers["deformkit"]
+    assert mod.node_group.get("deformkit_result") == "offsets"
+    assert (len(mod.node_group.nodes), len(mod.node_group.links)) == built
+    assert close(evaluated(obj), evaluated(twin))
+    assert close(evaluated(other), evaluated(twin))
