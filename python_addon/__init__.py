@@ -1,6 +1,6 @@
-"""deformkit for Blender: Barr deformers, lattices, Laplacian surface editing and OpenSubdiv
-subdivision as non-destructive entries beside the modifier stack, deformation transfer of shape
-keys and animation between meshes (transfer/), plus headless batch processing."""
+"""deformkit for Blender: Barr deformers, lattices, Laplacian surface editing, cages, RBF and
+OpenSubdiv subdivision as non-destructive entries beside the modifier stack, deformation transfer
+of shape keys and animation between meshes (transfer/), plus headless batch processing."""
 
 bl_info = {
     "name": "deformkit",
@@ -10,8 +10,8 @@ bl_info = {
     "version": (0, 1, 0),
     "blender": (3, 4, 0),
     "location": "Properties > Modifiers > deformkit",
-    "description": "Barr's twist, bend, taper and stretch, lattices, Laplacian editing and subdivision, as "
-                   "non-destructive entries",
+    "description": "Barr's twist, bend, taper and stretch, lattices, Laplacian/ARAP editing, cages, RBF "
+                   "and subdivision as non-destructive entries, and deformation transfer",
     "category": "Object",
 }
 

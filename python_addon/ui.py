@@ -2,6 +2,7 @@
 import bpy
 
 from . import entries, native, outputs, panel_text
+from .operators import cage, laplacian, lattice, rbf, stack
 from .properties import ENTRY_TYPES
 
 ICONS = {t[0]: entries.kind(t[0]).ICON for t in ENTRY_TYPES}
@@ -20,6 +21,73 @@ class DEFORMKIT_MT_add(bpy.types.Menu):
                 self.layout.operator(operator, icon=icon)
         self.layout.separator()  # shape keys onto this mesh from another (transfer/)
         self.layout.operator("deformkit.transfer_deformation", icon="MOD_DATA_TRANSFER")
+
+
+# Operators found through the Object menu (and so by F3's menu search) beside the entry kinds: all
+# but the panel's own clicks and those DEFORMKIT_MT_add lists; they act on the active entry.
+LISTED_ELSEWHERE = {"deformkit.entry_add", "deformkit.entry_set_active", "deformkit.entry_move"} | {
+    operator for kind in entries.KINDS for operator, _icon in kind.MENU}
+MOVES = (("Move Entry Up", "UP"), ("Move Entry Down", "DOWN"), ("Move Entry to First", "FIRST"),
+         ("Move Entry to Last", "LAST"))
+
+
+class DEFORMKIT_MT_object(bpy.types.Menu):
+    """deformkit in the 3D View's Object menu (both versions): every entry kind and every operator
+    on the active object's entries, so that F3 finds them by their names"""
+    bl_label = "deformkit"
+    bl_idname = "DEFORMKIT_MT_object"
+
+    def draw(self, context):
+        DEFORMKIT_MT_add.draw(self, context)
+        layout = self.layout
+        layout.separator()
+        for module in (stack, lattice, laplacian, cage, rbf):
+            for cls in module.classes:
+                if cls.bl_idname not in LISTED_ELSEWHERE:
+                    layout.operator(cls.bl_idname)
+        for label, direction in MOVES:
+            layout.operator("deformkit.entry_move", text=label).direction = direction
+
+
+def draw_object_menu(self, context):
+    self.layout.separator()
+    self.layout.menu(DEFORMKIT_MT_object.bl_idname, icon="MOD_SIMPLEDEFORM")
+
+
+def draw_kinds(layout, context, generate):
+    """The entry kinds that deform (or, with generate, make new geometry) as Add Modifier items."""
+    if context.object is None or context.object.type != "MESH":
+        return
+    layout.separator()
+    for kind, label, _description, _icon, _n in ENTRY_TYPES:
+        if bool(entries.kind(kind).LAST) == generate:  # the topology-changing kind: Subdivide
+            layout.operator("deformkit.entry_add", text=f"{label} (deformkit)", icon=ICONS[kind]).type = kind
+
+
+def draw_deform_menu(self, context):
+    draw_kinds(self.layout, context, generate=False)
+
+
+def draw_generate_menu(self, context):
+    draw_kinds(self.layout, context, generate=True)
+
+
+# Blender 4.2+ defines Add Modifier's columns as Python menus; 3.4 draws Add Modifier in C, so there
+# the Object menu is the way in (F3 searches both).
+MENU_HOOKS = (("VIEW3D_MT_object", draw_object_menu), ("OBJECT_MT_modifier_add_deform", draw_deform_menu),
+              ("OBJECT_MT_modifier_add_generate", draw_generate_menu))
+
+
+def register():
+    for menu, draw in MENU_HOOKS:
+        if hasattr(bpy.types, menu):
+            getattr(bpy.types, menu).append(draw)
+
+
+def unregister():
+    for menu, draw in MENU_HOOKS:
+        if hasattr(bpy.types, menu):
+            getattr(bpy.types, menu).remove(draw)
 
 
 class DEFORMKIT_MT_entry_specials(bpy.types.Menu):
@@ -199,4 +267,4 @@ def smoothness_lines(figures):
     return lines
 
 
-classes = (DEFORMKIT_MT_add, DEFORMKIT_MT_entry_specials, DEFORMKIT_PT_stack)
+classes = (DEFORMKIT_MT_add, DEFORMKIT_MT_object, DEFORMKIT_MT_entry_specials, DEFORMKIT_PT_stack)

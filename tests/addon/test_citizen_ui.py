@@ -331,3 +331,101 @@ def test_a_broken_helper_modifier_repairs_itself_at_the_next_evaluation(scene, b
     assert (len(mod.node_group.nodes), len(mod.node_group.links)) == built
     assert close(evaluated(obj), evaluated(twin))
     assert close(evaluated(other), evaluated(twin))
+
+
+# ---------------------------------------------------------------------------------------------
+# Entries people find: Add Modifier's Deform and Generate columns (4.2+), the Object menu (both),
+# so that F3's menu search finds every kind and operator
+
+class MenuLayout:
+    """Records (operator id, text, settings) and submenus drawn into a menu."""
+
+    def __init__(self, log):
+        self.log = log
+
+    def separator(self, **_kw):
+        pass
+
+    def column(self, **_kw):
+        return self
+
+    row = column
+
+    def menu(self, idname, **kw):
+        self.log.append(("menu", idname, kw.get("text"), {}))
+
+    def operator(self, idname, text=None, **_kw):
+        settings = {}
+        self.log.append(("operator", idname, text, settings))
+
+        class Settings:
+            def __setattr__(self, key, value):
+                settings[key] = value
+
+        return Settings()
+
+
+def drawn(menu_class, context):
+    """What the add-on's functions appended to a menu of Blender's draw (or its own menu draws)."""
+    log = []
+    fake = types.SimpleNamespace(layout=MenuLayout(log))
+    if menu_class.__module__.startswith("deformkit_addon"):
+        menu_class.draw(fake, context)
+        return log
+    ours = [draw for draw in menu_class._dyn_ui_initialize() if draw.__module__.startswith("deformkit_addon")]
+    for draw in ours:
+        draw(fake, context)
+    return log
+
+
+def test_every_entry_kind_is_in_blenders_menus(scene):
+    import bpy
+    from deformkit_addon import entries
+    obj = make_object(bpy)
+    context = types.SimpleNamespace(object=obj, active_object=obj)
+    deforming = [t for t in entries.TYPES if not entries.kind(t).LAST]
+    generating = [t for t in entries.TYPES if entries.kind(t).LAST]
+    assert generating == ["SUBDIVIDE"]
+    added = lambda log: [s.get("type") for kind, idname, _t, s in log if idname == "deformkit.entry_add"]  # noqa: E731
+    if hasattr(bpy.types, "OBJECT_MT_modifier_add_deform"):  # Blender 4.2+: Python menus
+        assert added(drawn(bpy.types.OBJECT_MT_modifier_add_deform, context)) == deforming
+        assert added(drawn(bpy.types.OBJECT_MT_modifier_add_generate, context)) == generating
+        empty = types.SimpleNamespace(object=None, active_object=None)
+        assert added(drawn(bpy.types.OBJECT_MT_modifier_add_deform, empty)) == []
+    else:
+        assert bpy.app.version < (4, 2, 0)
+    # The Object menu (both versions): a deformkit submenu with every kind and every operator.
+    object_menu = drawn(bpy.types.VIEW3D_MT_object, context)
+    assert ("menu", "DEFORMKIT_MT_object", None, {}) in object_menu
+    ours = drawn(bpy.types.DEFORMKIT_MT_object, context)
+    assert added(ours) == list(entries.TYPES)
+    listed = {idname for _kind, idname, _t, _s in ours}
+    operators = {cls.bl_idname for cls in bpy.types.Operator.__subclasses__() if cls.__name__.startswith("DEFORMKIT_OT_")}
+    assert operators - listed == {"deformkit.entry_set_active"}  # the panel's click on an entry's icon
+
+
+def test_every_operator_has_a_label_and_a_description(scene):
+    import bpy
+    from deformkit_addon import entries
+    classes = [cls for cls in bpy.types.Operator.__subclasses__() if cls.__name__.startswith("DEFORMKIT_OT_")]
+    assert len(classes) > 15
+    for cls in classes:
+        module, name = cls.bl_idname.split(".")
+        rna = getattr(getattr(bpy.ops, module), name).get_rna_type()
+        assert rna.name == cls.bl_label and (rna.description or "description" in vars(cls)), cls.__name__
+    add = bpy.types.DEFORMKIT_OT_entry_add
+    for entry_type, _label, description, _icon, _n in entries.ENTRY_TYPES:
+        assert add.description(bpy.context, types.SimpleNamespace(type=entry_type)) == description
+
+
+def test_the_addon_description_names_every_family():
+    import pathlib
+    import re
+    addon_dir = pathlib.Path(__file__).resolve().parents[2] / "python_addon"
+    init = (addon_dir / "__init__.py").read_text()
+    description = re.search(r'"description": ((?:"[^"]*"\s*)+)', init).group(1)
+    tagline = re.search(r'^tagline = "([^"]*)"', (addon_dir / "blender_manifest.toml").read_text(), re.M).group(1)
+    for text in (description, tagline):
+        for family in ("Barr", "lattice", "Laplacian", "ARAP", "cage", "RBF", "subdivi", "transfer"):
+            assert family.lower() in text.lower(), (family, text)
+    assert len(tagline) <= 64 and not re.search(r"[.!?,;:]$", tagline)
