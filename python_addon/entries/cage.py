@@ -159,7 +159,7 @@ def draw(col, obj, entry):
     index = list(obj.deformkit.entries).index(entry)
     col.prop(entry, "cage", text="Object")
     if entry.cage is None and not entry.cage_name:
-        panel_text.label_wrapped(col, HINT, "INFO")  # a label is cut, not wrapped
+        panel_text.label_wrapped(col, HINT, "INFO", panel_text.box_budget())  # a label is cut
     col.prop(entry, "cage_method", text="Method")
     col.prop(entry, "strength", slider=True)
     draw_vertex_group(col, obj, entry)

@@ -290,7 +290,7 @@ def draw(col, obj, entry):
     controls = entry.controls
     col.prop(entry, "controls", text="Object")
     if controls is None and not entry.controls_name:
-        panel_text.label_wrapped(col, HINT, "INFO")  # a label is cut, not wrapped
+        panel_text.label_wrapped(col, HINT, "INFO", panel_text.box_budget())  # a label is cut
     at_bind = col.column()
     at_bind.enabled = not is_bound(entry)  # read at bind: Unbind to change them
     at_bind.prop(entry, "controls_use")
