@@ -1,6 +1,6 @@
-"""deformkit for Blender: Barr deformers, lattices, Laplacian surface editing and OpenSubdiv
-subdivision as non-destructive entries beside the modifier stack, deformation transfer of shape
-keys and animation between meshes (transfer/), plus headless batch processing."""
+"""deformkit for Blender: Barr deformers, lattices, Laplacian surface editing, cages, RBF and
+OpenSubdiv subdivision as non-destructive entries beside the modifier stack, deformation transfer
+of shape keys and animation between meshes (transfer/), plus headless batch processing."""
 
 bl_info = {
     "name": "deformkit",
@@ -10,8 +10,8 @@ bl_info = {
     "version": (0, 1, 0),
     "blender": (3, 4, 0),
     "location": "Properties > Modifiers > deformkit",
-    "description": "Barr's twist, bend, taper and stretch, lattices, Laplacian editing and subdivision, as "
-                   "non-destructive entries",
+    "description": "Barr's twist, bend, taper and stretch, lattices, Laplacian/ARAP editing, cages, RBF "
+                   "and subdivision as non-destructive entries, and deformation transfer",
     "category": "Object",
 }
 
@@ -19,7 +19,7 @@ bl_info = {
 # (tests/core/test_addon_layout.py checks that this is every module there is, in that order). A
 # module registers its `classes`, then runs its `register()` if it has one; unregistering reverses.
 MODULES = (
-    "errors", "native", "cache", "panel_text", "recipe_schema", "outputs", "shapekeys", "meshdata",
+    "errors", "native", "cache", "panel_text", "recipe_schema", "node_builder", "outputs", "shapekeys", "meshdata",
     "subdivision_order",
     "entries.common", "entries.binding", "entries.barr", "entries.lattice", "entries.laplacian",
     "entries.cage", "entries.rbf", "entries.subdivide", "entries",

@@ -45,7 +45,7 @@ def add_entry(obj, type="TWIST", **params):
         raise ValueError(f"type: expected one of {', '.join(TYPES)}, got {type!r}")
     kinds.check_params(kind, params)  # before the entry is added: a refused call changes nothing
     stack = obj.deformkit
-    entry = _insert_entry(stack, _place_for(stack, kind), kind, _unique_name(stack, kind.title()))
+    entry = _insert_entry(stack, _place_for(stack, kind), kind, _unique_name(stack, kinds.LABELS[kind]))
     set_params(entry, **{**kinds.kind(kind).NEW_ENTRY, **params})
     evaluation.evaluate(obj, evaluation.Reason.ADDED)
     return entry

@@ -51,6 +51,17 @@ def _copies_let_go(updates):
             outputs.let_go_of_copy(obj)
 
 
+def _remove_orphaned_helpers():
+    """Helper objects nothing uses any more (their object was deleted, and its modifier or entries
+    with it) go with their meshes, as a modifier's data goes with its object; left, they would stay
+    in the object pickers until the file is saved and reopened."""
+    for helper in [o for o in bpy.data.objects if o.users == 0 and (outputs.is_helper_object(o) or entries.is_helper(o))]:
+        mesh = helper.data
+        bpy.data.objects.remove(helper)
+        if mesh is not None and mesh.users == 0:
+            bpy.data.meshes.remove(mesh)
+
+
 @persistent
 def on_depsgraph_update(scene, depsgraph):
     updates = [u for u in depsgraph.updates if isinstance(u.id, WATCHED)]
@@ -60,6 +71,8 @@ def on_depsgraph_update(scene, depsgraph):
     moved = {u.id.original for u in updates if u.is_updated_transform}
     reshaped = {u.id.original for u in updates if u.is_updated_geometry}
     relinked = any(isinstance(u.id, bpy.types.Collection) for u in updates)  # objects deleted or linked
+    if relinked:
+        _remove_orphaned_helpers()
     _copies_let_go(updates)
     for obj in _stack_objects(scene):
         if evaluation.modifier_gone(obj):
@@ -126,6 +139,11 @@ def register():
     for handler_list, fn in HANDLERS:
         if fn not in handler_list:
             handler_list.append(fn)
+    # Enabled again in a session: meshes, lattices or cages edited while the add-on was off would
+    # show their old results until some other edit, so every stack is evaluated now, as on load. At
+    # startup the data is not open yet (restricted) and load_post evaluates the file instead.
+    if hasattr(bpy.data, "scenes"):
+        on_reload()
 
 
 def unregister():

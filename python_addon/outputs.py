@@ -12,9 +12,10 @@ offsets, and never collapses a mesh. Where they live:
   index, and only when it has as many points as the input;
 * "subdivided": a Subdivide entry's helper objects, output in place of the input (entries/subdivide.py),
   only when the input has the vertex count they were made from.
-The node groups are named "Needs deformkit add-on ..." so that the modifier's panel says what the
-result depends on; the modifier's output never carries the internal attributes (so Apply and
-Convert give a clean mesh).
+The node groups are named "deformkit result ..." (before issue 31 "Needs deformkit add-on ...",
+renamed when met); in Blender 4.2+ the modifier hides its group selector, its Manage panel and the
+group's inputs (3.4 has no such switches). The modifier's output never carries the internal
+attributes (so Apply and Convert give a clean mesh).
 """
 import ctypes
 
@@ -22,6 +23,7 @@ import bpy
 import numpy as np
 
 from .errors import EntryError
+from .node_builder import Builder, add_socket, input_of, output
 
 MODIFIER_NAME = "deformkit"
 ATTR_OFFSET = "deformkit_offset"
@@ -29,10 +31,14 @@ ATTR_OFFSET_RENDER = "deformkit_offset_render"
 ATTR_VOLUME = "deformkit_volume_ratio"
 ATTR_INPUT = "deformkit_input"  # per-object kinds: the modifier's input, read back in Edit Mode
 OUTPUT_ATTRIBUTES = (ATTR_OFFSET, ATTR_OFFSET_RENDER, ATTR_VOLUME, ATTR_INPUT)
+INTERNAL = (ATTR_OFFSET, ATTR_OFFSET_RENDER)  # dropped from the modifier's output
 LEGACY_ATTRIBUTES = ("deformkit_position", "deformkit_position_render")  # absolute positions, up to 0.1
-KIND_NAMES = {"offsets": "Needs deformkit add-on", "offsets_split": "Needs deformkit add-on (render)",
-              "per_object": "Needs deformkit add-on (object)", "per_object_volume": "Needs deformkit add-on (colors)",
-              "subdivided": "Needs deformkit add-on (subdivided)"}
+# Names that read right with the add-on enabled or not (it makes the result; the group only shows it).
+KIND_NAMES = {"offsets": "deformkit result", "offsets_split": "deformkit result (render)",
+              "per_object": "deformkit result (object)", "per_object_volume": "deformkit result (colors)",
+              "subdivided": "deformkit result (subdivided)"}
+LEGACY_NAME = "Needs deformkit add-on"  # the groups' names before issue 31 (one suffix per kind)
+SHAPE = "deformkit_shape"  # on a group: [nodes, links] as built, to notice a stray edit
 NODE_GROUP_NAME = KIND_NAMES["offsets"]
 MARKER = "deformkit_result"  # 0.1 marked its (absolute-position) groups "deformkit_node_group"
 RESULT_INPUT = "Result"  # the per-object helper; a Subdivide entry's helpers:
@@ -121,90 +127,58 @@ def follow_toggles(obj, entries):
             setattr(mod, prop, value)
 
 
-def _add_socket(group, name, in_out, socket_type):
-    if hasattr(group, "interface"):  # Blender 4.0+
-        return group.interface.new_socket(name, in_out=in_out, socket_type=socket_type).identifier
-    return (group.inputs if in_out == "INPUT" else group.outputs).new(socket_type, name).identifier
-
-
 def _input_identifier(group, name):
     if hasattr(group, "interface"):
         return next(i.identifier for i in group.interface.items_tree if i.name == name and i.in_out == "INPUT")
     return group.inputs[name].identifier
 
 
-def _output(node, name=None):
-    # Blender 3.4 lists one socket per data type on these nodes; the enabled one is ours.
-    return [o for o in node.outputs if o.enabled and (name is None or o.name == name)][0]
-
-
-def _input(node, name):
-    return [i for i in node.inputs if i.enabled and i.name == name][0]
-
-
-class _Builder:
-    """A few nodes at a time, with the 3.4/4.x socket differences in one place."""
-
-    def __init__(self, group):
-        self.nodes, self.links = group.nodes, group.links
-        self.source, self.sink = self.nodes.new("NodeGroupInput"), self.nodes.new("NodeGroupOutput")
-
-    def node(self, kind, **settings):
-        node = self.nodes.new(kind)
-        for name, value in settings.items():
-            setattr(node, name, value)
-        return node
-
-    def link(self, a, b):
-        self.links.new(a, b)
-
-    def named(self, name, data_type="FLOAT_VECTOR"):
-        node = self.node("GeometryNodeInputNamedAttribute", data_type=data_type)
-        node.inputs["Name"].default_value = name
-        return _output(node, "Attribute")
-
-    def viewport_or_render(self, viewport, render, data_type="VECTOR"):
-        switch = self.node("GeometryNodeSwitch", input_type=data_type)
-        condition, if_false, if_true = [i for i in switch.inputs if i.enabled]
-        self.link(_output(self.node("GeometryNodeIsViewport")), condition)
-        self.link(render, if_false)
-        self.link(viewport, if_true)
-        return _output(switch)
-
-    def count_matches(self, geometry, count):
-        """True when `geometry` has `count` points (a single value)."""
-        size = self.node("GeometryNodeAttributeDomainSize", component="MESH")
-        self.link(geometry, size.inputs[0])
-        compare = self.node("FunctionNodeCompare", data_type="INT", operation="EQUAL")
-        self.link(_output(size, "Point Count"), _input(compare, "A"))
-        self.link(count, _input(compare, "B"))
-        return _output(compare)
-
-    def drop_internal(self, geometry):
-        for name in (ATTR_OFFSET, ATTR_OFFSET_RENDER):
-            remove = self.node("GeometryNodeRemoveAttribute")
-            remove.inputs["Name"].default_value = name
-            self.link(geometry, remove.inputs["Geometry"])
-            geometry = remove.outputs[0]
-        return geometry
-
-
 def node_group(kind):
-    """The node group that shows a result of `kind` (see the module's docstring). Found by a
-    marker, not by name, so a user's group of the same name is left alone."""
+    """The node group that shows a result of `kind` (see the module's docstring), whole. Found by
+    a marker, not by name, so a user's group of the same name is left alone; one a stray edit
+    broke (a node or link removed) is built again in place, so every modifier using it is whole."""
     for group in bpy.data.node_groups:
         if group.get(MARKER) == kind:
+            if group.name.startswith(LEGACY_NAME):  # as named up to 0.1 and issue 31
+                group.name = KIND_NAMES[kind]
+            if not is_whole(group):
+                _fill(group, kind)
             return group
     group = bpy.data.node_groups.new(KIND_NAMES[kind], "GeometryNodeTree")
     group[MARKER] = kind
-    _add_socket(group, "Geometry", "INPUT", "NodeSocketGeometry")
-    _add_socket(group, "Geometry", "OUTPUT", "NodeSocketGeometry")
-    b = _Builder(group)
+    _fill(group, kind)
+    return group
+
+
+def is_whole(group):
+    """Whether the group has the nodes and links it was built with (counted; SHAPE)."""
+    return list(group.get(SHAPE, ())) == [len(group.nodes), len(group.links)] and all(link.is_valid for link in group.links)
+
+
+def _fill(group, kind):
+    group.nodes.clear()
+    if hasattr(group, "interface"):  # Blender 4.0+
+        group.interface.clear()
+    else:
+        group.inputs.clear()
+        group.outputs.clear()
+    _build(group, kind)
+    group[SHAPE] = [len(group.nodes), len(group.links)]
+    items = group.interface.items_tree if hasattr(group, "interface") else ()
+    for item in items:  # 4.2+: the helper objects and vertex count are not the user's (3.4 shows them)
+        if item.in_out == "INPUT" and item.socket_type != "NodeSocketGeometry" and hasattr(item, "hide_in_modifier"):
+            item.hide_in_modifier = True
+
+
+def _build(group, kind):
+    add_socket(group, "Geometry", "INPUT", "NodeSocketGeometry")
+    add_socket(group, "Geometry", "OUTPUT", "NodeSocketGeometry")
+    b = Builder(group)
     geometry = b.source.outputs[0]
     if kind == "subdivided":
         for name in HELPER_INPUTS:
-            _add_socket(group, name, "INPUT", "NodeSocketObject")
-        _add_socket(group, VERTICES_INPUT, "INPUT", "NodeSocketInt")
+            add_socket(group, name, "INPUT", "NodeSocketObject")
+        add_socket(group, VERTICES_INPUT, "INPUT", "NodeSocketInt")
         helpers = []
         for name in HELPER_INPUTS:
             info = b.node("GeometryNodeObjectInfo", transform_space="ORIGINAL")  # in this object's space
@@ -214,32 +188,32 @@ def node_group(kind):
         switch = b.node("GeometryNodeSwitch", input_type="GEOMETRY")
         condition, if_false, if_true = [i for i in switch.inputs if i.enabled]
         b.link(b.count_matches(geometry, b.source.outputs[VERTICES_INPUT]), condition)
-        b.link(b.drop_internal(geometry), if_false)
+        b.link(b.drop(geometry, INTERNAL), if_false)
         b.link(subdivided, if_true)
-        b.link(_output(switch), b.sink.inputs[0])
+        b.link(output(switch), b.sink.inputs[0])
         return group
     if kind.startswith("per_object"):
-        _add_socket(group, RESULT_INPUT, "INPUT", "NodeSocketObject")
+        add_socket(group, RESULT_INPUT, "INPUT", "NodeSocketObject")
         info = b.node("GeometryNodeObjectInfo", transform_space="ORIGINAL")
         b.link(b.source.outputs[RESULT_INPUT], info.inputs["Object"])
         helper = info.outputs["Geometry"]
         size = b.node("GeometryNodeAttributeDomainSize", component="MESH")
         b.link(helper, size.inputs[0])
-        matches = b.count_matches(geometry, _output(size, "Point Count"))
+        matches = b.count_matches(geometry, output(size, "Point Count"))
 
         def sampled(value, data_type):
             sample = b.node("GeometryNodeSampleIndex", data_type=data_type, domain="POINT")
             b.link(helper, sample.inputs["Geometry"])
             b.link(b.node("GeometryNodeInputIndex").outputs[0], sample.inputs["Index"])
-            b.link(value, _input(sample, "Value"))
-            return _output(sample)
+            b.link(value, input_of(sample, "Value"))
+            return output(sample)
 
         # The input as it came in (an edit, the shape keys), for captured_input: Edit Mode holds the
         # mesh in a BMesh, which Python reads a hundred times slower than an attribute.
         capture = b.node("GeometryNodeStoreNamedAttribute", data_type="FLOAT_VECTOR", domain="POINT")
         capture.inputs["Name"].default_value = ATTR_INPUT
         b.link(geometry, capture.inputs["Geometry"])
-        b.link(b.node("GeometryNodeInputPosition").outputs[0], _input(capture, "Value"))
+        b.link(b.node("GeometryNodeInputPosition").outputs[0], input_of(capture, "Value"))
         geometry = capture.outputs[0]
         offset = sampled(b.viewport_or_render(b.named(ATTR_OFFSET), b.named(ATTR_OFFSET_RENDER)), "FLOAT_VECTOR")
         move = b.node("GeometryNodeSetPosition")
@@ -257,9 +231,9 @@ def node_group(kind):
             if_false.default_value = (1.0, 1.0, 1.0, 1.0)
             b.link(matches, condition)
             b.link(sampled(b.named(ATTR_VOLUME, "FLOAT_COLOR"), "FLOAT_COLOR"), if_true)
-            b.link(_output(switch), _input(store, "Value"))
+            b.link(output(switch), input_of(store, "Value"))
             geometry = store.outputs[0]
-        b.link(b.drop_internal(geometry), b.sink.inputs[0])
+        b.link(b.drop(geometry, INTERNAL), b.sink.inputs[0])
         return group
     # Own-mesh offsets: a Store Named Attribute into "position" is cheaper than Set Position on large meshes.
     offset = b.named(ATTR_OFFSET)
@@ -271,8 +245,8 @@ def node_group(kind):
     store = b.node("GeometryNodeStoreNamedAttribute", data_type="FLOAT_VECTOR", domain="POINT")
     store.inputs["Name"].default_value = "position"
     b.link(geometry, store.inputs["Geometry"])
-    b.link(_output(add, "Vector"), _input(store, "Value"))
-    b.link(b.drop_internal(store.outputs[0]), b.sink.inputs[0])
+    b.link(output(add, "Vector"), input_of(store, "Value"))
+    b.link(b.drop(store.outputs[0], INTERNAL), b.sink.inputs[0])
     return group
 
 
@@ -287,9 +261,13 @@ def ensure_modifier(obj, kind, inputs=()):
         with bpy.context.temp_override(object=obj, active_object=obj):
             bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=0)
     relink = False
-    if mod.node_group is None or mod.node_group.get(MARKER) != kind:
-        mod.node_group = node_group(kind)
+    group = mod.node_group
+    if group is None or group.get(MARKER) != kind or not is_whole(group) or group.name.startswith(LEGACY_NAME):
+        mod.node_group = node_group(kind)  # also a stray click's repair: another group, none, a link gone
         relink = True
+        for prop in ("show_group_selector", "show_manage_panel"):  # Blender 4.2+: plumbing, not settings
+            if getattr(mod, prop, False):
+                setattr(mod, prop, False)
     for name, value in inputs:
         identifier = _input_identifier(mod.node_group, name)
         if mod.get(identifier) != value:
@@ -334,6 +312,11 @@ def result_helper(obj, create=True):
     helper = bpy.data.objects.new(name, bpy.data.meshes.new(name))
     helper[RESULT_OWNER] = obj.name_full
     return helper
+
+
+def is_helper_object(obj):
+    """Whether obj is a per-object helper (the user's objects never carry RESULT_OWNER)."""
+    return RESULT_OWNER in obj
 
 
 def _owned_by(obj, helper):

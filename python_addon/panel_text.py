@@ -54,6 +54,17 @@ def context_budget(context=None):
     return char_budget(region.width if region is not None else None, scale)
 
 
+# An entry's box (its padding, the property-split column's indent) takes a few characters more
+# from a line: Blender 3.4 showed 39 characters and an ellipsis of a 44-character hint with an icon
+# at the default width, inside a box.
+BOX_CHARACTERS = 8
+
+
+def box_budget(context=None):
+    """The character budget of a message inside an entry's box."""
+    return max(MIN_BUDGET, context_budget(context) - BOX_CHARACTERS)
+
+
 def wrap(text, budget):
     """`text` split at spaces into lines of at most `budget` characters; a word longer than the
     budget gets a line of its own rather than being cut (a cut word reads as another word)."""

@@ -9,7 +9,7 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
                        FloatVectorProperty, IntProperty, IntVectorProperty, PointerProperty, StringProperty)
 
-from . import entries
+from . import entries, outputs
 from .entries import barr, laplacian
 # Each kind's enum tables are its own (entries/): the properties below take their items from there.
 from .entries.barr import AXES
@@ -60,8 +60,14 @@ def _rest_object_changed(self, context):
     _changed(self, context)
 
 
+def _not_self(self, obj):
+    """The object pickers list neither the entry's own object nor the helper objects the add-on
+    writes (a result in Edit Mode, a Subdivide entry's meshes): they are not the user's to pick."""
+    return obj != self.id_data and not outputs.is_helper_object(obj) and not entries.is_helper(obj)
+
+
 def _is_other_mesh(self, obj):
-    return obj.type == "MESH" and obj != self.id_data
+    return obj.type == "MESH" and _not_self(self, obj)
 
 
 def _is_lattice(self, obj):
@@ -78,10 +84,6 @@ def _handle_object_changed(self, context):
     if laplacian.is_bound(self) and self.handle_object is not None and self.handle_object.name != previous:
         laplacian.record_handle_matrix(self)  # another object: its place now is its place at bind
     _changed(self, context)
-
-
-def _not_self(self, obj):
-    return obj != self.id_data
 
 
 class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
@@ -106,7 +108,7 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
                           description="Taper or stretch amount (as Simple Deform)")
     deform_axis: EnumProperty(name="Axis", items=AXES, default="X", update=_changed,
                               description="Deform around local axis (of the origin object, if set)")
-    origin: PointerProperty(name="Origin", type=bpy.types.Object, update=_origin_changed,
+    origin: PointerProperty(name="Origin", type=bpy.types.Object, poll=_not_self, update=_origin_changed,
                             description="Object whose frame places the deformation")
     origin_name: StringProperty(options={"HIDDEN"})
     limits: FloatVectorProperty(name="Limits", size=2, default=(0.0, 1.0), min=0.0, max=1.0, precision=2,

@@ -122,6 +122,15 @@ def read_type_keys(registry=REGISTRY_PY):
 TYPE_KEYS = read_type_keys()
 
 
+def read_type_labels(registry=REGISTRY_PY):
+    """{entry type: its label ("RBF", "Laplacian")}, as the panel names it."""
+    return {row[0]: row[1] for name in _module(registry)[1]["MODULES"][1].elts
+            for row in _named("ENTRY_TYPES", _module_of(name.id, registry))}
+
+
+TYPE_LABELS = read_type_labels()
+
+
 class RecipeError(ValueError):
     """A recipe that cannot run; str() names every bad key path."""
 
@@ -257,7 +266,7 @@ def entry_problems(spec, path):
         if key == "type":
             continue
         if key not in accepted:
-            problems.append(_unknown_key(key, accepted, f"{path}.") + f" (for a {kind.title()} entry)")
+            problems.append(_unknown_key(key, accepted, f"{path}.") + f" (for a {TYPE_LABELS[kind]} entry)")
             continue
         problem = value_problem(value, BATCH_ONLY.get(key) or PROPERTIES[key])
         if not problem and key == "limits" and value[0] > value[1]:

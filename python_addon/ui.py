@@ -2,6 +2,7 @@
 import bpy
 
 from . import entries, native, outputs, panel_text
+from .operators import cage, laplacian, lattice, rbf, stack
 from .properties import ENTRY_TYPES
 
 ICONS = {t[0]: entries.kind(t[0]).ICON for t in ENTRY_TYPES}
@@ -22,6 +23,73 @@ class DEFORMKIT_MT_add(bpy.types.Menu):
         self.layout.operator("deformkit.transfer_deformation", icon="MOD_DATA_TRANSFER")
 
 
+# Operators found through the Object menu (and so by F3's menu search) beside the entry kinds: all
+# but the panel's own clicks and those DEFORMKIT_MT_add lists; they act on the active entry.
+LISTED_ELSEWHERE = {"deformkit.entry_add", "deformkit.entry_set_active", "deformkit.entry_move"} | {
+    operator for kind in entries.KINDS for operator, _icon in kind.MENU}
+MOVES = (("Move Entry Up", "UP"), ("Move Entry Down", "DOWN"), ("Move Entry to First", "FIRST"),
+         ("Move Entry to Last", "LAST"))
+
+
+class DEFORMKIT_MT_object(bpy.types.Menu):
+    """deformkit in the 3D View's Object menu (both versions): every entry kind and every operator
+    on the active object's entries, so that F3 finds them by their names"""
+    bl_label = "deformkit"
+    bl_idname = "DEFORMKIT_MT_object"
+
+    def draw(self, context):
+        DEFORMKIT_MT_add.draw(self, context)
+        layout = self.layout
+        layout.separator()
+        for module in (stack, lattice, laplacian, cage, rbf):
+            for cls in module.classes:
+                if cls.bl_idname not in LISTED_ELSEWHERE:
+                    layout.operator(cls.bl_idname)
+        for label, direction in MOVES:
+            layout.operator("deformkit.entry_move", text=label).direction = direction
+
+
+def draw_object_menu(self, context):
+    self.layout.separator()
+    self.layout.menu(DEFORMKIT_MT_object.bl_idname, icon="MOD_SIMPLEDEFORM")
+
+
+def draw_kinds(layout, context, generate):
+    """The entry kinds that deform (or, with generate, make new geometry) as Add Modifier items."""
+    if context.object is None or context.object.type != "MESH":
+        return
+    layout.separator()
+    for kind, label, _description, _icon, _n in ENTRY_TYPES:
+        if bool(entries.kind(kind).LAST) == generate:  # the topology-changing kind: Subdivide
+            layout.operator("deformkit.entry_add", text=f"{label} (deformkit)", icon=ICONS[kind]).type = kind
+
+
+def draw_deform_menu(self, context):
+    draw_kinds(self.layout, context, generate=False)
+
+
+def draw_generate_menu(self, context):
+    draw_kinds(self.layout, context, generate=True)
+
+
+# Blender 4.2+ defines Add Modifier's columns as Python menus; 3.4 draws Add Modifier in C, so there
+# the Object menu is the way in (F3 searches both).
+MENU_HOOKS = (("VIEW3D_MT_object", draw_object_menu), ("OBJECT_MT_modifier_add_deform", draw_deform_menu),
+              ("OBJECT_MT_modifier_add_generate", draw_generate_menu))
+
+
+def register():
+    for menu, draw in MENU_HOOKS:
+        if hasattr(bpy.types, menu):
+            getattr(bpy.types, menu).append(draw)
+
+
+def unregister():
+    for menu, draw in MENU_HOOKS:
+        if hasattr(bpy.types, menu):
+            getattr(bpy.types, menu).remove(draw)
+
+
 class DEFORMKIT_MT_entry_specials(bpy.types.Menu):
     """The drop-down of an entry's header, like a modifier's: apply, copy and move."""
     bl_label = "deformkit Entry"
@@ -36,6 +104,9 @@ class DEFORMKIT_MT_entry_specials(bpy.types.Menu):
         layout = self.layout
         layout.operator("deformkit.entry_apply", text="Apply", icon="CHECKMARK").index = index
         layout.separator()
+        if not smoothness_applies(stack):  # else it is under the stack
+            layout.operator("deformkit.check_smoothness", icon="MOD_SMOOTH")
+            layout.separator()
         layout.operator("deformkit.entry_copy_to_selected", text="Copy to Selected", icon="COPYDOWN").index = index
         sub = layout.column()
         sub.enabled = not entries.kind(entry).LAST  # the operator's description says why
@@ -99,7 +170,8 @@ class DEFORMKIT_PT_stack(bpy.types.Panel):
             panel_text.label_wrapped(layout, note, "INFO", budget)
         for entry in stack.entries:
             draw_entry(layout.box(), obj, entry)
-        draw_smoothness(layout.box(), stack)
+        if smoothness_applies(stack):
+            draw_smoothness(layout.box(), stack)
 
 
 def draw_modifier_place(layout, obj, budget):
@@ -116,14 +188,18 @@ def draw_entry(box, obj, entry):
     """Laid out like Blender's modifier panels: the header, then the kind's settings."""
     row = box.row()
     row.context_pointer_set("deformkit_entry", entry)
-    row.prop(entry, "show_expanded", text="", emboss=False,
-             icon="DOWNARROW_HLT" if entry.show_expanded else "RIGHTARROW")
+    # The buttons in two aligned groups beside the name (no gaps within them): the box inside the
+    # panel is narrower than a modifier's header, and the name field gets what is left ("Laplacian"
+    # and "Subdivide" read whole at the default width; five gaps left "Lapl…" in Blender 3.4).
+    start = row.row(align=True)
+    start.prop(entry, "show_expanded", text="", emboss=False,
+               icon="DOWNARROW_HLT" if entry.show_expanded else "RIGHTARROW")
     # The kind's icon, pressed on the active entry (the one Ctrl+A applies): a click makes it active,
     # as a click on a modifier's panel does.
     index = list(obj.deformkit.entries).index(entry)
     active = index == obj.deformkit.active_index
-    row.operator("deformkit.entry_set_active", text="", icon=ICONS[entry.type], emboss=active,
-                 depress=active).index = index
+    start.operator("deformkit.entry_set_active", text="", icon=ICONS[entry.type], emboss=active,
+                   depress=active).index = index
     row.prop(entry, "name", text="")
     toggles = row.row(align=True)
     if entry.show_in_editmode:  # Blender's order and icons; On Cage only where Edit Mode is on
@@ -131,8 +207,9 @@ def draw_entry(box, obj, entry):
     toggles.prop(entry, "show_in_editmode", text="", icon="EDITMODE_HLT")
     toggles.prop(entry, "show_viewport", text="", icon="RESTRICT_VIEW_OFF" if entry.show_viewport else "RESTRICT_VIEW_ON")
     toggles.prop(entry, "show_render", text="", icon="RESTRICT_RENDER_OFF" if entry.show_render else "RESTRICT_RENDER_ON")
-    row.menu(DEFORMKIT_MT_entry_specials.bl_idname, text="", icon="DOWNARROW_HLT")
-    row.operator("deformkit.entry_remove", text="", icon="X", emboss=False).index = index
+    end = toggles  # the menu and X join the toggles: one gap less for the name
+    end.menu(DEFORMKIT_MT_entry_specials.bl_idname, text="", icon="DOWNARROW_HLT")
+    end.operator("deformkit.entry_remove", text="", icon="X", emboss=False).index = index
     if entry.error:
         alert = box.row()
         alert.alert = True
@@ -150,6 +227,12 @@ def type_label(entry):
     """The Type row's label, the kind's TYPE_LABEL: "Mode" for the Barr kinds, whose types are
     Simple Deform's modes (its deform_method is named Mode), "Type" for the others."""
     return entries.kind(entry).TYPE_LABEL
+
+
+def smoothness_applies(stack):
+    """Check Smoothness (of the cage a Subdivide entry refines) under the stack only with such an
+    entry, or to show the figures of a check run from an entry's menu."""
+    return stack.smoothness.checked or any(entries.kind(e).LAST for e in stack.entries)
 
 
 def draw_smoothness(box, stack):
@@ -184,4 +267,4 @@ def smoothness_lines(figures):
     return lines
 
 
-classes = (DEFORMKIT_MT_add, DEFORMKIT_MT_entry_specials, DEFORMKIT_PT_stack)
+classes = (DEFORMKIT_MT_add, DEFORMKIT_MT_object, DEFORMKIT_MT_entry_specials, DEFORMKIT_PT_stack)

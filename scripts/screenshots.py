@@ -217,6 +217,19 @@ def build_scene(bpy):
         if v.co.z > 0:
             v.co.x, v.co.y = v.co.x * 1.5 - 0.3 * v.co.y, v.co.y * 1.5 + 0.3 * v.co.x
     cage.data.update()
+    obj = objects["rbf"] = tube(bpy, "RBF Tube")
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1, radius=1.2, location=(0.0, 0.0, 1.5))
+    controls = bpy.context.active_object
+    controls.name, controls.display_type = "Controls", "WIRE"
+    api.add_entry(obj, "RBF", controls=controls)
+    api.bind_rbf(obj, 0)
+    for v in controls.data.vertices:  # the controls' top half pushed along X: the tube follows
+        if v.co.z > 0:
+            v.co.x += 0.4
+    controls.data.update()
+    objects["new_entries"] = obj = tube(bpy, "New Entries Tube")  # issue 31: hints, not errors
+    for kind in ("CAGE", "RBF", "LAPLACIAN"):
+        api.add_entry(obj, kind)
     obj = objects["subdivide"] = tube(bpy, "Subdivide Tube", rings=4, segments=6)
     api.add_entry(obj, "TWIST", angle=math.radians(60), deform_axis="Z")
     api.add_entry(obj, "SUBDIVIDE", levels=2)

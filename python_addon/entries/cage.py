@@ -16,7 +16,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .. import cache, meshdata, native
+from .. import cache, meshdata, native, panel_text
 from ..errors import EntryError
 from . import binding
 from .binding import is_bound, new_bind_id, signed
@@ -47,8 +47,12 @@ Setup = namedtuple("Setup", "deformer bind fingerprint")
 # per-point weights, deformer).
 
 
-def cage_object(entry, obj):
-    return followed_mesh(entry, "cage", "cage", obj, "no cage object set: pick a closed mesh object around the mesh")
+UNSET = "no cage object set: pick a closed mesh object around the mesh"
+HINT = "Pick a closed mesh object around the mesh as Object, then Bind"
+
+
+def cage_object(entry, obj, unset=UNSET):
+    return followed_mesh(entry, "cage", "cage", obj, unset)
 
 
 def evaluated_cage(obj, cage):
@@ -90,8 +94,8 @@ def _deformer(obj, entry, faces, weights):
 
 
 def setup(obj, entry, reuse_weights=False):
-    cage = cage_object(entry, obj)
-    if not is_bound(entry) or REST not in entry:
+    cage = cage_object(entry, obj, unset="")  # none picked yet: a hint in the panel, as Mesh Deform's
+    if cage is None or not is_bound(entry) or REST not in entry:
         return Prepared(None, ("unbound",), None)  # as Mesh Deform before Bind: the mesh passes through
     points, faces, topo = evaluated_cage(obj, cage)
     changed = topology_change(entry, topo)
@@ -154,6 +158,8 @@ def draw(col, obj, entry):
     """Laid out like Blender's Mesh Deform panel: the cage, the method, Bind / Unbind."""
     index = list(obj.deformkit.entries).index(entry)
     col.prop(entry, "cage", text="Object")
+    if entry.cage is None and not entry.cage_name:
+        panel_text.label_wrapped(col, HINT, "INFO", panel_text.box_budget())  # a label is cut
     col.prop(entry, "cage_method", text="Method")
     col.prop(entry, "strength", slider=True)
     draw_vertex_group(col, obj, entry)

@@ -30,7 +30,8 @@ def entry_of_type(obj, index, entry_type):
     check_index(stack, index)
     entry = stack.entries[index]
     if entry.type != entry_type:
-        raise ValueError(f"entry '{entry.name}' is a {entry.type.title()} entry, not a {entry_type.title()} entry")
+        labels = {item.identifier: item.name for item in entry.bl_rna.properties["type"].enum_items}  # "RBF"
+        raise ValueError(f"entry '{entry.name}' is a {labels[entry.type]} entry, not a {labels[entry_type]} entry")
     return entry
 
 

@@ -22,7 +22,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .. import cache, meshdata, native
+from .. import cache, meshdata, native, panel_text
 from ..errors import EntryError
 from . import binding
 from .binding import is_bound, new_bind_id
@@ -124,9 +124,12 @@ def degree_problem(entry):
             "(below it the fit can have no solution)")
 
 
-def control_object(entry, obj):
-    return followed_mesh(entry, "controls", "control", obj,
-                         "no control object set: pick a mesh object whose vertices are the control points")
+UNSET = "no control object set: pick a mesh object whose vertices are the control points"
+HINT = "Pick a mesh object whose vertices are the control points as Object, then Bind"
+
+
+def control_object(entry, obj, unset=UNSET):
+    return followed_mesh(entry, "controls", "control", obj, unset)
 
 
 def saved(entry):
@@ -159,8 +162,8 @@ def _rbf(obj, entry, weights):
 
 
 def setup(obj, entry, reuse_weights=False):
-    controls = control_object(entry, obj)
-    if not is_bound(entry) or REST not in entry:
+    controls = control_object(entry, obj, unset="")  # none picked yet: a hint in the panel, as a Cage entry's
+    if controls is None or not is_bound(entry) or REST not in entry:
         return Prepared(None, ("unbound",), None)  # as a Cage entry before Bind: the mesh passes through
     points = evaluated_mesh_in(obj, controls)[0]
     if len(points) != entry.bind_vertices:
@@ -286,6 +289,8 @@ def draw(col, obj, entry):
     index = list(obj.deformkit.entries).index(entry)
     controls = entry.controls
     col.prop(entry, "controls", text="Object")
+    if controls is None and not entry.controls_name:
+        panel_text.label_wrapped(col, HINT, "INFO", panel_text.box_budget())  # a label is cut
     at_bind = col.column()
     at_bind.enabled = not is_bound(entry)  # read at bind: Unbind to change them
     at_bind.prop(entry, "controls_use")

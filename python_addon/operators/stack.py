@@ -30,6 +30,11 @@ class DEFORMKIT_OT_entry_add(Operator, bpy.types.Operator):
     type: EnumProperty(name="Type", items=ENTRY_TYPES)
 
     @classmethod
+    def description(cls, context, properties):
+        """The kind's own description in menus and F3 search (Twist, Cage, ... each say what they do)."""
+        return next((row[2] for row in ENTRY_TYPES if row[0] == properties.type), cls.__doc__)
+
+    @classmethod
     def poll(cls, context):
         return not core_missing(cls) and mesh_object(context) is not None
 

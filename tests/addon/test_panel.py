@@ -270,7 +270,9 @@ def test_without_entries_the_panel_is_the_add_button(scene):
     obj = make_object(bpy)
     log = draw_panel(obj)
     assert log == []  # the Add menu only (CheckingLayout logs no menus): no toggles, no Check Smoothness
-    obj.deformkit.entries.add()
+    obj.deformkit.entries.add()  # a Twist: Check Smoothness is in its menu, not under the stack (issue 31)
+    assert ("operator", "deformkit.check_smoothness") not in draw_panel(obj)
+    obj.deformkit.entries.add().type = "SUBDIVIDE"
     assert ("operator", "deformkit.check_smoothness") in draw_panel(obj)
 
 

@@ -19,7 +19,7 @@ LAYERS = (
     ("entries", 2),  # the registry
     ("entries.common", 1), ("entries.binding", 1),
     ("entries.*", 2),  # the kinds
-    ("errors", 0), ("native", 0), ("cache", 0), ("meshdata", 0), ("shapekeys", 0), ("outputs", 0),
+    ("errors", 0), ("native", 0), ("cache", 0), ("meshdata", 0), ("shapekeys", 0), ("outputs", 0), ("node_builder", 0),
     ("panel_text", 0), ("recipe_schema", 0), ("subdivision_order", 0),
 )
 NAMES = {4: "UI and operators", 3: "api and evaluation", 2: "kinds", 1: "shared entry code", 0: "helpers"}
