@@ -153,6 +153,8 @@ def subdivision_setup(obj, entry):
         raise EntryError("the mesh has no faces: subdivision refines faces")
     kwargs = topology_kwargs(mesh, entry)
     layer = mesh.uv_layers.active
+    if layer is not None and len(layer.data) != len(mesh.loops):
+        layer = None  # Edit Mode: the edit mesh holds the UVs; the helpers get them back on leaving it
     uvs = None
     if layer is not None:
         uvs = np.empty(len(mesh.loops) * 2, np.float32)

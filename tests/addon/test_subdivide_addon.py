@@ -712,3 +712,30 @@ def test_a_new_entry_equals_a_new_modifier(scene, mesh):
     theirs, their_faces = evaluated_mesh(bpy, twin)[:2]
     assert {len(f) for f in faces} == {4} and len(faces) == len(their_faces)
     assert set_distance(ours, theirs) < 1e-5 * scale, set_distance(ours, theirs)
+
+
+def test_an_edit_mode_edit_under_a_subdivide_entry_with_uvs_evaluates(scene):
+    """In Edit Mode the edit mesh holds the UVs (the mesh's UV data is empty there): the Subdivide
+    entry still evaluates each edit, with no error, and shows Subdivision Surface's points, in Edit
+    Mode and after it."""
+    import bmesh
+    import bpy
+    from deformkit_addon import api, evaluation
+    obj = make_object(bpy)  # a UV sphere: it has a UV map
+    assert obj.data.uv_layers.active is not None
+    api.add_entry(obj, "SUBDIVIDE", levels=1, use_limit_surface=False)
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode="EDIT")
+    edit = bmesh.from_edit_mesh(obj.data)
+    for v in edit.verts:
+        v.co.z += 0.2 * v.co.x
+    bmesh.update_edit_mesh(obj.data)
+    evaluation.evaluate(obj, evaluation.Reason.EDIT_MODE)
+    assert [e.error for e in obj.deformkit.entries] == [""] and obj.deformkit.error == ""
+    in_edit_mode = evaluated_mesh(bpy, obj)[0]
+    bpy.ops.object.mode_set(mode="OBJECT")
+    twin = twin_with_subsurf(bpy, obj, levels=1)
+    expected = evaluated_mesh(bpy, twin)[0]
+    scale = np.ptp(expected, axis=0).max()
+    assert np.abs(in_edit_mode - expected).max() < 1e-5 * scale
+    assert np.abs(evaluated_mesh(bpy, obj)[0] - expected).max() < 1e-5 * scale
