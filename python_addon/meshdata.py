@@ -295,3 +295,17 @@ def face_components(topo):
             if np.array_equal(grand, parent):
                 break
             parent = grand
+
+
+def float_layer(mesh, attribute, domain, legacy, count):
+    """A float per element: the attribute (Blender 4.0+), else the legacy crease layer (3.x)."""
+    values = np.empty(count, np.float32)
+    attr = mesh.attributes.get(attribute)
+    if attr is not None and attr.domain == domain and attr.data_type == "FLOAT":
+        attr.data.foreach_get("value", values)
+        return values
+    layers = getattr(mesh, legacy, None)
+    if layers is not None and len(layers):
+        layers[0].data.foreach_get("value", values)
+        return values
+    return None

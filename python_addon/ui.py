@@ -2,7 +2,7 @@
 import bpy
 
 from . import entries, native, outputs, panel_text
-from .operators import cage, laplacian, lattice, rbf, stack
+from .operators import cage, laplacian, lattice, markers, rbf, stack
 from .properties import ENTRY_TYPES
 
 ICONS = {t[0]: entries.kind(t[0]).ICON for t in ENTRY_TYPES}
@@ -47,6 +47,9 @@ class DEFORMKIT_MT_object(bpy.types.Menu):
                     layout.operator(cls.bl_idname)
         for label, direction in MOVES:
             layout.operator("deformkit.entry_move", text=label).direction = direction
+        layout.separator()  # marker pairs for Transfer Deformation (the active pair where one is meant)
+        for cls in markers.classes:
+            layout.operator(cls.bl_idname)
 
 
 def draw_object_menu(self, context):

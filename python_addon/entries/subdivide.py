@@ -85,24 +85,10 @@ def crease_to_sharpness(crease):
     return (crease * crease * np.float32(10.0)).astype(np.float64)
 
 
-def _float_layer(mesh, attribute, domain, legacy, count):
-    """A float per element: the attribute (Blender 4.0+), else the legacy crease layer (3.x)."""
-    values = np.empty(count, np.float32)
-    attr = mesh.attributes.get(attribute)
-    if attr is not None and attr.domain == domain and attr.data_type == "FLOAT":
-        attr.data.foreach_get("value", values)
-        return values
-    layers = getattr(mesh, legacy, None)
-    if layers is not None and len(layers):
-        layers[0].data.foreach_get("value", values)
-        return values
-    return None
-
-
 def read_creases(mesh):
     """(creases, corners) as dk wants them, from the mesh's edge and vertex creases (None where the
     mesh has none). Loose edges are left out: they bound no face."""
-    edge = _float_layer(mesh, "crease_edge", "EDGE", "edge_creases", len(mesh.edges))
+    edge = meshdata.float_layer(mesh, "crease_edge", "EDGE", "edge_creases", len(mesh.edges))
     if edge is None and "crease" in bpy.types.MeshEdge.bl_rna.properties:  # Blender 3.4: MeshEdge.crease
         edge = np.empty(len(mesh.edges), np.float32)
         mesh.edges.foreach_get("crease", edge)
@@ -114,7 +100,7 @@ def read_creases(mesh):
         mesh.edges.foreach_get("vertices", pairs)
         keep = (edge != 0) & ~loose
         creases = (pairs.reshape(-1, 2)[keep], crease_to_sharpness(edge[keep]))
-    vertex = _float_layer(mesh, "crease_vert", "POINT", "vertex_creases", len(mesh.vertices))
+    vertex = meshdata.float_layer(mesh, "crease_vert", "POINT", "vertex_creases", len(mesh.vertices))
     if vertex is not None and vertex.any():
         keep = np.flatnonzero(vertex)
         corners = (keep, crease_to_sharpness(vertex[keep]))
