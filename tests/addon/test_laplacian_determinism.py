@@ -1,80 +1,23 @@
 """A Laplacian entry is a function of its inputs: what a drag leaves on screen equals a fresh
 evaluation of the same inputs; and a new entry bends a plain tube smoothly, as Blender's Laplacian
 Deform with a Hook does, with no kink at the anchor and handle rings."""
-import math
+import sys
 import types
 
 import numpy as np
 import pytest
 
-from addon_helpers import evaluated, positions, update
+from addon_helpers import REPO, evaluated, positions
+
+sys.path.insert(0, str(REPO / "scripts"))  # the tube and its measures, shared with the demo
+from tube_bend import add_empty, bend, curvature_jump, laplacian_deform_with_hook, narrowest, plain_tube  # noqa: E402
 
 # What "equal" means for results that iterate: this fraction of the rest's bounding-box diagonal.
 DETERMINISM_TOLERANCE = 1e-4
-SEGMENTS, RINGS, LENGTH, RADIUS = 24, 41, 4.0, 0.5
-
-
-def plain_tube(bpy, name="Tube"):
-    """An open cylinder along z (quads, RINGS rings), with vertex groups "Bottom" and "Top" (two
-    rings each) and "Ends" (both), placed off the origin."""
-    z = np.linspace(0.0, LENGTH, RINGS)
-    theta = 2 * np.pi * np.arange(SEGMENTS) / SEGMENTS
-    co = np.stack([RADIUS * np.cos(theta)[None].repeat(RINGS, 0), RADIUS * np.sin(theta)[None].repeat(RINGS, 0),
-                   z[:, None].repeat(SEGMENTS, 1)], -1).reshape(-1, 3)
-    ring = np.arange(RINGS * SEGMENTS).reshape(RINGS, SEGMENTS)
-    faces = [tuple(int(i) for i in f) for r in range(RINGS - 1)
-             for f in zip(ring[r], np.roll(ring[r], -1), np.roll(ring[r + 1], -1), ring[r + 1])]
-    mesh = bpy.data.meshes.new(name)
-    mesh.from_pydata(co.tolist(), [], faces)
-    mesh.update()
-    obj = bpy.data.objects.new(name, mesh)
-    bpy.context.scene.collection.objects.link(obj)
-    obj.location = (0.3, -0.2, 0.1)
-    bpy.context.view_layer.objects.active = obj
-    for name_, rows in (("Bottom", ring[:2]), ("Top", ring[-2:]), ("Ends", np.vstack([ring[:2], ring[-2:]]))):
-        obj.vertex_groups.new(name=name_).add(rows.ravel().tolist(), 1.0, "REPLACE")
-    update()
-    return obj
-
-
-def add_empty(bpy, obj):
-    """An empty at the tube's top centre, in the world."""
-    empty = bpy.data.objects.new("Handle", None)
-    bpy.context.scene.collection.objects.link(empty)
-    empty.location = np.array(obj.location) + (0.0, 0.0, LENGTH)
-    update()
-    return empty
-
-
-def bend(empty, obj, degrees):
-    """Place the empty where the tube's top is when its axis is bent by `degrees` into a circular
-    arc of its length about x (what an artist does to bend a tube)."""
-    a = math.radians(degrees)
-    radius = LENGTH / a
-    empty.location = np.array(obj.location) + (0.0, radius * (math.cos(a) - 1.0), radius * math.sin(a))
-    empty.rotation_euler = (a, 0.0, 0.0)
-    update()
 
 
 def diagonal(points):
     return float(np.linalg.norm(np.ptp(points, axis=0)))
-
-
-def curvature_jump(points):
-    """The largest change of the axis's turn (through the rings' centres) from one ring to the next,
-    over the mean turn: near 0 for a bend whose curvature varies smoothly along the tube; a kink
-    or a pinch at a ring makes it jump there."""
-    centres = points.reshape(RINGS, SEGMENTS, 3).mean(1)
-    axis = np.diff(centres, axis=0)
-    axis /= np.linalg.norm(axis, axis=1)[:, None]
-    turns = np.arccos(np.clip((axis[1:] * axis[:-1]).sum(1), -1.0, 1.0))
-    return float(np.abs(np.diff(turns)).max() / turns.mean())
-
-
-def narrowest(points):
-    """The smallest ring's mean radius over the rest's: a pinched neck makes it small."""
-    rings = points.reshape(RINGS, SEGMENTS, 3)
-    return float(np.linalg.norm(rings - rings.mean(1)[:, None], axis=2).mean(1).min() / RADIUS)
 
 
 def as_in_a_window(monkeypatch):
@@ -113,7 +56,7 @@ def test_a_long_drag_ends_where_a_fresh_evaluation_is(scene, monkeypatch, method
     rest = positions(obj.data).astype(np.float64)
     tolerance = DETERMINISM_TOLERANCE * diagonal(rest)
     for step in range(1, 41):
-        bend(empty, obj, 2.5 * step)  # to 100 degrees
+        bend(bpy, empty, obj, 2.5 * step)  # to 100 degrees
         evaluated(obj)
     shown = evaluated(obj).astype(np.float64)
     assert np.abs(shown - rest).max() > 0.5  # it did bend
@@ -121,22 +64,6 @@ def test_a_long_drag_ends_where_a_fresh_evaluation_is(scene, monkeypatch, method
     assert np.abs(shown - fresh).max() <= tolerance, (np.abs(shown - fresh).max() / diagonal(rest))
     scene.frame_set(scene.frame_current + 1)
     assert np.abs(evaluated(obj) - fresh).max() <= tolerance
-
-
-def laplacian_deform_with_hook(bpy, obj, empty):
-    """Blender's own: a Hook of Top to the empty, then Laplacian Deform anchored on both ends, bound
-    at rest (the empty's place now)."""
-    hook = obj.modifiers.new("Hook", "HOOK")
-    hook.object, hook.vertex_group = empty, "Top"
-    # The Hook's inverse: the empty's place now is its rest place (as Ctrl+H's Hook to Selected).
-    hook.matrix_inverse = (obj.matrix_world.inverted() @ empty.matrix_world).inverted()
-    deform = obj.modifiers.new("LaplacianDeform", "LAPLACIANDEFORM")
-    deform.vertex_group = "Ends"
-    bpy.context.view_layer.objects.active = obj
-    with bpy.context.temp_override(object=obj, active_object=obj):
-        bpy.ops.object.laplaciandeform_bind(modifier=deform.name)
-    update()
-    return deform
 
 
 def modifier_result(bpy, obj):
@@ -156,8 +83,8 @@ def test_a_new_entry_bends_a_tube_as_smoothly_as_laplacian_deform(scene, degrees
     api.add_laplacian(ours_tube, anchors_group="Bottom", handles_group="Top", handle_target="OBJECT",
                       handle_object=ours_empty)
     laplacian_deform_with_hook(bpy, theirs_tube, theirs_empty)
-    bend(ours_empty, ours_tube, degrees)
-    bend(theirs_empty, theirs_tube, degrees)
+    bend(bpy, ours_empty, ours_tube, degrees)
+    bend(bpy, theirs_empty, theirs_tube, degrees)
     ours, theirs = evaluated(ours_tube).astype(np.float64), modifier_result(bpy, theirs_tube)
     jumps, necks = (curvature_jump(ours), curvature_jump(theirs)), (narrowest(ours), narrowest(theirs))
     print(f"{degrees} degrees: curvature jump ours {jumps[0]:.3f}, Laplacian Deform {jumps[1]:.3f}; narrowest "
