@@ -98,9 +98,11 @@ def deformed(uid, kind, built, base, pieces=None, failures=None, offsets_into=No
 
     offsets_into: a function giving a float32 (n, 3) array (Blender's own attribute memory); with
     it, the result minus `base` is computed into that array and returned, the last step writing
-    straight into it, with no temporary result and no copy."""
+    straight into it, with no temporary result and no copy (an entry deforming the base itself
+    through its kind's displace: its offsets in one pass)."""
     points, pending, piece, piece_input = base, [], [], base
     out = None  # offsets_into's array, once asked for
+    displaced = False  # the last entry wrote its offsets into it (its kind's displace)
     for position, b in enumerate(built):
         if b.kind.STACKABLE:
             pending.append(b.prepared.deformer)
@@ -110,18 +112,22 @@ def deformed(uid, kind, built, base, pieces=None, failures=None, offsets_into=No
             points, pending = native.dk.Stack(pending).deform(points), []
         if b.prepared.deformer is None and pieces is not None and piece:  # no Jacobian: the piece ends here
             pieces.append((piece, piece_input))
+        last = offsets_into is not None and position == len(built) - 1 and points.dtype == np.float32
+        displace = last and points is base and b.kind.displace is not None  # its offsets, in one pass
         into = {}
-        if offsets_into is not None and position == len(built) - 1 and b.kind.DEFORMS_INTO \
-                and points.dtype == np.float32:
+        if last and (b.kind.DEFORMS_INTO or displace):
             out = offsets_into()
             into = {"out": out}
         try:
-            points = b.kind.deform((uid, b.index, kind), b.prepared, points, **into)
+            key = (uid, b.index, kind)
+            points = b.kind.displace(key, b.prepared, points, out) if displace else \
+                b.kind.deform(key, b.prepared, points, **into)
         except EntryError as exc:
             if failures is None:
                 raise EntryFailed(b.index, str(exc)) from exc
             failures.setdefault(b.index, str(exc))
             continue  # skipped: contributes no factor to the volume ratio either
+        displaced = displace
         if b.prepared.deformer is None:
             piece, piece_input = [], points
         else:
@@ -129,7 +135,7 @@ def deformed(uid, kind, built, base, pieces=None, failures=None, offsets_into=No
     if pieces is not None and piece:
         pieces.append((piece, piece_input))
     if offsets_into is not None:
-        return _offsets(points, pending, base, out, offsets_into)
+        return out if displaced else _offsets(points, pending, base, out, offsets_into)
     if pending:
         points = native.dk.Stack(pending).deform(points)
     return base.copy() if points is base else points

@@ -27,6 +27,38 @@ std::shared_ptr<BarrDeformer> py_bind_simple(const SimpleDeform& d, const py::ob
   return map;
 }
 
+// SimpleDeform.replace: the settings given (not None) parsed as the constructor parses them.
+std::shared_ptr<SimpleDeform> py_replace_simple(const SimpleDeform& d, const py::object& mode, const py::object& angle,
+                                                const py::object& factor, const py::object& deform_axis,
+                                                const py::object& origin, const py::object& limits,
+                                                const py::object& lock_x, const py::object& lock_y,
+                                                const py::object& lock_z) {
+  SimpleDeformSettings s = d.settings();
+  if (!angle.is_none() && !factor.is_none())
+    throw py::value_error("angle: give angle or factor (they are one value), not both");
+  if (!mode.is_none()) {
+    if (!py::isinstance<py::str>(mode))
+      throw py::type_error("mode: expected 'TWIST', 'BEND', 'TAPER' or 'STRETCH', got " + std::string(py::repr(mode)));
+    s.mode = kModeNames.parse(py::cast<std::string>(mode));
+  }
+  for (const auto& [value, name] : {std::pair{&angle, "angle"}, std::pair{&factor, "factor"}}) {
+    if (value->is_none()) continue;
+    if (py::isinstance<py::str>(*value) || !PyNumber_Check(value->ptr()))
+      throw py::type_error(std::string(name) + ": expected a number, got " + std::string(py::repr(*value)));
+    s.factor = finite_param(py::cast<double>(py::float_(*value)), name);
+  }
+  if (!deform_axis.is_none()) s.deform_axis = parse_axis(deform_axis, "deform_axis");
+  if (!origin.is_none()) s.origin = parse_frame(origin, "origin");
+  if (!limits.is_none()) std::tie(s.limit_lo, s.limit_hi) = parse_range(limits, "limits");
+  const py::object* locks[3] = {&lock_x, &lock_y, &lock_z};
+  const char* lock_names[3] = {"lock_x", "lock_y", "lock_z"};
+  for (int a = 0; a < 3; ++a)
+    if (!locks[a]->is_none()) s.lock[a] = bool_arg(*locks[a], lock_names[a]);
+  auto replaced = std::make_shared<SimpleDeform>(s);
+  replaced->share_weights(d);
+  return replaced;
+}
+
 }  // namespace
 
 void bind_barr(py::module_& m) {
@@ -141,6 +173,13 @@ is that of the map with these bounds held fixed.)")
            "mode"_a = "TWIST", "angle"_a = py::none(), "factor"_a = py::none(), "deform_axis"_a = "X",
            "origin"_a = py::none(), "limits"_a = py::make_tuple(0.0, 1.0), "lock_x"_a = false, "lock_y"_a = false,
            "lock_z"_a = false, "weights"_a = py::none(), "invert_weights"_a = false)
+      .def("replace", &py_replace_simple, py::kw_only(), "mode"_a = py::none(), "angle"_a = py::none(),
+           "factor"_a = py::none(), "deform_axis"_a = py::none(), "origin"_a = py::none(), "limits"_a = py::none(),
+           "lock_x"_a = py::none(), "lock_y"_a = py::none(), "lock_z"_a = py::none(),
+           R"(A SimpleDeform with the settings given (not None) changed and the others as this one's.
+
+It shares this one's weights (no copy, no new check), so a parameter edit under a large vertex
+group costs nothing per point; origin=None keeps the origin (pass numpy.eye(4) for none).)")
       .def("bind", &py_bind_simple, "points"_a, R"(The fixed spatial map deform(points) applies (a BarrDeformer).
 
 The extent is measured on `points` once; the map then measures nothing, so splitting points

@@ -160,6 +160,18 @@ py::array py_deform_bound(const ControlLattice& lat, const PyBinding& pb, const 
   return result;
 }
 
+py::array py_displacement_bound(const ControlLattice& lat, const PyBinding& pb, const py::object& out) {
+  const LatticeBinding& b = *pb.binding;
+  const auto rows = py::ssize_t(b.size());
+  py::array result = b.single_precision ? output_array<float>(out, rows, py::none(), false)
+                                        : output_array<double>(out, rows, py::none(), false);
+  without_gil("the lattice's working arrays", [&] {
+    if (b.single_precision) lat.displacement_bound(b, static_cast<float*>(result.mutable_data()));
+    else lat.displacement_bound(b, static_cast<double*>(result.mutable_data()));
+  });
+  return result;
+}
+
 py::tuple py_weights(const PyBinding& pb) {
   WeightTable w;
   without_gil("the sparse weight matrix (" + working_size(pb.binding->size(), 12.0 * 64) + " at most)",
@@ -247,6 +259,9 @@ unchanged are empty.)");
       .def("deform_bound", &py_deform_bound, "binding"_a, py::kw_only(), "out"_a = py::none(),
            "Deform bound points with the current control points; equals deform(points). The dtype is that of "
            "the bound points.")
+      .def("displacement_bound", &py_displacement_bound, "binding"_a, py::kw_only(), "out"_a = py::none(),
+           "w (F(x) - x) of the bound points in one pass (w: the weights, 1 without): what deform_bound gives "
+           "minus the bound points, computed without them. The dtype is that of the bound points.")
       .def("lattice_coordinates", [](const std::shared_ptr<ControlLattice>& l, const py::object& points) {
         return parameters_array(*py_bind(l, points).binding);
       }, "points"_a, "Normalised lattice coordinates (s, t, u) of each point (the lecture's cross-product formulas).")

@@ -27,6 +27,9 @@ type-info leaves a callback nullptr):
     STACKABLE     False: its deformers compose with neighbouring ones in one dk.Stack (pointwise maps)
     LAST          False: it changes the topology: the stack's last entry, run by evaluation after the rest
     DEFORMS_INTO  False: deform also takes out=, a float32 array to write into
+    displace(key, prepared, points, out) -> out holding w (F(x) - x) of the points, in one pass (the
+                  offsets the modifier adds, when the entry deforms the base itself); None: deform
+                  then subtract
     MENU          (): (operator, icon) items below the Add menu's entry types
     NEW_ENTRY     {}: settings a new entry of the kind starts with (api.add_entry: the Add menu, the
                   scripting API, recipes; or a Type change, for the settings the entry never had
@@ -98,7 +101,7 @@ def _never_bound(entry_or_object):
 DEFAULTS = {"TYPE_LABEL": "Type", "STACKABLE": False, "LAST": False, "DEFORMS_INTO": False, "MENU": (), "NEW_ENTRY": {},
             "apply": _write_deformed, "followed": _follows_nothing, "volume_note": _no_note, "retyped": _nothing,
             "prune": _nothing, "bind": None, "unbind": None, "is_bound": _never_bound, "NOT_COPIED": (),
-            "copy_bind": _nothing, "loaded": _nothing, "owns": _never_bound}
+            "copy_bind": _nothing, "loaded": _nothing, "owns": _never_bound, "displace": None}
 
 
 class Kind:

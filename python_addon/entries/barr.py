@@ -51,7 +51,8 @@ def origin_note(entry):
 
 def setup(obj, entry, reuse_weights=False):
     """The entry's dk.SimpleDeform; the one made last time for the same settings and weights when
-    there is one (with a vertex group, a new one copies and checks every weight)."""
+    there is one, else one sharing its weights when only the settings changed (a new one copies and
+    checks every weight)."""
     weights = influence_weights(obj, entry, reuse_weights)
     lo, hi = entry.limits
     origin = origin_matrix(obj, entry)
@@ -62,10 +63,13 @@ def setup(obj, entry, reuse_weights=False):
     kept = cache.get("barr", key)
     if kept is not None and kept[0] == fingerprint and kept[1] is weights:
         return Prepared(kept[2], fingerprint, None, origin_note(entry))
-    deformer = native.dk.SimpleDeform(
-        mode=entry.type, angle=amount(entry), deform_axis=entry.deform_axis, origin=origin,
-        limits=(min(lo, hi), hi),  # Blender clamps the lower limit to the upper one
-        lock_x=entry.lock_x, lock_y=entry.lock_y, lock_z=entry.lock_z, weights=weights)
+    settings = dict(mode=entry.type, angle=amount(entry), deform_axis=entry.deform_axis,
+                    limits=(min(lo, hi), hi),  # Blender clamps the lower limit to the upper one
+                    lock_x=entry.lock_x, lock_y=entry.lock_y, lock_z=entry.lock_z)
+    if kept is not None and weights is not None and kept[1] is weights:  # a parameter edit: the weights are shared
+        deformer = kept[2].replace(**settings, origin=np.eye(4) if origin is None else origin)
+    else:
+        deformer = native.dk.SimpleDeform(**settings, origin=origin, weights=weights)
     cache.put("barr", key, (fingerprint, weights, deformer))
     return Prepared(deformer, fingerprint, None, origin_note(entry))
 

@@ -211,6 +211,16 @@ def deform(key, prepared, points, out=None):
     """The entry's result on `points` (into `out` if given), through a binding kept for as long as
     the points and the lattice's layout (basis, resolution, interpolation, placement) stay the same."""
     lattice = prepared.data
+    return lattice.deformer.deform_bound(_binding(key, lattice, points), out=out)
+
+
+def displace(key, prepared, points, out):
+    """The entry's offsets w (F(x) - x) on `points`, into `out`, in one pass (through the same binding)."""
+    lattice = prepared.data
+    return lattice.deformer.displacement_bound(_binding(key, lattice, points), out=out)
+
+
+def _binding(key, lattice, points):
     cached = cache.get("lattice", key)
     if cached is None or cached[0] != lattice.layout:
         cached = bind_points(key, lattice, points)
@@ -219,7 +229,7 @@ def deform(key, prepared, points, out=None):
             cached = bind_points(key, lattice, points)
         else:  # the same positions read again: keep this array, which the next evaluation may reuse
             cached = cache.put("lattice", key, (cached[0], points) + cached[2:])
-    return lattice.deformer.deform_bound(cached[2], out=out)
+    return cached[2]
 
 
 def bind_points(key, lattice_setup, points):

@@ -212,3 +212,57 @@ def test_twist_volume_ratio_is_det_of_its_jacobian(make, rng):
     pts = rng.uniform(-1, 1, (20_003, 3))
     d = make()
     np.testing.assert_allclose(d.volume_ratio(pts), np.linalg.det(d.jacobian(pts)), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("make", [lambda w: dk.SimpleDeform(mode="TWIST", angle=1.0, weights=w),
+                                  lambda w: dk.SimpleDeform(mode="BEND", angle=0.8, deform_axis="Z", weights=w),
+                                  lambda w: dk.Twist(rate=1.3, weights=w), lambda w: dk.Taper(rate=0.4, weights=w)],
+                         ids=["simple-twist", "simple-bend", "twist", "taper"])
+def test_weighted_displacement_is_the_blended_offset_in_one_pass(make, dtype, rng):
+    """With weights the lanes write w (F(x) - x): deform's blend minus the points, to the rounding
+    of the larger of the two; weight 1 gives the unweighted offset bit for bit, weight 0 nothing."""
+    n = 100_003
+    pts = rng.uniform(-1, 1, (n, 3)).astype(dtype)
+    w = rng.uniform(0, 1, n)
+    w[:1000], w[1000:2000] = 0.0, 1.0
+    d = make(w)
+    disp, moved = d.displacement(pts), d.deform(pts)
+    ulp = np.spacing(np.maximum(np.abs(pts), np.abs(moved)).astype(dtype))
+    assert (np.abs(disp - (moved.astype(np.float64) - pts)) <= 2 * ulp).all()
+    assert not disp[:1000].any()
+    np.testing.assert_array_equal(disp[1000:2000], make(np.ones(n)).displacement(pts)[1000:2000])
+
+
+def test_replace_changes_settings_and_shares_the_weights(rng):
+    """replace(...) is the SimpleDeform built afresh with those settings and the same weights."""
+    pts = rng.uniform(-1, 1, (20_000, 3))
+    w = rng.uniform(0, 1, len(pts))
+    frame = np.array([[0.8, -0.6, 0, 0.1], [0.6, 0.8, 0, 0.2], [0, 0, 1.5, 0.3], [0, 0, 0, 1]])
+    d = dk.SimpleDeform(mode="TWIST", angle=0.5, deform_axis="Z", weights=w)
+    changes = dict(mode="TAPER", factor=0.7, deform_axis="Y", origin=frame, limits=(0.1, 0.8), lock_x=True)
+    fresh = dk.SimpleDeform(**changes, weights=w)
+    np.testing.assert_array_equal(d.replace(**changes).deform(pts), fresh.deform(pts))
+    np.testing.assert_array_equal(d.replace(angle=0.9).deform(pts),
+                                  dk.SimpleDeform(mode="TWIST", angle=0.9, deform_axis="Z", weights=w).deform(pts))
+    np.testing.assert_array_equal(d.replace().deform(pts), d.deform(pts))
+    np.testing.assert_array_equal(d.replace(angle=0.9).weights, d.weights)
+    with pytest.raises(ValueError, match=r"weights: has 20000 entries but points has 10 rows"):
+        d.replace(angle=0.9).deform(pts[:10])
+
+
+@pytest.mark.parametrize("kwargs, error, message", [
+    ({"angel": 1.0}, TypeError, r"unknown keyword argument 'angel'; did you mean 'angle'"),
+    ({"angle": "x"}, TypeError, r"angle: expected a number, got 'x'"),
+    ({"factor": float("nan")}, ValueError, r"factor: "),
+    ({"angle": 1.0, "factor": 2.0}, ValueError, r"angle: give angle or factor"),
+    ({"mode": "SPIN"}, ValueError, r"mode: .*'SPIN'"),
+    ({"mode": 3}, TypeError, r"mode: expected 'TWIST', 'BEND', 'TAPER' or 'STRETCH', got 3"),
+    ({"deform_axis": "W"}, ValueError, r"deform_axis: "),
+    ({"limits": (0.6, 0.2)}, ValueError, r"limits: "),
+    ({"origin": np.eye(3)}, ValueError, r"origin: "),
+    ({"lock_y": 2}, TypeError, r"lock_y: expected True or False"),
+])
+def test_replace_names_the_bad_argument(kwargs, error, message):
+    with pytest.raises(error, match=message):
+        dk.SimpleDeform().replace(**kwargs)

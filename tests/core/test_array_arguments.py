@@ -61,7 +61,8 @@ METHOD_CALLS = {
     "volume_ratio": lambda d: ((PTS,), {}), "transform_normals": lambda d: ((PTS, PTS), {}),
     "bind": lambda d: ((PTS,), {}), "lattice_coordinates": lambda d: ((PTS,), {}),
     "direct_manipulation": lambda d: ((PTS[:2], PTS[:2] + 0.05), {}),
-    "deform_bound": lambda d: ((d.bind(PTS),), {}),
+    "deform_bound": lambda d: ((d.bind(PTS),), {}), "displacement_bound": lambda d: ((d.bind(PTS),), {}),
+    "replace": lambda d: ((), {"origin": np.eye(4), "limits": np.array([0.0, 1.0])}),
     "subdivide": lambda d: ((), {"points": CUBE}), "mesh": lambda d: ((), {"points": CUBE}),
     "limit_points": lambda d: ((), {"points": CUBE}),
     "blender_order": lambda d: ((CUBE_EDGES,), {}),
@@ -172,7 +173,7 @@ def test_every_object_parameter_is_walked_or_not_an_array():
     not_real = {"faces", "cage_faces", "anchors", "handles", "roi", "deformers", "degree", "blocks", "resolution",
                 "interpolation", "axis", "deform_axis", "source_faces", "target_faces", "markers", "correspondence",
                 "fixed_vertices", "lock_x", "lock_y", "lock_z", "invert_weights", "stretch", "binding", "out",
-                "ptex", "deformer", "sharpen_two_edge_vertices", "limit_surface"}
+                "ptex", "deformer", "sharpen_two_edge_vertices", "limit_surface", "mode", "angle", "factor"}
     walked = {c[6] for c in CALLS} | {"cage_points", "targets", "handle_targets", "initial", "source_pose",
                                       "fixed_positions", "points", "normals", "reference", "uv", "profile"}
     for cls_name in (n for n in dir(dk) if not n.startswith("_")):

@@ -1,5 +1,6 @@
 """Parallelepiped lattices (FFD, BezierFFD, BSplineLattice, BlenderLattice) against independent
 numpy evaluations of the formulas in docs/math/lattice.md, finite differences and invariants."""
+import re
 from typing import Callable, NamedTuple
 
 import numpy as np
@@ -426,3 +427,33 @@ def test_large_in_place_deform_equals_bound_and_scalar_weights(dtype, outside, r
     inplace = pts.copy()
     lat.deform(inplace, out=inplace)
     np.testing.assert_array_equal(inplace, out)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("name", KINDS)
+def test_displacement_bound_is_the_bound_offset_in_one_pass(name, dtype, rng):
+    """displacement_bound = deform_bound - points (the blend's w (F(x) - x) with weights), to the
+    rounding of the larger; at the control points' rest it is exactly zero, and it refuses what
+    deform_bound refuses."""
+    kind, box = KINDS[name], PLACEMENTS["box"][1]
+    grid = perturbed(kind, box, rng, 0.3)
+    pts = box_point(rng.uniform(-0.4, 1.4, (20_003, 3)), *box).astype(dtype)
+    w = rng.uniform(0, 1, len(pts))
+    for weights in (None, w):
+        lat = make(name, control=grid, weights=weights, strength=0.8)
+        b = lat.bind(pts)
+        disp, moved = lat.displacement_bound(b), lat.deform_bound(b)
+        assert disp.dtype == dtype
+        ulp = np.spacing(np.maximum(np.abs(pts), np.abs(moved)).astype(dtype))
+        assert (np.abs(disp - (moved.astype(np.float64) - pts)) <= 2 * ulp).all(), name
+        out = np.empty_like(pts)
+        assert lat.displacement_bound(b, out=out) is out
+    rest = make(name, weights=w)
+    assert not rest.displacement_bound(rest.bind(pts)).any()
+    other = make(name, "frame")
+    with pytest.raises(ValueError, match="binding: ") as refused:
+        other.deform_bound(b)
+    with pytest.raises(ValueError, match=re.escape(str(refused.value))):
+        other.displacement_bound(b)
+    with pytest.raises(TypeError, match="out: must have dtype"):
+        lat.displacement_bound(b, out=np.empty(pts.shape, np.float16))

@@ -179,22 +179,36 @@ bool BarrDeformer::deform_any(const T* in, T* out, std::size_t n) const {
 }
 
 // The lanes' offset B (g(c) - c) itself: one pass, no subtraction (Blender's offsets attribute).
+// Weighted, each chunk is scaled while it is still in cache, as deform() blends: w (F(x) - x).
 template <class T>
-static bool displacement_lanes(const BarrKernelParams& base, const T* in, T* out, std::size_t n) {
+static bool displacement_lanes(const BarrKernelParams& base, const T* in, T* out, std::size_t n, const double* w) {
+  constexpr std::size_t kChunk = 2048;
   BarrKernelParams params = base;
   params.displacement = true;
   std::atomic<bool> finite{true};
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
-    if (!barr_kernel(params, in + 3 * begin, out + 3 * begin, end - begin)) finite = false;
+    for (std::size_t lo = begin; lo < end; lo += kChunk) {
+      const std::size_t hi = std::min(end, lo + kChunk);
+      if (!barr_kernel(params, in + 3 * lo, out + 3 * lo, hi - lo)) finite = false;
+      if (w)
+        for (std::size_t i = lo; i < hi; ++i)
+          for (int a = 0; a < 3; ++a) out[3 * i + a] = static_cast<T>(w[i] * out[3 * i + a]);
+    }
   });
   return finite;
 }
 
-bool BarrDeformer::displacement_impl(const float* in, float* out, std::size_t n) const {
-  return simd_eligible(true) && displacement_lanes(kernel_params(op_, placement_), in, out, n);
+bool BarrDeformer::lane_displacement(const float* in, float* out, std::size_t n, const double* w) const {
+  return simd_eligible(true) && displacement_lanes(kernel_params(op_, placement_), in, out, n, w);
 }
-bool BarrDeformer::displacement_impl(const double* in, double* out, std::size_t n) const {
-  return simd_eligible(false) && displacement_lanes(kernel_params(op_, placement_), in, out, n);
+bool BarrDeformer::lane_displacement(const double* in, double* out, std::size_t n, const double* w) const {
+  return simd_eligible(false) && displacement_lanes(kernel_params(op_, placement_), in, out, n, w);
+}
+bool BarrDeformer::displacement_impl(const float* in, float* out, std::size_t n, const double* w) const {
+  return lane_displacement(in, out, n, w);
+}
+bool BarrDeformer::displacement_impl(const double* in, double* out, std::size_t n, const double* w) const {
+  return lane_displacement(in, out, n, w);
 }
 
 bool BarrDeformer::deform_impl(const float* in, float* out, std::size_t n) const { return deform_any(in, out, n); }

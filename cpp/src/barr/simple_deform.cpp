@@ -127,16 +127,15 @@ bool SimpleDeform::deform_any(const T* in, T* out, std::size_t n) const {
 bool SimpleDeform::deform_impl(const float* in, float* out, std::size_t n) const { return deform_any(in, out, n); }
 bool SimpleDeform::deform_impl(const double* in, double* out, std::size_t n) const { return deform_any(in, out, n); }
 
-// Through the resolved operator's displacement, which checks and names errors as the generic path.
-bool SimpleDeform::displacement_impl(const float* in, float* out, std::size_t n) const {
+// Through the resolved operator's lanes (resolve names a row that is not finite); a map the lanes
+// cannot take, or a result that is not finite, goes to the generic path, which names the error.
+bool SimpleDeform::displacement_impl(const float* in, float* out, std::size_t n, const double* w) const {
   const auto barr = resolve(in, n);
-  if (barr) barr->displacement(in, out, n);
-  return barr != nullptr;
+  return barr && barr->lane_displacement(in, out, n, w);
 }
-bool SimpleDeform::displacement_impl(const double* in, double* out, std::size_t n) const {
+bool SimpleDeform::displacement_impl(const double* in, double* out, std::size_t n, const double* w) const {
   const auto barr = resolve(in, n);
-  if (barr) barr->displacement(in, out, n);
-  return barr != nullptr;
+  return barr && barr->lane_displacement(in, out, n, w);
 }
 
 bool SimpleDeform::jacobian_impl(const double* in, double* jac, std::size_t n) const {

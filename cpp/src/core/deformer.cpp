@@ -30,7 +30,12 @@ void Deformer::set_weights(std::vector<double> weights) {
       throw std::invalid_argument(msg.str());
     }
   }
-  weights_ = std::move(weights);
+  weights_ = std::make_shared<const std::vector<double>>(std::move(weights));
+}
+
+const std::vector<double>& Deformer::no_weights() {
+  static const std::vector<double> none;
+  return none;
 }
 
 void require_weight_count(const std::vector<double>& w, std::size_t n, const char* holder, const char* unit) {
@@ -110,7 +115,7 @@ void Deformer::deform_checked(const T* in, T* out, std::size_t n, bool input_ver
 
 template <class T>
 void Deformer::deform_unchecked(const T* in, T* out, std::size_t n, bool input_verified) const {
-  const std::vector<double>& w = weights_;
+  const std::vector<double>& w = weights();
   require_weight_count(w, n, "points", "rows");
   if (is_identity()) {  // exact, with no arithmetic that could round, flip -0.0 or overflow
     if (in != out) {
@@ -142,7 +147,8 @@ void Deformer::deform_verified(const double* in, double* out, std::size_t n) con
 template <class T>
 void Deformer::displace(const T* in, T* out, std::size_t n) const {
   if (in == out) throw std::invalid_argument("out: displacement cannot be written over points");
-  if (weights().empty() && !is_identity() && displacement_impl(in, out, n)) return;
+  require_weight_count(weights(), n, "points", "rows");
+  if (!is_identity() && displacement_impl(in, out, n, weights().empty() ? nullptr : weights().data())) return;
   deform(in, out, n);
   std::atomic<bool> finite{true};
   parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
@@ -172,7 +178,7 @@ static void blend_jacobians(const std::vector<double>& w, double* jac, std::size
 }
 
 void Deformer::jacobian(const double* in, double* jac, std::size_t n, bool float32_result) const {
-  require_weight_count(weights_, n, "points", "rows");
+  require_weight_count(weights(), n, "points", "rows");
   if (is_identity()) {
     require_finite_rows(in, n, "points");
     identity_jacobians(jac, n);
@@ -181,7 +187,7 @@ void Deformer::jacobian(const double* in, double* jac, std::size_t n, bool float
   const bool verified = jacobian_impl(in, jac, n);
   // (1 - w) I + w J with w in [0, 1] is finite where J is: one check after the blend serves both.
   const double limit = float32_result ? double(std::numeric_limits<float>::max()) : kDoubleMax;
-  if (!weights_.empty()) blend_jacobians(weights_, jac, n);
+  if (!weights().empty()) blend_jacobians(weights(), jac, n);
   if (verified && !float32_result) return;
   require_finite_rows(in, n, "points");  // a bad input row is named before the results it spoilt
   report_against(*this, in, limit, [&] { require_finite_results_of(jac, n, 9, "Jacobian", in, limit); });

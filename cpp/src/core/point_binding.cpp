@@ -69,12 +69,17 @@ template void apply_weight_table<double>(const WeightTable&, const double*, std:
 // The bound path's policy, in the order deform() applies it: the weight count first (nothing is
 // computed for a call that cannot succeed), then the binding's owner and dtype.
 template <class T>
-void BoundDeformer::deform_bound_checked(const PointBinding& b, T* out) const {
+void BoundDeformer::check_bound_call(const PointBinding& b) const {
   require_weight_count(weights(), b.size(), "the binding", "points");
   check_binding(b);
   if (b.single_precision != std::is_same<T, float>::value)
     throw std::invalid_argument(std::string("binding: holds ") + (b.single_precision ? "float32" : "float64") +
                                 " points; deform them into an array of that dtype");
+}
+
+template <class T>
+void BoundDeformer::deform_bound_checked(const PointBinding& b, T* out) const {
+  check_bound_call<T>(b);
   StoredPoints<T> original;
   if (is_identity()) {  // exact, as deform() at the identity
     bound_points(b, original);
@@ -98,5 +103,34 @@ void BoundDeformer::deform_bound_checked(const PointBinding& b, T* out) const {
 
 void BoundDeformer::deform_bound(const PointBinding& b, float* out) const { deform_bound_checked(b, out); }
 void BoundDeformer::deform_bound(const PointBinding& b, double* out) const { deform_bound_checked(b, out); }
+
+template <class T>
+void BoundDeformer::displacement_bound_checked(const PointBinding& b, T* out) const {
+  check_bound_call<T>(b);
+  const std::size_t n = b.size();
+  if (is_identity()) {  // exactly nothing, as deform_bound gives the bound points back
+    std::fill(out, out + 3 * n, T(0));
+    return;
+  }
+  if (displacement_bound_impl(b, out, weights().empty() ? nullptr : weights().data())) return;
+  deform_bound_checked(b, out);  // names an overflow of F(x)
+  StoredPoints<T> x;
+  bound_points(b, x);
+  parallel_blocks(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const std::size_t p = x.order ? x.order[i] : i;
+      for (int a = 0; a < 3; ++a) out[3 * p + a] -= x.coord[a][i * x.stride];
+    }
+  });
+  try {  // F(x) and x finite, F(x) - x may still overflow
+    require_finite_results(out, n, 3, "displacement");
+  } catch (const NonFiniteResult& e) {
+    const std::string names = overflow_parameters();
+    throw_non_finite_result(e.row, e.quantity, names.empty() ? "the parameters" : "its parameters (" + names + ")");
+  }
+}
+
+void BoundDeformer::displacement_bound(const PointBinding& b, float* out) const { displacement_bound_checked(b, out); }
+void BoundDeformer::displacement_bound(const PointBinding& b, double* out) const { displacement_bound_checked(b, out); }
 
 }  // namespace deformkit

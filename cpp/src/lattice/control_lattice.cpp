@@ -542,10 +542,16 @@ bool ControlLattice::deform_bound_impl(const PointBinding& b, float* out) const 
 bool ControlLattice::deform_bound_impl(const PointBinding& b, double* out) const {
   return deform_sorted(static_cast<const LatticeBinding&>(b), out);
 }
+bool ControlLattice::displacement_bound_impl(const PointBinding& b, float* out, const double* w) const {
+  return deform_sorted(static_cast<const LatticeBinding&>(b), out, true, w);
+}
+bool ControlLattice::displacement_bound_impl(const PointBinding& b, double* out, const double* w) const {
+  return deform_sorted(static_cast<const LatticeBinding&>(b), out, true, w);
+}
 
 // The kernel over the binding's cell runs; the binding is this lattice's, of dtype T.
 template <class T>
-bool ControlLattice::deform_sorted(const LatticeBinding& b, T* out) const {
+bool ControlLattice::deform_sorted(const LatticeBinding& b, T* out, bool displacement, const double* weights) const {
   const Buffer<T>& sorted = sorted_points<T>(b);
   const std::size_t n = b.size();
   const KernelAxis kaxes[3] = {kernel_axis(axes_[0]), kernel_axis(axes_[1]), kernel_axis(axes_[2])};
@@ -568,14 +574,15 @@ bool ControlLattice::deform_sorted(const LatticeBinding& b, T* out) const {
       const std::int32_t c = b.run_cell[r];
       if (!b.cell_moves[c]) {
         for (std::size_t i = lo; i < hi; ++i)
-          for (int a = 0; a < 3; ++a) out[3 * std::size_t(b.order[i]) + a] = sorted[(3 + a) * n + i];
+          for (int a = 0; a < 3; ++a) out[3 * std::size_t(b.order[i]) + a] = displacement ? T(0) : sorted[(3 + a) * n + i];
         continue;
       }
       const T* block = table ? &blocks[c * block_size] : own.data();
       if (!table) cell_block(b.cells[c], own.data());
       const T* t[3] = {&sorted[lo], &sorted[n + lo], &sorted[2 * n + lo]};
       const T* x[3] = {&sorted[3 * n + lo], &sorted[4 * n + lo], &sorted[5 * n + lo]};
-      ok = lattice_cell_kernel(kaxes, block, t, x, &b.order[lo], hi - lo, out) && ok;
+      ok = lattice_cell_kernel(kaxes, block, t, displacement ? nullptr : x, &b.order[lo], hi - lo, out,
+                               displacement ? weights : nullptr) && ok;
     }
     if (!ok) finite = false;
   });

@@ -117,7 +117,7 @@ HWY_INLINE void Contract(D d, const T* block, const V* w0, const V* w1, const V*
 
 template <class T>
 bool CellKernel(const KernelAxis* axes, const T* block, const T* const* t, const T* const* base,
-                const std::uint32_t* order, size_t count, T* out) {
+                const std::uint32_t* order, size_t count, T* out, const double* weights) {
   const hn::ScalableTag<T> d;
   using V = hn::Vec<decltype(d)>;
   const size_t N = hn::Lanes(d);
@@ -126,14 +126,15 @@ bool CellKernel(const KernelAxis* axes, const T* block, const T* const* t, const
   V bad = hn::Zero(d);  // 0 * v is NaN exactly when v is not finite: an overflow shows here
   for (size_t i = 0; i < count; i += N) {
     const size_t m = count - i < N ? count - i : N;
-    V tv[3], bv[3];
+    V tv[3], bv[3] = {hn::Zero(d), hn::Zero(d), hn::Zero(d)};  // no base: the displacement alone
     for (int a = 0; a < 3; ++a) {
       if (m == N) {
         tv[a] = hn::LoadU(d, t[a] + i);
-        bv[a] = hn::LoadU(d, base[a] + i);
+        if (base) bv[a] = hn::LoadU(d, base[a] + i);
       } else {  // the tail: pad the lanes past the run with copies of a valid point
         for (size_t l = 0; l < N; ++l) pad[a][l] = t[a][i + (l < m ? l : 0)];
         tv[a] = hn::Load(d, pad[a]);
+        if (!base) continue;
         for (size_t l = 0; l < N; ++l) pad[a][l] = base[a][i + (l < m ? l : 0)];
         bv[a] = hn::Load(d, pad[a]);
       }
@@ -151,20 +152,25 @@ bool CellKernel(const KernelAxis* axes, const T* block, const T* const* t, const
     hn::Store(oy, d, lane[1]);
     hn::Store(oz, d, lane[2]);
     for (size_t l = 0; l < m; ++l) {
-      T* o = out + 3 * size_t(order[i + l]);
-      o[0] = lane[0][l], o[1] = lane[1][l], o[2] = lane[2][l];
+      const size_t p = order[i + l];
+      T* o = out + 3 * p;
+      if (weights) {  // Blender's vertex group on the offset: w (F(x) - x), finite where the sum is
+        for (int a = 0; a < 3; ++a) o[a] = static_cast<T>(weights[p] * lane[a][l]);
+      } else {
+        o[0] = lane[0][l], o[1] = lane[1][l], o[2] = lane[2][l];
+      }
     }
   }
   return hn::AllTrue(d, hn::Eq(bad, bad));  // Highway 1.0's Ne is ordered: NaN != NaN is false
 }
 
 bool CellF32(const KernelAxis* axes, const float* block, const float* const* t, const float* const* base,
-             const std::uint32_t* order, size_t count, float* out) {
-  return CellKernel(axes, block, t, base, order, count, out);
+             const std::uint32_t* order, size_t count, float* out, const double* weights) {
+  return CellKernel(axes, block, t, base, order, count, out, weights);
 }
 bool CellF64(const KernelAxis* axes, const double* block, const double* const* t, const double* const* base,
-             const std::uint32_t* order, size_t count, double* out) {
-  return CellKernel(axes, block, t, base, order, count, out);
+             const std::uint32_t* order, size_t count, double* out, const double* weights) {
+  return CellKernel(axes, block, t, base, order, count, out, weights);
 }
 
 // D[c][a] = d/dt_a of component c of sum w_ijk block_ijk: the k sums of values and of
@@ -313,12 +319,14 @@ bool lattice_cell_derivatives(CellDerivative what, const KernelAxis axes[3], con
 }
 
 bool lattice_cell_kernel(const KernelAxis axes[3], const float* block, const float* const t[3],
-                         const float* const base[3], const std::uint32_t* order, std::size_t count, float* out) {
-  return HWY_DYNAMIC_DISPATCH(CellF32)(axes, block, t, base, order, count, out);
+                         const float* const base[3], const std::uint32_t* order, std::size_t count, float* out,
+                         const double* weights) {
+  return HWY_DYNAMIC_DISPATCH(CellF32)(axes, block, t, base, order, count, out, weights);
 }
 bool lattice_cell_kernel(const KernelAxis axes[3], const double* block, const double* const t[3],
-                         const double* const base[3], const std::uint32_t* order, std::size_t count, double* out) {
-  return HWY_DYNAMIC_DISPATCH(CellF64)(axes, block, t, base, order, count, out);
+                         const double* const base[3], const std::uint32_t* order, std::size_t count, double* out,
+                         const double* weights) {
+  return HWY_DYNAMIC_DISPATCH(CellF64)(axes, block, t, base, order, count, out, weights);
 }
 
 }  // namespace deformkit

@@ -15,12 +15,15 @@ struct KernelAxis {
 };
 
 // out[order[i]] = base_i + sum_ijk w_i(t0) w_j(t1) w_k(t2) block[i][j][k] for i < count, where
-// t and base are the run's structure-of-arrays coordinates and positions. Returns false if some
-// result is not finite.
+// t and base are the run's structure-of-arrays coordinates and positions. With base null, the
+// displacement alone (the sum), scaled by weights[order[i]] when weights is not null. Returns
+// false if some result is not finite.
 bool lattice_cell_kernel(const KernelAxis axes[3], const float* block, const float* const t[3],
-                         const float* const base[3], const std::uint32_t* order, std::size_t count, float* out);
+                         const float* const base[3], const std::uint32_t* order, std::size_t count, float* out,
+                         const double* weights = nullptr);
 bool lattice_cell_kernel(const KernelAxis axes[3], const double* block, const double* const t[3],
-                         const double* const base[3], const std::uint32_t* order, std::size_t count, double* out);
+                         const double* const base[3], const std::uint32_t* order, std::size_t count, double* out,
+                         const double* weights = nullptr);
 
 enum class CellDerivative : int { Jacobian, Normal, Determinant };
 

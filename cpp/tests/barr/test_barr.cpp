@@ -234,13 +234,15 @@ TEST(Barr, WeightsBlendPositionsAndJacobians) {
   const Twist plain(Profile::linear(0.0, 1.5), 2, Frame{});
   const auto pts = random_points(4, -1.0, 1.0, 70);
   twist->set_weights({0.0, 0.25, 1.0, 0.6});
-  std::vector<double> out(12);
+  std::vector<double> out(12), disp(12);
   twist->deform(pts.data(), out.data(), 4);
+  twist->displacement(pts.data(), disp.data(), 4);  // w (F(x) - x), the lanes' offset scaled in one pass
   for (int i = 0; i < 4; ++i) {
     const Vec3 p(pts[3 * i], pts[3 * i + 1], pts[3 * i + 2]);
     const double w = twist->weights()[i];
     const Vec3 expected = p + w * (deform_one(plain, p) - p);
     EXPECT_LT((Vec3(out[3 * i], out[3 * i + 1], out[3 * i + 2]) - expected).norm(), 1e-14);
+    EXPECT_LT((Vec3(disp[3 * i], disp[3 * i + 1], disp[3 * i + 2]) - (expected - p)).norm(), 1e-14);
     Twist single(Profile::linear(0.0, 1.5), 2, Frame{});
     single.set_weights({w});
     EXPECT_LT((jacobian_one(single, p) - finite_difference_jacobian(single, p)).cwiseAbs().maxCoeff(), 1e-7);

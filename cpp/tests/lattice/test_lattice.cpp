@@ -182,6 +182,10 @@ TEST(Lattice, WeightTableProductAndBoundPathMatchDeform) {
   lat->deform_bound(lat->bind(ptsf.data(), n), boundf.data());
   lat->deform(ptsf.data(), unboundf.data(), n);
   EXPECT_EQ(boundf, unboundf);
+  // displacement_bound, one pass: w (F(x) - x) = w W (strength (P - R)), read off the weight table.
+  std::vector<double> disp(3 * n);
+  lat->displacement_bound(b, disp.data());
+  for (std::size_t i = 0; i < 3 * n; ++i) ASSERT_NEAR(disp[i], weights[i / 3] * moved[i], 1e-12) << i / 3;
 }
 
 TEST(Lattice, ABindingOfAnotherFamilyIsRefused) {

@@ -13,13 +13,17 @@ class BarrDeformer : public Deformer {
   const Placement& placement() const { return placement_; }
   bool is_identity() const override;
   std::string overflow_parameters() const override { return parameters_; }
+  // w (F(x) - x) through the SIMD lanes in one pass (weights: null or one per row); false when the
+  // lanes cannot take this map or some row was not finite (Deformer::displacement then decides).
+  bool lane_displacement(const float* in, float* out, std::size_t n, const double* weights) const;
+  bool lane_displacement(const double* in, double* out, std::size_t n, const double* weights) const;
 
  protected:
   const char* parameters_ = "angle or factor, origin";  // a SimpleDeform's map; each Barr deformer its own
   bool deform_impl(const float* in, float* out, std::size_t n) const override;
   bool deform_impl(const double* in, double* out, std::size_t n) const override;
-  bool displacement_impl(const float* in, float* out, std::size_t n) const override;
-  bool displacement_impl(const double* in, double* out, std::size_t n) const override;
+  bool displacement_impl(const float* in, float* out, std::size_t n, const double* weights) const override;
+  bool displacement_impl(const double* in, double* out, std::size_t n, const double* weights) const override;
   bool jacobian_impl(const double* in, double* jac, std::size_t n) const override;
   bool normals_impl(const double* points, const double* normals, double* out, std::size_t n) const override;
   bool normals_impl(const float* points, const float* normals, float* out, std::size_t n) const override;

@@ -42,8 +42,8 @@ class SimpleDeform : public Deformer {
  protected:
   bool deform_impl(const float* in, float* out, std::size_t n) const override;
   bool deform_impl(const double* in, double* out, std::size_t n) const override;
-  bool displacement_impl(const float* in, float* out, std::size_t n) const override;
-  bool displacement_impl(const double* in, double* out, std::size_t n) const override;
+  bool displacement_impl(const float* in, float* out, std::size_t n, const double* weights) const override;
+  bool displacement_impl(const double* in, double* out, std::size_t n, const double* weights) const override;
   bool jacobian_impl(const double* in, double* jac, std::size_t n) const override;
   // Through the bound Barr operator's SIMD lanes (bind: the extent measured on these points).
   bool normals_impl(const double* points, const double* normals, double* out, std::size_t n) const override;

@@ -47,7 +47,10 @@ class Deformer {
   // x' = x + w (F(x) - x), so J' = (1 - w) I + w J. Each weight must lie in [0, 1], Blender's
   // range, so that x' lies between x and F(x) and is finite wherever F(x) is.
   void set_weights(std::vector<double> weights);
-  const std::vector<double>& weights() const { return weights_; }
+  const std::vector<double>& weights() const { return weights_ ? *weights_ : no_weights(); }
+  // The same weights as `other`, shared rather than copied: a deformer made again with new
+  // settings for the same vertex group (a parameter edit) costs nothing per point.
+  void share_weights(const Deformer& other) { weights_ = other.weights_; }
 
  protected:
   // Return false when some input or output row is not finite (the output is then unspecified).
@@ -57,10 +60,11 @@ class Deformer {
   // skips its two checking passes over them, a third of its memory traffic); false leaves the
   // checks to jacobian().
   virtual bool jacobian_impl(const double* in, double* jac, std::size_t n) const = 0;
-  // F(x) - x in one pass, for a deformer with no weights: false (the default) leaves the call to
-  // deform then a subtraction, which also names any error; true only when every row was finite.
-  virtual bool displacement_impl(const float*, float*, std::size_t) const { return false; }
-  virtual bool displacement_impl(const double*, double*, std::size_t) const { return false; }
+  // w (F(x) - x) in one pass (weights: null, or one per row, the deformer's own): false (the
+  // default) leaves the call to deform then a subtraction, which also names any error; true only
+  // when every row was finite.
+  virtual bool displacement_impl(const float*, float*, std::size_t, const double*) const { return false; }
+  virtual bool displacement_impl(const double*, double*, std::size_t, const double*) const { return false; }
   // Fast paths of transform_normals and volume_ratio for all n rows, the weights applied as
   // jacobian() applies them. Return false to leave the work (and any error) to the generic path
   // through jacobian(), which then recomputes every row.
@@ -78,7 +82,8 @@ class Deformer {
   void deform_unchecked(const T* in, T* out, std::size_t n, bool input_verified) const;
   template <class T>
   void displace(const T* in, T* out, std::size_t n) const;
-  std::vector<double> weights_;
+  static const std::vector<double>& no_weights();
+  std::shared_ptr<const std::vector<double>> weights_;  // null: none; shared by share_weights
 };
 
 using DeformerPtr = std::shared_ptr<const Deformer>;

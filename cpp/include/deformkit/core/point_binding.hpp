@@ -70,6 +70,10 @@ class BoundDeformer : public Deformer {
   // `weights` for a weight count other than the binding's, `deformer` where a result overflows.
   void deform_bound(const PointBinding& binding, float* out) const;
   void deform_bound(const PointBinding& binding, double* out) const;
+  // w (F(x) - x) of the bound points (w: the weights, 1 without), what an offset-based consumer
+  // (Blender's Geometry Nodes) adds to them; 0 at the identity. Throws as deform_bound does.
+  void displacement_bound(const PointBinding& binding, float* out) const;
+  void displacement_bound(const PointBinding& binding, double* out) const;
 
  protected:
   // Throws std::invalid_argument naming `binding` unless this deformer made `binding` (and could
@@ -80,6 +84,10 @@ class BoundDeformer : public Deformer {
   // identity.
   virtual bool deform_bound_impl(const PointBinding& binding, float* out) const = 0;
   virtual bool deform_bound_impl(const PointBinding& binding, double* out) const = 0;
+  // w (F(x) - x) in one pass (weights: null or the deformer's own, one per bound point); false (the
+  // default) leaves it to deform_bound then a subtraction, which also names any error.
+  virtual bool displacement_bound_impl(const PointBinding&, float*, const double*) const { return false; }
+  virtual bool displacement_bound_impl(const PointBinding&, double*, const double*) const { return false; }
   // Where the bound original positions are kept: the identity's result and the blend's origin,
   // read in place (no copy in point order is made).
   virtual void bound_points(const PointBinding& binding, StoredPoints<float>& points) const = 0;
@@ -87,7 +95,11 @@ class BoundDeformer : public Deformer {
 
  private:
   template <class T>
+  void check_bound_call(const PointBinding& binding) const;
+  template <class T>
   void deform_bound_checked(const PointBinding& binding, T* out) const;
+  template <class T>
+  void displacement_bound_checked(const PointBinding& binding, T* out) const;
 };
 
 }  // namespace deformkit

@@ -144,10 +144,13 @@ class ControlLattice : public BoundDeformer {
   void check_binding(const PointBinding& binding) const override;
   bool deform_bound_impl(const PointBinding& binding, float* out) const override;
   bool deform_bound_impl(const PointBinding& binding, double* out) const override;
+  bool displacement_bound_impl(const PointBinding& binding, float* out, const double* weights) const override;
+  bool displacement_bound_impl(const PointBinding& binding, double* out, const double* weights) const override;
   void bound_points(const PointBinding& binding, StoredPoints<float>& points) const override;
   void bound_points(const PointBinding& binding, StoredPoints<double>& points) const override;
+  // The bound points deformed, or with `displacement` their w (F(x) - x) (weights: null or per point).
   template <class T>
-  bool deform_sorted(const LatticeBinding& b, T* out) const;
+  bool deform_sorted(const LatticeBinding& b, T* out, bool displacement = false, const double* weights = nullptr) const;
   template <class T>
   void sort_by_cell(LatticeBinding& b, const T* in, const std::uint64_t* key) const;  // many cells
   // local and ds (optional): per axis the coordinate within the cell and d(local)/d(parameter),
