@@ -71,3 +71,44 @@ def test_select_vertices_selects_the_edges_and_faces_between_them(scene):
     assert [e.select for e in mesh.edges] == [set(e.vertices) <= chosen for e in mesh.edges]
     faces = [set(p.vertices) <= chosen for p in mesh.polygons]
     assert [p.select for p in mesh.polygons] == faces and any(faces) and not all(faces)
+
+
+def test_reading_the_edit_mesh_gives_its_points_and_leaves_it_as_it_was(scene):
+    """edit_positions copies the BMesh out through a scratch mesh: the points equal the BMesh's
+    own, read vertex by vertex, after moves and deletions; leaving Edit Mode afterwards writes the
+    same mesh and shape keys as without the reads (the copy must not disturb the edit mesh's
+    shape-key indices, which map keys onto the vertices that are left)."""
+    import bmesh
+    import bpy
+    from deformkit_addon import meshdata
+
+    def edit_and_leave(read):
+        obj = make_object(bpy, name="Read" if read else "Plain")
+        obj.shape_key_add(name="Basis")
+        key = obj.shape_key_add(name="Key")
+        for i, p in enumerate(key.data):
+            p.co.z += 0.01 * i
+        obj.active_shape_key_index = 0
+        bpy.ops.object.mode_set(mode="EDIT")
+        bm = bmesh.from_edit_mesh(obj.data)
+        bm.verts.ensure_lookup_table()
+        bmesh.ops.delete(bm, geom=[bm.verts[i] for i in (3, 40, 41, 200)], context="VERTS")
+        for v in bm.verts[:50]:
+            v.co.x += 0.25
+        bmesh.update_edit_mesh(obj.data)
+        if read:
+            for _ in range(2):
+                got = meshdata.edit_positions(obj.data)
+                want = np.array([v.co[:] for v in bmesh.from_edit_mesh(obj.data).verts], np.float32)
+                np.testing.assert_array_equal(got, want)
+        bpy.ops.object.mode_set(mode="OBJECT")
+        keys = [np.array([p.co[:] for p in k.data]) for k in obj.data.shape_keys.key_blocks]
+        bpy.context.view_layer.objects.active = None
+        return meshdata.base_positions(obj.data), keys
+
+    plain, read = edit_and_leave(False), edit_and_leave(True)
+    np.testing.assert_array_equal(read[0], plain[0])
+    for a, b in zip(read[1], plain[1]):
+        np.testing.assert_array_equal(a, b)
+    reader = bpy.data.meshes.get(meshdata.EDIT_READER)
+    assert reader is not None and reader.users == 0 and len(reader.vertices) == 0  # never saved, holds nothing
