@@ -155,6 +155,9 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
     bind_vertices: IntProperty(options={"HIDDEN"})
     bind_faces: IntProperty(options={"HIDDEN"})
     bind_topology: IntProperty(options={"HIDDEN"})
+    # What changed since bind when the bind no longer fits ("bound to 8 000 vertices, the mesh now
+    # has 32 000: Rebind"), '' while it fits: the panel offers Rebind beside it (entries/binding.py).
+    bind_outdated: StringProperty(options={"HIDDEN", "SKIP_SAVE"})
     handle_matrix: FloatVectorProperty(size=16, options={"HIDDEN"},
                                        default=[float(i % 5 == 0) for i in range(16)])
     # Subdivide entries, with the Subdivision Surface modifier's names

@@ -65,12 +65,11 @@ def evaluated_cage(obj, cage):
 def topology_change(entry, now):
     """What changed in the cage's topology since bind, or ''."""
     vertices, faces, crc = now
-    if (vertices, faces) != (entry.bind_vertices, entry.bind_faces):
-        return (f"the cage had {entry.bind_vertices} vertices and {entry.bind_faces} faces at bind and has "
-                f"{vertices} and {faces} now: bind again")
-    if crc != entry.bind_topology:
-        return "the cage's faces connect its vertices differently than at bind: bind again"
-    return ""
+    # Not the cage's name: a message naming the cage reads as the one for its deletion (handlers).
+    changed = binding.counts_changed("the cage", (entry.bind_vertices, entry.bind_faces), (vertices, faces))
+    if not changed and crc != entry.bind_topology:
+        changed = "the cage's faces connect its vertices differently than at bind: Rebind"
+    return changed
 
 
 def _deformer(obj, entry, faces, weights):
@@ -98,9 +97,7 @@ def setup(obj, entry, reuse_weights=False):
     if cage is None or not is_bound(entry) or REST not in entry:
         return Prepared(None, ("unbound",), None)  # as Mesh Deform before Bind: the mesh passes through
     points, faces, topo = evaluated_cage(obj, cage)
-    changed = topology_change(entry, topo)
-    if changed:
-        raise EntryError(changed)
+    binding.require_current(entry, topology_change(entry, topo))
     key, deformer, crc = _deformer(obj, entry, faces, scaled_influence(obj, entry, reuse_weights))
     deformer.cage_points = points
     fingerprint = (key, zlib.crc32(points.tobytes()), crc)
@@ -166,7 +163,7 @@ def draw(col, obj, entry):
     col.separator()
     if is_bound(entry):
         col.label(text=f"Bound: cage of {entry.bind_vertices} vertices", icon="LINKED")
-        col.operator("deformkit.cage_unbind", text="Unbind", icon="UNLINKED").index = index
+        binding.draw_rebind(col, entry, "deformkit.cage_bind", index, "deformkit.cage_unbind")
     else:
         col.label(text="Not bound", icon="UNLINKED")
         col.operator("deformkit.cage_bind", text="Bind", icon="LINKED").index = index
