@@ -1,5 +1,6 @@
-"""Cage entries: a closed mesh object (the cage) deforms the mesh through mean value or Green
-coordinates (dk.MeanValueCage, dk.GreenCage), as Blender's Mesh Deform modifier is used.
+"""Cage entries: a closed mesh object (the cage) deforms the mesh through mean value, Green or
+harmonic coordinates (dk.MeanValueCage, dk.GreenCage, dk.MeshDeform), as Blender's Mesh Deform
+modifier is used; Harmonic is that modifier's own, with its Precision and Dynamic.
 
 Bind records the cage's rest shape in this object's space, with a fingerprint of its topology, on
 the entry itself (an ID property array, so it saves and undoes with the object and never reaches
@@ -7,7 +8,9 @@ the mesh). Afterwards the entry follows the cage object's *evaluated* mesh: a ca
 Armature, edited in Edit Mode, shape-keyed or keyframed drives the mesh, and moving the cage object
 moves the mesh, as with Mesh Deform. The mesh is bound to the rest cage once per incoming points
 (kept in the cache's "cage" space), and each evaluation is one product of the bound coordinates
-with the current cage.
+with the current cage. Harmonic without Dynamic binds as Mesh Deform does: the points coming into
+the entry at Bind (kept on the entry, BOUND), whose coordinates later points of the same count
+keep (displacement form: x + W (c - c at bind)); a mesh with another vertex count asks for Rebind.
 
 Here too: the entry's settings and panel; its operators are in operators/cage.py.
 """
@@ -21,30 +24,34 @@ from ..errors import EntryError
 from . import binding
 from .binding import is_bound, new_bind_id, signed
 from .common import (Prepared, draw_vertex_group, evaluated_mesh_in, followed_mesh, forget_bindings,
-                     kept_binding, scaled_influence, store_array, weights_crc)
+                     kept_binding, scaled_influence, stack_index, store_array, weights_crc)
 
 ENTRY_TYPES = [  # saved as its number: listed before Subdivide, numbered after
-    ("CAGE", "Cage", "A closed mesh object (the cage) deforms the mesh through mean value or Green coordinates, "
-     "as Mesh Deform (Bind first)", "NONE", 7),
+    ("CAGE", "Cage", "A closed mesh object (the cage) deforms the mesh through mean value, Green or harmonic "
+     "coordinates, as Mesh Deform (Bind first)", "NONE", 7),
 ]
 TYPES = tuple(row[0] for row in ENTRY_TYPES)  # its entry.type identifiers
 CAGE_METHODS = [
     ("MEAN_VALUE", "Mean Value", "Mean value coordinates (Ju, Schaefer, Warren 2005): smooth, interpolate the cage", 0),
     ("GREEN", "Green", "Green coordinates (Lipman, Levin, Cohen-Or 2008): keep details' shape (quasi-conformal)", 1),
+    ("HARMONIC", "Harmonic (Mesh Deform)", "Harmonic coordinates on a grid (Joshi et al. 2007), as Blender's Mesh "
+     "Deform modifier computes them, with its Precision and Dynamic", 2),
 ]
 ICON = "MOD_MESHDEFORM"
-FIELDS = ("cage", "cage_method", "strength", "vertex_group", "invert_vertex_group")
-CLASSES = {"MEAN_VALUE": "MeanValueCage", "GREEN": "GreenCage"}
+FIELDS = ("cage", "cage_method", "precision", "use_dynamic_bind", "strength", "vertex_group", "invert_vertex_group")
+CLASSES = {"MEAN_VALUE": "MeanValueCage", "GREEN": "GreenCage", "HARMONIC": "MeshDeform"}
 
 REST = "deformkit_cage_rest"  # the entry's ID property: the cage at bind, x y z per vertex, in this object's space
+BOUND = "deformkit_cage_bound"  # Harmonic, not Dynamic: the points that came into the entry at bind, x y z
 NOT_COPIED = binding.NOT_COPIED  # a copy arrives unbound
 
 # deformer: the dk cage deformer with the current cage and the entry's influence; bind: the key its
-# deformer and bindings are kept under; fingerprint: everything besides the incoming points.
-Setup = namedtuple("Setup", "deformer bind fingerprint")
+# deformer and bindings are kept under; fingerprint: everything besides the incoming points; bound:
+# the points bound at Bind (Harmonic, not Dynamic), else None.
+Setup = namedtuple("Setup", "deformer bind fingerprint bound", defaults=(None,))
 # In the cache: "cage_binding", (object cache key, entry index, "viewport"/"render") -> (bind key
-# (object cache key, bind id, method), points, binding); "cage_deformer", bind key -> (crc of the
-# per-point weights, deformer).
+# (object cache key, bind id, method[, precision, dynamic]), points, binding); "cage_deformer", bind
+# key -> (crc of the per-point weights, deformer); "cage_bound", bind key -> the points bound at Bind.
 
 
 UNSET = "no cage object set: pick a closed mesh object around the mesh"
@@ -72,24 +79,63 @@ def topology_change(entry, now):
     return changed
 
 
+def _class(entry):
+    cls = getattr(native.dk, CLASSES[entry.cage_method], None)
+    if cls is None:
+        raise EntryError(f"this build of deformkit has no {CLASSES[entry.cage_method]}: {native.BUILD_HINT}")
+    return cls
+
+
+def _make(cls, entry, points, faces, weights=None):
+    """The dk deformer of this rest cage with the entry's settings; ValueError naming what is wrong."""
+    harmonic = {"precision": entry.precision, "dynamic": entry.use_dynamic_bind} if entry.cage_method == "HARMONIC" else {}
+    try:
+        return cls(points, faces, weights=weights, **harmonic)
+    except RuntimeError as exc:  # Mesh Deform's own failure, naming the cage: not the solver's fault
+        raise EntryError(str(exc)) from exc
+
+
+def bind_key(obj, entry):
+    """What the entry's deformer and bindings are kept under: a new bind, method or grid is new."""
+    return (meshdata.cache_key(obj),) + grid_tail(entry)
+
+
 def _deformer(obj, entry, faces, weights):
     """The dk cage deformer of the rest cage with these per-point weights, kept while the bind and
     the weights stay: checking the cage and building its tables costs about as much as a frame."""
-    cls = getattr(native.dk, CLASSES[entry.cage_method], None)
-    if cls is None:
-        raise EntryError(f"this build of deformkit has no cage deformers: {native.BUILD_HINT}")
-    bind_key = (meshdata.cache_key(obj), entry.bind_id, entry.cage_method)
+    cls = _class(entry)
+    key = bind_key(obj, entry)
     crc = weights_crc(weights)
-    cached = cache.get("cage_deformer", bind_key)
+    cached = cache.get("cage_deformer", key)
     if cached is not None and cached[0] == crc:
-        return bind_key, cached[1], crc
+        return key, cached[1], crc
     rest = np.asarray(entry[REST], np.float64).reshape(-1, 3)
     try:
-        deformer = cls(rest, faces, weights=weights)
+        deformer = _make(cls, entry, rest, faces, weights)
     except ValueError as exc:
         raise EntryError(str(exc)) from exc
-    cache.put("cage_deformer", bind_key, (crc, deformer))
-    return bind_key, deformer, crc
+    cache.put("cage_deformer", key, (crc, deformer))
+    return key, deformer, crc
+
+
+def bound_points(obj, entry):
+    """The points bound at Bind (Harmonic, not Dynamic), float32 (n, 3), or None; read from the
+    entry once per bind (kept in the cache's "cage_bound" space), not every frame."""
+    if entry.cage_method != "HARMONIC" or entry.use_dynamic_bind or BOUND not in entry:
+        return None
+    key = bind_key(obj, entry)
+    kept = cache.get("cage_bound", key)
+    if kept is None:
+        kept = cache.put("cage_bound", key, np.array(entry[BOUND], np.float32).reshape(-1, 3))
+    return kept
+
+
+def mesh_change(obj, entry, bound):
+    """What changed in the mesh since a Harmonic bind of its points, or ''. In Edit Mode the mesh's
+    count is the edit mesh's: deform checks it there."""
+    if bound is None or obj.mode == "EDIT":
+        return ""
+    return binding.counts_changed("the mesh", (len(bound),), (len(obj.data.vertices),))
 
 
 def setup(obj, entry, reuse_weights=False):
@@ -97,58 +143,91 @@ def setup(obj, entry, reuse_weights=False):
     if cage is None or not is_bound(entry) or REST not in entry:
         return Prepared(None, ("unbound",), None)  # as Mesh Deform before Bind: the mesh passes through
     points, faces, topo = evaluated_cage(obj, cage)
-    binding.require_current(entry, topology_change(entry, topo))
+    bound = bound_points(obj, entry)
+    binding.require_current(entry, topology_change(entry, topo) or mesh_change(obj, entry, bound))
     key, deformer, crc = _deformer(obj, entry, faces, scaled_influence(obj, entry, reuse_weights))
     deformer.cage_points = points
     fingerprint = (key, zlib.crc32(points.tobytes()), crc)
-    return Prepared(deformer, fingerprint, Setup(deformer, key, fingerprint))
+    return Prepared(deformer, fingerprint, Setup(deformer, key, fingerprint, bound))
 
 
 def deform(key, prepared, points):
-    """The entry's result on `points`, through a binding kept while the points and the bind stay."""
+    """The entry's result on `points`, through a binding kept while the points and the bind stay.
+    Harmonic without Dynamic keeps the binding of the points bound at Bind, as Mesh Deform: other
+    points of that count move as they did (x + their displacement), as the modifier's do."""
     setup_ = prepared.data
     if setup_ is None:
         return points
+    bound = setup_.bound
+    if bound is not None and len(bound) != len(points):
+        raise EntryError(binding.counts_changed("the mesh", (len(bound),), (len(points),)))
     # float32 weights, as the mesh's positions are: half the memory and time per frame.
-    binding = kept_binding("cage_binding", key, setup_.bind, points,
-                           lambda p: setup_.deformer.bind(p, precision="float32"))
-    return setup_.deformer.deform_bound(binding)
+    precision = {} if setup_.bind[2] == "HARMONIC" else {"precision": "float32"}
+    binding_ = kept_binding("cage_binding", key, setup_.bind, points if bound is None else bound,
+                            lambda p: setup_.deformer.bind(p, **precision))
+    result = setup_.deformer.deform_bound(binding_)
+    if bound is not None and not np.array_equal(bound, points):
+        result = points + (result - bound)
+    return result
 
 
-def bind(obj, entry, incoming):
-    """Record the cage's current evaluated shape as its rest (checked: a closed, consistently
-    oriented cage); nothing changes if that fails. Returns the cage's vertex count. The points
-    coming into the entry (incoming) play no part: the mesh is bound to the rest as it comes."""
+def bind(obj, entry, incoming, rest=None):
+    """Record the cage's current evaluated shape (or `rest`, its points in obj's space) as its rest
+    (checked: a closed, consistently oriented cage); Harmonic without Dynamic also binds the points
+    coming into the entry (incoming()), as Mesh Deform's Bind. Nothing changes if that fails.
+    Returns the cage's vertex count."""
     cage = cage_object(entry, obj)
     points, faces, topo = evaluated_cage(obj, cage)
-    cls = getattr(native.dk, CLASSES[entry.cage_method], None)
-    if cls is None:
-        raise EntryError(f"this build of deformkit has no cage deformers: {native.BUILD_HINT}")
-    cls(points, faces)  # checks the cage: ValueError naming the first open edge, bad face, ...
+    if rest is not None:
+        points = np.asarray(rest, np.float32).astype(np.float64).reshape(points.shape)
+    deformer = _make(_class(entry), entry, points, faces)  # checks the cage: ValueError naming the first open edge, ...
+    harmonic_static = entry.cage_method == "HARMONIC" and not entry.use_dynamic_bind
+    mesh = np.asarray(incoming(), np.float32).reshape(-1, 3) if harmonic_static else None
+    try:
+        made = deformer.bind(mesh) if harmonic_static else None  # Mesh Deform's solve: its failure leaves the entry
+    except RuntimeError as exc:  # "cannot find a bind solution", naming the cage
+        raise EntryError(str(exc)) from exc
     bind_id = new_bind_id(obj)
     store_array(entry, REST, points.astype(np.float32).ravel())
+    if harmonic_static:
+        store_array(entry, BOUND, mesh.ravel())
+    elif BOUND in entry:
+        del entry[BOUND]
     entry.bind_vertices, entry.bind_faces, entry.bind_topology = topo
     entry.bind_id = bind_id  # a new bind key: the old bindings are not used again
+    cache.put("cage_deformer", bind_key(obj, entry), (weights_crc(None), deformer))  # a Dynamic grid: solved once
+    if made is not None:  # the first evaluation uses this binding, not a second solve
+        cache.put("cage_bound", bind_key(obj, entry), mesh)
+        index = stack_index(entry)
+        for kind in ("viewport", "render"):
+            cache.put("cage_binding", (meshdata.cache_key(obj), index, kind), (bind_key(obj, entry), mesh, made))
     return topo[0]
 
 
 def unbind(obj, entry):
-    binding.forget(entry, (REST,))
+    binding.forget(entry, (REST, BOUND))
 
 
 def followed(entry):
     return [(entry.cage, entry.cage_name)]
 
 
+def grid_tail(entry):
+    """bind_key without the object's key."""
+    return (entry.bind_id, entry.cage_method) + ((entry.precision, entry.use_dynamic_bind)
+                                                 if entry.cage_method == "HARMONIC" else ())
+
+
 def prune(object_key, entries):
     """Bindings of binds no entry has any more go."""
-    forget_bindings(object_key, "cage_binding", entries, lambda e: (e.bind_id, e.cage_method))
-    alive = {(e.bind_id, e.cage_method) for e in entries}
-    cache.forget(object_key, "cage_deformer", keep=lambda k: k[1:] in alive)
+    forget_bindings(object_key, "cage_binding", entries, grid_tail)
+    alive = {grid_tail(e) for e in entries}
+    for space in ("cage_deformer", "cage_bound"):
+        cache.forget(object_key, space, keep=lambda k: k[1:] in alive)
 
 
 def retyped(entry):
-    binding.forget(entry, (REST,))
+    binding.forget(entry, (REST, BOUND))
 
 
 def draw(col, obj, entry):
@@ -158,6 +237,11 @@ def draw(col, obj, entry):
     if entry.cage is None and not entry.cage_name:
         panel_text.label_wrapped(col, HINT, "INFO", panel_text.box_budget())  # a label is cut
     col.prop(entry, "cage_method", text="Method")
+    if entry.cage_method == "HARMONIC":  # Mesh Deform's settings, read at Bind
+        at_bind = col.column()
+        at_bind.enabled = not is_bound(entry)
+        at_bind.prop(entry, "precision")
+        at_bind.prop(entry, "use_dynamic_bind")
     col.prop(entry, "strength", slider=True)
     draw_vertex_group(col, obj, entry)
     col.separator()
