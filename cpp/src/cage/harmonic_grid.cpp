@@ -40,7 +40,23 @@ double segment_distance2(const Vec3& x, const Vec3& a, const Vec3& b) {
 
 }  // namespace
 
-RayCage::RayCage(const CageMesh& cage) : polygons_(&cage.polygons()) {
+namespace {
+
+std::vector<std::array<std::array<float, 3>, 3>> float_triangles(const std::vector<Vec3>& point,
+                                                                 const std::vector<std::array<int, 3>>& triangle) {
+  std::vector<std::array<std::array<float, 3>, 3>> out;
+  for (const auto& t : triangle) {
+    std::array<std::array<float, 3>, 3> corners;
+    for (int k = 0; k < 3; ++k)
+      for (int a = 0; a < 3; ++a) corners[std::size_t(k)][std::size_t(a)] = float(point[std::size_t(t[std::size_t(k)])][a]);
+    out.push_back(corners);
+  }
+  return out;
+}
+
+}  // namespace
+
+RayCage::RayCage(const CageMesh& cage, int bvh_arity) : polygons_(&cage.polygons()), bvh_({}, 2) {
   const std::vector<double>& p = cage.rest_points();
   for (std::size_t i = 0; i < p.size() / 3; ++i) point_.push_back(point_of(p, int(i)));
   const PolygonMesh& poly = cage.polygons();
@@ -72,6 +88,7 @@ RayCage::RayCage(const CageMesh& cage) : polygons_(&cage.polygons()) {
       for (const auto& t : split[f]) add(t[0], t[1], t[2]);
     }
   }
+  bvh_ = BlenderBvh(float_triangles(point_, triangle_), bvh_arity);
   // Per axis, the triangles' projections bucketed on a res x res grid over the cage's projection.
   const int res = std::max(1, int(std::sqrt(double(triangle_.size()))));
   for (int axis = 0; axis < 3; ++axis) {
@@ -132,21 +149,43 @@ void RayCage::line_hits(int axis, double pu, double pv, std::vector<Hit>& out) c
   x[v] = pv;
   for (int k = b.start[cell]; k < b.start[cell + 1]; ++k) {
     const int t = b.items[std::size_t(k)];
-    const Vec3& p0 = point_[triangle_[t][0]];
-    const Vec3& p1 = point_[triangle_[t][1]];
-    const Vec3& p2 = point_[triangle_[t][2]];
-    const int whole = cage_exact::turn_along(p0, p1, p2, axis);
-    if (whole == 0) continue;  // edge-on to the line (Blender's watertight test misses it too)
-    const int s0 = cage_exact::turn_along(x, p0, p1, axis), s1 = cage_exact::turn_along(x, p1, p2, axis),
-              s2 = cage_exact::turn_along(x, p2, p0, axis);
-    if (s0 * whole < 0 || s1 * whole < 0 || s2 * whole < 0) continue;
-    const Vec3 n = (p1 - p0).cross(p2 - p0);
-    const double t_hit = p0[axis] - (n[u] * (pu - p0[u]) + n[v] * (pv - p0[v])) / n[axis];
-    out.push_back({t_hit, t});
+    double t_hit = 0.0;
+    if (meets(t, axis, pu, pv, t_hit)) out.push_back({t_hit, t});
   }
   std::sort(out.begin(), out.end(), [](const Hit& a, const Hit& b) {
     return a.t < b.t || (a.t == b.t && a.triangle < b.triangle);
   });
+}
+
+bool RayCage::meets(int triangle, int axis, double pu, double pv, double& t) const {
+  const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+  Vec3 x = Vec3::Zero();
+  x[u] = pu;
+  x[v] = pv;
+  const Vec3& p0 = point_[std::size_t(triangle_[std::size_t(triangle)][0])];
+  const Vec3& p1 = point_[std::size_t(triangle_[std::size_t(triangle)][1])];
+  const Vec3& p2 = point_[std::size_t(triangle_[std::size_t(triangle)][2])];
+  const int whole = cage_exact::turn_along(p0, p1, p2, axis);
+  if (whole == 0) return false;  // edge-on to the line (Blender's watertight test misses it too)
+  const int s0 = cage_exact::turn_along(x, p0, p1, axis), s1 = cage_exact::turn_along(x, p1, p2, axis),
+            s2 = cage_exact::turn_along(x, p2, p0, axis);
+  if (s0 * whole < 0 || s1 * whole < 0 || s2 * whole < 0) return false;
+  const Vec3 n = (p1 - p0).cross(p2 - p0);
+  t = p0[axis] - (n[u] * (pu - p0[u]) + n[v] * (pv - p0[v])) / n[axis];
+  return true;
+}
+
+int RayCage::blender_hit(const Vec3& origin, int axis, int sign, double length, double& t) const {
+  const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+  const float o[3] = {float(origin[0]), float(origin[1]), float(origin[2])};
+  const int found = bvh_.first_hit(o, axis, sign, float(length), [&](int tri, double& dist) {
+    double at = 0.0;
+    if (!meets(tri, axis, origin[u], origin[v], at)) return false;
+    dist = (at - origin[axis]) * sign;
+    return true;
+  });
+  if (found >= 0) meets(found, axis, origin[u], origin[v], t);
+  return found;
 }
 
 void RayCage::polygon_weights(int face, const Vec3& x, double* w) const {
@@ -257,6 +296,20 @@ HarmonicGrid build_grid(const RayCage& cage, const std::vector<double>& cage_poi
           std::size_t last = h;
           while (last + 1 < hits.size() && hits[last + 1].t <= c1) ++last;
           const std::int64_t a = base + std::int64_t(i) * stride[axis], b = a + stride[axis];
+          // Several hits in the segment: the one Blender's traversal keeps, from either end.
+          RayCage::Hit up = hits[h], down = hits[last];
+          if (last > h) {
+            Vec3 from;
+            from[u] = pu;
+            from[v] = pv;
+            from[axis] = c0;
+            double t = 0.0;
+            int tri = cage.blender_hit(from, axis, 1, g.width, t);
+            if (tri >= 0) up = {t, tri};
+            from[axis] = c1;
+            tri = cage.blender_hit(from, axis, -1, g.width, t);
+            if (tri >= 0) down = {t, tri};
+          }
           auto at = [&](double t) {
             Vec3 x;
             x[axis] = t;
@@ -264,10 +317,8 @@ HarmonicGrid build_grid(const RayCage& cage, const std::vector<double>& cage_poi
             x[v] = pv;
             return x;
           };
-          out.push_back({a * 6 + 2 * axis + 1, std::max(hits[h].t - c0, kMinCutLength),
-                         cage.face_of(hits[h].triangle), at(hits[h].t)});
-          out.push_back({b * 6 + 2 * axis, std::max(c1 - hits[last].t, kMinCutLength),
-                         cage.face_of(hits[last].triangle), at(hits[last].t)});
+          out.push_back({a * 6 + 2 * axis + 1, std::max(up.t - c0, kMinCutLength), cage.face_of(up.triangle), at(up.t)});
+          out.push_back({b * 6 + 2 * axis, std::max(c1 - down.t, kMinCutLength), cage.face_of(down.triangle), at(down.t)});
           g.cut[std::size_t(a)] |= std::uint8_t(1u << (2 * axis + 1));
           g.cut[std::size_t(b)] |= std::uint8_t(1u << (2 * axis));
         }
@@ -310,23 +361,14 @@ HarmonicGrid build_grid(const RayCage& cage, const std::vector<double>& cage_poi
   return g;
 }
 
-bool inside_cage(const RayCage& cage, const HarmonicGrid& grid, const Vec3& p, std::vector<RayCage::Hit>& hits) {
-  for (int axis = 0; axis < 3; ++axis) {
-    const int u = (axis + 1) % 3, v = (axis + 2) % 3;
-    cage.line_hits(axis, p[u], p[v], hits);
-    const double x = p[axis];
-    // Up the axis: the first hit at or above x; down: the last at or below.
-    for (const auto& h : hits)
-      if (h.t >= x) {
-        if (h.t - x <= grid.ray_length && cage.normal(cage.face_of(h.triangle), axis) > 0.0) return true;
-        break;
-      }
-    for (auto it = hits.rbegin(); it != hits.rend(); ++it)
-      if (it->t <= x) {
-        if (x - it->t <= grid.ray_length && cage.normal(cage.face_of(it->triangle), axis) < 0.0) return true;
-        break;
-      }
-  }
+bool inside_cage(const RayCage& cage, const HarmonicGrid& grid, const Vec3& p, std::vector<RayCage::Hit>& /*scratch*/) {
+  for (int axis = 0; axis < 3; ++axis)
+    for (int sign = 1; sign >= -1; sign -= 2) {
+      double t = 0.0;
+      const int tri = cage.blender_hit(p, axis, sign, grid.ray_length, t);
+      // Blender: inside when the kept hit's polygon faces along the ray (seen from inside).
+      if (tri >= 0 && sign * cage.normal(cage.face_of(tri), axis) > 0.0) return true;
+    }
   return false;
 }
 

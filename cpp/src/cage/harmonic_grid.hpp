@@ -3,6 +3,7 @@
 // of 2^p + 2 cells a side around the cage, the segments between neighbouring cell centres cut by
 // the cage, the cells tagged exterior by a flood fill from a corner, and the 7-point Laplacian
 // with cut edges whose solutions are the harmonic coordinates (docs/math/cage.md, "Mesh Deform").
+#include "cage/blender_bvh.hpp"
 #include "cage/grid_stencil_direct.hpp"
 #include "deformkit/cage/cage_mesh.hpp"
 #include "deformkit/core/types.hpp"
@@ -20,7 +21,7 @@ namespace deformkit::harmonic {
 // triangles' projections for the axis-aligned lines every query runs along.
 class RayCage {
  public:
-  explicit RayCage(const CageMesh& cage);
+  RayCage(const CageMesh& cage, int bvh_arity);
 
   struct Hit {
     double t;      // the coordinate along the line's axis
@@ -29,6 +30,12 @@ class RayCage {
   // Every triangle the line {x : x[u] = pu, x[v] = pv} (u, v the other two axes, in cyclic
   // order after `axis`) meets, edges included, sorted by t. Meeting is decided exactly.
   void line_hits(int axis, double pu, double pv, std::vector<Hit>& out) const;
+
+  // Where triangle `triangle` meets that line (decided exactly), at coordinate t along it.
+  bool meets(int triangle, int axis, double pu, double pv, double& t) const;
+  // The triangle Blender's ray cast keeps for the ray from origin along sign * axis, `length`
+  // long (BlenderBvh), or -1; t its coordinate along the axis.
+  int blender_hit(const Vec3& origin, int axis, int sign, double length, double& t) const;
 
   int face_of(int triangle) const { return triangle_face_[std::size_t(triangle)]; }
   // Component `axis` of the polygon's outward (Newell) normal.
@@ -50,6 +57,7 @@ class RayCage {
   std::vector<int> triangle_face_;
   std::vector<Vec3> normal_;
   Buckets buckets_[3];
+  BlenderBvh bvh_;
 };
 
 // A segment between neighbouring cell centres that the cage cuts: where (distance from the cell,

@@ -26,8 +26,8 @@ const double kStaticMin = double(0.00001f);
 const double kDynamicMin = double(0.0005f);
 
 struct Solved {
-  explicit Solved(const CageMesh& c, int precision)
-      : cage(c), rays(cage), grid(build_grid(rays, cage.rest_points(), precision)), stencil(grid_stencil(grid)),
+  Solved(const CageMesh& c, int precision, int bvh_arity)
+      : cage(c), rays(cage, bvh_arity), grid(build_grid(rays, cage.rest_points(), precision)), stencil(grid_stencil(grid)),
         terms(boundary_terms(grid, stencil)) {}
   CageMesh cage;  // a copy: rays reads its polygons
   RayCage rays;
@@ -287,7 +287,7 @@ MeshDeform::MeshDeform(CageMesh cage, int precision, bool dynamic)
   if (precision < kMinPrecision || precision > kMaxPrecision)
     throw std::invalid_argument("precision: expected an integer from 2 to 10 (2^precision + 2 grid cells a side), got " +
                                 std::to_string(precision));
-  auto solved = std::make_shared<harmonic::Solved>(cage_, precision_);
+  auto solved = std::make_shared<harmonic::Solved>(cage_, precision_, 2);
   harmonic::require_unknowns(*solved, precision_);
   if (dynamic_) harmonic::solve_cells(*solved, precision_);
   solved_ = std::move(solved);
