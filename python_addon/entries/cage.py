@@ -43,12 +43,20 @@ CLASSES = {"MEAN_VALUE": "MeanValueCage", "GREEN": "GreenCage", "HARMONIC": "Mes
 
 REST = "deformkit_cage_rest"  # the entry's ID property: the cage at bind, x y z per vertex, in this object's space
 BOUND = "deformkit_cage_bound"  # Harmonic, not Dynamic: the points that came into the entry at bind, x y z
+# Harmonic: this object's inverse times the cage object's matrix at bind (4 x 4, row-major). Mesh
+# Deform lays its grid along the cage object's own axes and turns the displacement by how the two
+# objects stand now, so the entry does too.
+FRAME = "deformkit_cage_frame"
 NOT_COPIED = binding.NOT_COPIED  # a copy arrives unbound
 
 # deformer: the dk cage deformer with the current cage and the entry's influence; bind: the key its
-# deformer and bindings are kept under; fingerprint: everything besides the incoming points; bound:
-# the points bound at Bind (Harmonic, not Dynamic), else None.
-Setup = namedtuple("Setup", "deformer bind fingerprint bound", defaults=(None,))
+# deformer and bindings are kept under; fingerprint: everything besides the incoming points;
+# harmonic: a Harmonic entry's Frame, else None.
+Setup = namedtuple("Setup", "deformer bind fingerprint harmonic", defaults=(None,))
+# A Harmonic entry in the cage's own space: now, this object's space to the cage's (4 x 4); turn,
+# the cage's displacements into this object's space (3 x 3, None when that is the identity);
+# bound, (points, in the cage's space) of a bind that keeps its points (not Dynamic), else None.
+Frame = namedtuple("Frame", "now turn bound")
 # In the cache: "cage_binding", (object cache key, entry index, "viewport"/"render") -> (bind key
 # (object cache key, bind id, method[, precision, dynamic]), points, binding); "cage_deformer", bind
 # key -> (crc of the per-point weights, deformer); "cage_bound", bind key -> the points bound at Bind.
@@ -100,16 +108,18 @@ def bind_key(obj, entry):
     return (meshdata.cache_key(obj),) + grid_tail(entry)
 
 
-def _deformer(obj, entry, faces, weights):
-    """The dk cage deformer of the rest cage with these per-point weights, kept while the bind and
-    the weights stay: checking the cage and building its tables costs about as much as a frame."""
+def _deformer(obj, entry, faces, weights, rest=None):
+    """The dk cage deformer of the rest cage (the saved one, or `rest`) with these per-point weights,
+    kept while the bind and the weights stay: checking the cage and building its tables costs about
+    as much as a frame."""
     cls = _class(entry)
     key = bind_key(obj, entry)
     crc = weights_crc(weights)
     cached = cache.get("cage_deformer", key)
     if cached is not None and cached[0] == crc:
         return key, cached[1], crc
-    rest = np.asarray(entry[REST], np.float64).reshape(-1, 3)
+    if rest is None:
+        rest = np.asarray(entry[REST], np.float64).reshape(-1, 3)
     try:
         deformer = _make(cls, entry, rest, faces, weights)
     except ValueError as exc:
@@ -118,15 +128,30 @@ def _deformer(obj, entry, faces, weights):
     return key, deformer, crc
 
 
+def to_space(points, matrix):
+    return np.asarray(points, np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
+
+
+def relative(obj, cage):
+    """obj^-1 cage: the cage's local space in obj's."""
+    return np.array(obj.matrix_world.inverted() @ cage.matrix_world, np.float64)
+
+
+def saved_frame(entry):
+    return np.array(entry[FRAME], np.float64).reshape(4, 4)
+
+
 def bound_points(obj, entry):
-    """The points bound at Bind (Harmonic, not Dynamic), float32 (n, 3), or None; read from the
-    entry once per bind (kept in the cache's "cage_bound" space), not every frame."""
+    """(points bound at Bind, the same in the cage's space at bind) of a Harmonic entry that is not
+    Dynamic, or None; read from the entry once per bind (the cache's "cage_bound" space), not every
+    frame."""
     if entry.cage_method != "HARMONIC" or entry.use_dynamic_bind or BOUND not in entry:
         return None
     key = bind_key(obj, entry)
     kept = cache.get("cage_bound", key)
     if kept is None:
-        kept = cache.put("cage_bound", key, np.array(entry[BOUND], np.float32).reshape(-1, 3))
+        points = np.array(entry[BOUND], np.float32).reshape(-1, 3)
+        kept = cache.put("cage_bound", key, (points, to_space(points, np.linalg.inv(saved_frame(entry)))))
     return kept
 
 
@@ -135,7 +160,16 @@ def mesh_change(obj, entry, bound):
     count is the edit mesh's: deform checks it there."""
     if bound is None or obj.mode == "EDIT":
         return ""
-    return binding.counts_changed("the mesh", (len(bound),), (len(obj.data.vertices),))
+    return binding.counts_changed("the mesh", (len(bound[0]),), (len(obj.data.vertices),))
+
+
+def harmonic_frame(obj, cage, entry, points):
+    """(Frame, the rest cage and the current cage in the cage's space) of a Harmonic entry."""
+    now = relative(obj, cage)
+    to_cage, at_bind = np.linalg.inv(now), saved_frame(entry)
+    turn = None if np.array_equal(now[:3, :3], np.eye(3)) else now[:3, :3]
+    rest = to_space(np.asarray(entry[REST], np.float64).reshape(-1, 3), np.linalg.inv(at_bind))
+    return Frame(to_cage, turn, bound_points(obj, entry)), rest, to_space(points, to_cage)
 
 
 def setup(obj, entry, reuse_weights=False):
@@ -143,32 +177,45 @@ def setup(obj, entry, reuse_weights=False):
     if cage is None or not is_bound(entry) or REST not in entry:
         return Prepared(None, ("unbound",), None)  # as Mesh Deform before Bind: the mesh passes through
     points, faces, topo = evaluated_cage(obj, cage)
-    bound = bound_points(obj, entry)
-    binding.require_current(entry, topology_change(entry, topo) or mesh_change(obj, entry, bound))
-    key, deformer, crc = _deformer(obj, entry, faces, scaled_influence(obj, entry, reuse_weights))
+    frame, rest = None, None
+    if entry.cage_method == "HARMONIC":
+        frame, rest, points = harmonic_frame(obj, cage, entry, points)
+    binding.require_current(entry, topology_change(entry, topo) or mesh_change(obj, entry, frame and frame.bound))
+    key, deformer, crc = _deformer(obj, entry, faces, scaled_influence(obj, entry, reuse_weights), rest)
     deformer.cage_points = points
-    fingerprint = (key, zlib.crc32(points.tobytes()), crc)
-    return Prepared(deformer, fingerprint, Setup(deformer, key, fingerprint, bound))
+    fingerprint = (key, zlib.crc32(points.tobytes()), crc) + (() if frame is None else (frame.now.tobytes(),))
+    return Prepared(deformer, fingerprint, Setup(deformer, key, fingerprint, frame))
 
 
 def deform(key, prepared, points):
-    """The entry's result on `points`, through a binding kept while the points and the bind stay.
-    Harmonic without Dynamic keeps the binding of the points bound at Bind, as Mesh Deform: other
-    points of that count move as they did (x + their displacement), as the modifier's do."""
+    """The entry's result on `points`, through a binding kept while the points and the bind stay."""
     setup_ = prepared.data
     if setup_ is None:
         return points
-    bound = setup_.bound
-    if bound is not None and len(bound) != len(points):
-        raise EntryError(binding.counts_changed("the mesh", (len(bound),), (len(points),)))
+    if setup_.harmonic is not None:
+        return harmonic_deform(key, setup_, points)
     # float32 weights, as the mesh's positions are: half the memory and time per frame.
-    precision = {} if setup_.bind[2] == "HARMONIC" else {"precision": "float32"}
-    binding_ = kept_binding("cage_binding", key, setup_.bind, points if bound is None else bound,
-                            lambda p: setup_.deformer.bind(p, **precision))
-    result = setup_.deformer.deform_bound(binding_)
-    if bound is not None and not np.array_equal(bound, points):
-        result = points + (result - bound)
-    return result
+    binding_ = kept_binding("cage_binding", key, setup_.bind, points,
+                            lambda p: setup_.deformer.bind(p, precision="float32"))
+    return setup_.deformer.deform_bound(binding_)
+
+
+def harmonic_deform(key, setup_, points):
+    """Mesh Deform's result in this object's space: the points in the cage's space (as bound at
+    Bind, or as they come with Dynamic) move by their harmonic displacement, turned into this
+    object's space and added to the points as they come: x + R sum_a w_a (c_a - c_a at bind)."""
+    frame = setup_.harmonic
+    if frame.bound is not None:
+        if len(frame.bound[0]) != len(points):
+            raise EntryError(binding.counts_changed("the mesh", (len(frame.bound[0]),), (len(points),)))
+        local = frame.bound[1]
+    else:
+        local = to_space(points, frame.now)
+    bound = kept_binding("cage_binding", key, setup_.bind, local, setup_.deformer.bind)
+    moved = setup_.deformer.deform_bound(bound) - local
+    if frame.turn is not None:
+        moved = moved @ frame.turn.T
+    return (points + moved).astype(np.float32)
 
 
 def bind(obj, entry, incoming, rest=None):
@@ -180,32 +227,38 @@ def bind(obj, entry, incoming, rest=None):
     points, faces, topo = evaluated_cage(obj, cage)
     if rest is not None:
         points = np.asarray(rest, np.float32).astype(np.float64).reshape(points.shape)
-    deformer = _make(_class(entry), entry, points, faces)  # checks the cage: ValueError naming the first open edge, ...
-    harmonic_static = entry.cage_method == "HARMONIC" and not entry.use_dynamic_bind
-    mesh = np.asarray(incoming(), np.float32).reshape(-1, 3) if harmonic_static else None
+    harmonic = entry.cage_method == "HARMONIC"
+    frame = relative(obj, cage) if harmonic else None
+    to_cage = None if frame is None else np.linalg.inv(frame)
+    rest_points = points if frame is None else to_space(points.astype(np.float32), to_cage)
+    deformer = _make(_class(entry), entry, rest_points, faces)  # checks the cage: ValueError naming its first open edge, ...
+    mesh = np.asarray(incoming(), np.float32).reshape(-1, 3) if harmonic and not entry.use_dynamic_bind else None
+    local = None if mesh is None else to_space(mesh, to_cage)
     try:
-        made = deformer.bind(mesh) if harmonic_static else None  # Mesh Deform's solve: its failure leaves the entry
+        made = None if local is None else deformer.bind(local)  # Mesh Deform's solve: its failure leaves the entry
     except RuntimeError as exc:  # "cannot find a bind solution", naming the cage
         raise EntryError(str(exc)) from exc
     bind_id = new_bind_id(obj)
     store_array(entry, REST, points.astype(np.float32).ravel())
-    if harmonic_static:
-        store_array(entry, BOUND, mesh.ravel())
-    elif BOUND in entry:
-        del entry[BOUND]
+    for name, values in ((BOUND, mesh), (FRAME, frame)):
+        if values is not None:
+            store_array(entry, name, values.ravel())
+        elif name in entry:
+            del entry[name]
     entry.bind_vertices, entry.bind_faces, entry.bind_topology = topo
     entry.bind_id = bind_id  # a new bind key: the old bindings are not used again
-    cache.put("cage_deformer", bind_key(obj, entry), (weights_crc(None), deformer))  # a Dynamic grid: solved once
+    key = bind_key(obj, entry)
+    cache.put("cage_deformer", key, (weights_crc(None), deformer))  # a Dynamic grid: solved once
     if made is not None:  # the first evaluation uses this binding, not a second solve
-        cache.put("cage_bound", bind_key(obj, entry), mesh)
+        cache.put("cage_bound", key, (mesh, local))
         index = stack_index(entry)
         for kind in ("viewport", "render"):
-            cache.put("cage_binding", (meshdata.cache_key(obj), index, kind), (bind_key(obj, entry), mesh, made))
+            cache.put("cage_binding", (meshdata.cache_key(obj), index, kind), (key, local, made))
     return topo[0]
 
 
 def unbind(obj, entry):
-    binding.forget(entry, (REST, BOUND))
+    binding.forget(entry, (REST, BOUND, FRAME))
 
 
 def followed(entry):
@@ -227,7 +280,7 @@ def prune(object_key, entries):
 
 
 def retyped(entry):
-    binding.forget(entry, (REST, BOUND))
+    binding.forget(entry, (REST, BOUND, FRAME))
 
 
 def draw(col, obj, entry):

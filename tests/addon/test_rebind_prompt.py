@@ -271,3 +271,33 @@ def test_an_entry_failing_for_another_reason_offers_no_rebind(scene):
     entry = obj.deformkit.entries[0]
     assert "no longer exists" in entry.error
     assert buttons(obj, "Rebind") == []
+
+
+def test_a_harmonic_cage_entry_offers_rebind_when_the_mesh_changed(scene):
+    """Harmonic without Dynamic binds the mesh as Mesh Deform does: another vertex count asks for
+    Rebind, which gives what Blender's Mesh Deform bound to the new mesh gives."""
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    cage = cage_around(bpy, obj)
+    api.add_entry(obj, "CAGE", cage=cage, cage_method="HARMONIC", precision=3)
+    api.bind_cage(obj, 0)
+    count = len(obj.data.vertices)
+    apply_subdivision(bpy, obj)
+    now = len(obj.data.vertices)
+    assert_prompt(bpy, obj, f"bound to {grouped(count)} vertices, the mesh now has {grouped(now)}: Rebind",
+                  "deformkit.cage_bind")
+    assert click(bpy, obj, bpy.ops.deformkit.cage_bind) == {"FINISHED"}
+    assert_prompt_gone(obj)
+    twin = bpy.data.objects.new("Twin", obj.data.copy())  # the subdivided mesh, in its order
+    bpy.context.scene.collection.objects.link(twin)
+    twin.matrix_world = obj.matrix_world
+    mod = twin.modifiers.new("MeshDeform", "MESH_DEFORM")
+    mod.object, mod.precision = cage, 3
+    with bpy.context.temp_override(object=twin, active_object=twin):
+        assert bpy.ops.object.meshdeform_bind(modifier=mod.name) == {"FINISHED"}
+    lean(cage)
+    expected = evaluated(twin).astype(np.float64)
+    assert np.abs(expected - positions(twin.data)).max() > 0.05
+    error = np.linalg.norm(evaluated(obj) - expected, axis=1) / np.linalg.norm(np.ptp(evaluated_in(obj, cage)[0], 0))
+    assert np.quantile(error, 0.99) <= 1e-5 and error.max() <= 1e-4
