@@ -5,12 +5,13 @@ modifier is used; Harmonic is that modifier's own, with its Precision and Dynami
 Bind records the cage's rest shape in this object's space, with a fingerprint of its topology, on
 the entry itself (an ID property array, so it saves and undoes with the object and never reaches
 the mesh). Afterwards the entry follows the cage object's *evaluated* mesh: a cage rigged with an
-Armature, edited in Edit Mode, shape-keyed or keyframed drives the mesh, and moving the cage object
-moves the mesh, as with Mesh Deform. The mesh is bound to the rest cage once per incoming points
+Armature, edited in Edit Mode, shape-keyed or keyframed drives the mesh, and (Mean Value, Green)
+moving the cage object moves the mesh. The mesh is bound to the rest cage once per incoming points
 (kept in the cache's "cage" space), and each evaluation is one product of the bound coordinates
-with the current cage. Harmonic without Dynamic binds as Mesh Deform does: the points coming into
-the entry at Bind (kept on the entry, BOUND), whose coordinates later points of the same count
-keep (displacement form: x + W (c - c at bind)); a mesh with another vertex count asks for Rebind.
+with the current cage. Harmonic works as Mesh Deform does, in the cage object's own space at bind
+(FRAME): a moved cage object turns the displacement and does not carry the mesh. Without Dynamic
+it binds the points coming into the entry at Bind (kept on the entry, BOUND), whose coordinates
+later points of the same count keep (x + W (c - c at bind)); another vertex count asks for Rebind.
 
 Here too: the entry's settings and panel; its operators are in operators/cage.py.
 """

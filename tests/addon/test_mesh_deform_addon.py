@@ -391,3 +391,37 @@ def test_harmonic_equals_mesh_deform_on_the_beast(scene, dynamic):
         moved = evaluated(blender).astype(np.float64)
         assert np.abs(moved - points).max() > 0.01 * diagonal(rest)
         assert_equal_to_blender(evaluated(ours), moved, shape)
+
+
+# ---------------------------------------------------------------------------------------------
+# The bind saved with the file, and a batch recipe
+
+def test_a_harmonic_bind_survives_save_and_reload(scene, tmp_path):
+    import bpy
+    blender, ours, cage = twins(bpy, False)
+    shake(cage, seed=8)
+    shown = evaluated(ours).copy()
+    path = str(tmp_path / "harmonic.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    ours, cage = bpy.data.objects["Ours"], bpy.data.objects["Cage"]
+    update()
+    assert ours.deformkit.entries[0].error == ""
+    reloaded = evaluated(ours)  # the grid solved again from the saved rest and bound points
+    assert np.abs(reloaded.astype(np.float64) - shown).max() <= 1e-6 * diagonal(cage_in(ours, cage))
+    assert_equal_to_blender(reloaded, evaluated(bpy.data.objects["Blender"]).astype(np.float64), cage_in(ours, cage))
+
+
+def test_a_batch_recipe_adds_and_binds_a_harmonic_entry(scene):
+    import bpy
+    from deformkit_addon import batch
+    blender = make_object(bpy, name="Blender")
+    ours = make_object(bpy, name="Ours")
+    cage = cage_around(bpy, blender)
+    mesh_deform(bpy, blender, cage, precision=4)
+    batch.apply_recipe({"objects": ["Ours"], "deformers": [{"type": "CAGE", "cage": "Cage", "cage_method": "HARMONIC",
+                                                            "precision": 4, "bind": True}]})
+    entry = ours.deformkit.entries[0]
+    assert (entry.cage_method, entry.precision, entry.bind_id != 0, entry.error) == ("HARMONIC", 4, True, "")
+    shake(cage, seed=9)
+    assert_equal_to_blender(evaluated(ours), evaluated(blender).astype(np.float64), cage_in(ours, cage))
