@@ -178,10 +178,13 @@ def setup(obj, entry, reuse_weights=False):
     if cage is None or not is_bound(entry) or REST not in entry:
         return Prepared(None, ("unbound",), None)  # as Mesh Deform before Bind: the mesh passes through
     points, faces, topo = evaluated_cage(obj, cage)
-    frame, rest = None, None
-    if entry.cage_method == "HARMONIC":
+    harmonic, frame, rest = entry.cage_method == "HARMONIC", None, None
+    # Bound with Mean Value or Green, a Harmonic entry lacks the frame of its grid.
+    changed = "bound for another method: Rebind" if harmonic and FRAME not in entry else topology_change(entry, topo)
+    if harmonic and not changed:
         frame, rest, points = harmonic_frame(obj, cage, entry, points)
-    binding.require_current(entry, topology_change(entry, topo) or mesh_change(obj, entry, frame and frame.bound))
+        changed = mesh_change(obj, entry, frame.bound)
+    binding.require_current(entry, changed)
     key, deformer, crc = _deformer(obj, entry, faces, scaled_influence(obj, entry, reuse_weights), rest)
     deformer.cage_points = points
     fingerprint = (key, zlib.crc32(points.tobytes()), crc) + (() if frame is None else (frame.now.tobytes(),))

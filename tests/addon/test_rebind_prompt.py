@@ -301,3 +301,21 @@ def test_a_harmonic_cage_entry_offers_rebind_when_the_mesh_changed(scene):
     assert np.abs(expected - positions(twin.data)).max() > 0.05
     error = np.linalg.norm(evaluated(obj) - expected, axis=1) / np.linalg.norm(np.ptp(evaluated_in(obj, cage)[0], 0))
     assert np.quantile(error, 0.99) <= 1e-5 and error.max() <= 1e-4
+
+
+def test_a_cage_entry_bound_for_another_method_offers_rebind_for_harmonic(scene):
+    """Mean Value and Green share a bind; Harmonic lays its grid in the cage's frame at bind, which
+    they do not record: switched to Harmonic, the entry asks for Rebind."""
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    cage = cage_around(bpy, obj)
+    entry = api.add_entry(obj, "CAGE", cage=cage, cage_method="GREEN")
+    api.bind_cage(obj, 0)
+    entry.cage_method = "MEAN_VALUE"
+    assert entry.error == ""
+    entry.cage_method = "HARMONIC"
+    assert_prompt(bpy, obj, "bound for another method: Rebind", "deformkit.cage_bind")
+    assert click(bpy, obj, bpy.ops.deformkit.cage_bind) == {"FINISHED"}
+    assert_prompt_gone(obj)
+    np.testing.assert_array_equal(evaluated(obj), positions(obj.data))  # bound at rest: the identity
