@@ -282,12 +282,15 @@ bool dynamic_offset(const Solved& s, const double* p, const double* disp, double
 }  // namespace
 }  // namespace harmonic
 
-MeshDeform::MeshDeform(CageMesh cage, int precision, bool dynamic)
-    : cage_(std::move(cage)), precision_(precision), dynamic_(dynamic), current_(cage_.rest_points()) {
+MeshDeform::MeshDeform(CageMesh cage, int precision, bool dynamic, int bvh_arity)
+    : cage_(std::move(cage)), precision_(precision), dynamic_(dynamic), bvh_arity_(bvh_arity),
+      current_(cage_.rest_points()) {
   if (precision < kMinPrecision || precision > kMaxPrecision)
     throw std::invalid_argument("precision: expected an integer from 2 to 10 (2^precision + 2 grid cells a side), got " +
                                 std::to_string(precision));
-  auto solved = std::make_shared<harmonic::Solved>(cage_, precision_, 2);
+  if (bvh_arity != 2 && bvh_arity != 4)
+    throw std::invalid_argument("bvh_arity: expected 2 or 4, got " + std::to_string(bvh_arity));
+  auto solved = std::make_shared<harmonic::Solved>(cage_, precision_, bvh_arity_);
   harmonic::require_unknowns(*solved, precision_);
   if (dynamic_) harmonic::solve_cells(*solved, precision_);
   solved_ = std::move(solved);
@@ -318,6 +321,7 @@ std::uint64_t MeshDeform::layout() const {
   mix(kind, sizeof kind);
   mix(&precision_, sizeof precision_);
   mix(&dynamic_, sizeof dynamic_);
+  mix(&bvh_arity_, sizeof bvh_arity_);
   mix(cage_.rest_points().data(), cage_.rest_points().size() * sizeof(double));
   mix(cage_.polygons().corners().data(), cage_.polygons().corners().size() * sizeof(int));
   return h;
