@@ -80,7 +80,7 @@ Corners corners_of(const HarmonicGrid& g, const double* p) {
 
 void require_unknowns(const Solved& s, int precision) {
   if (s.stencil.diagonal.empty())
-    throw std::runtime_error(
+    throw std::invalid_argument(
         "cage_points: cannot find a bind solution: no cell of the precision-" + std::to_string(precision) +
         " grid lies inside the cage (a cage thinner than the grid's cells); raise precision");
 }
@@ -402,7 +402,8 @@ WeightTable MeshDeform::weights_table(const MeshDeformBinding& b) const {
 void MeshDeform::check_binding(const PointBinding& binding) const {
   const auto* b = dynamic_cast<const MeshDeformBinding*>(&binding);
   if (!b || b->layout != layout())
-    throw std::invalid_argument("binding: not made by this MeshDeform (its cage, precision and mode)");
+    throw std::invalid_argument(
+        "binding: was made by another MeshDeform (another rest cage, precision, bind mode or blender_version)");
 }
 
 template <class T>
