@@ -94,6 +94,26 @@ struct PyMeshDeformBinding {
   std::shared_ptr<const MeshDeform> deformer;
 };
 
+// Blender's mesh ray-cast trees: 4 children per branch before 4.4, 2 since.
+int bvh_arity_of(const py::object& version) {
+  const py::ssize_t n = sequence_length(version);
+  std::vector<std::int64_t> parts;
+  if (n == 2 || n == 3) {
+    try {
+      for (const py::handle item : version) {
+        if (py::isinstance<py::bool_>(item) || !py::isinstance<py::int_>(item)) throw py::type_error("");
+        parts.push_back(item.cast<std::int64_t>());
+      }
+    } catch (const std::exception&) {
+      parts.clear();
+    }
+  }
+  if (parts.size() < 2 || parts[0] < 2)
+    throw py::value_error("blender_version: expected (major, minor) integers of a Blender release, e.g. (5, 0) "
+                          "or bpy.app.version, got " + py::repr(version).cast<std::string>());
+  return parts[0] > 4 || (parts[0] == 4 && parts[1] >= 4) ? 2 : 4;
+}
+
 PyMeshDeformBinding py_md_bind(const std::shared_ptr<MeshDeform>& md, const py::object& points) {
   const py::array pts = points_array(points, "points");
   const auto n = static_cast<std::size_t>(pts.shape(0));
@@ -239,19 +259,22 @@ grid's coordinates read at each point's current position) instead of the static 
 point's coordinates, computed once at bind). A point inside the rest cage moves by
 sum_a w_a (c_a - c_a at rest): the rest cage is the identity bit for bit; a point outside stays.
 Equal to Blender's modifier to its float precision. The grid is solved in bind (static) or here
-(dynamic).)")
+(dynamic). blender_version (major, minor), default (5, 0): the Blender whose ray casts to follow
+(before 4.4 Blender's ray-cast tree had 4 children per branch, since then 2; it decides which hit
+Blender keeps on a ray that meets the cage more than once, e.g. which points count as inside).)")
       .def(py::init([](const py::object& points, const py::object& faces, std::int64_t precision,
-                       const py::object& dynamic, const py::object& weights) {
+                       const py::object& dynamic, const py::object& blender_version, const py::object& weights) {
              CageMesh cage = parse_cage(points, faces);
              const int p = int_arg(precision, "precision", MeshDeform::kMinPrecision, MeshDeform::kMaxPrecision);
              const bool dyn = bool_arg(dynamic, "dynamic");
+             const int arity = bvh_arity_of(blender_version);
              std::shared_ptr<MeshDeform> md;
-             without_gil("the Mesh Deform grid", [&] { md = std::make_shared<MeshDeform>(std::move(cage), p, dyn); });
+             without_gil("the Mesh Deform grid", [&] { md = std::make_shared<MeshDeform>(std::move(cage), p, dyn, arity); });
              apply_weights(*md, weights);
              return md;
            }),
            "cage_points"_a, "cage_faces"_a, py::kw_only(), "precision"_a = 5, "dynamic"_a = false,
-           "weights"_a = py::none())
+           "blender_version"_a = py::make_tuple(5, 0), "weights"_a = py::none())
       .def_property("cage_points", [](const MeshDeform& c) { return points_of(c.cage_points()); },
                     [](MeshDeform& c, const py::object& p) {
                       const auto a = real_array(p, "cage_points");
@@ -264,6 +287,7 @@ Equal to Blender's modifier to its float precision. The grid is solved in bind (
       .def_property_readonly("rest_cage_points", [](const MeshDeform& c) { return points_of(c.rest_cage_points()); })
       .def_property_readonly("precision", &MeshDeform::precision)
       .def_property_readonly("dynamic", &MeshDeform::dynamic)
+      .def_property_readonly("unknowns", &MeshDeform::unknown_count, "The grid system's unknowns (cells not outside).")
       .def_property_readonly("grid_size", &MeshDeform::grid_size, "Cells a side: 2^precision + 2.")
       .def_property_readonly("flipped", [](const MeshDeform& c) { return c.cage().flipped(); },
                              "True when the cage's faces pointed inward (negative volume) and were flipped.")

@@ -80,7 +80,7 @@ Corners corners_of(const HarmonicGrid& g, const double* p) {
 
 void require_unknowns(const Solved& s, int precision) {
   if (s.stencil.diagonal.empty())
-    throw std::runtime_error(
+    throw std::invalid_argument(
         "cage_points: cannot find a bind solution: no cell of the precision-" + std::to_string(precision) +
         " grid lies inside the cage (a cage thinner than the grid's cells); raise precision");
 }
@@ -282,12 +282,15 @@ bool dynamic_offset(const Solved& s, const double* p, const double* disp, double
 }  // namespace
 }  // namespace harmonic
 
-MeshDeform::MeshDeform(CageMesh cage, int precision, bool dynamic)
-    : cage_(std::move(cage)), precision_(precision), dynamic_(dynamic), current_(cage_.rest_points()) {
+MeshDeform::MeshDeform(CageMesh cage, int precision, bool dynamic, int bvh_arity)
+    : cage_(std::move(cage)), precision_(precision), dynamic_(dynamic), bvh_arity_(bvh_arity),
+      current_(cage_.rest_points()) {
   if (precision < kMinPrecision || precision > kMaxPrecision)
     throw std::invalid_argument("precision: expected an integer from 2 to 10 (2^precision + 2 grid cells a side), got " +
                                 std::to_string(precision));
-  auto solved = std::make_shared<harmonic::Solved>(cage_, precision_, 2);
+  if (bvh_arity != 2 && bvh_arity != 4)
+    throw std::invalid_argument("bvh_arity: expected 2 or 4, got " + std::to_string(bvh_arity));
+  auto solved = std::make_shared<harmonic::Solved>(cage_, precision_, bvh_arity_);
   harmonic::require_unknowns(*solved, precision_);
   if (dynamic_) harmonic::solve_cells(*solved, precision_);
   solved_ = std::move(solved);
@@ -318,6 +321,7 @@ std::uint64_t MeshDeform::layout() const {
   mix(kind, sizeof kind);
   mix(&precision_, sizeof precision_);
   mix(&dynamic_, sizeof dynamic_);
+  mix(&bvh_arity_, sizeof bvh_arity_);
   mix(cage_.rest_points().data(), cage_.rest_points().size() * sizeof(double));
   mix(cage_.polygons().corners().data(), cage_.polygons().corners().size() * sizeof(int));
   return h;
@@ -398,7 +402,8 @@ WeightTable MeshDeform::weights_table(const MeshDeformBinding& b) const {
 void MeshDeform::check_binding(const PointBinding& binding) const {
   const auto* b = dynamic_cast<const MeshDeformBinding*>(&binding);
   if (!b || b->layout != layout())
-    throw std::invalid_argument("binding: not made by this MeshDeform (its cage, precision and mode)");
+    throw std::invalid_argument(
+        "binding: was made by another MeshDeform (another rest cage, precision, bind mode or blender_version)");
 }
 
 template <class T>

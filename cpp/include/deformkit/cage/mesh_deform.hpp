@@ -30,13 +30,16 @@ class MeshDeform : public BoundDeformer {
  public:
   static constexpr int kMinPrecision = 2, kMaxPrecision = 10;
   // Throws std::invalid_argument naming `precision` outside [2, 10]. The cage is checked by
-  // CageMesh. A dynamic deformer solves its grid here; a static one at each bind.
-  MeshDeform(CageMesh cage, int precision, bool dynamic);
+  // CageMesh. A dynamic deformer solves its grid here; a static one at each bind. bvh_arity: the
+  // children per branch of the ray-cast tree of the Blender to match (2 since Blender 4.4, 4 before;
+  // it decides which hit Blender keeps on a ray that meets the cage more than once).
+  MeshDeform(CageMesh cage, int precision, bool dynamic, int bvh_arity = 2);
   ~MeshDeform() override;
 
   const CageMesh& cage() const { return cage_; }
   int precision() const { return precision_; }
   bool dynamic() const { return dynamic_; }
+  int bvh_arity() const { return bvh_arity_; }
   int grid_size() const { return (1 << precision_) + 2; }
   std::size_t vertex_count() const { return cage_.vertex_count(); }
   const std::vector<double>& rest_cage_points() const { return cage_.rest_points(); }
@@ -79,6 +82,7 @@ class MeshDeform : public BoundDeformer {
   CageMesh cage_;
   int precision_;
   bool dynamic_;
+  int bvh_arity_;
   std::vector<double> current_;
   bool at_rest_ = true;
   std::shared_ptr<const harmonic::Solved> solved_;  // the grid, and a dynamic bind's cells
