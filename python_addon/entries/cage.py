@@ -18,6 +18,7 @@ Here too: the entry's settings and panel; its operators are in operators/cage.py
 import zlib
 from collections import namedtuple
 
+import bpy
 import numpy as np
 
 from .. import cache, meshdata, native, panel_text
@@ -97,7 +98,9 @@ def _class(entry):
 
 def _make(cls, entry, points, faces, weights=None):
     """The dk deformer of this rest cage with the entry's settings; ValueError naming what is wrong."""
-    harmonic = {"precision": entry.precision, "dynamic": entry.use_dynamic_bind} if entry.cage_method == "HARMONIC" else {}
+    # blender_version: the ray casts of this Blender's own Mesh Deform (its tree changed in 4.4).
+    harmonic = {"precision": entry.precision, "dynamic": entry.use_dynamic_bind,
+                "blender_version": tuple(bpy.app.version[:2])} if entry.cage_method == "HARMONIC" else {}
     try:
         return cls(points, faces, weights=weights, **harmonic)
     except RuntimeError as exc:  # Mesh Deform's own failure, naming the cage: not the solver's fault
