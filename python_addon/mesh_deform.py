@@ -89,7 +89,8 @@ def _take_over(obj, name, first):
     entry = api.add_entry(obj, "CAGE", **settings)
     index = api.move_entry_to(obj, obj.deformkit.active_index, "FIRST") if first else obj.deformkit.active_index
     entry = obj.deformkit.entries[index]
-    entry.name = name
+    if name not in {e.name for e in obj.deformkit.entries}:  # else the name add_entry gave it (Cage.001)
+        entry.name = name
     dropped = _move_animation(obj, name, index)
     obj.modifiers.remove(obj.modifiers[name])
     for prop, value in toggles.items():
@@ -129,8 +130,9 @@ def _move_animation(obj, name, index):
             else:
                 dropped.append(found.group(1))
                 fcurves.remove(fcurve)
-    for id in bpy.data.objects:
-        anim = id.animation_data
+    readers = set(bpy.data.user_map(subset=[obj]).get(obj, ())) | set(bpy.data.objects)  # drivers reading obj
+    for id in readers:
+        anim = getattr(id, "animation_data", None)
         if anim is None or id.library is not None:
             continue
         for fcurve in anim.drivers:

@@ -175,13 +175,13 @@ def test_entries_above_and_below_keep_their_order(scene):
     obj = make_object(bpy)
     cage = cage_around(bpy, obj)
     mesh_deform(bpy, obj, cage, bind=False, name="Above")
-    api.add_entry(obj, "TWIST", name="Twist")
+    api.add_entry(obj, "TWIST", name="Below")  # an entry of that name already: the entry keeps its own
     with bpy.context.temp_override(object=obj, active_object=obj):
         bpy.ops.object.modifier_move_to_index(modifier="deformkit", index=1)
     mesh_deform(bpy, obj, cage, bind=False, name="Below")
     assert [m.name for m in obj.modifiers] == ["Above", "deformkit", "Below"]
     assert convert(bpy, obj) == {"FINISHED"}
-    assert [e.name for e in obj.deformkit.entries] == ["Above", "Twist", "Below"]
+    assert [e.name for e in obj.deformkit.entries] == ["Above", "Below", "Cage"]
     assert [m.name for m in obj.modifiers] == ["deformkit"]
 
 
@@ -205,6 +205,10 @@ def test_keys_and_drivers_follow_the_modifier_to_its_entry(scene):
     variable = reader.driver_add("location", 0).driver.variables.new()
     variable.targets[0].id = obj
     variable.targets[0].data_path = f'modifiers["{bpy.utils.escape_identifier(mod.name)}"].show_render'
+    material = bpy.data.materials.new("Reads")  # a driver of another kind of ID reading the modifier
+    material_variable = material.driver_add("roughness").driver.variables.new()
+    material_variable.targets[0].id = obj
+    material_variable.targets[0].data_path = variable.targets[0].data_path
     from deformkit_addon import entry_animation
     from deformkit_addon import mesh_deform as conversion
     unmapped = f'modifiers["{bpy.utils.escape_identifier(mod.name)}"].show_expanded'  # the entry has no such key
@@ -216,7 +220,7 @@ def test_keys_and_drivers_follow_the_modifier_to_its_entry(scene):
     paths = sorted(f.data_path for fcurves in entry_animation.animation_lists(obj) for f in fcurves)
     assert paths == ["deformkit.entries[0].invert_vertex_group", "deformkit.entries[0].precision",
                      "deformkit.entries[0].show_viewport"]
-    assert variable.targets[0].data_path == "deformkit.entries[0].show_render"
+    assert variable.targets[0].data_path == material_variable.targets[0].data_path == "deformkit.entries[0].show_render"
     scene.frame_set(10)
     assert obj.deformkit.entries[0].show_viewport is False
     scene.frame_set(1)
