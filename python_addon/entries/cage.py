@@ -57,8 +57,10 @@ NOT_COPIED = binding.NOT_COPIED  # a copy arrives unbound
 Setup = namedtuple("Setup", "deformer bind fingerprint harmonic", defaults=(None,))
 # A Harmonic entry in the cage's own space: now, this object's space to the cage's (4 x 4); turn,
 # the cage's displacements into this object's space (3 x 3, None when that is the identity);
-# bound, (points, in the cage's space) of a bind that keeps its points (not Dynamic), else None.
-Frame = namedtuple("Frame", "now turn bound")
+# bound, (points, in the cage's space) of a bind that keeps its points (not Dynamic), else None;
+# weights, the per-point influence (vertex group, strength) scaling the displacement, or None: the
+# grid is solved without them, so a Strength drag never solves it again.
+Frame = namedtuple("Frame", "now turn bound weights", defaults=(None,))
 # In the cache: "cage_binding", (object cache key, entry index, "viewport"/"render") -> (bind key
 # (object cache key, bind id, method[, precision, dynamic]), points, binding); "cage_deformer", bind
 # key -> (crc of the per-point weights, deformer); "cage_bound", bind key -> the points bound at Bind.
@@ -188,7 +190,13 @@ def setup(obj, entry, reuse_weights=False):
         frame, rest, points = harmonic_frame(obj, cage, entry, points)
         changed = mesh_change(obj, entry, frame.bound)
     binding.require_current(entry, changed)
-    key, deformer, crc = _deformer(obj, entry, faces, scaled_influence(obj, entry, reuse_weights), rest)
+    weights = scaled_influence(obj, entry, reuse_weights)
+    if frame is not None:
+        frame = frame._replace(weights=weights)
+        key, deformer, _ = _deformer(obj, entry, faces, None, rest)
+        crc = weights_crc(weights)
+    else:
+        key, deformer, crc = _deformer(obj, entry, faces, weights)
     deformer.cage_points = points
     fingerprint = (key, zlib.crc32(points.tobytes()), crc) + (() if frame is None else (frame.now.tobytes(),))
     return Prepared(deformer, fingerprint, Setup(deformer, key, fingerprint, frame))
@@ -220,6 +228,11 @@ def harmonic_deform(key, setup_, points):
         local = to_space(points, frame.now)
     bound = kept_binding("cage_binding", key, setup_.bind, local, setup_.deformer.bind)
     moved = setup_.deformer.deform_bound(bound) - local
+    if frame.weights is not None:
+        if len(frame.weights) != len(points):
+            raise EntryError(f"the vertex group's weights are for {len(frame.weights)} vertices, the mesh coming into "
+                             f"the entry has {len(points)}")
+        moved *= np.asarray(frame.weights, np.float64)[:, None]
     if frame.turn is not None:
         moved = moved @ frame.turn.T
     return (points + moved).astype(np.float32)

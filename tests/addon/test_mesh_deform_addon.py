@@ -306,6 +306,22 @@ def test_harmonic_equals_mesh_deform(scene, dynamic):
         assert_equal_to_blender(evaluated(ours), moved, cage_in(ours, cage))
 
 
+@pytest.mark.parametrize("dynamic", [False, True])
+def test_strength_scales_the_displacement_without_a_new_solve(scene, dynamic):
+    import bpy
+    from deformkit_addon import cache, meshdata
+    blender, ours, cage = twins(bpy, dynamic)
+    shake(cage, seed=10)
+    base = positions(ours.data).astype(np.float64)
+    full = evaluated(ours).astype(np.float64)
+    entry = ours.deformkit.entries[0]
+    key = (meshdata.cache_key(ours), entry.bind_id, "HARMONIC", entry.precision, dynamic)
+    solved = cache.get("cage_deformer", key)[1]
+    entry.strength = 0.35
+    np.testing.assert_allclose(evaluated(ours), base + 0.35 * (full - base), rtol=0, atol=1e-6)
+    assert cache.get("cage_deformer", key)[1] is solved  # the same grid, not solved again
+
+
 def test_harmonic_follows_mesh_deform_when_the_cage_object_moves(scene):
     """Mesh Deform turns the displacement with the cage object and does not carry the mesh along
     (its grid lies in the cage's axes at bind). Not Dynamic: a Dynamic bind keeps which points were
