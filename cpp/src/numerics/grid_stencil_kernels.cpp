@@ -4,19 +4,22 @@ namespace deformkit::numerics {
 
 namespace {
 
-// out = (base + sum_k w_k row_k) * scale over w columns; the six neighbour rows of a stencil row.
-inline void stencil_row(const double* base, double base_factor, const std::array<double, 6>& w,
-                        const std::array<const double*, 6>& r, double scale, int width, double* out) {
-  const double w0 = w[0], w1 = w[1], w2 = w[2], w3 = w[3], w4 = w[4], w5 = w[5];
-  const double *r0 = r[0], *r1 = r[1], *r2 = r[2], *r3 = r[3], *r4 = r[4], *r5 = r[5];
+// out = (base_factor base + sum_k w_k row_k) * scale over the columns; the six neighbour rows of a
+// stencil row.
+template <class T>
+inline void stencil_row(const T* base, T base_factor, const std::array<T, 6>& w, const std::array<const T*, 6>& r, T scale, int width,
+                        T* out) {
+  const T w0 = w[0], w1 = w[1], w2 = w[2], w3 = w[3], w4 = w[4], w5 = w[5];
+  const T *r0 = r[0], *r1 = r[1], *r2 = r[2], *r3 = r[3], *r4 = r[4], *r5 = r[5];
 #pragma omp simd
   for (int c = 0; c < width; ++c)
     out[c] = (base_factor * base[c] + ((w0 * r0[c] + w1 * r1[c]) + (w2 * r2[c] + w3 * r3[c]) + (w4 * r4[c] + w5 * r5[c]))) * scale;
 }
 
-std::array<const double*, 6> neighbour_rows(const StencilLevel& a, const Block& x, std::size_t u) {
-  std::array<const double*, 6> r;
-  for (int k = 0; k < 6; ++k) r[k] = x.row(std::size_t(a.neighbour[u][k]));
+template <class T>
+std::array<const T*, 6> neighbour_rows(const StencilLevel& a, const BlockOf<T>& x, std::size_t u) {
+  std::array<const T*, 6> r;
+  for (int k = 0; k < 6; ++k) r[std::size_t(k)] = x.row(std::size_t(a.neighbour[u][std::size_t(k)]));
   return r;
 }
 
@@ -25,65 +28,86 @@ std::array<const double*, 6> neighbour_rows(const StencilLevel& a, const Block& 
 void apply_stencil(const KernelRunner& run, const StencilLevel& a, const Block& x, Block& y) {
   const int w = x.width;
   for_chunks(run, a.size, [&](std::size_t, std::size_t begin, std::size_t end) {
-    for (std::size_t u = begin; u < end; ++u) {
-      // d x_u - sum w x_nb = -(-d x_u + sum w x_nb)
+    for (std::size_t u = begin; u < end; ++u)  // d x_u - sum w x_nb = -(-d x_u + sum w x_nb)
       stencil_row(x.row(u), -a.diagonal[u], a.coupling[u], neighbour_rows(a, x, u), -1.0, w, y.row(u));
-    }
   });
 }
 
-void colour_sweep(const KernelRunner& run, const StencilLevel& a, int colour, const Block& b, Block& x, bool from_zero) {
+template <class T>
+void colour_sweep(const KernelRunner& run, const StencilLevel& a, int colour, const BlockOf<T>& b, BlockOf<T>& x, bool from_zero) {
   const std::vector<int>& rows = a.colour[std::size_t(colour)];
+  const CoefficientView<T> k = coefficients(a, T());
   const int w = x.width;
   for_chunks(run, rows.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       const std::size_t u = std::size_t(rows[i]);
-      const double inv = a.inverse_diagonal[u];
-      double* out = x.row(u);
-      const double* in = b.row(u);
+      const T inv = k.inverse_diagonal[u];
+      T* out = x.row(u);
+      const T* in = b.row(u);
       if (from_zero) {
 #pragma omp simd
         for (int c = 0; c < w; ++c) out[c] = in[c] * inv;
       } else {
-        stencil_row(in, 1.0, a.coupling[u], neighbour_rows(a, x, u), inv, w, out);
+        stencil_row(in, T(1), k.coupling[u], neighbour_rows(a, x, u), inv, w, out);
       }
     }
   });
 }
 
-void restrict_residual(const KernelRunner& run, const StencilLevel& a, const Block& b, const Block& x, Block& coarse_b) {
+template <class T>
+void restrict_residual(const KernelRunner& run, const StencilLevel& a, const BlockOf<T>& b, const BlockOf<T>& x, BlockOf<T>& coarse_b) {
+  const CoefficientView<T> k = coefficients(a, T());
   const int w = x.width;
   const std::size_t coarse = a.child_start.size() - 1;
   for_chunks(run, coarse, [&](std::size_t, std::size_t begin, std::size_t end) {
-    std::vector<double> r(std::size_t(w), 0.0);
+    std::vector<T> r(std::size_t(w), T(0));
     for (std::size_t g = begin; g < end; ++g) {
-      double* sum = coarse_b.row(g);
-      std::fill(sum, sum + w, 0.0);
-      for (int k = a.child_start[g]; k < a.child_start[g + 1]; ++k) {
-        const std::size_t u = std::size_t(a.child[std::size_t(k)]);
-        // b - (d x - sum w x_nb) = (b - d x) + sum w x_nb
-        const double* bu = b.row(u);
-        const double* xu = x.row(u);
-        const double d = a.diagonal[u];
-        stencil_row(xu, -d, a.coupling[u], neighbour_rows(a, x, u), 1.0, w, r.data());
+      T* sum = coarse_b.row(g);
+      std::fill(sum, sum + w, T(0));
+      for (int c = a.child_start[g]; c < a.child_start[g + 1]; ++c) {
+        const std::size_t u = std::size_t(a.child[std::size_t(c)]);
+        const T* bu = b.row(u);
+        // b - (d x - sum w x_nb) = b + (-d x + sum w x_nb)
+        stencil_row(x.row(u), -k.diagonal[u], k.coupling[u], neighbour_rows(a, x, u), T(1), w, r.data());
 #pragma omp simd
-        for (int c = 0; c < w; ++c) sum[c] += bu[c] + r[std::size_t(c)];
+        for (int j = 0; j < w; ++j) sum[j] += bu[j] + r[std::size_t(j)];
       }
     }
   });
 }
 
-void prolong_add(const KernelRunner& run, const StencilLevel& a, const Block& coarse_x, double scale, Block& x) {
+template <class T>
+void prolong_add(const KernelRunner& run, const StencilLevel& a, const BlockOf<T>& coarse_x, T scale, BlockOf<T>& x) {
   const int w = x.width;
   for_chunks(run, a.size, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t u = begin; u < end; ++u) {
-      const double* e = coarse_x.row(std::size_t(a.parent[u]));
-      double* out = x.row(u);
+      const T* e = coarse_x.row(std::size_t(a.parent[u]));
+      T* out = x.row(u);
 #pragma omp simd
       for (int c = 0; c < w; ++c) out[c] += scale * e[c];
     }
   });
 }
+
+template <class To, class From>
+void convert_block(const KernelRunner& run, const BlockOf<From>& from, BlockOf<To>& to) {
+  const std::size_t w = std::size_t(from.width);
+  for_chunks(run, from.rows, [&](std::size_t, std::size_t begin, std::size_t end) {
+    const From* f = from.data.data() + begin * w;
+    To* t = to.data.data() + begin * w;
+#pragma omp simd
+    for (std::size_t i = 0; i < (end - begin) * w; ++i) t[i] = To(f[i]);
+  });
+}
+
+template void colour_sweep<double>(const KernelRunner&, const StencilLevel&, int, const Block&, Block&, bool);
+template void colour_sweep<float>(const KernelRunner&, const StencilLevel&, int, const BlockOf<float>&, BlockOf<float>&, bool);
+template void restrict_residual<double>(const KernelRunner&, const StencilLevel&, const Block&, const Block&, Block&);
+template void restrict_residual<float>(const KernelRunner&, const StencilLevel&, const BlockOf<float>&, const BlockOf<float>&, BlockOf<float>&);
+template void prolong_add<double>(const KernelRunner&, const StencilLevel&, const Block&, double, Block&);
+template void prolong_add<float>(const KernelRunner&, const StencilLevel&, const BlockOf<float>&, float, BlockOf<float>&);
+template void convert_block<float, double>(const KernelRunner&, const Block&, BlockOf<float>&);
+template void convert_block<double, float>(const KernelRunner&, const BlockOf<float>&, Block&);
 
 void step_solution(const KernelRunner& run, const std::vector<double>& alpha, const Block& p, const Block& q, Block& x, Block& r) {
   const int w = x.width;

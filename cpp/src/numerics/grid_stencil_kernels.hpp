@@ -34,13 +34,20 @@ void for_chunks(const KernelRunner& run, std::size_t n, Fn&& fn) {
 
 // y = A x
 void apply_stencil(const KernelRunner& run, const StencilLevel& a, const Block& x, Block& y);
+// The multigrid cycle's kernels, in double or single precision (T).
 // Red-black Gauss-Seidel over the rows of one colour (their neighbours all have the other one);
 // from_zero: the previous x is zero, so the rows are b / diagonal.
-void colour_sweep(const KernelRunner& run, const StencilLevel& a, int colour, const Block& b, Block& x, bool from_zero);
+template <class T>
+void colour_sweep(const KernelRunner& run, const StencilLevel& a, int colour, const BlockOf<T>& b, BlockOf<T>& x, bool from_zero);
 // coarse_b = P^T (b - A x): the residual summed over each aggregate, never stored on the fine level.
-void restrict_residual(const KernelRunner& run, const StencilLevel& a, const Block& b, const Block& x, Block& coarse_b);
+template <class T>
+void restrict_residual(const KernelRunner& run, const StencilLevel& a, const BlockOf<T>& b, const BlockOf<T>& x, BlockOf<T>& coarse_b);
 // x += scale P coarse_x
-void prolong_add(const KernelRunner& run, const StencilLevel& a, const Block& coarse_x, double scale, Block& x);
+template <class T>
+void prolong_add(const KernelRunner& run, const StencilLevel& a, const BlockOf<T>& coarse_x, T scale, BlockOf<T>& x);
+// to = from, rounded to To.
+template <class To, class From>
+void convert_block(const KernelRunner& run, const BlockOf<From>& from, BlockOf<To>& to);
 // x += alpha p and r -= alpha q, alpha per column.
 void step_solution(const KernelRunner& run, const std::vector<double>& alpha, const Block& p, const Block& q, Block& x, Block& r);
 // p = z + beta p, beta per column.

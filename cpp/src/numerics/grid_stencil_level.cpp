@@ -134,6 +134,14 @@ StencilLevel checked_fine_level(const GridStencil& s, std::vector<int>& external
   return level;
 }
 
+void round_to_single(StencilLevel& a) {
+  a.single.diagonal.assign(a.diagonal.begin(), a.diagonal.end());
+  a.single.inverse_diagonal.assign(a.inverse_diagonal.begin(), a.inverse_diagonal.end());
+  a.single.coupling.resize(a.size);
+  for (std::size_t u = 0; u < a.size; ++u)
+    for (int d = 0; d < 6; ++d) a.single.coupling[u][std::size_t(d)] = float(a.coupling[u][std::size_t(d)]);
+}
+
 StencilLevel aggregated_level(StencilLevel& fine) {
   const auto& n = fine.cells;
   StencilLevel coarse;

@@ -12,17 +12,26 @@ namespace deformkit::numerics {
 // `width` right-hand sides interleaved: row u's values are contiguous, so one pass over the stencil
 // serves every column (the kernels are bound by memory traffic). Row `rows` stays zero: absent
 // neighbours point at it, which keeps the stencil loops free of branches.
-struct Block {
+template <class T>
+struct BlockOf {
   std::size_t rows = 0;
   int width = 0;
-  std::vector<double> data;
+  std::vector<T> data;
 
   void resize(std::size_t r, int w) {
     rows = r, width = w;
-    data.assign((r + 1) * std::size_t(w), 0.0);
+    data.assign((r + 1) * std::size_t(w), T(0));
   }
-  double* row(std::size_t u) { return data.data() + u * std::size_t(width); }
-  const double* row(std::size_t u) const { return data.data() + u * std::size_t(width); }
+  T* row(std::size_t u) { return data.data() + u * std::size_t(width); }
+  const T* row(std::size_t u) const { return data.data() + u * std::size_t(width); }
+};
+using Block = BlockOf<double>;
+
+// A level's coefficients in the precision a kernel runs in.
+template <class T>
+struct Coefficients {
+  std::vector<T> diagonal, inverse_diagonal;
+  std::vector<std::array<T, 6>> coupling;
 };
 
 struct StencilLevel {
@@ -33,10 +42,24 @@ struct StencilLevel {
   std::vector<std::array<int, 6>> neighbour;  // -x,+x,-y,+y,-z,+z: an unknown, or `size` (the zero row)
   std::vector<std::array<double, 6>> coupling;
   std::array<std::vector<int>, 2> colour;     // unknowns with i + j + k even, odd
+  Coefficients<float> single;                 // the multigrid cycle's, when it runs in single precision
   // Towards the next coarser level (empty on the coarsest).
   std::vector<int> parent;                    // per unknown: its 2x2x2 aggregate there
   std::vector<int> child_start, child;        // per aggregate: its unknowns here
 };
+
+template <class T>
+struct CoefficientView {
+  const T* diagonal;
+  const T* inverse_diagonal;
+  const std::array<T, 6>* coupling;
+};
+inline CoefficientView<double> coefficients(const StencilLevel& a, double) { return {a.diagonal.data(), a.inverse_diagonal.data(), a.coupling.data()}; }
+inline CoefficientView<float> coefficients(const StencilLevel& a, float) {
+  return {a.single.diagonal.data(), a.single.inverse_diagonal.data(), a.single.coupling.data()};
+}
+// Fills a.single from the double coefficients.
+void round_to_single(StencilLevel& a);
 
 // Checks `system` (std::invalid_argument naming what is wrong) and renumbers its unknowns in cell
 // order; external[u] is the caller's index of unknown u.

@@ -19,6 +19,9 @@ struct MultigridSettings {
   double correction_scale = 1.8;
   int smoothing = 2;               // red-black sweeps before and after each coarse correction (2: fewest seconds measured)
   std::size_t coarsest_size = 400; // unknowns solved densely
+  // The cycle in single precision halves its memory traffic (the kernels are bound by it); the
+  // conjugate gradients around it stay in double and reach any tolerance.
+  bool single_precision = true;
 };
 
 class GridMultigrid {
@@ -30,10 +33,17 @@ class GridMultigrid {
   void precondition(const Block& b, Block& x);
 
  private:
-  void cycle(std::size_t l, const Block& b, Block& x);
+  template <class T>
+  void cycle(std::size_t l, const BlockOf<T>& b, BlockOf<T>& x);
+  template <class T>
+  std::vector<BlockOf<T>>& coarse_b();
+  template <class T>
+  std::vector<BlockOf<T>>& coarse_x();
 
   std::vector<StencilLevel> levels_;
-  std::vector<Block> coarse_b_, coarse_x_;  // per level; unused on the finest
+  // Per level (the finest's only in single precision: the caller's are double).
+  std::vector<Block> b_, x_;
+  std::vector<BlockOf<float>> b_single_, x_single_;
   Eigen::LLT<Eigen::MatrixXd> coarsest_;
   MultigridSettings settings_;
   KernelRunner run_;
