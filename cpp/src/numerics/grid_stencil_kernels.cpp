@@ -1,5 +1,7 @@
 #include "numerics/grid_stencil_kernels.hpp"
 
+#include "numerics/grid_stencil_simd.hpp"
+
 namespace deformkit::numerics {
 
 namespace {
@@ -37,42 +39,18 @@ template <class T>
 void colour_sweep(const KernelRunner& run, const StencilLevel& a, int colour, const BlockOf<T>& b, BlockOf<T>& x, bool from_zero) {
   const std::vector<int>& rows = a.colour[std::size_t(colour)];
   const CoefficientView<T> k = coefficients(a, T());
-  const int w = x.width;
   for_chunks(run, rows.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) {
-      const std::size_t u = std::size_t(rows[i]);
-      const T inv = k.inverse_diagonal[u];
-      T* out = x.row(u);
-      const T* in = b.row(u);
-      if (from_zero) {
-#pragma omp simd
-        for (int c = 0; c < w; ++c) out[c] = in[c] * inv;
-      } else {
-        stencil_row(in, T(1), k.coupling[u], neighbour_rows(a, x, u), inv, w, out);
-      }
-    }
+    sweep_rows(rows.data() + begin, end - begin, k.inverse_diagonal, k.coupling, a.neighbour.data(), b.data.data(), x.data.data(), x.width,
+               from_zero);
   });
 }
 
 template <class T>
 void restrict_residual(const KernelRunner& run, const StencilLevel& a, const BlockOf<T>& b, const BlockOf<T>& x, BlockOf<T>& coarse_b) {
   const CoefficientView<T> k = coefficients(a, T());
-  const int w = x.width;
-  const std::size_t coarse = a.child_start.size() - 1;
-  for_chunks(run, coarse, [&](std::size_t, std::size_t begin, std::size_t end) {
-    std::vector<T> r(std::size_t(w), T(0));
-    for (std::size_t g = begin; g < end; ++g) {
-      T* sum = coarse_b.row(g);
-      std::fill(sum, sum + w, T(0));
-      for (int c = a.child_start[g]; c < a.child_start[g + 1]; ++c) {
-        const std::size_t u = std::size_t(a.child[std::size_t(c)]);
-        const T* bu = b.row(u);
-        // b - (d x - sum w x_nb) = b + (-d x + sum w x_nb)
-        stencil_row(x.row(u), -k.diagonal[u], k.coupling[u], neighbour_rows(a, x, u), T(1), w, r.data());
-#pragma omp simd
-        for (int j = 0; j < w; ++j) sum[j] += bu[j] + r[std::size_t(j)];
-      }
-    }
+  for_chunks(run, a.child_start.size() - 1, [&](std::size_t, std::size_t begin, std::size_t end) {
+    restrict_rows(a.child_start.data(), a.child.data(), begin, end, k.diagonal, k.coupling, a.neighbour.data(), b.data.data(), x.data.data(),
+                  coarse_b.data.data(), x.width);
   });
 }
 
