@@ -3,8 +3,8 @@
 // per process so that the peak resident memory is that configuration's. Usage:
 //   bench_grid_stencil <multigrid|cholmod> <figure|ball> <cells a side> <right-hand sides> [block] [tolerance]
 // figure: a character's shape filling 4.5% of the cube (Ogre's cage fills 3.8% of its cubic box);
-// ball: 29% (FireHydrant's cage: 23%). DK_GRID_SCALE, DK_GRID_SMOOTHING and DK_GRID_DOUBLE=1 override the
-// multigrid settings (for tuning).
+// ball: 29% (FireHydrant's cage: 23%). DK_GRID_SCALE and DK_GRID_SMOOTHING override the multigrid
+// settings (for tuning).
 // prints one line of key=value pairs (docs/benchmarks.md, "Grid solver").
 #include "numerics/grid_stencil_solver.hpp"
 #include "numerics/grid_stencil_shapes.hpp"
@@ -92,7 +92,6 @@ int main(int argc, char** argv) {
   numerics::GridSolveOptions options;
   if (const char* v = std::getenv("DK_GRID_SCALE")) options.multigrid.correction_scale = std::atof(v);
   if (const char* v = std::getenv("DK_GRID_SMOOTHING")) options.multigrid.smoothing = std::atoi(v);
-  if (const char* v = std::getenv("DK_GRID_DOUBLE")) options.multigrid.single_precision = std::atoi(v) == 0;
   auto start = std::chrono::steady_clock::now();
   const test::ShapeSystem s = test::shape_system(shape == "ball" ? test::one_ball() : test::figure(), n);
   const double build = seconds_since(start);

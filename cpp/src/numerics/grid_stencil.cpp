@@ -41,7 +41,7 @@ class BlockSolver {
     for (Block* v : {&x_, &r_, &p_, &q_})
       if (v->width != w) v->resize(a_.size, w);
     std::fill(x_.data.begin(), x_.data.end(), 0.0);
-    gather(rhs, r_);
+    gather(rhs, r_, mg_.rhs(w));
     std::vector<ColumnState> state(static_cast<std::size_t>(w));
     const std::vector<double> bb = column_dots(run_, r_, r_);
     for (int c = 0; c < w; ++c) {
@@ -67,24 +67,22 @@ class BlockSolver {
   // One preconditioned CG step on the active columns; the others stay as they are (step 0).
   void iterate(std::vector<ColumnState>& state) {
     const std::size_t w = state.size();
-    mg_.precondition(r_, q_);  // z, kept in q until p is formed
-    const std::vector<double> rz = column_dots(run_, r_, q_);
+    const BlockOf<float>& z = mg_.cycle();  // of r, which the last step left in mg_.rhs()
+    const std::vector<double> rz = column_dots(run_, r_, z);
     std::vector<double> beta(w, 0.0), alpha(w, 0.0);
     for (std::size_t c = 0; c < w; ++c) {
       if (state[c].active && !state[c].fresh) beta[c] = rz[c] / state[c].rz;
       state[c].rz = rz[c], state[c].fresh = false;
     }
-    step_direction(run_, beta, q_, p_);
-    apply_stencil(run_, a_, p_, q_);
-    const std::vector<double> pq = column_dots(run_, p_, q_);
+    step_direction(run_, beta, z, p_);
+    const std::vector<double> pq = apply_stencil(run_, a_, p_, q_);
     for (std::size_t c = 0; c < w; ++c) {
       if (!state[c].active) continue;
       if (!(pq[c] > 0.0) || !std::isfinite(rz[c]))
         throw std::runtime_error("solve_grid_stencil: conjugate gradients broke down (p^T A p = " + std::to_string(pq[c]) + "); the system is not positive definite");
       alpha[c] = rz[c] / pq[c];
     }
-    step_solution(run_, alpha, p_, q_, x_, r_);
-    const std::vector<double> rr = column_dots(run_, r_, r_);
+    const std::vector<double> rr = step_solution(run_, alpha, p_, q_, x_, r_, mg_.rhs(int(w)));
     for (std::size_t c = 0; c < w; ++c)
       if (state[c].active && std::sqrt(rr[c]) <= kRecursiveMargin * state[c].target) state[c].active = false;
   }
@@ -103,7 +101,8 @@ class BlockSolver {
       ColumnState& s = state[std::size_t(c)];
       if (std::sqrt(tt[std::size_t(c)]) <= s.target) continue;
       s.active = s.fresh = any = true;
-      for (std::size_t u = 0; u < a_.size; ++u) r_.row(u)[c] = q_.row(u)[c];
+      BlockOf<float>& single = mg_.rhs(w);
+      for (std::size_t u = 0; u < a_.size; ++u) r_.row(u)[c] = q_.row(u)[c], single.row(u)[c] = float(q_.row(u)[c]);
     }
     return any;
   }
@@ -115,11 +114,11 @@ class BlockSolver {
                              std::to_string(max_iterations_) + " iterations");
   }
 
-  void gather(const Eigen::MatrixXd& rhs, Block& b) const {
+  void gather(const Eigen::MatrixXd& rhs, Block& b, BlockOf<float>& single) const {
     const int w = b.width;
     for_chunks(run_, a_.size, [&](std::size_t, std::size_t begin, std::size_t end) {
       for (std::size_t u = begin; u < end; ++u)
-        for (int c = 0; c < w; ++c) b.row(u)[c] = rhs(external_[u], c);
+        for (int c = 0; c < w; ++c) b.row(u)[c] = rhs(external_[u], c), single.row(u)[c] = float(b.row(u)[c]);
     });
   }
   void scatter(const Block& x, Eigen::MatrixXd& out) const {

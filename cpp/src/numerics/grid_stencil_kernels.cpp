@@ -27,14 +27,6 @@ std::array<const T*, 6> neighbour_rows(const StencilLevel& a, const BlockOf<T>& 
 
 }  // namespace
 
-void apply_stencil(const KernelRunner& run, const StencilLevel& a, const Block& x, Block& y) {
-  const int w = x.width;
-  for_chunks(run, a.size, [&](std::size_t, std::size_t begin, std::size_t end) {
-    for (std::size_t u = begin; u < end; ++u)  // d x_u - sum w x_nb = -(-d x_u + sum w x_nb)
-      stencil_row(x.row(u), -a.diagonal[u], a.coupling[u], neighbour_rows(a, x, u), -1.0, w, y.row(u));
-  });
-}
-
 template <class T>
 void colour_sweep(const KernelRunner& run, const StencilLevel& a, int colour, const BlockOf<T>& b, BlockOf<T>& x, bool from_zero) {
   const std::vector<int>& rows = a.colour[std::size_t(colour)];
@@ -67,71 +59,94 @@ void prolong_add(const KernelRunner& run, const StencilLevel& a, const BlockOf<T
   });
 }
 
-template <class To, class From>
-void convert_block(const KernelRunner& run, const BlockOf<From>& from, BlockOf<To>& to) {
-  const std::size_t w = std::size_t(from.width);
-  for_chunks(run, from.rows, [&](std::size_t, std::size_t begin, std::size_t end) {
-    const From* f = from.data.data() + begin * w;
-    To* t = to.data.data() + begin * w;
+template void colour_sweep<float>(const KernelRunner&, const StencilLevel&, int, const BlockOf<float>&, BlockOf<float>&, bool);
+template void restrict_residual<float>(const KernelRunner&, const StencilLevel&, const BlockOf<float>&, const BlockOf<float>&, BlockOf<float>&);
+template void prolong_add<float>(const KernelRunner&, const StencilLevel&, const BlockOf<float>&, float, BlockOf<float>&);
+
+namespace {
+
+// Per column, the sum over rows of what fn(begin, end, sums) adds into sums: per chunk, then the
+// chunks in order, so the sums do not depend on the threads.
+template <class Fn>
+std::vector<double> chunk_sums(const KernelRunner& run, std::size_t rows, int width, Fn&& fn) {
+  const std::size_t w = std::size_t(width), chunks = chunk_count(rows);
+  std::vector<double> partial(chunks * w, 0.0);
+  for_chunks(run, rows, [&](std::size_t t, std::size_t begin, std::size_t end) { fn(begin, end, partial.data() + t * w); });
+  std::vector<double> total(w, 0.0);
+  for (std::size_t t = 0; t < chunks; ++t)
+    for (std::size_t c = 0; c < w; ++c) total[c] += partial[t * w + c];
+  return total;
+}
+
+}  // namespace
+
+std::vector<double> apply_stencil(const KernelRunner& run, const StencilLevel& a, const Block& p, Block& q) {
+  const int w = p.width;
+  return chunk_sums(run, a.size, w, [&](std::size_t begin, std::size_t end, double* s) {
+    for (std::size_t u = begin; u < end; ++u) {
+      double* qu = q.row(u);
+      const double* pu = p.row(u);
+      // d p_u - sum w p_nb = -(-d p_u + sum w p_nb)
+      stencil_row(pu, -a.diagonal[u], a.coupling[u], neighbour_rows(a, p, u), -1.0, w, qu);
 #pragma omp simd
-    for (std::size_t i = 0; i < (end - begin) * w; ++i) t[i] = To(f[i]);
+      for (int c = 0; c < w; ++c) s[c] += pu[c] * qu[c];
+    }
   });
 }
 
-template void colour_sweep<double>(const KernelRunner&, const StencilLevel&, int, const Block&, Block&, bool);
-template void colour_sweep<float>(const KernelRunner&, const StencilLevel&, int, const BlockOf<float>&, BlockOf<float>&, bool);
-template void restrict_residual<double>(const KernelRunner&, const StencilLevel&, const Block&, const Block&, Block&);
-template void restrict_residual<float>(const KernelRunner&, const StencilLevel&, const BlockOf<float>&, const BlockOf<float>&, BlockOf<float>&);
-template void prolong_add<double>(const KernelRunner&, const StencilLevel&, const Block&, double, Block&);
-template void prolong_add<float>(const KernelRunner&, const StencilLevel&, const BlockOf<float>&, float, BlockOf<float>&);
-template void convert_block<float, double>(const KernelRunner&, const Block&, BlockOf<float>&);
-template void convert_block<double, float>(const KernelRunner&, const BlockOf<float>&, Block&);
-
-void step_solution(const KernelRunner& run, const std::vector<double>& alpha, const Block& p, const Block& q, Block& x, Block& r) {
+std::vector<double> step_solution(const KernelRunner& run, const std::vector<double>& alpha, const Block& p, const Block& q, Block& x,
+                                  Block& r, BlockOf<float>& r_single) {
   const int w = x.width;
   const double* al = alpha.data();
-  for_chunks(run, x.rows, [&](std::size_t, std::size_t begin, std::size_t end) {
+  return chunk_sums(run, x.rows, w, [&](std::size_t begin, std::size_t end, double* s) {
     for (std::size_t u = begin; u < end; ++u) {
       const double* pu = p.row(u);
       const double* qu = q.row(u);
       double* xu = x.row(u);
       double* ru = r.row(u);
+      float* fu = r_single.row(u);
 #pragma omp simd
-      for (int c = 0; c < w; ++c) xu[c] += al[c] * pu[c], ru[c] -= al[c] * qu[c];
+      for (int c = 0; c < w; ++c) {
+        xu[c] += al[c] * pu[c];
+        ru[c] -= al[c] * qu[c];
+        fu[c] = float(ru[c]);
+        s[c] += ru[c] * ru[c];
+      }
     }
   });
 }
 
-void step_direction(const KernelRunner& run, const std::vector<double>& beta, const Block& z, Block& p) {
+void step_direction(const KernelRunner& run, const std::vector<double>& beta, const BlockOf<float>& z, Block& p) {
   const int w = p.width;
   const double* be = beta.data();
   for_chunks(run, p.rows, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t u = begin; u < end; ++u) {
-      const double* zu = z.row(u);
+      const float* zu = z.row(u);
       double* pu = p.row(u);
 #pragma omp simd
-      for (int c = 0; c < w; ++c) pu[c] = zu[c] + be[c] * pu[c];
+      for (int c = 0; c < w; ++c) pu[c] = double(zu[c]) + be[c] * pu[c];
     }
   });
 }
 
-std::vector<double> column_dots(const KernelRunner& run, const Block& a, const Block& b) {
+namespace {
+
+template <class T>
+std::vector<double> dots(const KernelRunner& run, const Block& a, const BlockOf<T>& b) {
   const int w = a.width;
-  const std::size_t chunks = chunk_count(a.rows);
-  std::vector<double> partial(chunks * std::size_t(w), 0.0);
-  for_chunks(run, a.rows, [&](std::size_t t, std::size_t begin, std::size_t end) {
-    double* s = partial.data() + t * std::size_t(w);
+  return chunk_sums(run, a.rows, w, [&](std::size_t begin, std::size_t end, double* s) {
     for (std::size_t u = begin; u < end; ++u) {
       const double* x = a.row(u);
-      const double* y = b.row(u);
+      const T* y = b.row(u);
 #pragma omp simd
-      for (int c = 0; c < w; ++c) s[c] += x[c] * y[c];
+      for (int c = 0; c < w; ++c) s[c] += x[c] * double(y[c]);
     }
   });
-  std::vector<double> total(std::size_t(w), 0.0);
-  for (std::size_t t = 0; t < chunks; ++t)
-    for (int c = 0; c < w; ++c) total[std::size_t(c)] += partial[t * std::size_t(w) + std::size_t(c)];
-  return total;
 }
+
+}  // namespace
+
+std::vector<double> column_dots(const KernelRunner& run, const Block& a, const Block& b) { return dots(run, a, b); }
+std::vector<double> column_dots(const KernelRunner& run, const Block& a, const BlockOf<float>& b) { return dots(run, a, b); }
 
 }  // namespace deformkit::numerics

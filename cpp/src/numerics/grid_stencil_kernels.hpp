@@ -32,9 +32,7 @@ void for_chunks(const KernelRunner& run, std::size_t n, Fn&& fn) {
   parallel_tasks(int(chunks), [&](int t) { one(std::size_t(t)); });
 }
 
-// y = A x
-void apply_stencil(const KernelRunner& run, const StencilLevel& a, const Block& x, Block& y);
-// The multigrid cycle's kernels, in double or single precision (T).
+// The multigrid cycle's kernels, in single precision (T = float; double for tests of the kernels).
 // Red-black Gauss-Seidel over the rows of one colour (their neighbours all have the other one);
 // from_zero: the previous x is zero, so the rows are b / diagonal.
 template <class T>
@@ -45,14 +43,18 @@ void restrict_residual(const KernelRunner& run, const StencilLevel& a, const Blo
 // x += scale P coarse_x
 template <class T>
 void prolong_add(const KernelRunner& run, const StencilLevel& a, const BlockOf<T>& coarse_x, T scale, BlockOf<T>& x);
-// to = from, rounded to To.
-template <class To, class From>
-void convert_block(const KernelRunner& run, const BlockOf<From>& from, BlockOf<To>& to);
-// x += alpha p and r -= alpha q, alpha per column.
-void step_solution(const KernelRunner& run, const std::vector<double>& alpha, const Block& p, const Block& q, Block& x, Block& r);
-// p = z + beta p, beta per column.
-void step_direction(const KernelRunner& run, const std::vector<double>& beta, const Block& z, Block& p);
+
+// Conjugate gradients' kernels, in double, each fused with what reads the same rows next: every
+// pass over a block is a pass over memory.
+// q = A p; returns p . q per column.
+std::vector<double> apply_stencil(const KernelRunner& run, const StencilLevel& a, const Block& p, Block& q);
+// x += alpha p, r -= alpha q, r_single = r rounded to single; returns r . r per column.
+std::vector<double> step_solution(const KernelRunner& run, const std::vector<double>& alpha, const Block& p, const Block& q, Block& x,
+                                  Block& r, BlockOf<float>& r_single);
+// p = z + beta p, beta per column, z the cycle's output.
+void step_direction(const KernelRunner& run, const std::vector<double>& beta, const BlockOf<float>& z, Block& p);
 // Per column: sum over rows of a * b.
 std::vector<double> column_dots(const KernelRunner& run, const Block& a, const Block& b);
+std::vector<double> column_dots(const KernelRunner& run, const Block& a, const BlockOf<float>& b);
 
 }  // namespace deformkit::numerics

@@ -2,7 +2,9 @@
 // Geometric multigrid on the voxel grid: 2x2x2 aggregation with Galerkin coarse operators (which
 // keep the cut edges' weights on the coarse diagonals), red-black Gauss-Seidel smoothing, a dense
 // Cholesky factor on the coarsest grid. One V-cycle is a symmetric positive definite
-// preconditioner for conjugate gradients (docs/numerics.md, "The grid solver").
+// preconditioner for conjugate gradients (docs/math/numerics.md, "The grid solver"). The cycle runs
+// in single precision: half the memory traffic of its kernels, which are bound by it; the
+// conjugate gradients around it stay in double and reach any tolerance.
 #include "numerics/grid_stencil_kernels.hpp"
 
 #include <Eigen/Cholesky>
@@ -19,9 +21,6 @@ struct MultigridSettings {
   double correction_scale = 1.8;
   int smoothing = 2;               // red-black sweeps before and after each coarse correction (2: fewest seconds measured)
   std::size_t coarsest_size = 400; // unknowns solved densely
-  // The cycle in single precision halves its memory traffic (the kernels are bound by it); the
-  // conjugate gradients around it stay in double and reach any tolerance.
-  bool single_precision = true;
 };
 
 class GridMultigrid {
@@ -29,21 +28,16 @@ class GridMultigrid {
   GridMultigrid(StencilLevel fine, const MultigridSettings& settings, const KernelRunner& run);
   const StencilLevel& fine() const { return levels_.front(); }
   int levels() const { return int(levels_.size()); }
-  // x = one V-cycle applied to b (x's old values are not read); b and x hold `width` columns.
-  void precondition(const Block& b, Block& x);
+  // The cycle's right-hand side on the finest level, `width` columns (zero rows are never read).
+  BlockOf<float>& rhs(int width);
+  // One V-cycle applied to rhs(); the result stays valid until the next call.
+  const BlockOf<float>& cycle();
 
  private:
-  template <class T>
-  void cycle(std::size_t l, const BlockOf<T>& b, BlockOf<T>& x);
-  template <class T>
-  std::vector<BlockOf<T>>& coarse_b();
-  template <class T>
-  std::vector<BlockOf<T>>& coarse_x();
+  void cycle(std::size_t l);
 
   std::vector<StencilLevel> levels_;
-  // Per level (the finest's only in single precision: the caller's are double).
-  std::vector<Block> b_, x_;
-  std::vector<BlockOf<float>> b_single_, x_single_;
+  std::vector<BlockOf<float>> b_, x_;  // per level
   Eigen::LLT<Eigen::MatrixXd> coarsest_;
   MultigridSettings settings_;
   KernelRunner run_;

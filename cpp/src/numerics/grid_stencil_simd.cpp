@@ -91,17 +91,8 @@ void SweepRowsF32(const int* rows, size_t count, const float* inv, const std::ar
                   const float* b, float* x, int width, bool from_zero) {
   SweepRowsT(rows, count, inv, coupling, nb, b, x, width, from_zero);
 }
-void SweepRowsF64(const int* rows, size_t count, const double* inv, const std::array<double, 6>* coupling,
-                  const std::array<int, 6>* nb, const double* b, double* x, int width, bool from_zero) {
-  SweepRowsT(rows, count, inv, coupling, nb, b, x, width, from_zero);
-}
 void RestrictRowsF32(const int* start, const int* child, size_t begin, size_t end, const float* diagonal, const std::array<float, 6>* coupling,
                      const std::array<int, 6>* nb, const float* b, const float* x, float* coarse_b, int width) {
-  RestrictRowsT(start, child, begin, end, diagonal, coupling, nb, b, x, coarse_b, width);
-}
-void RestrictRowsF64(const int* start, const int* child, size_t begin, size_t end, const double* diagonal,
-                     const std::array<double, 6>* coupling, const std::array<int, 6>* nb, const double* b, const double* x,
-                     double* coarse_b, int width) {
   RestrictRowsT(start, child, begin, end, diagonal, coupling, nb, b, x, coarse_b, width);
 }
 
@@ -113,32 +104,16 @@ HWY_AFTER_NAMESPACE();
 namespace deformkit::numerics {
 
 HWY_EXPORT(SweepRowsF32);
-HWY_EXPORT(SweepRowsF64);
 HWY_EXPORT(RestrictRowsF32);
-HWY_EXPORT(RestrictRowsF64);
 
-template <>
-void sweep_rows<float>(const int* rows, std::size_t count, const float* inv, const std::array<float, 6>* coupling,
+void sweep_rows(const int* rows, std::size_t count, const float* inv, const std::array<float, 6>* coupling,
                        const std::array<int, 6>* nb, const float* b, float* x, int width, bool from_zero) {
   HWY_DYNAMIC_DISPATCH(SweepRowsF32)(rows, count, inv, coupling, nb, b, x, width, from_zero);
 }
-template <>
-void sweep_rows<double>(const int* rows, std::size_t count, const double* inv, const std::array<double, 6>* coupling,
-                        const std::array<int, 6>* nb, const double* b, double* x, int width, bool from_zero) {
-  HWY_DYNAMIC_DISPATCH(SweepRowsF64)(rows, count, inv, coupling, nb, b, x, width, from_zero);
-}
-template <>
-void restrict_rows<float>(const int* start, const int* child, std::size_t begin, std::size_t end, const float* diagonal,
+void restrict_rows(const int* start, const int* child, std::size_t begin, std::size_t end, const float* diagonal,
                           const std::array<float, 6>* coupling, const std::array<int, 6>* nb, const float* b, const float* x,
                           float* coarse_b, int width) {
   HWY_DYNAMIC_DISPATCH(RestrictRowsF32)(start, child, begin, end, diagonal, coupling, nb, b, x, coarse_b, width);
 }
-template <>
-void restrict_rows<double>(const int* start, const int* child, std::size_t begin, std::size_t end, const double* diagonal,
-                           const std::array<double, 6>* coupling, const std::array<int, 6>* nb, const double* b, const double* x,
-                           double* coarse_b, int width) {
-  HWY_DYNAMIC_DISPATCH(RestrictRowsF64)(start, child, begin, end, diagonal, coupling, nb, b, x, coarse_b, width);
-}
-
 }  // namespace deformkit::numerics
 #endif  // HWY_ONCE
