@@ -24,6 +24,7 @@ MODULES = (
     "entries.common", "entries.binding", "entries.barr", "entries.lattice", "entries.laplacian",
     "entries.cage", "entries.rbf", "entries.subdivide", "entries",
     "properties", "stack_run", "entry_animation", "evaluation", "lattice_tools", "smoothness", "api",
+    "mesh_deform",
     "transfer.correspondence", "transfer.similarity", "transfer.storage", "transfer.keys", "transfer.system",
     "transfer.shape_keys", "transfer.bake", "transfer.markers", "transfer",
     "operators.base", "operators.stack", "operators.lattice", "operators.laplacian", "operators.cage",

@@ -155,6 +155,9 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
     bind_vertices: IntProperty(options={"HIDDEN"})
     bind_faces: IntProperty(options={"HIDDEN"})
     bind_topology: IntProperty(options={"HIDDEN"})
+    # What changed since bind when the bind no longer fits ("bound to 8 000 vertices, the mesh now
+    # has 32 000: Rebind"), '' while it fits: the panel offers Rebind beside it (entries/binding.py).
+    bind_outdated: StringProperty(options={"HIDDEN", "SKIP_SAVE"})
     handle_matrix: FloatVectorProperty(size=16, options={"HIDDEN"},
                                        default=[float(i % 5 == 0) for i in range(16)])
     # Subdivide entries, with the Subdivision Surface modifier's names
@@ -190,6 +193,13 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
     cage_name: StringProperty(options={"HIDDEN"})
     cage_method: EnumProperty(name="Method", items=CAGE_METHODS, default="MEAN_VALUE", update=_changed,
                               description="The coordinates that tie the mesh to the cage")
+    # The Harmonic method's, with the Mesh Deform modifier's names, defaults and range (read at Bind).
+    precision: IntProperty(name="Precision", default=5, min=2, max=10, update=_changed,
+                           description="The grid size (2^Precision + 2 cells a side) for the harmonic coordinates: "
+                                       "higher is closer to true harmonic coordinates, binds slower")
+    use_dynamic_bind: BoolProperty(name="Dynamic", default=False, update=_changed,
+                                   description="Recompute the binding as the mesh coming into the entry changes "
+                                               "(slower), as Mesh Deform's Dynamic")
     # RBF entries (the bind uses bind_id and bind_vertices, the control object's vertex count, and
     # the ID properties "deformkit_rbf_rest" and "deformkit_rbf_indices": see entries/rbf.py)
     controls: PointerProperty(name="Controls", type=bpy.types.Object, poll=_is_other_mesh, update=_controls_changed,

@@ -1,7 +1,7 @@
 """Panel in the Modifiers tab, laid out like Blender's own modifier panels."""
 import bpy
 
-from . import entries, native, outputs, panel_text
+from . import entries, mesh_deform, native, outputs, panel_text
 from .operators import cage, laplacian, lattice, markers, rbf, stack
 from .properties import ENTRY_TYPES
 
@@ -147,6 +147,8 @@ class DEFORMKIT_PT_stack(bpy.types.Panel):
         budget = panel_text.context_budget(context)
         row = layout.row()
         row.menu(DEFORMKIT_MT_add.bl_idname, icon="ADD")
+        if mesh_deform.mesh_deforms(obj):  # a rig's Mesh Deform modifiers to take over as Cage entries
+            layout.operator("deformkit.convert_mesh_deform", icon="MOD_MESHDEFORM")
         if stack.notice:
             panel_text.label_wrapped(layout, stack.notice, "INFO", budget)
         if not len(stack.entries):  # on every mesh: compact until it has entries

@@ -2,6 +2,8 @@
 #include "common.hpp"
 #include "declared.hpp"
 
+#include "deformkit/cage/mesh_deform.hpp"
+
 #include <memory>
 #include <optional>
 #include <string>
@@ -84,6 +86,56 @@ py::tuple py_weights(const PyCageBinding& pb) {
 
 const char* storage_name(WeightStorage s) {
   return s == WeightStorage::Float64 ? "float64" : s == WeightStorage::Float32 ? "float32" : "sparse";
+}
+
+// A Mesh Deform binding remembers its deformer, as a cage binding does.
+struct PyMeshDeformBinding {
+  std::shared_ptr<MeshDeformBinding> binding;
+  std::shared_ptr<const MeshDeform> deformer;
+};
+
+// Blender's mesh ray-cast trees: 4 children per branch before 4.4, 2 since.
+int bvh_arity_of(const py::object& version) {
+  const py::ssize_t n = sequence_length(version);
+  std::vector<std::int64_t> parts;
+  if (n == 2 || n == 3) {
+    try {
+      for (const py::handle item : version) {
+        if (py::isinstance<py::bool_>(item) || !py::isinstance<py::int_>(item)) throw py::type_error("");
+        parts.push_back(item.cast<std::int64_t>());
+      }
+    } catch (const std::exception&) {
+      parts.clear();
+    }
+  }
+  if (parts.size() < 2 || parts[0] < 2)
+    throw py::value_error("blender_version: expected (major, minor) integers of a Blender release, e.g. (5, 0) "
+                          "or bpy.app.version, got " + py::repr(version).cast<std::string>());
+  return parts[0] > 4 || (parts[0] == 4 && parts[1] >= 4) ? 2 : 4;
+}
+
+PyMeshDeformBinding py_md_bind(const std::shared_ptr<MeshDeform>& md, const py::object& points) {
+  const py::array pts = points_array(points, "points");
+  const auto n = static_cast<std::size_t>(pts.shape(0));
+  auto b = std::make_shared<MeshDeformBinding>();
+  const double bytes = 8.0 * double(md->vertex_count()) + 40.0;
+  without_gil("the Mesh Deform binding (" + working_size(n, bytes) + ")", [&] {
+    if (is_float32(pts)) *b = md->bind(static_cast<const float*>(pts.data()), n);
+    else *b = md->bind(static_cast<const double*>(pts.data()), n);
+  });
+  return PyMeshDeformBinding{b, md};
+}
+
+py::array py_md_deform_bound(const MeshDeform& md, const PyMeshDeformBinding& pb, const py::object& out) {
+  const MeshDeformBinding& b = *pb.binding;
+  const auto rows = py::ssize_t(b.size());
+  py::array result = b.single_precision ? output_array<float>(out, rows, py::none(), false)
+                                        : output_array<double>(out, rows, py::none(), false);
+  without_gil("the Mesh Deform's working arrays", [&] {
+    if (b.single_precision) md.deform_bound(b, static_cast<float*>(result.mutable_data()));
+    else md.deform_bound(b, static_cast<double*>(result.mutable_data()));
+  });
+  return result;
 }
 
 }  // namespace
@@ -176,6 +228,75 @@ a point on the cage moves with its face, not exactly onto it. Jacobians are exac
            }),
            "cage_points"_a, "cage_faces"_a, py::kw_only(), "stretch"_a = true, "weights"_a = py::none())
       .def_property_readonly("stretch", &GreenCage::stretch, "Whether Lipman's stretch factors scale the normals.");
+
+  Class<PyMeshDeformBinding>(m, "MeshDeformBinding", R"(Points bound to a MeshDeform: Blender's bind of them.
+
+`inside` says which points lie inside the rest cage (Blender's ray test); the others are not
+deformed. A static bind holds each inside point's harmonic coordinates (weights above 1e-5 kept,
+renormalised); a dynamic one only the inside flags (the coordinates are the grid's, read where
+the point is).)")
+      .def("__len__", [](const PyMeshDeformBinding& b) { return b.binding->size(); })
+      .def_property_readonly("dynamic", [](const PyMeshDeformBinding& b) { return b.binding->dynamic; })
+      .def_property_readonly("inside", [](const PyMeshDeformBinding& b) {
+        const auto& in = b.binding->inside;
+        py::array_t<bool> a(py::ssize_t(in.size()));
+        auto* d = a.mutable_data();
+        for (std::size_t i = 0; i < in.size(); ++i) d[i] = in[i] != 0;
+        return a;
+      }, "Per point: inside the rest cage (deformed) or not (left where it is).")
+      .def("weights", [](const PyMeshDeformBinding& pb) {
+        WeightTable w;
+        without_gil("the sparse weight matrix", [&] { w = pb.deformer->weights_table(*pb.binding); });
+        return csr_tuple(std::move(w.indptr), std::move(w.indices), std::move(w.values));
+      }, R"(The harmonic coordinates as CSR (indptr, indices, data) over the cage's vertices: a point's
+row sums to 1 (an outside point's is empty). Dynamic: interpolated at the bound points.)");
+
+  Class<MeshDeform, Deformer, std::shared_ptr<MeshDeform>>(m, "MeshDeform", R"(Blender's Mesh Deform modifier: harmonic coordinates on a grid (Joshi et al. 2007).
+
+cage_points and cage_faces as for MeanValueCage. precision p (2 to 10, Blender's default 5) gives
+a grid of 2^p + 2 cells a side over the cage's box; dynamic=True is Blender's Dynamic bind (the
+grid's coordinates read at each point's current position) instead of the static one (each
+point's coordinates, computed once at bind). A point inside the rest cage moves by
+sum_a w_a (c_a - c_a at rest): the rest cage is the identity bit for bit; a point outside stays.
+Equal to Blender's modifier to its float precision. The grid is solved in bind (static) or here
+(dynamic). blender_version (major, minor), default (5, 0): the Blender whose ray casts to follow
+(before 4.4 Blender's ray-cast tree had 4 children per branch, since then 2; it decides which hit
+Blender keeps on a ray that meets the cage more than once, e.g. which points count as inside).)")
+      .def(py::init([](const py::object& points, const py::object& faces, std::int64_t precision,
+                       const py::object& dynamic, const py::object& blender_version, const py::object& weights) {
+             CageMesh cage = parse_cage(points, faces);
+             const int p = int_arg(precision, "precision", MeshDeform::kMinPrecision, MeshDeform::kMaxPrecision);
+             const bool dyn = bool_arg(dynamic, "dynamic");
+             const int arity = bvh_arity_of(blender_version);
+             std::shared_ptr<MeshDeform> md;
+             without_gil("the Mesh Deform grid", [&] { md = std::make_shared<MeshDeform>(std::move(cage), p, dyn, arity); });
+             apply_weights(*md, weights);
+             return md;
+           }),
+           "cage_points"_a, "cage_faces"_a, py::kw_only(), "precision"_a = 5, "dynamic"_a = false,
+           "blender_version"_a = py::make_tuple(5, 0), "weights"_a = py::none())
+      .def_property("cage_points", [](const MeshDeform& c) { return points_of(c.cage_points()); },
+                    [](MeshDeform& c, const py::object& p) {
+                      const auto a = real_array(p, "cage_points");
+                      if (a.ndim() != 2 || a.shape(1) != 3 || std::size_t(a.shape(0)) != c.vertex_count())
+                        throw py::value_error("cage_points: expected shape (" + std::to_string(c.vertex_count()) +
+                                              ", 3), got " + shape_of(a));
+                      c.set_cage_points(std::vector<double>(a.data(), a.data() + a.size()));
+                    },
+                    "The current cage (m, 3); assigning validates and copies. The rest cage is the identity.")
+      .def_property_readonly("rest_cage_points", [](const MeshDeform& c) { return points_of(c.rest_cage_points()); })
+      .def_property_readonly("precision", &MeshDeform::precision)
+      .def_property_readonly("dynamic", &MeshDeform::dynamic)
+      .def_property_readonly("unknowns", &MeshDeform::unknown_count, "The grid system's unknowns (cells not outside).")
+      .def_property_readonly("grid_size", &MeshDeform::grid_size, "Cells a side: 2^precision + 2.")
+      .def_property_readonly("flipped", [](const MeshDeform& c) { return c.cage().flipped(); },
+                             "True when the cage's faces pointed inward (negative volume) and were flipped.")
+      .def("bind", &py_md_bind, "points"_a, R"(Bind points as Blender's Bind button does (MeshDeformBinding).
+
+Static: solves the grid for every cage vertex and keeps each inside point's coordinates.
+Dynamic: finds which points are inside (the grid was solved by the constructor).)")
+      .def("deform_bound", &py_md_deform_bound, "binding"_a, py::kw_only(), "out"_a = py::none(),
+           "Deform bound points with the current cage. The dtype is that of the bound points.");
 }
 
 }  // namespace deformkit_py

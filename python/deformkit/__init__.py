@@ -44,6 +44,8 @@ from ._core import (
     LimitSurface,
     LatticeBinding,
     MeanValueCage,
+    MeshDeform,
+    MeshDeformBinding,
     RBF,
     RBFBinding,
     SimpleDeform,
@@ -71,7 +73,7 @@ __all__ = [
     "SurfaceDeformer", "cotangent_laplacian", "extrapolated_start", "mesh_volume",
     "LimitSurface", "SmoothnessReport", "SubdividedMesh", "Subdivider", "SUBDIVISION_MAX_FACES", "SUBDIVISION_MAX_LEVEL",
     "smoothness_report", "subdivide",
-    "CageBinding", "CageDeformer", "GreenCage", "MeanValueCage",
+    "CageBinding", "CageDeformer", "GreenCage", "MeanValueCage", "MeshDeform", "MeshDeformBinding",
     "RBF", "RBFBinding",
     "DeformationTransfer",
 ]

@@ -1,19 +1,24 @@
-"""Cage entries: a closed mesh object (the cage) deforms the mesh through mean value or Green
-coordinates (dk.MeanValueCage, dk.GreenCage), as Blender's Mesh Deform modifier is used.
+"""Cage entries: a closed mesh object (the cage) deforms the mesh through mean value, Green or
+harmonic coordinates (dk.MeanValueCage, dk.GreenCage, dk.MeshDeform), as Blender's Mesh Deform
+modifier is used; Harmonic is that modifier's own, with its Precision and Dynamic.
 
 Bind records the cage's rest shape in this object's space, with a fingerprint of its topology, on
 the entry itself (an ID property array, so it saves and undoes with the object and never reaches
 the mesh). Afterwards the entry follows the cage object's *evaluated* mesh: a cage rigged with an
-Armature, edited in Edit Mode, shape-keyed or keyframed drives the mesh, and moving the cage object
-moves the mesh, as with Mesh Deform. The mesh is bound to the rest cage once per incoming points
+Armature, edited in Edit Mode, shape-keyed or keyframed drives the mesh, and (Mean Value, Green)
+moving the cage object moves the mesh. The mesh is bound to the rest cage once per incoming points
 (kept in the cache's "cage" space), and each evaluation is one product of the bound coordinates
-with the current cage.
+with the current cage. Harmonic works as Mesh Deform does, in the cage object's own space at bind
+(FRAME): a moved cage object turns the displacement and does not carry the mesh. Without Dynamic
+it binds the points coming into the entry at Bind (kept on the entry, BOUND), whose coordinates
+later points of the same count keep (x + W (c - c at bind)); another vertex count asks for Rebind.
 
 Here too: the entry's settings and panel; its operators are in operators/cage.py.
 """
 import zlib
 from collections import namedtuple
 
+import bpy
 import numpy as np
 
 from .. import cache, meshdata, native, panel_text
@@ -21,30 +26,44 @@ from ..errors import EntryError
 from . import binding
 from .binding import is_bound, new_bind_id, signed
 from .common import (Prepared, draw_vertex_group, evaluated_mesh_in, followed_mesh, forget_bindings,
-                     kept_binding, scaled_influence, store_array, weights_crc)
+                     kept_binding, scaled_influence, stack_index, store_array, weights_crc)
 
 ENTRY_TYPES = [  # saved as its number: listed before Subdivide, numbered after
-    ("CAGE", "Cage", "A closed mesh object (the cage) deforms the mesh through mean value or Green coordinates, "
-     "as Mesh Deform (Bind first)", "NONE", 7),
+    ("CAGE", "Cage", "A closed mesh object (the cage) deforms the mesh through mean value, Green or harmonic "
+     "coordinates, as Mesh Deform (Bind first)", "NONE", 7),
 ]
 TYPES = tuple(row[0] for row in ENTRY_TYPES)  # its entry.type identifiers
 CAGE_METHODS = [
     ("MEAN_VALUE", "Mean Value", "Mean value coordinates (Ju, Schaefer, Warren 2005): smooth, interpolate the cage", 0),
     ("GREEN", "Green", "Green coordinates (Lipman, Levin, Cohen-Or 2008): keep details' shape (quasi-conformal)", 1),
+    ("HARMONIC", "Harmonic (Mesh Deform)", "Harmonic coordinates on a grid (Joshi et al. 2007), as Blender's Mesh "
+     "Deform modifier computes them, with its Precision and Dynamic", 2),
 ]
 ICON = "MOD_MESHDEFORM"
-FIELDS = ("cage", "cage_method", "strength", "vertex_group", "invert_vertex_group")
-CLASSES = {"MEAN_VALUE": "MeanValueCage", "GREEN": "GreenCage"}
+FIELDS = ("cage", "cage_method", "precision", "use_dynamic_bind", "strength", "vertex_group", "invert_vertex_group")
+CLASSES = {"MEAN_VALUE": "MeanValueCage", "GREEN": "GreenCage", "HARMONIC": "MeshDeform"}
 
 REST = "deformkit_cage_rest"  # the entry's ID property: the cage at bind, x y z per vertex, in this object's space
+BOUND = "deformkit_cage_bound"  # Harmonic, not Dynamic: the points that came into the entry at bind, x y z
+# Harmonic: this object's inverse times the cage object's matrix at bind (4 x 4, row-major). Mesh
+# Deform lays its grid along the cage object's own axes and turns the displacement by how the two
+# objects stand now, so the entry does too.
+FRAME = "deformkit_cage_frame"
 NOT_COPIED = binding.NOT_COPIED  # a copy arrives unbound
 
 # deformer: the dk cage deformer with the current cage and the entry's influence; bind: the key its
-# deformer and bindings are kept under; fingerprint: everything besides the incoming points.
-Setup = namedtuple("Setup", "deformer bind fingerprint")
+# deformer and bindings are kept under; fingerprint: everything besides the incoming points;
+# harmonic: a Harmonic entry's Frame, else None.
+Setup = namedtuple("Setup", "deformer bind fingerprint harmonic", defaults=(None,))
+# A Harmonic entry in the cage's own space: now, this object's space to the cage's (4 x 4); turn,
+# the cage's displacements into this object's space (3 x 3, None when that is the identity);
+# bound, (points, in the cage's space) of a bind that keeps its points (not Dynamic), else None;
+# weights, the per-point influence (vertex group, strength) scaling the displacement, or None: the
+# grid is solved without them, so a Strength drag never solves it again.
+Frame = namedtuple("Frame", "now turn bound weights", defaults=(None,))
 # In the cache: "cage_binding", (object cache key, entry index, "viewport"/"render") -> (bind key
-# (object cache key, bind id, method), points, binding); "cage_deformer", bind key -> (crc of the
-# per-point weights, deformer).
+# (object cache key, bind id, method[, precision, dynamic]), points, binding); "cage_deformer", bind
+# key -> (crc of the per-point weights, deformer); "cage_bound", bind key -> the points bound at Bind.
 
 
 UNSET = "no cage object set: pick a closed mesh object around the mesh"
@@ -65,32 +84,98 @@ def evaluated_cage(obj, cage):
 def topology_change(entry, now):
     """What changed in the cage's topology since bind, or ''."""
     vertices, faces, crc = now
-    if (vertices, faces) != (entry.bind_vertices, entry.bind_faces):
-        return (f"the cage had {entry.bind_vertices} vertices and {entry.bind_faces} faces at bind and has "
-                f"{vertices} and {faces} now: bind again")
-    if crc != entry.bind_topology:
-        return "the cage's faces connect its vertices differently than at bind: bind again"
-    return ""
+    # Not the cage's name: a message naming the cage reads as the one for its deletion (handlers).
+    changed = binding.counts_changed("the cage", (entry.bind_vertices, entry.bind_faces), (vertices, faces))
+    if not changed and crc != entry.bind_topology:
+        changed = "the cage's faces connect its vertices differently than at bind: Rebind"
+    return changed
 
 
-def _deformer(obj, entry, faces, weights):
-    """The dk cage deformer of the rest cage with these per-point weights, kept while the bind and
-    the weights stay: checking the cage and building its tables costs about as much as a frame."""
+def _class(entry):
     cls = getattr(native.dk, CLASSES[entry.cage_method], None)
     if cls is None:
-        raise EntryError(f"this build of deformkit has no cage deformers: {native.BUILD_HINT}")
-    bind_key = (meshdata.cache_key(obj), entry.bind_id, entry.cage_method)
-    crc = weights_crc(weights)
-    cached = cache.get("cage_deformer", bind_key)
-    if cached is not None and cached[0] == crc:
-        return bind_key, cached[1], crc
-    rest = np.asarray(entry[REST], np.float64).reshape(-1, 3)
+        raise EntryError(f"this build of deformkit has no {CLASSES[entry.cage_method]}: {native.BUILD_HINT}")
+    return cls
+
+
+def _make(cls, entry, points, faces, weights=None):
+    """The dk deformer of this rest cage with the entry's settings; ValueError naming what is wrong."""
+    # blender_version: the ray casts of this Blender's own Mesh Deform (its tree changed in 4.4).
+    harmonic = {"precision": entry.precision, "dynamic": entry.use_dynamic_bind,
+                "blender_version": tuple(bpy.app.version[:2])} if entry.cage_method == "HARMONIC" else {}
     try:
-        deformer = cls(rest, faces, weights=weights)
+        return cls(points, faces, weights=weights, **harmonic)
+    except RuntimeError as exc:  # Mesh Deform's own failure, naming the cage: not the solver's fault
+        raise EntryError(str(exc)) from exc
+
+
+def bind_key(obj, entry):
+    """What the entry's deformer and bindings are kept under: a new bind, method or grid is new."""
+    return (meshdata.cache_key(obj),) + grid_tail(entry)
+
+
+def _deformer(obj, entry, faces, weights, rest=None):
+    """The dk cage deformer of the rest cage (the saved one, or `rest`) with these per-point weights,
+    kept while the bind and the weights stay: checking the cage and building its tables costs about
+    as much as a frame."""
+    cls = _class(entry)
+    key = bind_key(obj, entry)
+    crc = weights_crc(weights)
+    cached = cache.get("cage_deformer", key)
+    if cached is not None and cached[0] == crc:
+        return key, cached[1], crc
+    if rest is None:
+        rest = np.asarray(entry[REST], np.float64).reshape(-1, 3)
+    try:
+        deformer = _make(cls, entry, rest, faces, weights)
     except ValueError as exc:
         raise EntryError(str(exc)) from exc
-    cache.put("cage_deformer", bind_key, (crc, deformer))
-    return bind_key, deformer, crc
+    cache.put("cage_deformer", key, (crc, deformer))
+    return key, deformer, crc
+
+
+def to_space(points, matrix):
+    return np.asarray(points, np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
+
+
+def relative(obj, cage):
+    """obj^-1 cage: the cage's local space in obj's."""
+    return np.array(obj.matrix_world.inverted() @ cage.matrix_world, np.float64)
+
+
+def saved_frame(entry):
+    return np.array(entry[FRAME], np.float64).reshape(4, 4)
+
+
+def bound_points(obj, entry):
+    """(points bound at Bind, the same in the cage's space at bind) of a Harmonic entry that is not
+    Dynamic, or None; read from the entry once per bind (the cache's "cage_bound" space), not every
+    frame."""
+    if entry.cage_method != "HARMONIC" or entry.use_dynamic_bind or BOUND not in entry:
+        return None
+    key = bind_key(obj, entry)
+    kept = cache.get("cage_bound", key)
+    if kept is None:
+        points = np.array(entry[BOUND], np.float32).reshape(-1, 3)
+        kept = cache.put("cage_bound", key, (points, to_space(points, np.linalg.inv(saved_frame(entry)))))
+    return kept
+
+
+def mesh_change(obj, entry, bound):
+    """What changed in the mesh since a Harmonic bind of its points, or ''. In Edit Mode the mesh's
+    count is the edit mesh's: deform checks it there."""
+    if bound is None or obj.mode == "EDIT":
+        return ""
+    return binding.counts_changed("the mesh", (len(bound[0]),), (len(obj.data.vertices),))
+
+
+def harmonic_frame(obj, cage, entry, points):
+    """(Frame, the rest cage and the current cage in the cage's space) of a Harmonic entry."""
+    now = relative(obj, cage)
+    to_cage, at_bind = np.linalg.inv(now), saved_frame(entry)
+    turn = None if np.array_equal(now[:3, :3], np.eye(3)) else now[:3, :3]
+    rest = to_space(np.asarray(entry[REST], np.float64).reshape(-1, 3), np.linalg.inv(at_bind))
+    return Frame(to_cage, turn, bound_points(obj, entry)), rest, to_space(points, to_cage)
 
 
 def setup(obj, entry, reuse_weights=False):
@@ -98,13 +183,23 @@ def setup(obj, entry, reuse_weights=False):
     if cage is None or not is_bound(entry) or REST not in entry:
         return Prepared(None, ("unbound",), None)  # as Mesh Deform before Bind: the mesh passes through
     points, faces, topo = evaluated_cage(obj, cage)
-    changed = topology_change(entry, topo)
-    if changed:
-        raise EntryError(changed)
-    key, deformer, crc = _deformer(obj, entry, faces, scaled_influence(obj, entry, reuse_weights))
+    harmonic, frame, rest = entry.cage_method == "HARMONIC", None, None
+    # Bound with Mean Value or Green, a Harmonic entry lacks the frame of its grid.
+    changed = "bound for another method: Rebind" if harmonic and FRAME not in entry else topology_change(entry, topo)
+    if harmonic and not changed:
+        frame, rest, points = harmonic_frame(obj, cage, entry, points)
+        changed = mesh_change(obj, entry, frame.bound)
+    binding.require_current(entry, changed)
+    weights = scaled_influence(obj, entry, reuse_weights)
+    if frame is not None:
+        frame = frame._replace(weights=weights)
+        key, deformer, _ = _deformer(obj, entry, faces, None, rest)
+        crc = weights_crc(weights)
+    else:
+        key, deformer, crc = _deformer(obj, entry, faces, weights)
     deformer.cage_points = points
-    fingerprint = (key, zlib.crc32(points.tobytes()), crc)
-    return Prepared(deformer, fingerprint, Setup(deformer, key, fingerprint))
+    fingerprint = (key, zlib.crc32(points.tobytes()), crc) + (() if frame is None else (frame.now.tobytes(),))
+    return Prepared(deformer, fingerprint, Setup(deformer, key, fingerprint, frame))
 
 
 def deform(key, prepared, points):
@@ -112,46 +207,100 @@ def deform(key, prepared, points):
     setup_ = prepared.data
     if setup_ is None:
         return points
+    if setup_.harmonic is not None:
+        return harmonic_deform(key, setup_, points)
     # float32 weights, as the mesh's positions are: half the memory and time per frame.
-    binding = kept_binding("cage_binding", key, setup_.bind, points,
-                           lambda p: setup_.deformer.bind(p, precision="float32"))
-    return setup_.deformer.deform_bound(binding)
+    binding_ = kept_binding("cage_binding", key, setup_.bind, points,
+                            lambda p: setup_.deformer.bind(p, precision="float32"))
+    return setup_.deformer.deform_bound(binding_)
 
 
-def bind(obj, entry, incoming):
-    """Record the cage's current evaluated shape as its rest (checked: a closed, consistently
-    oriented cage); nothing changes if that fails. Returns the cage's vertex count. The points
-    coming into the entry (incoming) play no part: the mesh is bound to the rest as it comes."""
+def harmonic_deform(key, setup_, points):
+    """Mesh Deform's result in this object's space: the points in the cage's space (as bound at
+    Bind, or as they come with Dynamic) move by their harmonic displacement, turned into this
+    object's space and added to the points as they come: x + R sum_a w_a (c_a - c_a at bind)."""
+    frame = setup_.harmonic
+    if frame.bound is not None:
+        if len(frame.bound[0]) != len(points):
+            raise EntryError(binding.counts_changed("the mesh", (len(frame.bound[0]),), (len(points),)))
+        local = frame.bound[1]
+    else:
+        local = to_space(points, frame.now)
+    bound = kept_binding("cage_binding", key, setup_.bind, local, setup_.deformer.bind)
+    moved = setup_.deformer.deform_bound(bound) - local
+    if frame.weights is not None:
+        if len(frame.weights) != len(points):
+            raise EntryError(f"the vertex group's weights are for {len(frame.weights)} vertices, the mesh coming into "
+                             f"the entry has {len(points)}")
+        moved *= np.asarray(frame.weights, np.float64)[:, None]
+    if frame.turn is not None:
+        moved = moved @ frame.turn.T
+    return (points + moved).astype(np.float32)
+
+
+def bind(obj, entry, incoming, rest=None):
+    """Record the cage's current evaluated shape (or `rest`, its points in obj's space) as its rest
+    (checked: a closed, consistently oriented cage); Harmonic without Dynamic also binds the points
+    coming into the entry (incoming()), as Mesh Deform's Bind. Nothing changes if that fails.
+    Returns the cage's vertex count."""
     cage = cage_object(entry, obj)
     points, faces, topo = evaluated_cage(obj, cage)
-    cls = getattr(native.dk, CLASSES[entry.cage_method], None)
-    if cls is None:
-        raise EntryError(f"this build of deformkit has no cage deformers: {native.BUILD_HINT}")
-    cls(points, faces)  # checks the cage: ValueError naming the first open edge, bad face, ...
+    if rest is not None:
+        points = np.asarray(rest, np.float32).astype(np.float64).reshape(points.shape)
+    harmonic = entry.cage_method == "HARMONIC"
+    frame = relative(obj, cage) if harmonic else None
+    to_cage = None if frame is None else np.linalg.inv(frame)
+    rest_points = points if frame is None else to_space(points.astype(np.float32), to_cage)
+    deformer = _make(_class(entry), entry, rest_points, faces)  # checks the cage: ValueError naming its first open edge, ...
+    mesh = np.asarray(incoming(), np.float32).reshape(-1, 3) if harmonic and not entry.use_dynamic_bind else None
+    local = None if mesh is None else to_space(mesh, to_cage)
+    try:
+        made = None if local is None else deformer.bind(local)  # Mesh Deform's solve: its failure leaves the entry
+    except RuntimeError as exc:  # "cannot find a bind solution", naming the cage
+        raise EntryError(str(exc)) from exc
     bind_id = new_bind_id(obj)
     store_array(entry, REST, points.astype(np.float32).ravel())
+    for name, values in ((BOUND, mesh), (FRAME, frame)):
+        if values is not None:
+            store_array(entry, name, values.ravel())
+        elif name in entry:
+            del entry[name]
     entry.bind_vertices, entry.bind_faces, entry.bind_topology = topo
     entry.bind_id = bind_id  # a new bind key: the old bindings are not used again
+    key = bind_key(obj, entry)
+    cache.put("cage_deformer", key, (weights_crc(None), deformer))  # a Dynamic grid: solved once
+    if made is not None:  # the first evaluation uses this binding, not a second solve
+        cache.put("cage_bound", key, (mesh, local))
+        index = stack_index(entry)
+        for kind in ("viewport", "render"):
+            cache.put("cage_binding", (meshdata.cache_key(obj), index, kind), (key, local, made))
     return topo[0]
 
 
 def unbind(obj, entry):
-    binding.forget(entry, (REST,))
+    binding.forget(entry, (REST, BOUND, FRAME))
 
 
 def followed(entry):
     return [(entry.cage, entry.cage_name)]
 
 
+def grid_tail(entry):
+    """bind_key without the object's key."""
+    return (entry.bind_id, entry.cage_method) + ((entry.precision, entry.use_dynamic_bind)
+                                                 if entry.cage_method == "HARMONIC" else ())
+
+
 def prune(object_key, entries):
     """Bindings of binds no entry has any more go."""
-    forget_bindings(object_key, "cage_binding", entries, lambda e: (e.bind_id, e.cage_method))
-    alive = {(e.bind_id, e.cage_method) for e in entries}
-    cache.forget(object_key, "cage_deformer", keep=lambda k: k[1:] in alive)
+    forget_bindings(object_key, "cage_binding", entries, grid_tail)
+    alive = {grid_tail(e) for e in entries}
+    for space in ("cage_deformer", "cage_bound"):
+        cache.forget(object_key, space, keep=lambda k: k[1:] in alive)
 
 
 def retyped(entry):
-    binding.forget(entry, (REST,))
+    binding.forget(entry, (REST, BOUND, FRAME))
 
 
 def draw(col, obj, entry):
@@ -161,12 +310,17 @@ def draw(col, obj, entry):
     if entry.cage is None and not entry.cage_name:
         panel_text.label_wrapped(col, HINT, "INFO", panel_text.box_budget())  # a label is cut
     col.prop(entry, "cage_method", text="Method")
+    if entry.cage_method == "HARMONIC":  # Mesh Deform's settings, read at Bind
+        at_bind = col.column()
+        at_bind.enabled = not is_bound(entry)
+        at_bind.prop(entry, "precision")
+        at_bind.prop(entry, "use_dynamic_bind")
     col.prop(entry, "strength", slider=True)
     draw_vertex_group(col, obj, entry)
     col.separator()
     if is_bound(entry):
         col.label(text=f"Bound: cage of {entry.bind_vertices} vertices", icon="LINKED")
-        col.operator("deformkit.cage_unbind", text="Unbind", icon="UNLINKED").index = index
+        binding.draw_rebind(col, entry, "deformkit.cage_bind", index, "deformkit.cage_unbind")
     else:
         col.label(text="Not bound", icon="UNLINKED")
         col.operator("deformkit.cage_bind", text="Bind", icon="LINKED").index = index

@@ -79,12 +79,12 @@ def _settings(entry, topo):
 
 
 def check_topology(entry, topo):
-    if (topo.vertices, topo.faces) != (entry.bind_vertices, entry.bind_faces):
-        raise EntryError(f"Mesh changed since bind: vertices from {entry.bind_vertices} to {topo.vertices}, "
-                         f"faces from {entry.bind_faces} to {topo.faces}; Unbind and Bind again")
-    if signed(topo.crc) != entry.bind_topology:
-        raise EntryError(f"Mesh connectivity changed since bind ({topo.vertices} vertices and {topo.faces} "
-                         "faces, as then); Unbind and Bind again")
+    """EntryError saying what changed when the mesh is not the one bound (the panel offers Rebind)."""
+    changed = binding.counts_changed("the mesh", (entry.bind_vertices, entry.bind_faces), (topo.vertices, topo.faces))
+    if not changed and signed(topo.crc) != entry.bind_topology:
+        changed = (f"the mesh's faces connect its vertices differently than at bind ({binding.count(topo.vertices)} "
+                   f"vertices and {binding.count(topo.faces)} faces, as then): Rebind")
+    binding.require_current(entry, changed)
 
 
 def members(obj, entry, reuse=False):
@@ -386,7 +386,7 @@ def draw(col, obj, entry):
     for warning in warnings:
         label_wrapped(col, warning, "INFO")
     if is_bound(entry):
-        col.operator("deformkit.laplacian_unbind", text="Unbind", icon="UNLINKED").index = index
+        binding.draw_rebind(col, entry, "deformkit.laplacian_bind", index, "deformkit.laplacian_unbind")
     else:
         col.operator("deformkit.laplacian_bind", text="Bind", icon="LINKED").index = index
 

@@ -166,9 +166,8 @@ def setup(obj, entry, reuse_weights=False):
     if controls is None or not is_bound(entry) or REST not in entry:
         return Prepared(None, ("unbound",), None)  # as a Cage entry before Bind: the mesh passes through
     points = evaluated_mesh_in(obj, controls)[0]
-    if len(points) != entry.bind_vertices:
-        raise EntryError(f"the control object '{controls.name}' had {entry.bind_vertices} vertices at bind and has "
-                         f"{len(points)} now: bind again")
+    binding.require_current(entry, binding.counts_changed(f"the control object '{controls.name}'",
+                                                          (entry.bind_vertices,), (len(points),)))
     targets = points[saved(entry)[1]]
     rbf, crc = _rbf(obj, entry, scaled_influence(obj, entry, reuse_weights))
     if not np.array_equal(rbf.targets, targets):
@@ -324,7 +323,7 @@ def draw(col, obj, entry):
         count = len(entry[INDICES])
         of = "" if count == entry.bind_vertices else f" of {entry.bind_vertices} vertices"
         col.label(text=f"Bound: {count} controls{of}", icon="LINKED")
-        col.operator("deformkit.rbf_unbind", text="Unbind", icon="UNLINKED").index = index
+        binding.draw_rebind(col, entry, "deformkit.rbf_bind", index, "deformkit.rbf_unbind")
     else:
         col.label(text="Not bound", icon="UNLINKED")
         col.operator("deformkit.rbf_bind", text="Bind", icon="LINKED").index = index

@@ -1,7 +1,9 @@
-"""The Cage entry's Bind and Unbind (the panel names them by bl_idname, as Mesh Deform's names its Bind)."""
+"""The Cage entry's Bind and Unbind (the panel names them by bl_idname, as Mesh Deform's names its
+Bind), and Convert Mesh Deform to deformkit."""
 import bpy
 
-from .base import BindOperator, UnbindOperator
+from .. import mesh_deform
+from .base import BindOperator, Operator, UnbindOperator, core_missing, mesh_object
 
 TYPES, NEEDS = ("CAGE",), "Needs a mesh with a Cage entry"
 
@@ -20,4 +22,29 @@ class DEFORMKIT_OT_cage_unbind(UnbindOperator, bpy.types.Operator):
     TYPES, NEEDS = TYPES, NEEDS
 
 
-classes = (DEFORMKIT_OT_cage_bind, DEFORMKIT_OT_cage_unbind)
+class DEFORMKIT_OT_convert_mesh_deform(Operator, bpy.types.Operator):
+    """Replace the active object's Mesh Deform modifiers by Cage entries (Harmonic, same cage, precision, """ \
+        """dynamic, vertex group and keys), bound as they were, leaving the result as it was"""
+    bl_idname = "deformkit.convert_mesh_deform"
+    bl_label = "Convert Mesh Deform to deformkit"
+
+    @classmethod
+    def poll(cls, context):
+        if core_missing(cls):
+            return False
+        obj = mesh_object(context)
+        if obj is None or not mesh_deform.mesh_deforms(obj):
+            cls.poll_message_set("Needs a mesh with a Mesh Deform modifier")
+            return False
+        if obj.mode == "EDIT":
+            cls.poll_message_set("Leave edit mode first")
+            return False
+        return True
+
+    def run(self, context):
+        lines = mesh_deform.convert(context.object)
+        for line in lines:
+            self.report({"WARNING"} if "stays" in line or "dropped" in line else {"INFO"}, line)
+
+
+classes = (DEFORMKIT_OT_cage_bind, DEFORMKIT_OT_cage_unbind, DEFORMKIT_OT_convert_mesh_deform)

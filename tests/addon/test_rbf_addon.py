@@ -252,7 +252,7 @@ def test_problems_show_on_the_entry(scene):
     bm.free()
     controls.data.update()
     update()
-    assert f"the control object 'Controls' had {count} vertices at bind and has {count + 1} now" in entry.error
+    assert entry.error == f"bound to {count} vertices, the control object 'Controls' now has {count + 1}: Rebind"
     np.testing.assert_array_equal(evaluated(obj), positions(obj.data))  # skipped, as a broken modifier
     api.bind_rbf(obj, 0)  # bound again: fine
     assert entry.error == ""

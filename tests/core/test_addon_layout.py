@@ -15,7 +15,7 @@ LAYERS = (
     ("__init__", 4), ("ui", 4), ("ui_markers", 4), ("handlers", 4), ("batch", 4), ("batch_checks", 4),
     ("operators", 4), ("operators.*", 4),
     ("api", 3), ("entry_animation", 3), ("evaluation", 3), ("stack_run", 3), ("properties", 3), ("lattice_tools", 3),
-    ("smoothness", 3), ("transfer", 3), ("transfer.*", 3),
+    ("smoothness", 3), ("mesh_deform", 3), ("transfer", 3), ("transfer.*", 3),
     ("entries", 2),  # the registry
     ("entries.common", 1), ("entries.binding", 1),
     ("entries.*", 2),  # the kinds

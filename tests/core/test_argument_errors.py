@@ -32,6 +32,10 @@ def mean_value_cage():
     return dk.MeanValueCage(CUBE, CUBE_FACES)
 
 
+def mesh_deform():
+    return dk.MeshDeform(CUBE, CUBE_FACES, precision=3)
+
+
 def rbf():
     return dk.RBF(CUBE, CUBE + 0.1)
 
@@ -61,6 +65,11 @@ ENTRY_POINTS = {
     "MeanValueCage.bind": (lambda *a, **k: mean_value_cage().bind(*a, **k), "bind", (PTS,), {}),
     "MeanValueCage.deform_bound": (lambda *a, **k: mean_value_cage().deform_bound(*a, **k), "deform_bound",
                                    (mean_value_cage().bind(PTS),), {}),
+    "MeshDeform": (dk.MeshDeform, "__init__", (CUBE, CUBE_FACES), {"precision": 3, "dynamic": True,
+                                                                   "blender_version": (5, 0)}),
+    "MeshDeform.bind": (lambda *a, **k: mesh_deform().bind(*a, **k), "bind", (PTS,), {}),
+    "MeshDeform.deform_bound": (lambda *a, **k: mesh_deform().deform_bound(*a, **k), "deform_bound",
+                                (mesh_deform().bind(PTS),), {}),
     "RBF": (dk.RBF, "__init__", (CUBE, CUBE + 0.1), {"kernel": "gaussian", "epsilon": 2.0, "degree": 1,
                                                       "smoothing": 0.0}),
     "RBF.bind": (lambda *a, **k: rbf().bind(*a, **k), "bind", (PTS,), {}),
@@ -102,6 +111,7 @@ DOC_OWNER = {  # where each entry point's signature is documented
     "lattice_coordinates": dk.Lattice.lattice_coordinates, "direct_manipulation": dk.Lattice.direct_manipulation,
     "MeanValueCage.bind": dk.CageDeformer.bind, "MeanValueCage.deform_bound": dk.CageDeformer.deform_bound,
     "RBF.bind": dk.RBF.bind, "RBF.deform_bound": dk.RBF.deform_bound,
+    "MeshDeform.bind": dk.MeshDeform.bind, "MeshDeform.deform_bound": dk.MeshDeform.deform_bound,
     "DeformationTransfer.transfer": dk.DeformationTransfer.transfer,
     "SurfaceDeformer.deform": dk.SurfaceDeformer.deform, "Subdivider.subdivide": dk.Subdivider.subdivide,
     "Subdivider.mesh": dk.Subdivider.mesh, "LimitSurface.evaluate": dk.LimitSurface.evaluate,
@@ -143,7 +153,7 @@ def test_every_entry_point_is_walked():
     exported = {n for n in dk.__all__ if callable(getattr(dk, n))}
     walked = {e.split(".")[0] for e in ENTRY_POINTS} | {"Deformer", "Lattice", "CageDeformer"}
     results = {"LatticeBinding", "BarrDeformer", "DirectManipulation", "SubdividedMesh", "SmoothnessReport", "build_info",
-               "CageBinding", "RBFBinding"}
+               "CageBinding", "RBFBinding", "MeshDeformBinding"}
     assert exported - walked - results == set()
 
 

@@ -34,6 +34,8 @@ SAMPLES = {
     "SmoothnessReport": lambda: dk.smoothness_report(CUBE, CUBE_FACES),
     "CageDeformer": lambda: dk.MeanValueCage(CUBE * 2 - 0.5, CUBE_FACES),
     "CageBinding": lambda: dk.MeanValueCage(CUBE * 2 - 0.5, CUBE_FACES).bind(PTS),
+    "MeshDeform": lambda: dk.MeshDeform(CUBE * 2 - 0.5, CUBE_FACES, precision=3),
+    "MeshDeformBinding": lambda: dk.MeshDeform(CUBE * 2 - 0.5, CUBE_FACES, precision=3).bind(PTS),
     "RBF": lambda: dk.RBF(CUBE, CUBE + 0.1), "RBFBinding": lambda: dk.RBF(CUBE, CUBE + 0.1).bind(PTS),
     "DeformationTransfer": lambda: dk.DeformationTransfer(GRID, QUADS, GRID * 1.5),
 }

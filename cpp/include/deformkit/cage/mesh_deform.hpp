@@ -1,0 +1,91 @@
+#pragma once
+// Blender's Mesh Deform modifier reproduced: harmonic coordinates (Joshi, Meyer, DeRose, Green,
+// Sanocki 2007) solved on Blender's grid, bound statically (each point's coordinates, trilinear in
+// its 8 cells) or dynamically (each cell's coordinates, interpolated where the point is), applied
+// in displacement form x + sum_a w_a (c_a - c_a at rest) / sum_a w_a (docs/cage.md, "Mesh Deform
+// (harmonic coordinates)"; docs/math/cage.md, "Mesh Deform").
+#include "deformkit/cage/cage_mesh.hpp"
+#include "deformkit/core/point_binding.hpp"
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace deformkit {
+
+struct MeshDeformBinding : PointBinding {
+  bool dynamic = false;
+  std::vector<std::uint8_t> inside;  // per point: inside the rest cage (Blender's ray test)
+  WeightTable weights;               // static: per point its kept, renormalised coordinates
+  std::vector<double> points_f64;    // n x 3 as bound (float64 points)
+  std::vector<float> points_f32;     // (float32 points)
+};
+
+namespace harmonic {
+struct Solved;  // the grid and, for a dynamic bind, its cells' coordinates
+}
+
+class MeshDeform : public BoundDeformer {
+ public:
+  static constexpr int kMinPrecision = 2, kMaxPrecision = 10;
+  // Throws std::invalid_argument naming `precision` outside [2, 10]. The cage is checked by
+  // CageMesh. A dynamic deformer solves its grid here; a static one at each bind. bvh_arity: the
+  // children per branch of the ray-cast tree of the Blender to match (2 since Blender 4.4, 4 before;
+  // it decides which hit Blender keeps on a ray that meets the cage more than once).
+  MeshDeform(CageMesh cage, int precision, bool dynamic, int bvh_arity = 2);
+  ~MeshDeform() override;
+
+  const CageMesh& cage() const { return cage_; }
+  int precision() const { return precision_; }
+  bool dynamic() const { return dynamic_; }
+  int bvh_arity() const { return bvh_arity_; }
+  int grid_size() const { return (1 << precision_) + 2; }
+  std::size_t vertex_count() const { return cage_.vertex_count(); }
+  const std::vector<double>& rest_cage_points() const { return cage_.rest_points(); }
+  const std::vector<double>& cage_points() const { return current_; }
+  // Throws std::invalid_argument naming cage_points for a wrong count or a non-finite point.
+  void set_cage_points(std::vector<double> points);
+  bool is_identity() const override { return at_rest_; }
+  std::string overflow_parameters() const override { return "cage_points"; }
+
+  // Blender's bind of these points (their inside test, and for a static bind the grid solve and
+  // their coordinates). Throws std::invalid_argument naming `points` for a non-finite row, and
+  // std::runtime_error naming the cage when the grid has no cell inside it or no solution.
+  MeshDeformBinding bind(const double* points, std::size_t n) const;
+  MeshDeformBinding bind(const float* points, std::size_t n) const;
+  // The coordinates of the bound points (static: as stored; dynamic: interpolated at the bound
+  // points), a point outside the cage an empty row.
+  WeightTable weights_table(const MeshDeformBinding& binding) const;
+  // Unknowns of the last solve (for reports).
+  std::size_t unknown_count() const;
+
+ private:
+  template <class T>
+  MeshDeformBinding bind_points(const T* in, std::size_t n) const;
+  template <class T>
+  bool deform_points(const T* in, T* out, std::size_t n) const;
+  template <class T>
+  bool displace_bound(const MeshDeformBinding& b, T* out) const;
+  std::uint64_t layout() const;
+  std::vector<double> displacements() const;  // c_a - c_a at rest, m x 3
+
+  bool deform_impl(const float* in, float* out, std::size_t n) const override;
+  bool deform_impl(const double* in, double* out, std::size_t n) const override;
+  bool jacobian_impl(const double* in, double* jac, std::size_t n) const override;
+  void check_binding(const PointBinding& binding) const override;
+  bool deform_bound_impl(const PointBinding& binding, float* out) const override;
+  bool deform_bound_impl(const PointBinding& binding, double* out) const override;
+  void bound_points(const PointBinding& binding, StoredPoints<float>& points) const override;
+  void bound_points(const PointBinding& binding, StoredPoints<double>& points) const override;
+
+  CageMesh cage_;
+  int precision_;
+  bool dynamic_;
+  int bvh_arity_;
+  std::vector<double> current_;
+  bool at_rest_ = true;
+  std::shared_ptr<const harmonic::Solved> solved_;  // the grid, and a dynamic bind's cells
+};
+
+}  // namespace deformkit

@@ -1,0 +1,517 @@
+#include "deformkit/cage/mesh_deform.hpp"
+
+#include "cage/grid_stencil_direct.hpp"
+#include "cage/harmonic_grid.hpp"
+#include "core/parallel.hpp"
+#include "deformkit/core/validation.hpp"
+
+#include <functional>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+
+namespace deformkit {
+
+namespace harmonic {
+
+// Blender's thresholds, as the floats it compares with: a static weight is kept above the first,
+// a cell's influence at or above the second.
+const double kStaticMin = double(0.00001f);
+const double kDynamicMin = double(0.0005f);
+
+struct Solved {
+  Solved(const CageMesh& c, int precision, int bvh_arity)
+      : cage(c), rays(cage, bvh_arity), grid(build_grid(rays, cage.rest_points(), precision)), stencil(grid_stencil(grid)),
+        terms(boundary_terms(grid, stencil)) {}
+  CageMesh cage;  // a copy: rays reads its polygons
+  RayCage rays;
+  HarmonicGrid grid;
+  numerics::GridStencil stencil;
+  std::vector<BoundaryTerm> terms;
+  // Dynamic: each cell's influences (cage vertex, weight), normalised per cell, as CSR.
+  std::vector<std::uint32_t> cell_start;
+  std::vector<std::int32_t> cell_vertex;
+  std::vector<double> cell_weight;
+};
+
+namespace {
+
+// The 8 cells around p and their trilinear weights (and, with `gradient`, the weights'
+// gradients), as Blender finds them: the grid position truncated toward zero, the cells clamped.
+struct Corners {
+  std::int64_t cell[8];
+  double weight[8];
+  double gradient[8][3];
+};
+
+Corners corners_of(const HarmonicGrid& g, const double* p) {
+  Corners c;
+  int base[3];
+  double frac[3];
+  for (int a = 0; a < 3; ++a) {
+    double x = (p[a] - g.min[a] - 0.5 * g.width) / g.width;
+    x = std::clamp(x, -1.0, double(g.size));
+    base[a] = static_cast<int>(x);  // toward zero, as Blender's int()
+    frac[a] = x - base[a];
+  }
+  for (int k = 0; k < 8; ++k) {
+    int idx[3];
+    double w[3], dw[3];
+    for (int a = 0; a < 3; ++a) {
+      const bool up = k >> a & 1;
+      idx[a] = std::clamp(base[a] + (up ? 1 : 0), 0, g.size - 1);
+      w[a] = up ? frac[a] : 1.0 - frac[a];
+      dw[a] = (up ? 1.0 : -1.0) / g.width;
+    }
+    c.cell[k] = g.index(idx[0], idx[1], idx[2]);
+    c.weight[k] = w[0] * w[1] * w[2];
+    c.gradient[k][0] = dw[0] * w[1] * w[2];
+    c.gradient[k][1] = w[0] * dw[1] * w[2];
+    c.gradient[k][2] = w[0] * w[1] * dw[2];
+  }
+  return c;
+}
+
+void require_unknowns(const Solved& s, int precision) {
+  if (s.stencil.diagonal.empty())
+    throw std::invalid_argument(
+        "cage_points: cannot find a bind solution: no cell of the precision-" + std::to_string(precision) +
+        " grid lies inside the cage (a cage thinner than the grid's cells); raise precision");
+}
+
+// Runs the grid solve over every cage vertex's column, `take` receiving blocks of solutions.
+void solve_columns(const Solved& s, int precision,
+                   const std::function<void(int, const Eigen::Ref<const Eigen::MatrixXd>&)>& take) {
+  require_unknowns(s, precision);
+  const int m = int(s.cage.vertex_count());
+  const double unknowns = double(s.stencil.diagonal.size());
+  // About 128 MB per block of right-hand sides (the solutions take as much again).
+  const int block = int(std::clamp(16.0e6 / unknowns, 1.0, double(m)));
+  const PolygonMesh& poly = s.cage.polygons();
+  auto fill = [&](int first, Eigen::Ref<Eigen::MatrixXd> rhs) {
+    const int cols = int(rhs.cols());
+    for (const BoundaryTerm& t : s.terms) {
+      const int* corner = poly.face(std::size_t(t.face));
+      const int k = poly.face_size(std::size_t(t.face));
+      for (int i = 0; i < k; ++i) {
+        const int col = corner[i] - first;
+        if (col >= 0 && col < cols) rhs(t.unknown, col) += t.inverse_length * s.grid.cut_weights[std::size_t(t.weights + i)];
+      }
+    }
+  };
+  try {
+    numerics::solve_grid_stencil_direct(s.stencil, m, block, fill, take, 1e-10);
+  } catch (const std::runtime_error&) {
+    throw std::runtime_error("cage_points: cannot find a bind solution: the precision-" + std::to_string(precision) +
+                             " grid's system around this cage is singular; try another precision");
+  }
+}
+
+// Dynamic bind: every cell's coordinates at or above Blender's threshold, normalised per cell.
+void solve_cells(Solved& s, int precision) {
+  const HarmonicGrid& g = s.grid;
+  const std::int64_t cells = g.cells();
+  struct Entry {
+    std::int64_t cell;
+    std::int32_t vertex;
+    double weight;
+  };
+  const int threads = parallel_threads();
+  std::vector<std::vector<Entry>> found(static_cast<std::size_t>(threads));
+  std::vector<std::int64_t> cell_of;
+  cell_of.reserve(s.stencil.diagonal.size());
+  for (std::int64_t c = 0; c < cells; ++c)
+    if (s.stencil.unknown[std::size_t(c)] >= 0) cell_of.push_back(c);
+  solve_columns(s, precision, [&](int first, const Eigen::Ref<const Eigen::MatrixXd>& x) {
+    parallel_tasks(threads, [&](int task) {
+      std::vector<Entry>& out = found[std::size_t(task)];
+      const std::size_t n = cell_of.size(), lo = n * task / threads, hi = n * (task + 1) / threads;
+      for (std::size_t u = lo; u < hi; ++u)
+        for (Eigen::Index c = 0; c < x.cols(); ++c) {
+          const double w = x(Eigen::Index(u), c);
+          if (w >= kDynamicMin) out.push_back({cell_of[u], std::int32_t(first + c), w});
+        }
+    });
+  });
+  // The exterior cells' values come from the cuts alone.
+  for (std::int64_t c = 0; c < cells; ++c) {
+    if (!g.exterior[std::size_t(c)]) continue;
+    bool near = g.semibound(c);
+    for (int d = 0; d < 6 && !near; ++d) {
+      const std::int64_t nb = g.neighbour(c, d);
+      near = nb >= 0 && g.semibound(nb);
+    }
+    if (!near) continue;
+    for (const auto& [vertex, w] : exterior_values(s.rays, g, c))
+      if (w >= kDynamicMin) found[0].push_back({c, vertex, w});
+  }
+  std::size_t total = 0;
+  for (const auto& f : found) total += f.size();
+  if (total >= std::size_t(UINT32_MAX)) throw std::bad_alloc();
+  s.cell_start.assign(std::size_t(cells) + 1, 0);
+  for (const auto& f : found)
+    for (const Entry& e : f) ++s.cell_start[std::size_t(e.cell) + 1];
+  for (std::size_t c = 1; c < s.cell_start.size(); ++c) s.cell_start[c] += s.cell_start[c - 1];
+  s.cell_vertex.resize(total);
+  s.cell_weight.resize(total);
+  std::vector<std::uint32_t> next(s.cell_start.begin(), s.cell_start.end() - 1);
+  for (auto& f : found) {
+    for (const Entry& e : f) {
+      const std::uint32_t at = next[std::size_t(e.cell)]++;
+      s.cell_vertex[at] = e.vertex;
+      s.cell_weight[at] = e.weight;
+    }
+    f = std::vector<Entry>();
+  }
+  for (std::int64_t c = 0; c < cells; ++c) {
+    double sum = 0.0;
+    for (std::uint32_t k = s.cell_start[std::size_t(c)]; k < s.cell_start[std::size_t(c) + 1]; ++k) sum += s.cell_weight[k];
+    if (sum > 0.0)
+      for (std::uint32_t k = s.cell_start[std::size_t(c)]; k < s.cell_start[std::size_t(c) + 1]; ++k) s.cell_weight[k] /= sum;
+  }
+}
+
+// Static bind: each inside point's coordinates, trilinear in its 8 cells (dense, m per point;
+// with gradients 3 m more), from every column's solution.
+struct StaticRows {
+  std::vector<double> w, dw;
+};
+
+StaticRows static_rows(const Solved& s, int precision, const std::vector<double>& points,
+                       const std::vector<std::size_t>& inside, bool gradients) {
+  const std::size_t m = s.cage.vertex_count(), n = inside.size();
+  StaticRows r;
+  r.w.assign(n * m, 0.0);
+  if (gradients) r.dw.assign(n * m * 3, 0.0);
+  std::vector<Corners> corners(n);
+  parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
+    for (std::size_t i = lo; i < hi; ++i) {
+      corners[i] = corners_of(s.grid, points.data() + 3 * inside[i]);
+      for (int k = 0; k < 8; ++k) {
+        if (s.stencil.unknown[std::size_t(corners[i].cell[k])] >= 0) continue;
+        for (const auto& [vertex, value] : exterior_values(s.rays, s.grid, corners[i].cell[k])) {
+          r.w[i * m + std::size_t(vertex)] += corners[i].weight[k] * value;
+          if (gradients)
+            for (int a = 0; a < 3; ++a) r.dw[(i * m + std::size_t(vertex)) * 3 + a] += corners[i].gradient[k][a] * value;
+        }
+      }
+    }
+  });
+  solve_columns(s, precision, [&](int first, const Eigen::Ref<const Eigen::MatrixXd>& x) {
+    parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
+      for (std::size_t i = lo; i < hi; ++i)
+        for (int k = 0; k < 8; ++k) {
+          const int u = s.stencil.unknown[std::size_t(corners[i].cell[k])];
+          if (u < 0) continue;
+          const double t = corners[i].weight[k];
+          double* row = r.w.data() + i * m + first;
+          for (Eigen::Index c = 0; c < x.cols(); ++c) row[c] += t * x(u, c);
+          if (gradients)
+            for (Eigen::Index c = 0; c < x.cols(); ++c)
+              for (int a = 0; a < 3; ++a) r.dw[(i * m + std::size_t(first + c)) * 3 + a] += corners[i].gradient[k][a] * x(u, c);
+        }
+    });
+  });
+  return r;
+}
+
+// Blender's compaction: weights above the threshold kept, scaled to sum to 1.
+void keep_row(const double* w, std::size_t m, WeightTable& table) {
+  double sum = 0.0;
+  for (std::size_t a = 0; a < m; ++a)
+    if (w[a] > kStaticMin) sum += w[a];
+  for (std::size_t a = 0; a < m; ++a)
+    if (w[a] > kStaticMin) {
+      table.indices.push_back(std::int32_t(a));
+      table.values.push_back(w[a] / sum);
+    }
+  table.indptr.push_back(std::int64_t(table.indices.size()));
+}
+
+template <class T>
+std::vector<double> as_doubles(const T* in, std::size_t n) {
+  return std::vector<double>(in, in + 3 * n);
+}
+
+template <class T>
+bool finite_rows(const T* in, std::size_t n) {
+  for (std::size_t i = 0; i < 3 * n; ++i)
+    if (!std::isfinite(double(in[i]))) return false;
+  return true;
+}
+
+// The displacement at p of a dynamic bind: sum over the 8 cells of their influences' weighted
+// displacements over the weights' sum (0 where no cell has any); with `jac`, its Jacobian.
+bool dynamic_offset(const Solved& s, const double* p, const double* disp, double* out, double* jac) {
+  const Corners c = corners_of(s.grid, p);
+  double num[3] = {0, 0, 0}, den = 0.0, dnum[3][3] = {{0}}, dden[3] = {0, 0, 0};
+  for (int k = 0; k < 8; ++k) {
+    double a[3] = {0, 0, 0}, b = 0.0;
+    for (std::uint32_t e = s.cell_start[std::size_t(c.cell[k])]; e < s.cell_start[std::size_t(c.cell[k]) + 1]; ++e) {
+      const double w = s.cell_weight[e];
+      const double* d = disp + 3 * s.cell_vertex[e];
+      for (int r = 0; r < 3; ++r) a[r] += w * d[r];
+      b += w;
+    }
+    for (int r = 0; r < 3; ++r) num[r] += c.weight[k] * a[r];
+    den += c.weight[k] * b;
+    if (jac) {
+      for (int r = 0; r < 3; ++r)
+        for (int q = 0; q < 3; ++q) dnum[r][q] += a[r] * c.gradient[k][q];
+      for (int q = 0; q < 3; ++q) dden[q] += b * c.gradient[k][q];
+    }
+  }
+  if (!(den > 0.0)) {
+    for (int r = 0; r < 3; ++r) out[r] = 0.0;
+    if (jac) std::fill(jac, jac + 9, 0.0);
+    return false;
+  }
+  for (int r = 0; r < 3; ++r) out[r] = num[r] / den;
+  if (jac)
+    for (int r = 0; r < 3; ++r)
+      for (int q = 0; q < 3; ++q) jac[3 * r + q] = dnum[r][q] / den - num[r] * dden[q] / (den * den);
+  return true;
+}
+
+}  // namespace
+}  // namespace harmonic
+
+MeshDeform::MeshDeform(CageMesh cage, int precision, bool dynamic, int bvh_arity)
+    : cage_(std::move(cage)), precision_(precision), dynamic_(dynamic), bvh_arity_(bvh_arity),
+      current_(cage_.rest_points()) {
+  if (precision < kMinPrecision || precision > kMaxPrecision)
+    throw std::invalid_argument("precision: expected an integer from 2 to 10 (2^precision + 2 grid cells a side), got " +
+                                std::to_string(precision));
+  if (bvh_arity != 2 && bvh_arity != 4)
+    throw std::invalid_argument("bvh_arity: expected 2 or 4, got " + std::to_string(bvh_arity));
+  auto solved = std::make_shared<harmonic::Solved>(cage_, precision_, bvh_arity_);
+  harmonic::require_unknowns(*solved, precision_);
+  if (dynamic_) harmonic::solve_cells(*solved, precision_);
+  solved_ = std::move(solved);
+}
+
+MeshDeform::~MeshDeform() = default;
+
+std::size_t MeshDeform::unknown_count() const { return solved_->stencil.diagonal.size(); }
+
+void MeshDeform::set_cage_points(std::vector<double> points) {
+  if (points.size() != current_.size())
+    throw std::invalid_argument("cage_points: expected " + std::to_string(vertex_count()) +
+                                " points (the rest cage's), got " + std::to_string(points.size() / 3));
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (!std::isfinite(points[i]))
+      throw std::invalid_argument("cage_points: point " + std::to_string(i / 3) + " is not finite");
+  at_rest_ = points == cage_.rest_points();
+  current_ = std::move(points);
+}
+
+std::uint64_t MeshDeform::layout() const {
+  std::uint64_t h = 1469598103934665603ull;  // FNV-1a over what a binding depends on
+  auto mix = [&h](const void* p, std::size_t bytes) {
+    const auto* c = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < bytes; ++i) h = (h ^ c[i]) * 1099511628211ull;
+  };
+  const char kind[] = "mesh deform";
+  mix(kind, sizeof kind);
+  mix(&precision_, sizeof precision_);
+  mix(&dynamic_, sizeof dynamic_);
+  mix(&bvh_arity_, sizeof bvh_arity_);
+  mix(cage_.rest_points().data(), cage_.rest_points().size() * sizeof(double));
+  mix(cage_.polygons().corners().data(), cage_.polygons().corners().size() * sizeof(int));
+  return h;
+}
+
+std::vector<double> MeshDeform::displacements() const {
+  std::vector<double> d(current_.size());
+  for (std::size_t i = 0; i < d.size(); ++i) d[i] = current_[i] - cage_.rest_points()[i];
+  return d;
+}
+
+template <class T>
+MeshDeformBinding MeshDeform::bind_points(const T* in, std::size_t n) const {
+  require_finite_rows(in, n, "points");
+  const harmonic::Solved& s = *solved_;
+  MeshDeformBinding b;
+  b.point_count = n;
+  b.single_precision = std::is_same<T, float>::value;
+  b.layout = layout();
+  b.dynamic = dynamic_;
+  if constexpr (std::is_same<T, float>::value) b.points_f32.assign(in, in + 3 * n);
+  else b.points_f64.assign(in, in + 3 * n);
+  const std::vector<double> points = harmonic::as_doubles(in, n);
+  b.inside.assign(n, 0);
+  parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
+    std::vector<harmonic::RayCage::Hit> scratch;
+    for (std::size_t i = lo; i < hi; ++i)
+      b.inside[i] = harmonic::inside_cage(s.rays, s.grid, Vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]), scratch);
+  });
+  if (dynamic_) return b;
+  std::vector<std::size_t> inside;
+  for (std::size_t i = 0; i < n; ++i)
+    if (b.inside[i]) inside.push_back(i);
+  const std::size_t m = vertex_count();
+  const harmonic::StaticRows rows = harmonic::static_rows(s, precision_, points, inside, false);
+  b.weights.indptr.assign(1, 0);
+  std::size_t next = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (next < inside.size() && inside[next] == i) harmonic::keep_row(rows.w.data() + next++ * m, m, b.weights);
+    else b.weights.indptr.push_back(std::int64_t(b.weights.indices.size()));
+  }
+  return b;
+}
+
+MeshDeformBinding MeshDeform::bind(const double* points, std::size_t n) const { return bind_points(points, n); }
+MeshDeformBinding MeshDeform::bind(const float* points, std::size_t n) const { return bind_points(points, n); }
+
+WeightTable MeshDeform::weights_table(const MeshDeformBinding& b) const {
+  check_binding(b);
+  if (!b.dynamic) return b.weights;
+  const harmonic::Solved& s = *solved_;
+  const std::size_t m = vertex_count();
+  WeightTable t;
+  std::vector<double> row(m);
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    if (b.inside[i]) {
+      double p[3];
+      for (int a = 0; a < 3; ++a) p[a] = b.single_precision ? double(b.points_f32[3 * i + a]) : b.points_f64[3 * i + a];
+      std::fill(row.begin(), row.end(), 0.0);
+      const harmonic::Corners c = harmonic::corners_of(s.grid, p);
+      double total = 0.0;
+      for (int k = 0; k < 8; ++k)
+        for (std::uint32_t e = s.cell_start[std::size_t(c.cell[k])]; e < s.cell_start[std::size_t(c.cell[k]) + 1]; ++e) {
+          row[std::size_t(s.cell_vertex[e])] += c.weight[k] * s.cell_weight[e];
+          total += c.weight[k] * s.cell_weight[e];
+        }
+      for (std::size_t a = 0; a < m; ++a)
+        if (row[a] != 0.0) {
+          t.indices.push_back(std::int32_t(a));
+          t.values.push_back(row[a] / total);
+        }
+    }
+    t.indptr.push_back(std::int64_t(t.indices.size()));
+  }
+  return t;
+}
+
+void MeshDeform::check_binding(const PointBinding& binding) const {
+  const auto* b = dynamic_cast<const MeshDeformBinding*>(&binding);
+  if (!b || b->layout != layout())
+    throw std::invalid_argument(
+        "binding: was made by another MeshDeform (another rest cage, precision, bind mode or blender_version)");
+}
+
+template <class T>
+bool MeshDeform::displace_bound(const MeshDeformBinding& b, T* out) const {
+  const std::vector<double> disp = displacements();
+  const harmonic::Solved& s = *solved_;
+  std::atomic<bool> finite{true};
+  parallel_blocks(b.size(), [&](std::size_t lo, std::size_t hi) {
+    bool ok = true;
+    for (std::size_t i = lo; i < hi; ++i) {
+      double p[3];
+      for (int a = 0; a < 3; ++a) p[a] = b.single_precision ? double(b.points_f32[3 * i + a]) : b.points_f64[3 * i + a];
+      double offset[3] = {0, 0, 0};
+      if (b.inside[i]) {
+        if (b.dynamic) {
+          harmonic::dynamic_offset(s, p, disp.data(), offset, nullptr);
+        } else {
+          double total = 0.0;
+          for (std::int64_t e = b.weights.indptr[i]; e < b.weights.indptr[i + 1]; ++e) {
+            const double w = b.weights.values[std::size_t(e)];
+            const double* d = disp.data() + 3 * b.weights.indices[std::size_t(e)];
+            for (int a = 0; a < 3; ++a) offset[a] += w * d[a];
+            total += w;
+          }
+          if (total > 0.0)
+            for (int a = 0; a < 3; ++a) offset[a] /= total;
+        }
+      }
+      for (int a = 0; a < 3; ++a) {
+        out[3 * i + a] = static_cast<T>(p[a] + offset[a]);
+        ok = ok && std::isfinite(out[3 * i + a]);
+      }
+    }
+    if (!ok) finite = false;
+  });
+  return finite;
+}
+
+bool MeshDeform::deform_bound_impl(const PointBinding& binding, float* out) const {
+  return displace_bound(static_cast<const MeshDeformBinding&>(binding), out);
+}
+bool MeshDeform::deform_bound_impl(const PointBinding& binding, double* out) const {
+  return displace_bound(static_cast<const MeshDeformBinding&>(binding), out);
+}
+
+void MeshDeform::bound_points(const PointBinding& binding, StoredPoints<float>& points) const {
+  const auto& b = static_cast<const MeshDeformBinding&>(binding);
+  points = {{b.points_f32.data(), b.points_f32.data() + 1, b.points_f32.data() + 2}, 3, nullptr};
+}
+void MeshDeform::bound_points(const PointBinding& binding, StoredPoints<double>& points) const {
+  const auto& b = static_cast<const MeshDeformBinding&>(binding);
+  points = {{b.points_f64.data(), b.points_f64.data() + 1, b.points_f64.data() + 2}, 3, nullptr};
+}
+
+template <class T>
+bool MeshDeform::deform_points(const T* in, T* out, std::size_t n) const {
+  if (!harmonic::finite_rows(in, n)) return false;
+  const MeshDeformBinding b = bind_points(in, n);
+  return displace_bound(b, out);
+}
+
+bool MeshDeform::deform_impl(const float* in, float* out, std::size_t n) const { return deform_points(in, out, n); }
+bool MeshDeform::deform_impl(const double* in, double* out, std::size_t n) const { return deform_points(in, out, n); }
+
+// J = I + sum_a d_a (grad w~_a)^T with w~ the kept weights over their sum (static), or the
+// quotient rule through the 8 cells' sums (dynamic); outside the cage J = I.
+bool MeshDeform::jacobian_impl(const double* in, double* jac, std::size_t n) const {
+  if (!harmonic::finite_rows(in, n)) return false;
+  const MeshDeformBinding b = bind_points(in, n);
+  const std::vector<double> disp = displacements();
+  const harmonic::Solved& s = *solved_;
+  for (std::size_t i = 0; i < n; ++i) {
+    std::fill(jac + 9 * i, jac + 9 * i + 9, 0.0);
+    for (int a = 0; a < 3; ++a) jac[9 * i + 4 * a] = 1.0;
+  }
+  std::vector<std::size_t> inside;
+  for (std::size_t i = 0; i < n; ++i)
+    if (b.inside[i]) inside.push_back(i);
+  if (dynamic_) {
+    for (std::size_t i : inside) {
+      double offset[3], j[9];
+      if (harmonic::dynamic_offset(s, in + 3 * i, disp.data(), offset, j))
+        for (int k = 0; k < 9; ++k) jac[9 * i + k] += j[k];
+    }
+    return false;
+  }
+  const std::vector<double> points = harmonic::as_doubles(in, n);
+  const harmonic::StaticRows rows = harmonic::static_rows(s, precision_, points, inside, true);
+  const std::size_t m = vertex_count();
+  for (std::size_t r = 0; r < inside.size(); ++r) {
+    const double* w = rows.w.data() + r * m;
+    const double* dw = rows.dw.data() + r * m * 3;
+    double sum = 0.0, dsum[3] = {0, 0, 0}, num[3] = {0, 0, 0}, dnum[3][3] = {{0}};
+    for (std::size_t a = 0; a < m; ++a) {
+      if (!(w[a] > harmonic::kStaticMin)) continue;
+      sum += w[a];
+      for (int q = 0; q < 3; ++q) dsum[q] += dw[3 * a + q];
+      for (int p = 0; p < 3; ++p) {
+        num[p] += w[a] * disp[3 * a + p];
+        for (int q = 0; q < 3; ++q) dnum[p][q] += disp[3 * a + p] * dw[3 * a + q];
+      }
+    }
+    if (!(sum > 0.0)) continue;
+    double* J = jac + 9 * inside[r];
+    for (int p = 0; p < 3; ++p)
+      for (int q = 0; q < 3; ++q) J[3 * p + q] += dnum[p][q] / sum - num[p] * dsum[q] / (sum * sum);
+  }
+  return false;
+}
+
+}  // namespace deformkit

@@ -1,0 +1,91 @@
+"""dk.MeshDeform refuses what Blender's Mesh Deform cannot bind, naming the argument, what it got
+and what it accepts: the cage errors every cage deformer gives, a precision outside Blender's 2..10,
+Blender's "cannot find a bind solution" (no grid cell inside the cage), and bad points, cages and
+bindings later on."""
+import numpy as np
+import pytest
+
+import deformkit as dk
+
+CUBE = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+FACES = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
+
+
+def message(call, kind=(ValueError, TypeError)):
+    with pytest.raises(kind) as info:
+        call()
+    return str(info.value)
+
+
+@pytest.mark.parametrize("points,faces", [
+    (CUBE, FACES[:5]),                                                    # open
+    (CUBE, [f[::-1] if i == 3 else f for i, f in enumerate(FACES)]),      # inconsistent orientation
+    (CUBE, [[4, 6, 7, 6] if i == 1 else f for i, f in enumerate(FACES)]),  # a repeated vertex
+    (np.where(np.arange(8)[:, None] >= 4, CUBE * [0, 1, 1], CUBE), FACES),  # a zero-area face
+    (CUBE, [[8, 1, 3, 2]] + FACES[1:]),                                     # an index out of range
+    (np.vstack([CUBE, CUBE + 0.4]), FACES + [[v + 8 for v in f] for f in FACES]),  # self-intersecting
+    (CUBE[:, :2], FACES),
+])
+def test_bad_cages_get_the_cage_family_errors(points, faces):
+    expected = message(lambda: dk.MeanValueCage(points, faces))
+    assert message(lambda: dk.MeshDeform(points, faces)) == expected
+
+
+def test_nan_cage_point_is_named():
+    nan = CUBE.copy()
+    nan[1, 1] = np.nan
+    assert message(lambda: dk.MeshDeform(nan, FACES)).startswith("cage_points: row 1 is not finite")
+
+
+@pytest.mark.parametrize("value,words", [
+    (1, "precision: must be 2..10, got 1"), (11, "precision: must be 2..10, got 11"),
+    (2 ** 40, "precision: must be 2..10, got 1099511627776"),
+    (2.5, "precision: expected an integer, not a float"), ("5", "precision: expected an integer"),
+])
+def test_precision_outside_blenders_range_is_refused(value, words):
+    assert message(lambda: dk.MeshDeform(CUBE, FACES, precision=value)).startswith(words)
+
+
+@pytest.mark.parametrize("kwargs,words", [
+    ({"dynamic": "yes"}, "dynamic: expected True or False, got str 'yes'"),
+    ({"blender_version": "5.0"}, "blender_version: expected (major, minor) integers of a Blender release"),
+    ({"blender_version": (1, 0)}, "blender_version: expected (major, minor) integers"),
+    ({"blender_version": (5,)}, "blender_version: expected (major, minor) integers"),
+    ({"blender_version": (5.0, 0)}, "blender_version: expected (major, minor) integers"),
+])
+def test_bad_keywords_are_named(kwargs, words):
+    assert message(lambda: dk.MeshDeform(CUBE, FACES, **kwargs)).startswith(words)
+
+
+def test_no_cell_inside_the_cage_is_blenders_bind_failure():
+    """A slab thinner than the cells and between their centres leaves no unknown: Blender binds
+    nothing there ("failed to find bind solution"); deformkit says so, naming the cage and the way out."""
+    slab = CUBE * [10, 10, 0.5]
+    text = message(lambda: dk.MeshDeform(slab, FACES, precision=2), ValueError)
+    assert text.startswith("cage_points: cannot find a bind solution: no cell of the precision-2 grid lies inside the cage")
+    assert text.endswith("raise precision")
+    assert dk.MeshDeform(slab, FACES, precision=6).unknowns > 0  # finer cells reach inside
+
+
+def test_bad_cage_points_points_and_bindings():
+    md = dk.MeshDeform(CUBE, FACES, precision=3)
+    for value, words in [(CUBE[:3], "cage_points: expected shape (8, 3), got (3, 3)"),
+                         (np.full((8, 3), np.inf), "cage_points: point 0 is not finite"),
+                         ("cube", "cage_points: expected real numbers")]:
+        def assign(v=value):
+            md.cage_points = v
+        assert message(assign).startswith(words)
+    np.testing.assert_array_equal(md.cage_points, CUBE)  # a refused assignment changes nothing
+    bad = np.array([[0.5, 0.5, 0.5], [np.nan, 0, 0]])
+    assert message(lambda: md.bind(bad)).startswith("points: row 1 is not finite")
+    assert message(lambda: md.deform(bad)).startswith("points: row 1 is not finite")
+    assert message(lambda: md.bind("x")).startswith("points: expected a numpy array of shape (n, 3)")
+    binding = md.bind(np.full((3, 3), 0.5))
+    assert message(lambda: dk.MeshDeform(CUBE, FACES, precision=4).deform_bound(binding)).startswith(
+        "binding: was made by another MeshDeform (another rest cage, precision, bind mode or blender_version)")
+    assert message(lambda: md.deform_bound(dk.MeanValueCage(CUBE, FACES).bind(np.full((3, 3), 0.5)))).startswith(
+        "binding: expected a MeshDeformBinding")
+    assert message(lambda: dk.MeanValueCage(CUBE, FACES).deform_bound(binding)).startswith("binding: expected a CageBinding")
+    weighted = dk.MeshDeform(CUBE, FACES, precision=3, weights=np.full(5, 0.5))
+    assert message(lambda: weighted.deform_bound(weighted.bind(np.full((3, 3), 0.5)))).startswith(
+        "weights: has 5 entries but the binding has 3 points")
