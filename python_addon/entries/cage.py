@@ -25,7 +25,7 @@ from .. import cache, meshdata, native, panel_text
 from ..errors import EntryError
 from . import binding
 from .binding import is_bound, new_bind_id, signed
-from .common import (Prepared, draw_vertex_group, evaluated_mesh_in, followed_mesh, forget_bindings,
+from .common import (Prepared, affine_inverse, draw_vertex_group, evaluated_mesh_in, followed_mesh, forget_bindings,
                      kept_binding, scaled_influence, stack_index, store_array, weights_crc)
 
 ENTRY_TYPES = [  # saved as its number: listed before Subdivide, numbered after
@@ -157,7 +157,7 @@ def bound_points(obj, entry):
     kept = cache.get("cage_bound", key)
     if kept is None:
         points = np.array(entry[BOUND], np.float32).reshape(-1, 3)
-        kept = cache.put("cage_bound", key, (points, to_space(points, np.linalg.inv(saved_frame(entry)))))
+        kept = cache.put("cage_bound", key, (points, to_space(points, affine_inverse(saved_frame(entry)))))
     return kept
 
 
@@ -172,9 +172,9 @@ def mesh_change(obj, entry, bound):
 def harmonic_frame(obj, cage, entry, points):
     """(Frame, the rest cage and the current cage in the cage's space) of a Harmonic entry."""
     now = relative(obj, cage)
-    to_cage, at_bind = np.linalg.inv(now), saved_frame(entry)
+    to_cage, at_bind = affine_inverse(now), saved_frame(entry)
     turn = None if np.array_equal(now[:3, :3], np.eye(3)) else now[:3, :3]
-    rest = to_space(np.asarray(entry[REST], np.float64).reshape(-1, 3), np.linalg.inv(at_bind))
+    rest = to_space(np.asarray(entry[REST], np.float64).reshape(-1, 3), affine_inverse(at_bind))
     return Frame(to_cage, turn, bound_points(obj, entry)), rest, to_space(points, to_cage)
 
 
@@ -249,7 +249,7 @@ def bind(obj, entry, incoming, rest=None):
         points = np.asarray(rest, np.float32).astype(np.float64).reshape(points.shape)
     harmonic = entry.cage_method == "HARMONIC"
     frame = relative(obj, cage) if harmonic else None
-    to_cage = None if frame is None else np.linalg.inv(frame)
+    to_cage = None if frame is None else affine_inverse(frame)
     rest_points = points if frame is None else to_space(points.astype(np.float32), to_cage)
     deformer = _make(_class(entry), entry, rest_points, faces)  # checks the cage: ValueError naming its first open edge, ...
     mesh = np.asarray(incoming(), np.float32).reshape(-1, 3) if harmonic and not entry.use_dynamic_bind else None

@@ -87,6 +87,28 @@ def followed_mesh(entry, prop, role, obj, unset=""):
     return other
 
 
+def affine_inverse(m):
+    """The inverse of an affine 4x4 matrix (an object's transform), in float64 by cofactors.
+    numpy.linalg is kept off the evaluation path: its LAPACK call wakes OpenBLAS's threads, which
+    on a busy machine costs up to a millisecond per 4x4, every frame. ValueError if singular."""
+    m = np.asarray(m, np.float64)
+    a0, a1, a2 = m[0, :3], m[1, :3], m[2, :3]
+    columns = np.array([np.cross(a1, a2), np.cross(a2, a0), np.cross(a0, a1)])  # det(A) A^-1, by column
+    det = float(a0 @ columns[0])
+    if not (det != 0.0 and np.isfinite(det)):
+        raise ValueError("the matrix is singular or not finite")
+    inverse = np.eye(4)
+    inverse[:3, :3] = columns.T / det
+    inverse[:3, 3] = -inverse[:3, :3] @ m[:3, 3]
+    return inverse
+
+
+def determinant3(a):
+    """det of a 3x3 matrix, by its rows' triple product (not LAPACK: see affine_inverse)."""
+    a = np.asarray(a, np.float64)
+    return float(a[0] @ np.cross(a[1], a[2]))
+
+
 def in_space_of(obj, other, points):
     """Points (m, 3) of other's local space in obj's, float64, rounded to float32 as the entries'
     stored rests are: a shape as it was at bind is then its rest bit for bit."""

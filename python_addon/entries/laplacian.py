@@ -26,7 +26,7 @@ from ..errors import EntryError
 from ..panel_text import label_wrapped
 from . import binding
 from .binding import is_bound, new_bind_id, signed
-from .common import Prepared, followed_object, store_array, write_base
+from .common import Prepared, affine_inverse, determinant3, followed_object, store_array, write_base
 
 ENTRY_TYPES = [
     ("LAPLACIAN", "Laplacian", "Laplacian surface editing or as-rigid-as-possible deformation: anchors stay, "
@@ -119,7 +119,7 @@ def handle_object(entry):
 
 def _matrix_of(obj):
     m = np.array(obj.matrix_world, np.float64)
-    if not np.isfinite(m).all() or abs(np.linalg.det(m[:3, :3])) < 1e-30:
+    if not np.isfinite(m).all() or abs(determinant3(m[:3, :3])) < 1e-30:
         raise EntryError(f"handle object '{obj.name}' has a singular or non-finite transform (scale 0?)")
     return m
 
@@ -128,7 +128,7 @@ def _bind_matrix(obj, handle):
     """H(bind)^-1 obj(bind), which Blender's Hook modifier keeps too: with it, a handle object
     parented to the mesh object moves with it without deforming, and a handle object left in place
     while the mesh object moves holds the handles where they are in the world."""
-    return np.linalg.inv(_matrix_of(handle)) @ np.array(obj.matrix_world, np.float64)
+    return affine_inverse(_matrix_of(handle)) @ np.array(obj.matrix_world, np.float64)
 
 
 def handle_motion(obj, entry):
@@ -138,8 +138,8 @@ def handle_motion(obj, entry):
     if not at_bind.any():
         raise EntryError("the handle object's transform was singular when it was set: fix its scale, then Bind again")
     try:
-        motion = np.linalg.inv(np.array(obj.matrix_world, np.float64)) @ now @ at_bind
-    except np.linalg.LinAlgError:
+        motion = affine_inverse(obj.matrix_world) @ now @ at_bind
+    except ValueError:
         raise EntryError(f"the object '{obj.name}' has a singular transform (scale 0?)") from None
     if not np.isfinite(motion).all():
         raise EntryError(f"handle object '{entry.handle_object.name}': its transform is not finite (NaN or Inf)")

@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import cache, meshdata, native
 from ..errors import EntryError
-from .common import Prepared, draw_vertex_group, followed_object, influence_weights, stack_index
+from .common import Prepared, affine_inverse, draw_vertex_group, followed_object, influence_weights, stack_index
 
 ENTRY_TYPES = [
     ("LATTICE", "Lattice", "Free-form deformation by a Lattice object, edited with Blender's lattice tools",
@@ -281,7 +281,7 @@ def loaded():
 def write_control_points(lattice_setup, grid):
     """Store control points given in the object's space (nu, nv, nw, 3) as the lattice's co_deform."""
     offsets = (np.asarray(grid, np.float64) - lattice_setup.deformer.rest_control_points) \
-        @ np.linalg.inv(lattice_setup.local[:3, :3]).T
+        @ affine_inverse(lattice_setup.local)[:3, :3].T
     co_deform = lattice_setup.co.astype(np.float64) + from_grid(offsets)
     data = lattice_setup.lattice.data
     data.points.foreach_set("co_deform", co_deform.astype(np.float32).ravel())

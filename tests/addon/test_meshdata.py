@@ -3,6 +3,7 @@
 built, a plain union-find and Blender's own per-polygon vertex lists. Meshes saved before Blender
 3.6 may store a polygon's corners anywhere (loop_start not ascending): the Topology below does."""
 import numpy as np
+import pytest
 
 from addon_helpers import make_object
 
@@ -112,3 +113,20 @@ def test_reading_the_edit_mesh_gives_its_points_and_leaves_it_as_it_was(scene):
         np.testing.assert_array_equal(a, b)
     reader = bpy.data.meshes.get(meshdata.EDIT_READER)
     assert reader is not None and reader.users == 0 and len(reader.vertices) == 0  # never saved, holds nothing
+
+
+def test_affine_inverse_is_the_inverse(addon, rng):
+    """Against numpy's LAPACK inverse, on random affine matrices far from and near singular; a
+    singular one is refused."""
+    from deformkit_addon.entries.common import affine_inverse, determinant3
+    for scale in (1.0, 1e-4, 1e5):
+        m = np.eye(4)
+        m[:3, :3] = rng.normal(size=(3, 3)) * scale
+        m[:3, 3] = rng.normal(size=3)
+        np.testing.assert_allclose(affine_inverse(m), np.linalg.inv(m), rtol=1e-9, atol=1e-9 / scale)
+        np.testing.assert_allclose(affine_inverse(m) @ m, np.eye(4), atol=1e-9)
+        assert np.isclose(determinant3(m[:3, :3]), np.linalg.det(m[:3, :3]), rtol=1e-12)
+    flat = np.eye(4)
+    flat[2, 2] = 0.0
+    with pytest.raises(ValueError, match="singular"):
+        affine_inverse(flat)

@@ -201,3 +201,23 @@ def test_files_are_short_enough_to_read_in_one_sitting():
         long = {str(p.relative_to(REPO)): n for p in sorted(folder.rglob("*.py"))
                 if (n := len(p.read_text().splitlines())) > 450}
         assert long == {}
+
+
+# What runs on every evaluation: numpy.linalg stays out of it. Its LAPACK calls wake OpenBLAS's
+# threads, and on a busy machine one 4x4 inverse then took 1.1 ms (44 us with one thread): two per
+# frame made the Cage entry's own cost half a Mesh Deform frame again (entries/common.affine_inverse).
+EVALUATION_PATH = ("entries", "evaluation.py", "stack_run.py", "outputs.py", "meshdata.py", "shapekeys.py",
+                   "handlers.py", "cache.py", "node_builder.py")
+
+
+def test_no_lapack_on_the_evaluation_path():
+    found = []
+    for name in EVALUATION_PATH:
+        paths = sorted((ADDON / name).glob("*.py")) if (ADDON / name).is_dir() else [ADDON / name]
+        for path in paths:
+            for node in ast.walk(ast.parse(path.read_text())):
+                named = (isinstance(node, ast.Attribute) and node.attr == "linalg") or \
+                    (isinstance(node, (ast.Import, ast.ImportFrom)) and "linalg" in ast.dump(node))
+                if named:
+                    found.append(f"{path.relative_to(ADDON)}:{node.lineno}")
+    assert not found, "numpy.linalg on the evaluation path (use entries.common.affine_inverse): " + ", ".join(found)
