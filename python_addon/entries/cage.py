@@ -76,9 +76,11 @@ def cage_object(entry, obj, unset=UNSET):
 
 def evaluated_cage(obj, cage):
     """The cage's evaluated mesh (its modifiers, shape keys and edits applied) in obj's space:
-    (points float64 (m, 3), faces, topology fingerprint (vertices, faces, crc))."""
+    (points float64 (m, 3), its meshdata.Topology, topology fingerprint (vertices, faces, crc)). The
+    polygons are made from the topology only where a deformer is built: splitting a cage of mixed
+    polygons costs more than the rest of a frame."""
     points, topo = evaluated_mesh_in(obj, cage, meshdata.topology)
-    return points, meshdata.polygons(topo), (topo.vertices, topo.faces, signed(topo.crc))
+    return points, topo, (topo.vertices, topo.faces, signed(topo.crc))
 
 
 def topology_change(entry, now):
@@ -114,10 +116,10 @@ def bind_key(obj, entry):
     return (meshdata.cache_key(obj),) + grid_tail(entry)
 
 
-def _deformer(obj, entry, faces, weights, rest=None):
-    """The dk cage deformer of the rest cage (the saved one, or `rest`) with these per-point weights,
-    kept while the bind and the weights stay: checking the cage and building its tables costs about
-    as much as a frame."""
+def _deformer(obj, entry, topo, weights, rest=None):
+    """The dk cage deformer of the rest cage (the saved one, or `rest`; its polygons from `topo`) with
+    these per-point weights, kept while the bind and the weights stay: checking the cage and building
+    its tables costs about as much as a frame."""
     cls = _class(entry)
     key = bind_key(obj, entry)
     crc = weights_crc(weights)
@@ -127,7 +129,7 @@ def _deformer(obj, entry, faces, weights, rest=None):
     if rest is None:
         rest = np.asarray(entry[REST], np.float64).reshape(-1, 3)
     try:
-        deformer = _make(cls, entry, rest, faces, weights)
+        deformer = _make(cls, entry, rest, meshdata.polygons(topo), weights)
     except ValueError as exc:
         raise EntryError(str(exc)) from exc
     cache.put("cage_deformer", key, (crc, deformer))
@@ -182,7 +184,7 @@ def setup(obj, entry, reuse_weights=False):
     cage = cage_object(entry, obj, unset="")  # none picked yet: a hint in the panel, as Mesh Deform's
     if cage is None or not is_bound(entry) or REST not in entry:
         return Prepared(None, ("unbound",), None)  # as Mesh Deform before Bind: the mesh passes through
-    points, faces, topo = evaluated_cage(obj, cage)
+    points, topology, topo = evaluated_cage(obj, cage)
     harmonic, frame, rest = entry.cage_method == "HARMONIC", None, None
     # Bound with Mean Value or Green, a Harmonic entry lacks the frame of its grid.
     changed = "bound for another method: Rebind" if harmonic and FRAME not in entry else topology_change(entry, topo)
@@ -193,10 +195,10 @@ def setup(obj, entry, reuse_weights=False):
     weights = scaled_influence(obj, entry, reuse_weights)
     if frame is not None:
         frame = frame._replace(weights=weights)
-        key, deformer, _ = _deformer(obj, entry, faces, None, rest)
+        key, deformer, _ = _deformer(obj, entry, topology, None, rest)
         crc = weights_crc(weights)
     else:
-        key, deformer, crc = _deformer(obj, entry, faces, weights)
+        key, deformer, crc = _deformer(obj, entry, topology, weights)
     deformer.cage_points = points
     fingerprint = (key, zlib.crc32(points.tobytes()), crc) + (() if frame is None else (frame.now.tobytes(),))
     return Prepared(deformer, fingerprint, Setup(deformer, key, fingerprint, frame))
@@ -244,14 +246,16 @@ def bind(obj, entry, incoming, rest=None):
     coming into the entry (incoming()), as Mesh Deform's Bind. Nothing changes if that fails.
     Returns the cage's vertex count."""
     cage = cage_object(entry, obj)
-    points, faces, topo = evaluated_cage(obj, cage)
+    points, topology, topo = evaluated_cage(obj, cage)
+    faces = meshdata.polygons(topology)
     if rest is not None:
         points = np.asarray(rest, np.float32).astype(np.float64).reshape(points.shape)
     harmonic = entry.cage_method == "HARMONIC"
     frame = relative(obj, cage) if harmonic else None
     to_cage = None if frame is None else affine_inverse(frame)
     rest_points = points if frame is None else to_space(points.astype(np.float32), to_cage)
-    deformer = _make(_class(entry), entry, rest_points, faces)  # checks the cage: ValueError naming its first open edge, ...
+    # Checks the cage: ValueError naming its first open edge, bad face, ...
+    deformer = _make(_class(entry), entry, rest_points, faces)
     mesh = np.asarray(incoming(), np.float32).reshape(-1, 3) if harmonic and not entry.use_dynamic_bind else None
     local = None if mesh is None else to_space(mesh, to_cage)
     try:

@@ -92,21 +92,23 @@ def affine_inverse(m):
     numpy.linalg is kept off the evaluation path: its LAPACK call wakes OpenBLAS's threads, which
     on a busy machine costs up to a millisecond per 4x4, every frame. ValueError if singular."""
     m = np.asarray(m, np.float64)
-    a0, a1, a2 = m[0, :3], m[1, :3], m[2, :3]
-    columns = np.array([np.cross(a1, a2), np.cross(a2, a0), np.cross(a0, a1)])  # det(A) A^-1, by column
-    det = float(a0 @ columns[0])
+    (a, b, c), (d, e, f), (g, h, i) = m[:3, :3].tolist()
+    cofactors = np.array([[e * i - f * h, c * h - b * i, b * f - c * e],   # det(A) A^-1, row by row
+                          [f * g - d * i, a * i - c * g, c * d - a * f],
+                          [d * h - e * g, b * g - a * h, a * e - b * d]])
+    det = a * cofactors[0, 0] + b * cofactors[1, 0] + c * cofactors[2, 0]
     if not (det != 0.0 and np.isfinite(det)):
         raise ValueError("the matrix is singular or not finite")
     inverse = np.eye(4)
-    inverse[:3, :3] = columns.T / det
+    inverse[:3, :3] = cofactors / det
     inverse[:3, 3] = -inverse[:3, :3] @ m[:3, 3]
     return inverse
 
 
-def determinant3(a):
-    """det of a 3x3 matrix, by its rows' triple product (not LAPACK: see affine_inverse)."""
-    a = np.asarray(a, np.float64)
-    return float(a[0] @ np.cross(a[1], a[2]))
+def determinant3(m):
+    """det of a 3x3 matrix, by cofactors (not LAPACK: see affine_inverse)."""
+    (a, b, c), (d, e, f), (g, h, i) = np.asarray(m, np.float64).tolist()
+    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
 
 
 def in_space_of(obj, other, points):
