@@ -60,6 +60,7 @@ from ._core import (
     build_info,
     cotangent_laplacian,
     extrapolated_start,
+    generate_cage,
     mesh_volume,
     smoothness_report,
     subdivide,
@@ -72,6 +73,7 @@ __all__ = [
     "LimitSurface", "SmoothnessReport", "SubdividedMesh", "Subdivider", "SUBDIVISION_MAX_FACES", "SUBDIVISION_MAX_LEVEL",
     "smoothness_report", "subdivide",
     "CageBinding", "CageDeformer", "GreenCage", "MeanValueCage",
+    "generate_cage",
     "RBF", "RBFBinding",
     "DeformationTransfer",
 ]
