@@ -160,6 +160,7 @@ def draw(col, obj, entry):
     col.prop(entry, "cage", text="Object")
     if entry.cage is None and not entry.cage_name:
         panel_text.label_wrapped(col, HINT, "INFO", panel_text.box_budget())  # a label is cut
+        col.operator("deformkit.generate_cage", icon="MESH_ICOSPHERE").index = index  # or let deformkit make one
     col.prop(entry, "cage_method", text="Method")
     col.prop(entry, "strength", slider=True)
     draw_vertex_group(col, obj, entry)
