@@ -103,7 +103,7 @@ void bind_cage_generation(py::module_& m) {
 
 A closed, 2-manifold, outward-oriented, self-intersection-free cage of at most max_faces faces that strictly encloses
 every point, edge and face of the mesh (docs/cage.md, "Generated cages"): CGAL's alpha wrap at `offset` (default
-1/100 of the bounding-box diagonal) with detail `alpha` (default 1/20 of it), simplified by edge collapses that only
+1/100 of the bounding-box diagonal) with detail `alpha` (default: coarser for smaller budgets), simplified by edge collapses that only
 grow the enclosed region. faces: (m, k) indices, a list of polygons, or None for a point cloud; any mesh (several
 parts, open, non-manifold, self-intersecting, flat, a segment or a point). cage_faces is an (f, 3) int32 array, or
 with quads=True a list of quads and triangles (pairs merged where the cage deformers split them back alike).)");

@@ -65,25 +65,38 @@ def components(triangles):
     return len({root(v) for v in parent})
 
 
-def segments_cross_triangles(seg_a, seg_b, tri, chunk=4096):
-    """Whether any segment [seg_a, seg_b] meets any triangle (Moller-Trumbore, closed: touching
-    counts), in floating point; the gaps tested here are far above rounding."""
+def _hits(o, d, tri):
+    """Moller-Trumbore on pairs: segment o + t d, t in [0, 1], against triangle tri (closed)."""
+    v0, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    p = np.cross(d, e2)
+    det = (e1 * p).sum(-1)
+    ok = np.abs(det) > 1e-300
+    inv = np.where(ok, 1 / np.where(ok, det, 1), 0)
+    tv = o - v0
+    u = (tv * p).sum(-1) * inv
+    q = np.cross(tv, e1)
+    v = (d * q).sum(-1) * inv
+    w = (e2 * q).sum(-1) * inv
+    return ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (w >= 0) & (w <= 1)
+
+
+def segments_cross_triangles(seg_a, seg_b, tri, block=64):
+    """Whether any segment [seg_a, seg_b] meets any triangle (closed: touching counts), in floating
+    point (the gaps tested here are far above rounding); only pairs whose boxes overlap are tested."""
     seg_a, seg_b, tri = (np.asarray(x, float) for x in (seg_a, seg_b, tri))
-    for s in range(0, len(seg_a), chunk):
-        o = seg_a[s:s + chunk, None]
-        d = seg_b[s:s + chunk, None] - o
-        v0, e1, e2 = tri[None, :, 0], tri[None, :, 1] - tri[None, :, 0], tri[None, :, 2] - tri[None, :, 0]
-        p = np.cross(d, e2)
-        det = (e1 * p).sum(-1)
-        ok = np.abs(det) > 1e-300
-        inv = np.where(ok, 1 / np.where(ok, det, 1), 0)
-        tv = o - v0
-        u = (tv * p).sum(-1) * inv
-        q = np.cross(tv, e1)
-        v = (d * q).sum(-1) * inv
-        w = (e2 * q).sum(-1) * inv
-        hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (w >= 0) & (w <= 1)
-        if hit.any():
+    s_lo, s_hi = np.minimum(seg_a, seg_b), np.maximum(seg_a, seg_b)
+    t_lo, t_hi = tri.min(axis=1), tri.max(axis=1)
+    if len(tri) <= len(seg_a):  # blocks of the smaller set against all of the other
+        for b in range(0, len(tri), block):
+            overlap = np.all((t_lo[b:b + block, None] <= s_hi[None]) & (s_lo[None] <= t_hi[b:b + block, None]), axis=2)
+            ti, si = np.nonzero(overlap)
+            if len(ti) and _hits(seg_a[si], seg_b[si] - seg_a[si], tri[b + ti]).any():
+                return True
+        return False
+    for b in range(0, len(seg_a), block):
+        overlap = np.all((s_lo[b:b + block, None] <= t_hi[None]) & (t_lo[None] <= s_hi[b:b + block, None]), axis=2)
+        si, ti = np.nonzero(overlap)
+        if len(si) and _hits(seg_a[b + si], seg_b[b + si] - seg_a[b + si], tri[ti]).any():
             return True
     return False
 

@@ -177,7 +177,10 @@ GeneratedCage generate_cage(const std::vector<double>& points, const std::vector
                                 " (1e-9 of the mesh's size, below which the cage's coordinates cannot be told apart), got " + str(offset));
   // The wrap's work grows with (its size / alpha)^2, its size being the mesh's and the offset's.
   const double size = e.diagonal() + 2 * offset;
-  double alpha = options.alpha > 0 ? options.alpha : size / 20;
+  // A small budget cannot follow small features: a coarser wrap leaves it a tighter cage (measured
+  // on the shared cages, docs/benchmarks.md, "Issue 33 (generated cages)").
+  const double divisions = std::clamp(1.2 * std::sqrt(double(options.max_faces)), 4.0, 20.0);
+  double alpha = options.alpha > 0 ? options.alpha : size / divisions;
   if (alpha < 1e-3 * size)
     throw std::invalid_argument("alpha: expected at least " + str(1e-3 * size) +
                                 " (1/1000 of the diagonal of the mesh grown by offset: finer wraps take minutes), got " + str(alpha));

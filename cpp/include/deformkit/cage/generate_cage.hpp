@@ -12,7 +12,7 @@ namespace deformkit {
 struct CageGenerationOptions {
   int max_faces = 200;     // at least 4 (a tetrahedron)
   double offset = 0.0;     // the wrap's distance from the mesh; 0: the default, diagonal / 100
-  double alpha = 0.0;      // the wrap's detail (the smallest gap it enters); 0: the default, (diagonal + 2 offset) / 20
+  double alpha = 0.0;      // the wrap's detail (the smallest gap it enters); 0: the default, (diagonal + 2 offset) / clamp(1.2 sqrt(max_faces), 4, 20)
   bool quads = false;      // merge triangle pairs into quads where the cage deformers split them back alike
 };
 
