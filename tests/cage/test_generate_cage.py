@@ -41,6 +41,9 @@ def odd_meshes():
         "segment as a face": (np.array([[0, 0, 0], [1, 2, 3.0]]), [[0, 1]]),
         "points only": (np.random.default_rng(1).normal(size=(50, 3)), None),
         "one point": (np.array([[3.0, -2.0, 7.0]]), None),
+        "far from the origin": (sphere[0] + 1e8, sphere[1]),
+        "a needle": (np.array([[0, 0, 0], [1e-9, 0, 0], [0, 0, 10.0]]), [[0, 1, 2]]),
+        "points on a line": (np.outer(np.arange(10.0), [1, 2, 3]), None),
     }
 
 
