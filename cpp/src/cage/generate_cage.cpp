@@ -198,7 +198,7 @@ GeneratedCage generate_cage(const std::vector<double>& points, const std::vector
     found = is_valid_cage(cage, points, triangles, options.max_faces);
   }
   if (!found) cage = box_cage(e.lo - Vec3::Constant(offset), e.hi + Vec3::Constant(offset), options.max_faces);
-  GeneratedCage out = options.quads ? merge_quads(cage, 10.0 * M_PI / 180.0) : merge_quads(cage, -1.0);
+  GeneratedCage out = options.quads ? merge_quads(cage, 30.0 * M_PI / 180.0) : merge_quads(cage, -1.0);
   out.wrap_faces = wrap_faces;
   out.alpha = used_alpha;
   out.offset = offset;
