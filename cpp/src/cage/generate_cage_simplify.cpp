@@ -135,57 +135,63 @@ std::vector<std::array<VertexId, 3>> star_of(const Mesh& m, VertexId v0, VertexI
 
 bool holds(const std::array<VertexId, 3>& t, VertexId v) { return t[0] == v || t[1] == v || t[2] == v; }
 
-struct Collapse {
-  Vec3 place;
-  double added_volume;
+// Six times the volume enclosed by the faces around an edge, as a function of where the
+// collapsed vertex x goes: objective . x + constant, since det(x, q, r) = x . (q x r) for each face
+// that stays, and old_volume: what the faces enclose now.
+struct StarVolume {
+  Vec3 objective = Vec3::Zero();
+  double old_volume = 0;
 };
+
+StarVolume star_volume(const Mesh& m, VertexId v0, VertexId v1, const std::vector<std::array<VertexId, 3>>& star) {
+  StarVolume s;
+  for (const auto& t : star) {
+    const Vec3 a = vec(m.point(t[0])), b = vec(m.point(t[1])), c = vec(m.point(t[2]));
+    s.old_volume += a.dot(b.cross(c));
+    if (holds(t, v0) && holds(t, v1)) continue;  // removed by the collapse
+    const int k = (t[0] == v0 || t[0] == v1) ? 0 : (t[1] == v0 || t[1] == v1) ? 1 : 2;
+    s.objective += vec(m.point(t[(k + 1) % 3])).cross(vec(m.point(t[(k + 2) % 3])));
+  }
+  return s;
+}
 
 // The progressive-hull program for one edge: outside every face plane by a margin that the
 // rounding of the result cannot undo, inside a box around the edge.
-std::optional<Collapse> plan_collapse(const Mesh& m, VertexId v0, VertexId v1, double margin) {
+std::optional<Vec3> hull_placement(const Mesh& m, VertexId v0, VertexId v1, double margin) {
   const auto star = star_of(m, v0, v1);
   std::vector<HalfSpace> outside;
-  Vec3 objective = Vec3::Zero();
-  double old_volume = 0;
   for (const auto& t : star) {
     const Vec3 a = vec(m.point(t[0])), b = vec(m.point(t[1])), c = vec(m.point(t[2]));
     const Vec3 n = (b - a).cross(c - a);
     const double len = n.norm();
     if (!(len > 0)) return std::nullopt;
     outside.push_back({n / len, n.dot(a) / len + margin});
-    old_volume += a.dot(b.cross(c));
-    if (holds(t, v0) && holds(t, v1)) continue;  // removed by the collapse
-    // The face that stays, with the collapsed vertex first: det(x, q, r) = x . (q x r).
-    const int k = (t[0] == v0 || t[0] == v1) ? 0 : (t[1] == v0 || t[1] == v1) ? 1 : 2;
-    objective += vec(m.point(t[(k + 1) % 3])).cross(vec(m.point(t[(k + 2) % 3])));
   }
   const Vec3 p0 = vec(m.point(v0)), p1 = vec(m.point(v1));
   const double reach = (p1 - p0).norm() + 4 * margin;
   const Vec3 lo = p0.cwiseMin(p1) - Vec3::Constant(reach), hi = p0.cwiseMax(p1) + Vec3::Constant(reach);
-  const auto x = lowest_point(objective, outside, lo, hi);
-  if (!x) return std::nullopt;
-  return Collapse{*x, std::max(0.0, (objective.dot(*x) - old_volume) / 6.0)};
+  return lowest_point(star_volume(m, v0, v1, star).objective, outside, lo, hi);
 }
 
 struct HullPlacement {
   double margin;
   boost::optional<Point> operator()(const Profile& profile) const {
-    const auto c = plan_collapse(profile.surface_mesh(), profile.v0(), profile.v1(), margin);
-    if (!c) return boost::none;
-    return Point(c->place[0], c->place[1], c->place[2]);
+    const auto x = hull_placement(profile.surface_mesh(), profile.v0(), profile.v1(), margin);
+    if (!x) return boost::none;
+    return Point((*x)[0], (*x)[1], (*x)[2]);
   }
 };
 
 // The added volume, and a little of the edge's length cubed so that among free collapses (flat
 // regions) the short edges go first and faces stay well shaped.
 struct HullCost {
-  double margin;
   boost::optional<double> operator()(const Profile& profile, const boost::optional<Point>& placement) const {
     if (!placement) return boost::none;
-    const auto c = plan_collapse(profile.surface_mesh(), profile.v0(), profile.v1(), margin);
-    if (!c) return boost::none;
+    const Mesh& m = profile.surface_mesh();
+    const StarVolume s = star_volume(m, profile.v0(), profile.v1(), star_of(m, profile.v0(), profile.v1()));
+    const double added = std::max(0.0, (s.objective.dot(vec(*placement)) - s.old_volume) / 6.0);
     const double len = std::sqrt(CGAL::squared_distance(profile.p0(), profile.p1()));
-    return c->added_volume + 1e-3 * len * len * len;
+    return added + 1e-3 * len * len * len;
   }
 };
 
@@ -285,7 +291,7 @@ TriangleCage simplify_outward(const TriangleCage& wrap, int max_faces) {
   keeper.faces_alive = &alive;
   keeper.faces_at_build = alive;
   SMS::edge_collapse(m, FaceBudget{std::size_t(max_faces)},
-                     CGAL::parameters::get_cost(HullCost{margin})
+                     CGAL::parameters::get_cost(HullCost{})
                          .get_placement(HullPlacement{margin})
                          .filter(OutwardFilter{&grid})
                          .visitor(keeper));
