@@ -192,10 +192,14 @@ GeneratedCage generate_cage(const std::vector<double>& points, const std::vector
   // A coarser wrap leaves fewer faces to remove; past the mesh's size it is a blob.
   for (int attempt = 0; attempt < 6 && !found; ++attempt, alpha *= 2) {
     used_alpha = alpha;
-    const TriangleCage wrap = cage_generation::alpha_wrap(points, triangles, alpha, offset);
-    wrap_faces = wrap.triangles.size();
-    cage = cage_generation::simplify_outward(wrap, options.max_faces);
-    found = is_valid_cage(cage, points, triangles, options.max_faces);
+    try {
+      const TriangleCage wrap = cage_generation::alpha_wrap(points, triangles, alpha, offset);
+      wrap_faces = wrap.triangles.size();
+      cage = cage_generation::simplify_outward(wrap, options.max_faces);
+      found = is_valid_cage(cage, points, triangles, options.max_faces);
+    } catch (const std::logic_error&) {  // a CGAL precondition or assertion: this attempt failed, not the call
+      found = false;
+    }
   }
   if (!found) cage = box_cage(e.lo - Vec3::Constant(offset), e.hi + Vec3::Constant(offset), options.max_faces);
   GeneratedCage out = options.quads ? merge_quads(cage, 30.0 * M_PI / 180.0) : merge_quads(cage, -1.0);
