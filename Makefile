@@ -33,6 +33,7 @@ demo: build $(FIXTURES)
 	$(PY) scripts/demo_subdivision.py --out demo_out/subdivision
 	$(PY) scripts/demo_transfer.py --out demo_out/transfer
 	$(PY) scripts/demo_laplacian.py --out demo_out/laplacian_vs_blender
+	$(PY) scripts/demo_cage_generation.py --out demo_out/cage_generation
 
 $(FIXTURES): blend_fixtures/make_fixtures.py $(VENV)/.deformkit-installed
 	@mkdir -p build

@@ -28,7 +28,7 @@ MODULES = (
     "transfer.correspondence", "transfer.similarity", "transfer.storage", "transfer.keys", "transfer.system",
     "transfer.shape_keys", "transfer.bake", "transfer.markers", "transfer",
     "operators.base", "operators.stack", "operators.lattice", "operators.laplacian", "operators.cage",
-    "operators.rbf", "operators.transfer", "operators.markers", "operators",
+    "operators.cage_generation", "operators.rbf", "operators.transfer", "operators.markers", "operators",
     "ui", "ui_markers", "handlers", "batch_checks", "batch",
 )
 

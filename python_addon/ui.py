@@ -2,7 +2,7 @@
 import bpy
 
 from . import entries, mesh_deform, native, outputs, panel_text
-from .operators import cage, laplacian, lattice, markers, rbf, stack
+from .operators import cage, cage_generation, laplacian, lattice, markers, rbf, stack
 from .properties import ENTRY_TYPES
 
 ICONS = {t[0]: entries.kind(t[0]).ICON for t in ENTRY_TYPES}
@@ -41,7 +41,7 @@ class DEFORMKIT_MT_object(bpy.types.Menu):
         DEFORMKIT_MT_add.draw(self, context)
         layout = self.layout
         layout.separator()
-        for module in (stack, lattice, laplacian, cage, rbf):
+        for module in (stack, lattice, laplacian, cage, cage_generation, rbf):
             for cls in module.classes:
                 if cls.bl_idname not in LISTED_ELSEWHERE:
                     layout.operator(cls.bl_idname)

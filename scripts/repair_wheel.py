@@ -42,15 +42,16 @@ LICENSES = {
     "libgomp1": "GPL-3.0-or-later WITH GCC-exception-3.1",
     "libeigen3-dev": "MPL-2.0",
     "libnanoflann-dev": "BSD-2-Clause",
-    # The cage's exact predicates: CGAL's kernel, intersection and number-type headers (LGPL; its
-    # GPL packages are not used) and GMP, which their exact fallback calls.
-    "libcgal-dev": "LGPL-3.0-or-later",
+    # The cage's exact predicates: CGAL's kernel, intersection and number-type headers (LGPL) and
+    # GMP, which their exact fallback calls; the cage generator: CGAL's 3D Alpha Wrapping, Surface
+    # Mesh Simplification, AABB tree and Polygon Mesh Processing headers (GPL-3.0-or-later).
+    "libcgal-dev": "LGPL-3.0-or-later AND GPL-3.0-or-later",
     "libgmp10": "LGPL-3.0-or-later OR GPL-2.0-or-later",
     "pybind11": "BSD-3-Clause",  # from PyPI (requirements-dev.txt), not Debian
 }
 # Header-only libraries compiled into _core (no file of theirs in the wheel, their code is).
 HEADER_ONLY = {"libeigen3-dev": "Eigen 3 (headers)", "libnanoflann-dev": "nanoflann (headers)",
-               "libcgal-dev": "CGAL's kernel, intersections and number types (headers)",
+               "libcgal-dev": "CGAL's kernel, intersections, number types, alpha wrap, simplification (headers)",
                "pybind11": "pybind11 (headers)"}
 
 

@@ -240,6 +240,7 @@ void bind_lattice(py::module_& m);
 void bind_surface(py::module_& m);
 void bind_subdivision(py::module_& m);
 void bind_cage(py::module_& m);
+void bind_cage_generation(py::module_& m);  // the cage family's generator, beside bind_cage
 void bind_rbf(py::module_& m);
 void bind_transfer(py::module_& m);
 

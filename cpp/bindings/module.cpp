@@ -16,6 +16,7 @@ PYBIND11_MODULE(_core, m) {
   bind_surface(m);
   bind_subdivision(m);
   bind_cage(m);
+  bind_cage_generation(m);
   bind_rbf(m);
   bind_transfer(m);
 

@@ -62,6 +62,7 @@ from ._core import (
     build_info,
     cotangent_laplacian,
     extrapolated_start,
+    generate_cage,
     mesh_volume,
     smoothness_report,
     subdivide,
@@ -74,6 +75,7 @@ __all__ = [
     "LimitSurface", "SmoothnessReport", "SubdividedMesh", "Subdivider", "SUBDIVISION_MAX_FACES", "SUBDIVISION_MAX_LEVEL",
     "smoothness_report", "subdivide",
     "CageBinding", "CageDeformer", "GreenCage", "MeanValueCage", "MeshDeform", "MeshDeformBinding",
+    "generate_cage",
     "RBF", "RBFBinding",
     "DeformationTransfer",
 ]

@@ -236,6 +236,17 @@ _Scheme = Literal["auto", "catmull_clark", "loop"]
 _Boundary = Literal["edge_and_corner", "edge_only"]
 _Sharpness = tuple[npt.ArrayLike, npt.ArrayLike]
 
+def generate_cage(
+    points: npt.ArrayLike,
+    faces: _Faces | None = None,
+    *,
+    max_faces: int = 200,
+    offset: float | None = None,
+    alpha: float | None = None,
+    quads: bool = False,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int32] | list[list[int]]]:
+    """A closed cage of at most max_faces faces strictly around the mesh (alpha wrap, outward simplification)."""
+
 SUBDIVISION_MAX_LEVEL: int
 SUBDIVISION_MAX_FACES: int
 

@@ -313,6 +313,7 @@ def draw(col, obj, entry):
     col.prop(entry, "cage", text="Object")
     if entry.cage is None and not entry.cage_name:
         panel_text.label_wrapped(col, HINT, "INFO", panel_text.box_budget())  # a label is cut
+        col.operator("deformkit.generate_cage", icon="MESH_ICOSPHERE").index = index  # or let deformkit make one
     col.prop(entry, "cage_method", text="Method")
     if entry.cage_method == "HARMONIC":  # Mesh Deform's settings, read at Bind
         at_bind = col.column()

@@ -13,7 +13,7 @@ ADDON = REPO / "python_addon"
 # first match wins. A new module must be given a place here and in docs/contributing.md.
 LAYERS = (
     ("__init__", 4), ("ui", 4), ("ui_markers", 4), ("handlers", 4), ("batch", 4), ("batch_checks", 4),
-    ("operators", 4), ("operators.*", 4),
+    ("operators", 4), ("operators.cage_generation", 4), ("operators.*", 4),
     ("api", 3), ("entry_animation", 3), ("evaluation", 3), ("stack_run", 3), ("properties", 3), ("lattice_tools", 3),
     ("smoothness", 3), ("mesh_deform", 3), ("transfer", 3), ("transfer.*", 3),
     ("entries", 2),  # the registry

@@ -85,6 +85,7 @@ ENTRY_POINTS = {
     "subdivide": (dk.subdivide, "subdivide", (CUBE, CUBE_FACES, 1), {}),
     "smoothness_report": (dk.smoothness_report, "smoothness_report", (CUBE, CUBE_FACES), {}),
     "mesh_volume": (dk.mesh_volume, "mesh_volume", (CUBE, CUBE_FACES), {}),
+    "generate_cage": (dk.generate_cage, "generate_cage", (TRIANGLE, [[0, 1, 2]]), {"max_faces": 12}),
     "cotangent_laplacian": (dk.cotangent_laplacian, "cotangent_laplacian", (GRID, QUADS), {}),
     "extrapolated_start": (dk.extrapolated_start, "extrapolated_start", (GRID, GRID, PTS, PTS, PTS), {}),
     "deform": (lambda *a, **k: dk.Twist().deform(*a, **k), "deform", (PTS,), {}),

@@ -94,6 +94,7 @@ FUNCTIONS = {
                    {"creases": (np.array([[0, 1]]), np.array([1.0])), "corners": (np.array([0]), np.array([2.0]))}),
     "subdivide": (dk.subdivide, "subdivide", (CUBE, CUBE_FACES, 1), {"uvs": np.zeros((24, 2))}),
     "mesh_volume": (dk.mesh_volume, "mesh_volume", (CUBE, CUBE_FACES), {}),
+    "generate_cage": (dk.generate_cage, "generate_cage", (CUBE, CUBE_FACES), {"max_faces": 12}),
     "cotangent_laplacian": (dk.cotangent_laplacian, "cotangent_laplacian", (GRID, QUADS), {}),
     "extrapolated_start": (dk.extrapolated_start, "extrapolated_start", (GRID, GRID, PTS, PTS, PTS), {}),
     "GreenCage": (dk.GreenCage, "__init__", (CUBE, CUBE_FACES), {}),
@@ -173,7 +174,8 @@ def test_every_object_parameter_is_walked_or_not_an_array():
     not_real = {"faces", "cage_faces", "anchors", "handles", "roi", "deformers", "degree", "blocks", "resolution",
                 "interpolation", "axis", "deform_axis", "source_faces", "target_faces", "markers", "correspondence",
                 "fixed_vertices", "lock_x", "lock_y", "lock_z", "invert_weights", "stretch", "binding", "out",
-                "ptex", "deformer", "sharpen_two_edge_vertices", "limit_surface", "mode", "angle", "factor"}
+                "ptex", "deformer", "sharpen_two_edge_vertices", "limit_surface", "mode", "angle", "factor",
+                "quads"}
     walked = {c[6] for c in CALLS} | {"cage_points", "targets", "handle_targets", "initial", "source_pose",
                                       "fixed_positions", "points", "normals", "reference", "uv", "profile"}
     for cls_name in (n for n in dir(dk) if not n.startswith("_")):
