@@ -24,11 +24,15 @@ namespace harmonic {
 // a cell's influence at or above the second.
 const double kStaticMin = double(0.00001f);
 const double kDynamicMin = double(0.0005f);
+// Each column's relative residual: the coordinates come out within about 1e-9 of the exact
+// solution's (measured against the Cholesky solve), far below Blender's float32.
+constexpr double kSolveTolerance = 1e-10;
 
 struct Solved {
-  Solved(const CageMesh& c, int precision, int bvh_arity)
-      : cage(c), rays(cage, bvh_arity), grid(build_grid(rays, cage.rest_points(), precision)), stencil(grid_stencil(grid)),
+  Solved(const CageMesh& c, int precision, int bvh_arity, GridSolver solver)
+      : solver(solver), cage(c), rays(cage, bvh_arity), grid(build_grid(rays, cage.rest_points(), precision)), stencil(grid_stencil(grid)),
         terms(boundary_terms(grid, stencil)) {}
+  GridSolver solver;
   CageMesh cage;  // a copy: rays reads its polygons
   RayCage rays;
   HarmonicGrid grid;
@@ -91,8 +95,10 @@ void solve_columns(const Solved& s, int precision,
   require_unknowns(s, precision);
   const int m = int(s.cage.vertex_count());
   const double unknowns = double(s.stencil.diagonal.size());
-  // About 128 MB per block of right-hand sides (the solutions take as much again).
-  const int block = int(std::clamp(16.0e6 / unknowns, 1.0, double(m)));
+  // Multigrid: 16 columns a block (its SIMD lanes twice; docs/math/numerics.md). Cholesky: about
+  // 128 MB of right-hand sides a block (one pass over the factor serves them all).
+  const int block = s.solver == GridSolver::Multigrid ? std::min(m, 16)
+                                                       : int(std::clamp(16.0e6 / unknowns, 1.0, double(m)));
   const PolygonMesh& poly = s.cage.polygons();
   auto fill = [&](int first, Eigen::Ref<Eigen::MatrixXd> rhs) {
     const int cols = int(rhs.cols());
@@ -106,7 +112,8 @@ void solve_columns(const Solved& s, int precision,
     }
   };
   try {
-    numerics::solve_grid_stencil_direct(s.stencil, m, block, fill, take, 1e-10);
+    if (s.solver == GridSolver::Cholesky) numerics::solve_grid_stencil_direct(s.stencil, m, block, fill, take, 0.0);
+    else numerics::solve_grid_stencil(s.stencil, m, block, fill, take, kSolveTolerance);
   } catch (const std::runtime_error&) {
     throw std::runtime_error("cage_points: cannot find a bind solution: the precision-" + std::to_string(precision) +
                              " grid's system around this cage is singular; try another precision");
@@ -191,30 +198,47 @@ StaticRows static_rows(const Solved& s, int precision, const std::vector<double>
   if (gradients) r.dw.assign(n * m * 3, 0.0);
   std::vector<Corners> corners(n);
   parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
-    for (std::size_t i = lo; i < hi; ++i) {
-      corners[i] = corners_of(s.grid, points.data() + 3 * inside[i]);
+    for (std::size_t i = lo; i < hi; ++i) corners[i] = corners_of(s.grid, points.data() + 3 * inside[i]);
+  });
+  // The exterior cells the points reach, each's values found once.
+  std::vector<std::int64_t> outer;
+  for (const Corners& c : corners)
+    for (std::int64_t cell : c.cell)
+      if (s.stencil.unknown[std::size_t(cell)] < 0) outer.push_back(cell);
+  std::sort(outer.begin(), outer.end());
+  outer.erase(std::unique(outer.begin(), outer.end()), outer.end());
+  std::vector<SparseValues> outer_values(outer.size());
+  parallel_blocks(outer.size(), [&](std::size_t lo, std::size_t hi) {
+    for (std::size_t k = lo; k < hi; ++k) outer_values[k] = exterior_values(s.rays, s.grid, outer[k]);
+  });
+  parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
+    for (std::size_t i = lo; i < hi; ++i)
       for (int k = 0; k < 8; ++k) {
         if (s.stencil.unknown[std::size_t(corners[i].cell[k])] >= 0) continue;
-        for (const auto& [vertex, value] : exterior_values(s.rays, s.grid, corners[i].cell[k])) {
+        const std::size_t at = std::size_t(std::lower_bound(outer.begin(), outer.end(), corners[i].cell[k]) - outer.begin());
+        for (const auto& [vertex, value] : outer_values[at]) {
           r.w[i * m + std::size_t(vertex)] += corners[i].weight[k] * value;
           if (gradients)
             for (int a = 0; a < 3; ++a) r.dw[(i * m + std::size_t(vertex)) * 3 + a] += corners[i].gradient[k][a] * value;
         }
       }
-    }
   });
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> by_unknown;
   solve_columns(s, precision, [&](int first, const Eigen::Ref<const Eigen::MatrixXd>& x) {
+    by_unknown = x;  // a cell's values side by side: the rows below read them together
+    const Eigen::Index cols = x.cols();
     parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
       for (std::size_t i = lo; i < hi; ++i)
         for (int k = 0; k < 8; ++k) {
           const int u = s.stencil.unknown[std::size_t(corners[i].cell[k])];
           if (u < 0) continue;
           const double t = corners[i].weight[k];
+          const double* value = by_unknown.data() + std::size_t(u) * std::size_t(cols);
           double* row = r.w.data() + i * m + first;
-          for (Eigen::Index c = 0; c < x.cols(); ++c) row[c] += t * x(u, c);
+          for (Eigen::Index c = 0; c < cols; ++c) row[c] += t * value[c];
           if (gradients)
-            for (Eigen::Index c = 0; c < x.cols(); ++c)
-              for (int a = 0; a < 3; ++a) r.dw[(i * m + std::size_t(first + c)) * 3 + a] += corners[i].gradient[k][a] * x(u, c);
+            for (Eigen::Index c = 0; c < cols; ++c)
+              for (int a = 0; a < 3; ++a) r.dw[(i * m + std::size_t(first + c)) * 3 + a] += corners[i].gradient[k][a] * value[c];
         }
     });
   });
@@ -282,15 +306,15 @@ bool dynamic_offset(const Solved& s, const double* p, const double* disp, double
 }  // namespace
 }  // namespace harmonic
 
-MeshDeform::MeshDeform(CageMesh cage, int precision, bool dynamic, int bvh_arity)
-    : cage_(std::move(cage)), precision_(precision), dynamic_(dynamic), bvh_arity_(bvh_arity),
+MeshDeform::MeshDeform(CageMesh cage, int precision, bool dynamic, int bvh_arity, GridSolver solver)
+    : cage_(std::move(cage)), precision_(precision), dynamic_(dynamic), bvh_arity_(bvh_arity), solver_(solver),
       current_(cage_.rest_points()) {
   if (precision < kMinPrecision || precision > kMaxPrecision)
     throw std::invalid_argument("precision: expected an integer from 2 to 10 (2^precision + 2 grid cells a side), got " +
                                 std::to_string(precision));
   if (bvh_arity != 2 && bvh_arity != 4)
     throw std::invalid_argument("bvh_arity: expected 2 or 4, got " + std::to_string(bvh_arity));
-  auto solved = std::make_shared<harmonic::Solved>(cage_, precision_, bvh_arity_);
+  auto solved = std::make_shared<harmonic::Solved>(cage_, precision_, bvh_arity_, solver_);
   harmonic::require_unknowns(*solved, precision_);
   if (dynamic_) harmonic::solve_cells(*solved, precision_);
   solved_ = std::move(solved);

@@ -26,6 +26,11 @@ namespace harmonic {
 struct Solved;  // the grid and, for a dynamic bind, its cells' coordinates
 }
 
+// How the grid system is solved: multigrid-preconditioned conjugate gradients (the default; every
+// column to a relative residual of 1e-10) or a sparse Cholesky factorisation (exact to rounding,
+// memory growing faster with the grid: kept as the reference the tests compare with).
+enum class GridSolver { Multigrid, Cholesky };
+
 class MeshDeform : public BoundDeformer {
  public:
   static constexpr int kMinPrecision = 2, kMaxPrecision = 10;
@@ -33,7 +38,8 @@ class MeshDeform : public BoundDeformer {
   // CageMesh. A dynamic deformer solves its grid here; a static one at each bind. bvh_arity: the
   // children per branch of the ray-cast tree of the Blender to match (2 since Blender 4.4, 4 before;
   // it decides which hit Blender keeps on a ray that meets the cage more than once).
-  MeshDeform(CageMesh cage, int precision, bool dynamic, int bvh_arity = 2);
+  MeshDeform(CageMesh cage, int precision, bool dynamic, int bvh_arity = 2,
+             GridSolver solver = GridSolver::Multigrid);
   ~MeshDeform() override;
 
   const CageMesh& cage() const { return cage_; }
@@ -83,6 +89,7 @@ class MeshDeform : public BoundDeformer {
   int precision_;
   bool dynamic_;
   int bvh_arity_;
+  GridSolver solver_;
   std::vector<double> current_;
   bool at_rest_ = true;
   std::shared_ptr<const harmonic::Solved> solved_;  // the grid, and a dynamic bind's cells
