@@ -177,3 +177,34 @@ TEST(CageMeshDeform, MultigridAndCholeskyGiveTheSameCoordinates) {
     }
   }
 }
+
+// The Jacobian against central differences of deform (the map is trilinear within a cell, so a
+// step of 1e-6 stays inside one and the difference is exact to rounding: 1e-7 allowed).
+TEST(CageMeshDeform, JacobianMatchesCentralDifferences) {
+  const CageMesh cage(test::polygon_mesh(test::l_prism()));
+  const std::vector<double> p = {0.43, 0.61, 0.52, 1.31, 0.27, 0.44, 0.2, 1.7, 0.8};
+  std::mt19937 rng(4);
+  std::normal_distribution<double> noise(0.0, 0.1);
+  for (bool dynamic : {false, true}) {
+    MeshDeform md(cage, 4, dynamic);
+    std::vector<double> moved = md.rest_cage_points();
+    for (double& c : moved) c += noise(rng);
+    md.set_cage_points(moved);
+    std::vector<double> jac(27);
+    md.jacobian(p.data(), jac.data(), 3);
+    const double h = 1e-6;
+    for (int axis = 0; axis < 3; ++axis) {
+      std::vector<double> up = p, down = p, fu(9), fd(9);
+      for (int i = 0; i < 3; ++i) {
+        up[std::size_t(3 * i + axis)] += h;
+        down[std::size_t(3 * i + axis)] -= h;
+      }
+      md.deform(up.data(), fu.data(), 3);
+      md.deform(down.data(), fd.data(), 3);
+      for (int i = 0; i < 3; ++i)
+        for (int r = 0; r < 3; ++r)
+          EXPECT_NEAR(jac[std::size_t(9 * i + 3 * r + axis)], (fu[std::size_t(3 * i + r)] - fd[std::size_t(3 * i + r)]) / (2 * h), 1e-7)
+              << "dynamic " << dynamic << " point " << i;
+    }
+  }
+}
