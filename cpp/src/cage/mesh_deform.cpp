@@ -184,78 +184,80 @@ void solve_cells(Solved& s, int precision) {
   }
 }
 
-// Static bind: each inside point's coordinates, trilinear in its 8 cells (dense, m per point;
-// with gradients 3 m more), from every column's solution.
-struct StaticRows {
-  std::vector<double> w, dw;
-};
-
-StaticRows static_rows(const Solved& s, int precision, const std::vector<double>& points,
-                       const std::vector<std::size_t>& inside, bool gradients) {
+// Static bind: each inside point's coordinates, trilinear in its 8 cells, handed to
+// visit(r, w, dw) (r the point's rank among `inside`; w its m values, dw 3 per value with
+// `gradients`, else null), in parallel. Only the cells the points reach keep their values from
+// the solve: memory is those cells x m, never unknowns x m.
+void static_rows(const Solved& s, int precision, const std::vector<double>& points,
+                 const std::vector<std::size_t>& inside, bool gradients,
+                 const std::function<void(std::size_t, const double*, const double*)>& visit) {
   const std::size_t m = s.cage.vertex_count(), n = inside.size();
-  StaticRows r;
-  r.w.assign(n * m, 0.0);
-  if (gradients) r.dw.assign(n * m * 3, 0.0);
   std::vector<Corners> corners(n);
   parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
     for (std::size_t i = lo; i < hi; ++i) corners[i] = corners_of(s.grid, points.data() + 3 * inside[i]);
   });
-  // The exterior cells the points reach, each's values found once.
+  // The unknowns the points reach get a slot each; the exterior cells they reach, their values.
+  std::vector<int> slot(s.stencil.diagonal.size(), -1);
+  std::vector<int> slot_unknown;
   std::vector<std::int64_t> outer;
   for (const Corners& c : corners)
-    for (std::int64_t cell : c.cell)
-      if (s.stencil.unknown[std::size_t(cell)] < 0) outer.push_back(cell);
+    for (std::int64_t cell : c.cell) {
+      const int u = s.stencil.unknown[std::size_t(cell)];
+      if (u < 0) outer.push_back(cell);
+      else if (slot[std::size_t(u)] < 0) {
+        slot[std::size_t(u)] = int(slot_unknown.size());
+        slot_unknown.push_back(u);
+      }
+    }
   std::sort(outer.begin(), outer.end());
   outer.erase(std::unique(outer.begin(), outer.end()), outer.end());
   std::vector<SparseValues> outer_values(outer.size());
   parallel_blocks(outer.size(), [&](std::size_t lo, std::size_t hi) {
     for (std::size_t k = lo; k < hi; ++k) outer_values[k] = exterior_values(s.rays, s.grid, outer[k]);
   });
-  parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
-    for (std::size_t i = lo; i < hi; ++i)
-      for (int k = 0; k < 8; ++k) {
-        if (s.stencil.unknown[std::size_t(corners[i].cell[k])] >= 0) continue;
-        const std::size_t at = std::size_t(std::lower_bound(outer.begin(), outer.end(), corners[i].cell[k]) - outer.begin());
-        for (const auto& [vertex, value] : outer_values[at]) {
-          r.w[i * m + std::size_t(vertex)] += corners[i].weight[k] * value;
-          if (gradients)
-            for (int a = 0; a < 3; ++a) r.dw[(i * m + std::size_t(vertex)) * 3 + a] += corners[i].gradient[k][a] * value;
-        }
-      }
-  });
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> by_unknown;
+  std::vector<double> kept(slot_unknown.size() * m);  // slot-major: a cell's m values side by side
   solve_columns(s, precision, [&](int first, const Eigen::Ref<const Eigen::MatrixXd>& x) {
-    by_unknown = x;  // a cell's values side by side: the rows below read them together
-    const Eigen::Index cols = x.cols();
-    parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
-      for (std::size_t i = lo; i < hi; ++i)
-        for (int k = 0; k < 8; ++k) {
-          const int u = s.stencil.unknown[std::size_t(corners[i].cell[k])];
-          if (u < 0) continue;
-          const double t = corners[i].weight[k];
-          const double* value = by_unknown.data() + std::size_t(u) * std::size_t(cols);
-          double* row = r.w.data() + i * m + first;
-          for (Eigen::Index c = 0; c < cols; ++c) row[c] += t * value[c];
-          if (gradients)
-            for (Eigen::Index c = 0; c < cols; ++c)
-              for (int a = 0; a < 3; ++a) r.dw[(i * m + std::size_t(first + c)) * 3 + a] += corners[i].gradient[k][a] * value[c];
-        }
+    parallel_blocks(slot_unknown.size(), [&](std::size_t lo, std::size_t hi) {
+      for (std::size_t k = lo; k < hi; ++k)
+        for (Eigen::Index c = 0; c < x.cols(); ++c) kept[k * m + std::size_t(first + c)] = x(slot_unknown[k], c);
     });
   });
-  return r;
+  parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
+    std::vector<double> w(m), dw(gradients ? 3 * m : 0);
+    for (std::size_t i = lo; i < hi; ++i) {
+      std::fill(w.begin(), w.end(), 0.0);
+      std::fill(dw.begin(), dw.end(), 0.0);
+      const Corners& c = corners[i];
+      for (int k = 0; k < 8; ++k) {
+        const int u = s.stencil.unknown[std::size_t(c.cell[k])];
+        if (u >= 0) {
+          const double* value = kept.data() + std::size_t(slot[std::size_t(u)]) * m;
+          for (std::size_t a = 0; a < m; ++a) w[a] += c.weight[k] * value[a];
+          if (gradients)
+            for (std::size_t a = 0; a < m; ++a)
+              for (int q = 0; q < 3; ++q) dw[3 * a + q] += c.gradient[k][q] * value[a];
+          continue;
+        }
+        const std::size_t at = std::size_t(std::lower_bound(outer.begin(), outer.end(), c.cell[k]) - outer.begin());
+        for (const auto& [vertex, value] : outer_values[at]) {
+          w[std::size_t(vertex)] += c.weight[k] * value;
+          if (gradients)
+            for (int q = 0; q < 3; ++q) dw[3 * std::size_t(vertex) + q] += c.gradient[k][q] * value;
+        }
+      }
+      visit(i, w.data(), gradients ? dw.data() : nullptr);
+    }
+  });
 }
 
 // Blender's compaction: weights above the threshold kept, scaled to sum to 1.
-void keep_row(const double* w, std::size_t m, WeightTable& table) {
+void keep_row(const double* w, std::size_t m, std::vector<std::pair<std::int32_t, double>>& row) {
   double sum = 0.0;
   for (std::size_t a = 0; a < m; ++a)
     if (w[a] > kStaticMin) sum += w[a];
+  row.clear();
   for (std::size_t a = 0; a < m; ++a)
-    if (w[a] > kStaticMin) {
-      table.indices.push_back(std::int32_t(a));
-      table.values.push_back(w[a] / sum);
-    }
-  table.indptr.push_back(std::int64_t(table.indices.size()));
+    if (w[a] > kStaticMin) row.push_back({std::int32_t(a), w[a] / sum});
 }
 
 template <class T>
@@ -380,12 +382,19 @@ MeshDeformBinding MeshDeform::bind_points(const T* in, std::size_t n) const {
   for (std::size_t i = 0; i < n; ++i)
     if (b.inside[i]) inside.push_back(i);
   const std::size_t m = vertex_count();
-  const harmonic::StaticRows rows = harmonic::static_rows(s, precision_, points, inside, false);
+  std::vector<std::vector<std::pair<std::int32_t, double>>> rows(inside.size());
+  harmonic::static_rows(s, precision_, points, inside, false, [&](std::size_t r, const double* w, const double*) {
+    harmonic::keep_row(w, m, rows[r]);
+  });
   b.weights.indptr.assign(1, 0);
   std::size_t next = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    if (next < inside.size() && inside[next] == i) harmonic::keep_row(rows.w.data() + next++ * m, m, b.weights);
-    else b.weights.indptr.push_back(std::int64_t(b.weights.indices.size()));
+    if (next < inside.size() && inside[next] == i)
+      for (const auto& [a, w] : rows[next++]) {
+        b.weights.indices.push_back(a);
+        b.weights.values.push_back(w);
+      }
+    b.weights.indptr.push_back(std::int64_t(b.weights.indices.size()));
   }
   return b;
 }
@@ -515,11 +524,8 @@ bool MeshDeform::jacobian_impl(const double* in, double* jac, std::size_t n) con
     return false;
   }
   const std::vector<double> points = harmonic::as_doubles(in, n);
-  const harmonic::StaticRows rows = harmonic::static_rows(s, precision_, points, inside, true);
   const std::size_t m = vertex_count();
-  for (std::size_t r = 0; r < inside.size(); ++r) {
-    const double* w = rows.w.data() + r * m;
-    const double* dw = rows.dw.data() + r * m * 3;
+  harmonic::static_rows(s, precision_, points, inside, true, [&](std::size_t r, const double* w, const double* dw) {
     double sum = 0.0, dsum[3] = {0, 0, 0}, num[3] = {0, 0, 0}, dnum[3][3] = {{0}};
     for (std::size_t a = 0; a < m; ++a) {
       if (!(w[a] > harmonic::kStaticMin)) continue;
@@ -530,11 +536,11 @@ bool MeshDeform::jacobian_impl(const double* in, double* jac, std::size_t n) con
         for (int q = 0; q < 3; ++q) dnum[p][q] += disp[3 * a + p] * dw[3 * a + q];
       }
     }
-    if (!(sum > 0.0)) continue;
+    if (!(sum > 0.0)) return;
     double* J = jac + 9 * inside[r];
     for (int p = 0; p < 3; ++p)
       for (int q = 0; q < 3; ++q) J[3 * p + q] += dnum[p][q] / sum - num[p] * dsum[q] / (sum * sum);
-  }
+  });
   return false;
 }
 
