@@ -377,7 +377,27 @@ MeshDeformBinding MeshDeform::bind_points(const T* in, std::size_t n) const {
     for (std::size_t i = lo; i < hi; ++i)
       b.inside[i] = harmonic::inside_cage(s.rays, s.grid, Vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]), scratch);
   });
-  if (dynamic_) return b;
+  if (dynamic_) {
+    b.corner_slot.assign(8 * n, 0);
+    b.corner_weight.assign(8 * n, 0.0);
+    for (std::size_t i = 0; i < n; ++i)
+      if (b.inside[i]) {
+        const harmonic::Corners c = harmonic::corners_of(s.grid, points.data() + 3 * i);
+        for (int k = 0; k < 8; ++k) b.cells.push_back(c.cell[k]);
+      }
+    std::sort(b.cells.begin(), b.cells.end());
+    b.cells.erase(std::unique(b.cells.begin(), b.cells.end()), b.cells.end());
+    for (std::size_t i = 0; i < n; ++i)
+      if (b.inside[i]) {
+        const harmonic::Corners c = harmonic::corners_of(s.grid, points.data() + 3 * i);
+        for (int k = 0; k < 8; ++k) {
+          b.corner_slot[8 * i + std::size_t(k)] =
+              std::uint32_t(std::lower_bound(b.cells.begin(), b.cells.end(), c.cell[k]) - b.cells.begin());
+          b.corner_weight[8 * i + std::size_t(k)] = c.weight[k];
+        }
+      }
+    return b;
+  }
   std::vector<std::size_t> inside;
   for (std::size_t i = 0; i < n; ++i)
     if (b.inside[i]) inside.push_back(i);
@@ -443,28 +463,44 @@ template <class T>
 bool MeshDeform::displace_bound(const MeshDeformBinding& b, T* out) const {
   const std::vector<double> disp = displacements();
   const harmonic::Solved& s = *solved_;
+  // Dynamic: each reached cell's sum of weighted displacements and of weights, once a frame.
+  std::vector<double> cell_sum(4 * b.cells.size());
+  parallel_blocks(b.cells.size(), [&](std::size_t lo, std::size_t hi) {
+    for (std::size_t k = lo; k < hi; ++k) {
+      double* sum = cell_sum.data() + 4 * k;
+      const std::size_t cell = std::size_t(b.cells[k]);
+      for (std::uint32_t e = s.cell_start[cell]; e < s.cell_start[cell + 1]; ++e) {
+        const double w = s.cell_weight[e];
+        const double* d = disp.data() + 3 * s.cell_vertex[e];
+        for (int a = 0; a < 3; ++a) sum[a] += w * d[a];
+        sum[3] += w;
+      }
+    }
+  });
   std::atomic<bool> finite{true};
   parallel_blocks(b.size(), [&](std::size_t lo, std::size_t hi) {
     bool ok = true;
     for (std::size_t i = lo; i < hi; ++i) {
       double p[3];
       for (int a = 0; a < 3; ++a) p[a] = b.single_precision ? double(b.points_f32[3 * i + a]) : b.points_f64[3 * i + a];
-      double offset[3] = {0, 0, 0};
-      if (b.inside[i]) {
-        if (b.dynamic) {
-          harmonic::dynamic_offset(s, p, disp.data(), offset, nullptr);
-        } else {
-          double total = 0.0;
-          for (std::int64_t e = b.weights.indptr[i]; e < b.weights.indptr[i + 1]; ++e) {
-            const double w = b.weights.values[std::size_t(e)];
-            const double* d = disp.data() + 3 * b.weights.indices[std::size_t(e)];
-            for (int a = 0; a < 3; ++a) offset[a] += w * d[a];
-            total += w;
-          }
-          if (total > 0.0)
-            for (int a = 0; a < 3; ++a) offset[a] /= total;
+      double offset[3] = {0, 0, 0}, total = 0.0;
+      if (b.inside[i] && b.dynamic) {
+        for (int k = 0; k < 8; ++k) {
+          const double t = b.corner_weight[8 * i + std::size_t(k)];
+          const double* sum = cell_sum.data() + 4 * b.corner_slot[8 * i + std::size_t(k)];
+          for (int a = 0; a < 3; ++a) offset[a] += t * sum[a];
+          total += t * sum[3];
+        }
+      } else if (b.inside[i]) {
+        for (std::int64_t e = b.weights.indptr[i]; e < b.weights.indptr[i + 1]; ++e) {
+          const double w = b.weights.values[std::size_t(e)];
+          const double* d = disp.data() + 3 * b.weights.indices[std::size_t(e)];
+          for (int a = 0; a < 3; ++a) offset[a] += w * d[a];
+          total += w;
         }
       }
+      if (total > 0.0)
+        for (int a = 0; a < 3; ++a) offset[a] /= total;
       for (int a = 0; a < 3; ++a) {
         out[3 * i + a] = static_cast<T>(p[a] + offset[a]);
         ok = ok && std::isfinite(out[3 * i + a]);

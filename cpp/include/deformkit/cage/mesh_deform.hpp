@@ -18,6 +18,11 @@ struct MeshDeformBinding : PointBinding {
   bool dynamic = false;
   std::vector<std::uint8_t> inside;  // per point: inside the rest cage (Blender's ray test)
   WeightTable weights;               // static: per point its kept, renormalised coordinates
+  // Dynamic: the cells the bound points reach, and per point its 8 cells (slots into cells) and
+  // their trilinear weights, so a frame sums each cell's influences once.
+  std::vector<std::int64_t> cells;
+  std::vector<std::uint32_t> corner_slot;
+  std::vector<double> corner_weight;
   std::vector<double> points_f64;    // n x 3 as bound (float64 points)
   std::vector<float> points_f32;     // (float32 points)
 };
