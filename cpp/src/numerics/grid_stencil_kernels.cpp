@@ -86,23 +86,37 @@ std::vector<double> apply_stencil(const KernelRunner& run, const StencilLevel& a
   });
 }
 
-std::vector<double> step_solution(const KernelRunner& run, const std::vector<double>& alpha, const Block& p, const Block& q, Block& x,
-                                  Block& r, BlockOf<float>& r_single) {
+std::vector<double> residual_norms(const KernelRunner& run, const StencilLevel& a, const Block& r) {
+  const int w = r.width;
+  return chunk_sums(run, a.size, 2 * w, [&](std::size_t begin, std::size_t end, double* s) {
+    for (std::size_t u = begin; u < end; ++u) {
+      const double* ru = r.row(u);
+      const double inv = a.inverse_diagonal[u];
+#pragma omp simd
+      for (int c = 0; c < w; ++c) s[c] += ru[c] * ru[c], s[w + c] += (ru[c] * inv) * (ru[c] * inv);
+    }
+  });
+}
+
+std::vector<double> step_solution(const KernelRunner& run, const StencilLevel& a, const std::vector<double>& alpha, const Block& p,
+                                  const Block& q, Block& x, Block& r, BlockOf<float>& r_single) {
   const int w = x.width;
   const double* al = alpha.data();
-  return chunk_sums(run, x.rows, w, [&](std::size_t begin, std::size_t end, double* s) {
+  return chunk_sums(run, x.rows, 2 * w, [&](std::size_t begin, std::size_t end, double* s) {
     for (std::size_t u = begin; u < end; ++u) {
       const double* pu = p.row(u);
       const double* qu = q.row(u);
       double* xu = x.row(u);
       double* ru = r.row(u);
       float* fu = r_single.row(u);
+      const double inv = a.inverse_diagonal[u];
 #pragma omp simd
       for (int c = 0; c < w; ++c) {
         xu[c] += al[c] * pu[c];
         ru[c] -= al[c] * qu[c];
         fu[c] = float(ru[c]);
         s[c] += ru[c] * ru[c];
+        s[w + c] += (ru[c] * inv) * (ru[c] * inv);
       }
     }
   });

@@ -46,9 +46,11 @@ void prolong_add(const KernelRunner& run, const StencilLevel& a, const BlockOf<f
 // pass over a block is a pass over memory.
 // q = A p; returns p . q per column.
 std::vector<double> apply_stencil(const KernelRunner& run, const StencilLevel& a, const Block& p, Block& q);
-// x += alpha p, r -= alpha q, r_single = r rounded to single; returns r . r per column.
-std::vector<double> step_solution(const KernelRunner& run, const std::vector<double>& alpha, const Block& p, const Block& q, Block& x,
-                                  Block& r, BlockOf<float>& r_single);
+// The squared norms of r per column, plain then row-normalised: [sum r^2 ..., sum (r / d)^2 ...].
+std::vector<double> residual_norms(const KernelRunner& run, const StencilLevel& a, const Block& r);
+// x += alpha p, r -= alpha q, r_single = r rounded to single; returns residual_norms(r).
+std::vector<double> step_solution(const KernelRunner& run, const StencilLevel& a, const std::vector<double>& alpha, const Block& p,
+                                  const Block& q, Block& x, Block& r, BlockOf<float>& r_single);
 // p = z + beta p, beta per column, z the cycle's output.
 void step_direction(const KernelRunner& run, const std::vector<double>& beta, const BlockOf<float>& z, Block& p);
 // Per column: sum over rows of a * b.

@@ -21,8 +21,9 @@ struct GridStencil {               // SPD 7-point stencil on an n0 x n1 x n2 cel
 // Solves diagonal_i u_i - sum_j coupling_ij u_j = rhs_i for `columns` right-hand sides, streamed in
 // blocks so memory stays O(unknowns * block): fill(first, block) writes rhs columns
 // [first, first+block.cols()); take(first, solution) receives the solutions of those columns.
-// Every column ends with ||rhs - A u|| <= relative_tolerance ||rhs||; bit for bit the same result
-// whatever the number of threads. Throws std::invalid_argument naming what is wrong with a system
+// Every column ends with ||rhs - A u|| <= relative_tolerance ||rhs||, and the same for the rows
+// divided by their diagonals (D^-1 (rhs - A u) against D^-1 rhs: huge cut-edge weights do not hide
+// the other rows' residual); bit for bit the same result whatever the number of threads. Throws std::invalid_argument naming what is wrong with a system
 // not of this form (docs/errors.md, "Grid solver systems"); std::runtime_error if a column does
 // not converge.
 void solve_grid_stencil(const GridStencil& system, int columns, int block_columns,
