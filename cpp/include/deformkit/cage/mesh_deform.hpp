@@ -2,8 +2,8 @@
 // Blender's Mesh Deform modifier reproduced: harmonic coordinates (Joshi, Meyer, DeRose, Green,
 // Sanocki 2007) solved on Blender's grid, bound statically (each point's coordinates, trilinear in
 // its 8 cells) or dynamically (each cell's coordinates, interpolated where the point is), applied
-// in displacement form x + sum_a w_a (c_a - c_a at rest) / sum_a w_a (docs/cage.md, "Mesh Deform
-// (harmonic coordinates)"; docs/math/cage.md, "Mesh Deform").
+// in displacement form x + sum_a w_a (c_a - c_a at rest) / sum_a w_a (docs/cage.md,
+// "Mesh Deform (harmonic coordinates)"; docs/math/mesh_deform.md, "Binding and evaluation").
 #include "deformkit/cage/cage_mesh.hpp"
 #include "deformkit/core/point_binding.hpp"
 
