@@ -16,7 +16,10 @@ rest, alternately; Blender: foreach_set of the cage's positions, depsgraph updat
 the evaluated model (the modifier evaluates in that update); deformkit: cage_points set, then
 deform_bound of the binding. Medians of the steps to the deformed pose. Checked in the run (exit 1
 otherwise): at the deformed pose both agree within 1e-4 of the cage's bounding-box diagonal.
-Skips with a message when ../shared/cages is absent.
+
+Precision: each precision's positions at the deformed pose (deformkit's, static bind) against the
+next precision's, over the cage's diagonal (largest and mean over the vertices), so users can see
+what a higher precision changes. Skips with a message when ../shared/cages is absent.
 """
 import argparse
 import statistics
@@ -81,7 +84,17 @@ def frames(modifier, md, binding):
     return statistics.median(steps["blender"]), statistics.median(steps["deformkit"]), worst
 
 
-rows, failed = [], False
+rows, failed, posed = [], False, {}
+
+
+def deformed_positions(md, binding):
+    md.cage_points = np.asarray(m.moved, np.float32).astype(np.float64)
+    out = md.deform_bound(binding)
+    md.cage_points = md.rest_cage_points
+    return out
+
+
+
 for precision in [int(p) for p in args.precisions.split(",") if p]:
     with OtherLoad() as load:
         with PeakMemory() as mem:
@@ -97,6 +110,7 @@ for precision in [int(p) for p in args.precisions.split(",") if p]:
           f"frame {blender_frame * 1e3:.2f} ms vs {dk_frame * 1e3:.2f} ms; largest difference {worst:.1e} "
           f"of the diagonal\n{load.report()}")
     m.model.modifiers.remove(modifier)
+    posed[precision] = deformed_positions(md, binding)
     del md, binding
 for precision in [int(p) for p in args.deformkit_only.split(",") if p]:
     with OtherLoad() as load:
@@ -104,6 +118,7 @@ for precision in [int(p) for p in args.deformkit_only.split(",") if p]:
     rows.append((precision, None, dk_seconds, None, dk_memory, None, None, None, md.unknowns))
     print(f"precision {precision}: deformkit {dk_seconds:.2f} s ({dk_memory / 2**20:.0f} MB), "
           f"{md.unknowns} unknowns\n{load.report()}")
+    posed[precision] = deformed_positions(md, binding)
     del md, binding
 
 print("\n| precision | unknowns | Blender bind | deformkit bind | speed-up | Blender peak memory | deformkit peak memory "
@@ -114,6 +129,13 @@ for p, bs, ds, bm, dm, bf, df, worst, unknowns in rows:
     print(f"| {p} | {unknowns} | {fmt(bs, lambda v: f'{v:.2f} s')} | {ds:.2f} s | {fmt(bs, lambda v: f'{v / ds:.1f}x')} "
           f"| {fmt(bm, lambda v: f'{v / 2**20:.0f} MB')} | {dm / 2**20:.0f} MB | {fmt(bf, lambda v: f'{v * 1e3:.2f} ms')} "
           f"| {fmt(df, lambda v: f'{v * 1e3:.2f} ms')} |")
+levels = sorted(posed)
+if len(levels) > 1:
+    print("\n| precisions | largest difference | mean difference |  (over the cage's diagonal, at the deformed pose)")
+    print("|---|---|---|")
+    for a, b in zip(levels, levels[1:]):
+        d = np.linalg.norm(posed[a] - posed[b], axis=1) / diagonal
+        print(f"| {a} / {b} | {d.max():.2e} | {d.mean():.2e} |")
 if failed:
     print("deformkit and Blender disagree by more than 1e-4 of the diagonal")
     sys.exit(1)
