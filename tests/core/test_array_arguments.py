@@ -43,6 +43,7 @@ SAMPLES = {
     "ExtendedFFD": lambda: dk.ExtendedFFD(dk.BezierFFD(1).rest_control_points),
     "MeanValueCage": lambda: dk.MeanValueCage(CUBE * 2 - 0.5, CUBE_FACES),
     "GreenCage": lambda: dk.GreenCage(CUBE * 2 - 0.5, CUBE_FACES),
+    "MeshDeform": lambda: dk.MeshDeform(CUBE * 2 - 0.5, CUBE_FACES, precision=3),
     "RBF": lambda: dk.RBF(CUBE, CUBE + 0.1),
     "SurfaceDeformer": lambda: dk.SurfaceDeformer(GRID, QUADS, anchors=[0, 1, 2], handles=[8]),
     "Subdivider": lambda: dk.Subdivider(CUBE, CUBE_FACES, 1),
@@ -50,7 +51,7 @@ SAMPLES = {
     "DeformationTransfer": lambda: dk.DeformationTransfer(GRID, QUADS, GRID * 1.5, fixed_vertices=[0]),
 }
 # Classes whose instances only report (results): nothing of theirs takes an array.
-RESULTS = {"LatticeBinding", "CageBinding", "RBFBinding", "DirectManipulation", "SubdividedMesh", "SmoothnessReport",
+RESULTS = {"LatticeBinding", "CageBinding", "RBFBinding", "MeshDeformBinding", "DirectManipulation", "SubdividedMesh", "SmoothnessReport",
            "Deformer", "Lattice", "CageDeformer"}
 
 # Valid positional arguments of each public method, by name, given its instance: the walk replaces
@@ -98,6 +99,7 @@ FUNCTIONS = {
     "cotangent_laplacian": (dk.cotangent_laplacian, "cotangent_laplacian", (GRID, QUADS), {}),
     "extrapolated_start": (dk.extrapolated_start, "extrapolated_start", (GRID, GRID, PTS, PTS, PTS), {}),
     "GreenCage": (dk.GreenCage, "__init__", (CUBE, CUBE_FACES), {}),
+    "MeshDeform": (dk.MeshDeform, "__init__", (CUBE, CUBE_FACES), {"precision": 3}),
     "DeformationTransfer": (dk.DeformationTransfer, "__init__", (GRID, QUADS, GRID * 1.5), {}),
     "LimitSurface": (dk.LimitSurface, "__init__", (CUBE, CUBE_FACES), {}),
     "smoothness_report": (dk.smoothness_report, "smoothness_report", (CUBE, CUBE_FACES), {}),
@@ -175,7 +177,7 @@ def test_every_object_parameter_is_walked_or_not_an_array():
                 "interpolation", "axis", "deform_axis", "source_faces", "target_faces", "markers", "correspondence",
                 "fixed_vertices", "lock_x", "lock_y", "lock_z", "invert_weights", "stretch", "binding", "out",
                 "ptex", "deformer", "sharpen_two_edge_vertices", "limit_surface", "mode", "angle", "factor",
-                "quads"}
+                "quads", "dynamic", "blender_version"}
     walked = {c[6] for c in CALLS} | {"cage_points", "targets", "handle_targets", "initial", "source_pose",
                                       "fixed_positions", "points", "normals", "reference", "uv", "profile"}
     for cls_name in (n for n in dir(dk) if not n.startswith("_")):

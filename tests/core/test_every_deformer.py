@@ -56,6 +56,7 @@ MOVED = {
     "ExtendedFFD": extended_ffd,
     "MeanValueCage": lambda: cages(dk.MeanValueCage),
     "GreenCage": lambda: cages(dk.GreenCage),
+    "MeshDeform": lambda: cages(lambda p, f: dk.MeshDeform(p, f, precision=3)),
     "RBF": rbf,
 }
 

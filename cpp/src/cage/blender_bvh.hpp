@@ -5,7 +5,7 @@
 // the hit it keeps is not always the nearest one. To give the same answer, the tree is built as
 // Blender builds its float AABB tree over the triangles (BLI_kdopbvh: leaves split by the
 // largest axis of each branch, at implicit-tree positions, by quickselect on the boxes' maxima)
-// and traversed in its order with its pruning (docs/math/cage.md, "Mesh Deform").
+// and traversed in its order with its pruning (docs/math/mesh_deform.md, "The grid").
 #include <array>
 #include <functional>
 #include <vector>

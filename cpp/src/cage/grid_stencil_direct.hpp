@@ -1,7 +1,7 @@
 #pragma once
 // The harmonic grid's linear system, handed to a solver in one form (the interface md-solver's
 // multigrid implements in deformkit/numerics/grid_stencil.hpp), and a direct solver of it: CHOLMOD
-// on the symmetric form (docs/math/cage.md, "Mesh Deform").
+// on the symmetric form (docs/math/mesh_deform.md, "The system").
 #if __has_include("deformkit/numerics/grid_stencil.hpp")
 #include "deformkit/numerics/grid_stencil.hpp"
 #else

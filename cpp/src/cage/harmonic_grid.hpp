@@ -2,7 +2,7 @@
 // Blender's Mesh Deform grid (meshlaplacian.cc, "Harmonic Coordinates"; Joshi et al. 2007): a cube
 // of 2^p + 2 cells a side around the cage, the segments between neighbouring cell centres cut by
 // the cage, the cells tagged exterior by a flood fill from a corner, and the 7-point Laplacian
-// with cut edges whose solutions are the harmonic coordinates (docs/math/cage.md, "Mesh Deform").
+// with cut edges whose solutions are the harmonic coordinates (docs/math/mesh_deform.md, "The grid").
 #include "cage/blender_bvh.hpp"
 #include "cage/grid_stencil_direct.hpp"
 #include "deformkit/cage/cage_mesh.hpp"

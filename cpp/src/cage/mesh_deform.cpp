@@ -24,11 +24,15 @@ namespace harmonic {
 // a cell's influence at or above the second.
 const double kStaticMin = double(0.00001f);
 const double kDynamicMin = double(0.0005f);
+// Each column's relative residual: the coordinates come out within about 1e-9 of the exact
+// solution's (measured against the Cholesky solve), far below Blender's float32.
+constexpr double kSolveTolerance = 1e-10;
 
 struct Solved {
-  Solved(const CageMesh& c, int precision, int bvh_arity)
-      : cage(c), rays(cage, bvh_arity), grid(build_grid(rays, cage.rest_points(), precision)), stencil(grid_stencil(grid)),
+  Solved(const CageMesh& c, int precision, int bvh_arity, GridSolver solver)
+      : solver(solver), cage(c), rays(cage, bvh_arity), grid(build_grid(rays, cage.rest_points(), precision)), stencil(grid_stencil(grid)),
         terms(boundary_terms(grid, stencil)) {}
+  GridSolver solver;
   CageMesh cage;  // a copy: rays reads its polygons
   RayCage rays;
   HarmonicGrid grid;
@@ -91,8 +95,10 @@ void solve_columns(const Solved& s, int precision,
   require_unknowns(s, precision);
   const int m = int(s.cage.vertex_count());
   const double unknowns = double(s.stencil.diagonal.size());
-  // About 128 MB per block of right-hand sides (the solutions take as much again).
-  const int block = int(std::clamp(16.0e6 / unknowns, 1.0, double(m)));
+  // Multigrid: 16 columns a block (its SIMD lanes twice; docs/math/numerics.md). Cholesky: about
+  // 128 MB of right-hand sides a block (one pass over the factor serves them all).
+  const int block = s.solver == GridSolver::Multigrid ? std::min(m, 16)
+                                                       : int(std::clamp(16.0e6 / unknowns, 1.0, double(m)));
   const PolygonMesh& poly = s.cage.polygons();
   auto fill = [&](int first, Eigen::Ref<Eigen::MatrixXd> rhs) {
     const int cols = int(rhs.cols());
@@ -106,7 +112,8 @@ void solve_columns(const Solved& s, int precision,
     }
   };
   try {
-    numerics::solve_grid_stencil_direct(s.stencil, m, block, fill, take, 1e-10);
+    if (s.solver == GridSolver::Cholesky) numerics::solve_grid_stencil_direct(s.stencil, m, block, fill, take, 0.0);
+    else numerics::solve_grid_stencil(s.stencil, m, block, fill, take, kSolveTolerance);
   } catch (const std::runtime_error&) {
     throw std::runtime_error("cage_points: cannot find a bind solution: the precision-" + std::to_string(precision) +
                              " grid's system around this cage is singular; try another precision");
@@ -177,61 +184,80 @@ void solve_cells(Solved& s, int precision) {
   }
 }
 
-// Static bind: each inside point's coordinates, trilinear in its 8 cells (dense, m per point;
-// with gradients 3 m more), from every column's solution.
-struct StaticRows {
-  std::vector<double> w, dw;
-};
-
-StaticRows static_rows(const Solved& s, int precision, const std::vector<double>& points,
-                       const std::vector<std::size_t>& inside, bool gradients) {
+// Static bind: each inside point's coordinates, trilinear in its 8 cells, handed to
+// visit(r, w, dw) (r the point's rank among `inside`; w its m values, dw 3 per value with
+// `gradients`, else null), in parallel. Only the cells the points reach keep their values from
+// the solve: memory is those cells x m, never unknowns x m.
+void static_rows(const Solved& s, int precision, const std::vector<double>& points,
+                 const std::vector<std::size_t>& inside, bool gradients,
+                 const std::function<void(std::size_t, const double*, const double*)>& visit) {
   const std::size_t m = s.cage.vertex_count(), n = inside.size();
-  StaticRows r;
-  r.w.assign(n * m, 0.0);
-  if (gradients) r.dw.assign(n * m * 3, 0.0);
   std::vector<Corners> corners(n);
   parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
-    for (std::size_t i = lo; i < hi; ++i) {
-      corners[i] = corners_of(s.grid, points.data() + 3 * inside[i]);
-      for (int k = 0; k < 8; ++k) {
-        if (s.stencil.unknown[std::size_t(corners[i].cell[k])] >= 0) continue;
-        for (const auto& [vertex, value] : exterior_values(s.rays, s.grid, corners[i].cell[k])) {
-          r.w[i * m + std::size_t(vertex)] += corners[i].weight[k] * value;
-          if (gradients)
-            for (int a = 0; a < 3; ++a) r.dw[(i * m + std::size_t(vertex)) * 3 + a] += corners[i].gradient[k][a] * value;
-        }
+    for (std::size_t i = lo; i < hi; ++i) corners[i] = corners_of(s.grid, points.data() + 3 * inside[i]);
+  });
+  // The unknowns the points reach get a slot each; the exterior cells they reach, their values.
+  std::vector<int> slot(s.stencil.diagonal.size(), -1);
+  std::vector<int> slot_unknown;
+  std::vector<std::int64_t> outer;
+  for (const Corners& c : corners)
+    for (std::int64_t cell : c.cell) {
+      const int u = s.stencil.unknown[std::size_t(cell)];
+      if (u < 0) outer.push_back(cell);
+      else if (slot[std::size_t(u)] < 0) {
+        slot[std::size_t(u)] = int(slot_unknown.size());
+        slot_unknown.push_back(u);
       }
     }
+  std::sort(outer.begin(), outer.end());
+  outer.erase(std::unique(outer.begin(), outer.end()), outer.end());
+  std::vector<SparseValues> outer_values(outer.size());
+  parallel_blocks(outer.size(), [&](std::size_t lo, std::size_t hi) {
+    for (std::size_t k = lo; k < hi; ++k) outer_values[k] = exterior_values(s.rays, s.grid, outer[k]);
   });
+  std::vector<double> kept(slot_unknown.size() * m);  // slot-major: a cell's m values side by side
   solve_columns(s, precision, [&](int first, const Eigen::Ref<const Eigen::MatrixXd>& x) {
-    parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
-      for (std::size_t i = lo; i < hi; ++i)
-        for (int k = 0; k < 8; ++k) {
-          const int u = s.stencil.unknown[std::size_t(corners[i].cell[k])];
-          if (u < 0) continue;
-          const double t = corners[i].weight[k];
-          double* row = r.w.data() + i * m + first;
-          for (Eigen::Index c = 0; c < x.cols(); ++c) row[c] += t * x(u, c);
-          if (gradients)
-            for (Eigen::Index c = 0; c < x.cols(); ++c)
-              for (int a = 0; a < 3; ++a) r.dw[(i * m + std::size_t(first + c)) * 3 + a] += corners[i].gradient[k][a] * x(u, c);
-        }
+    parallel_blocks(slot_unknown.size(), [&](std::size_t lo, std::size_t hi) {
+      for (std::size_t k = lo; k < hi; ++k)
+        for (Eigen::Index c = 0; c < x.cols(); ++c) kept[k * m + std::size_t(first + c)] = x(slot_unknown[k], c);
     });
   });
-  return r;
+  parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
+    std::vector<double> w(m), dw(gradients ? 3 * m : 0);
+    for (std::size_t i = lo; i < hi; ++i) {
+      std::fill(w.begin(), w.end(), 0.0);
+      std::fill(dw.begin(), dw.end(), 0.0);
+      const Corners& c = corners[i];
+      for (int k = 0; k < 8; ++k) {
+        const int u = s.stencil.unknown[std::size_t(c.cell[k])];
+        if (u >= 0) {
+          const double* value = kept.data() + std::size_t(slot[std::size_t(u)]) * m;
+          for (std::size_t a = 0; a < m; ++a) w[a] += c.weight[k] * value[a];
+          if (gradients)
+            for (std::size_t a = 0; a < m; ++a)
+              for (int q = 0; q < 3; ++q) dw[3 * a + q] += c.gradient[k][q] * value[a];
+          continue;
+        }
+        const std::size_t at = std::size_t(std::lower_bound(outer.begin(), outer.end(), c.cell[k]) - outer.begin());
+        for (const auto& [vertex, value] : outer_values[at]) {
+          w[std::size_t(vertex)] += c.weight[k] * value;
+          if (gradients)
+            for (int q = 0; q < 3; ++q) dw[3 * std::size_t(vertex) + q] += c.gradient[k][q] * value;
+        }
+      }
+      visit(i, w.data(), gradients ? dw.data() : nullptr);
+    }
+  });
 }
 
 // Blender's compaction: weights above the threshold kept, scaled to sum to 1.
-void keep_row(const double* w, std::size_t m, WeightTable& table) {
+void keep_row(const double* w, std::size_t m, std::vector<std::pair<std::int32_t, double>>& row) {
   double sum = 0.0;
   for (std::size_t a = 0; a < m; ++a)
     if (w[a] > kStaticMin) sum += w[a];
+  row.clear();
   for (std::size_t a = 0; a < m; ++a)
-    if (w[a] > kStaticMin) {
-      table.indices.push_back(std::int32_t(a));
-      table.values.push_back(w[a] / sum);
-    }
-  table.indptr.push_back(std::int64_t(table.indices.size()));
+    if (w[a] > kStaticMin) row.push_back({std::int32_t(a), w[a] / sum});
 }
 
 template <class T>
@@ -282,15 +308,15 @@ bool dynamic_offset(const Solved& s, const double* p, const double* disp, double
 }  // namespace
 }  // namespace harmonic
 
-MeshDeform::MeshDeform(CageMesh cage, int precision, bool dynamic, int bvh_arity)
-    : cage_(std::move(cage)), precision_(precision), dynamic_(dynamic), bvh_arity_(bvh_arity),
+MeshDeform::MeshDeform(CageMesh cage, int precision, bool dynamic, int bvh_arity, GridSolver solver)
+    : cage_(std::move(cage)), precision_(precision), dynamic_(dynamic), bvh_arity_(bvh_arity), solver_(solver),
       current_(cage_.rest_points()) {
   if (precision < kMinPrecision || precision > kMaxPrecision)
     throw std::invalid_argument("precision: expected an integer from 2 to 10 (2^precision + 2 grid cells a side), got " +
                                 std::to_string(precision));
   if (bvh_arity != 2 && bvh_arity != 4)
     throw std::invalid_argument("bvh_arity: expected 2 or 4, got " + std::to_string(bvh_arity));
-  auto solved = std::make_shared<harmonic::Solved>(cage_, precision_, bvh_arity_);
+  auto solved = std::make_shared<harmonic::Solved>(cage_, precision_, bvh_arity_, solver_);
   harmonic::require_unknowns(*solved, precision_);
   if (dynamic_) harmonic::solve_cells(*solved, precision_);
   solved_ = std::move(solved);
@@ -351,17 +377,44 @@ MeshDeformBinding MeshDeform::bind_points(const T* in, std::size_t n) const {
     for (std::size_t i = lo; i < hi; ++i)
       b.inside[i] = harmonic::inside_cage(s.rays, s.grid, Vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]), scratch);
   });
-  if (dynamic_) return b;
+  if (dynamic_) {
+    b.corner_slot.assign(8 * n, 0);
+    b.corner_weight.assign(8 * n, 0.0);
+    for (std::size_t i = 0; i < n; ++i)
+      if (b.inside[i]) {
+        const harmonic::Corners c = harmonic::corners_of(s.grid, points.data() + 3 * i);
+        for (int k = 0; k < 8; ++k) b.cells.push_back(c.cell[k]);
+      }
+    std::sort(b.cells.begin(), b.cells.end());
+    b.cells.erase(std::unique(b.cells.begin(), b.cells.end()), b.cells.end());
+    for (std::size_t i = 0; i < n; ++i)
+      if (b.inside[i]) {
+        const harmonic::Corners c = harmonic::corners_of(s.grid, points.data() + 3 * i);
+        for (int k = 0; k < 8; ++k) {
+          b.corner_slot[8 * i + std::size_t(k)] =
+              std::uint32_t(std::lower_bound(b.cells.begin(), b.cells.end(), c.cell[k]) - b.cells.begin());
+          b.corner_weight[8 * i + std::size_t(k)] = c.weight[k];
+        }
+      }
+    return b;
+  }
   std::vector<std::size_t> inside;
   for (std::size_t i = 0; i < n; ++i)
     if (b.inside[i]) inside.push_back(i);
   const std::size_t m = vertex_count();
-  const harmonic::StaticRows rows = harmonic::static_rows(s, precision_, points, inside, false);
+  std::vector<std::vector<std::pair<std::int32_t, double>>> rows(inside.size());
+  harmonic::static_rows(s, precision_, points, inside, false, [&](std::size_t r, const double* w, const double*) {
+    harmonic::keep_row(w, m, rows[r]);
+  });
   b.weights.indptr.assign(1, 0);
   std::size_t next = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    if (next < inside.size() && inside[next] == i) harmonic::keep_row(rows.w.data() + next++ * m, m, b.weights);
-    else b.weights.indptr.push_back(std::int64_t(b.weights.indices.size()));
+    if (next < inside.size() && inside[next] == i)
+      for (const auto& [a, w] : rows[next++]) {
+        b.weights.indices.push_back(a);
+        b.weights.values.push_back(w);
+      }
+    b.weights.indptr.push_back(std::int64_t(b.weights.indices.size()));
   }
   return b;
 }
@@ -410,28 +463,44 @@ template <class T>
 bool MeshDeform::displace_bound(const MeshDeformBinding& b, T* out) const {
   const std::vector<double> disp = displacements();
   const harmonic::Solved& s = *solved_;
+  // Dynamic: each reached cell's sum of weighted displacements and of weights, once a frame.
+  std::vector<double> cell_sum(4 * b.cells.size());
+  parallel_blocks(b.cells.size(), [&](std::size_t lo, std::size_t hi) {
+    for (std::size_t k = lo; k < hi; ++k) {
+      double* sum = cell_sum.data() + 4 * k;
+      const std::size_t cell = std::size_t(b.cells[k]);
+      for (std::uint32_t e = s.cell_start[cell]; e < s.cell_start[cell + 1]; ++e) {
+        const double w = s.cell_weight[e];
+        const double* d = disp.data() + 3 * s.cell_vertex[e];
+        for (int a = 0; a < 3; ++a) sum[a] += w * d[a];
+        sum[3] += w;
+      }
+    }
+  });
   std::atomic<bool> finite{true};
   parallel_blocks(b.size(), [&](std::size_t lo, std::size_t hi) {
     bool ok = true;
     for (std::size_t i = lo; i < hi; ++i) {
       double p[3];
       for (int a = 0; a < 3; ++a) p[a] = b.single_precision ? double(b.points_f32[3 * i + a]) : b.points_f64[3 * i + a];
-      double offset[3] = {0, 0, 0};
-      if (b.inside[i]) {
-        if (b.dynamic) {
-          harmonic::dynamic_offset(s, p, disp.data(), offset, nullptr);
-        } else {
-          double total = 0.0;
-          for (std::int64_t e = b.weights.indptr[i]; e < b.weights.indptr[i + 1]; ++e) {
-            const double w = b.weights.values[std::size_t(e)];
-            const double* d = disp.data() + 3 * b.weights.indices[std::size_t(e)];
-            for (int a = 0; a < 3; ++a) offset[a] += w * d[a];
-            total += w;
-          }
-          if (total > 0.0)
-            for (int a = 0; a < 3; ++a) offset[a] /= total;
+      double offset[3] = {0, 0, 0}, total = 0.0;
+      if (b.inside[i] && b.dynamic) {
+        for (int k = 0; k < 8; ++k) {
+          const double t = b.corner_weight[8 * i + std::size_t(k)];
+          const double* sum = cell_sum.data() + 4 * b.corner_slot[8 * i + std::size_t(k)];
+          for (int a = 0; a < 3; ++a) offset[a] += t * sum[a];
+          total += t * sum[3];
+        }
+      } else if (b.inside[i]) {
+        for (std::int64_t e = b.weights.indptr[i]; e < b.weights.indptr[i + 1]; ++e) {
+          const double w = b.weights.values[std::size_t(e)];
+          const double* d = disp.data() + 3 * b.weights.indices[std::size_t(e)];
+          for (int a = 0; a < 3; ++a) offset[a] += w * d[a];
+          total += w;
         }
       }
+      if (total > 0.0)
+        for (int a = 0; a < 3; ++a) offset[a] /= total;
       for (int a = 0; a < 3; ++a) {
         out[3 * i + a] = static_cast<T>(p[a] + offset[a]);
         ok = ok && std::isfinite(out[3 * i + a]);
@@ -491,11 +560,8 @@ bool MeshDeform::jacobian_impl(const double* in, double* jac, std::size_t n) con
     return false;
   }
   const std::vector<double> points = harmonic::as_doubles(in, n);
-  const harmonic::StaticRows rows = harmonic::static_rows(s, precision_, points, inside, true);
   const std::size_t m = vertex_count();
-  for (std::size_t r = 0; r < inside.size(); ++r) {
-    const double* w = rows.w.data() + r * m;
-    const double* dw = rows.dw.data() + r * m * 3;
+  harmonic::static_rows(s, precision_, points, inside, true, [&](std::size_t r, const double* w, const double* dw) {
     double sum = 0.0, dsum[3] = {0, 0, 0}, num[3] = {0, 0, 0}, dnum[3][3] = {{0}};
     for (std::size_t a = 0; a < m; ++a) {
       if (!(w[a] > harmonic::kStaticMin)) continue;
@@ -506,11 +572,11 @@ bool MeshDeform::jacobian_impl(const double* in, double* jac, std::size_t n) con
         for (int q = 0; q < 3; ++q) dnum[p][q] += disp[3 * a + p] * dw[3 * a + q];
       }
     }
-    if (!(sum > 0.0)) continue;
+    if (!(sum > 0.0)) return;
     double* J = jac + 9 * inside[r];
     for (int p = 0; p < 3; ++p)
       for (int q = 0; q < 3; ++q) J[3 * p + q] += dnum[p][q] / sum - num[p] * dsum[q] / (sum * sum);
-  }
+  });
   return false;
 }
 

@@ -27,41 +27,33 @@ std::array<const T*, 6> neighbour_rows(const StencilLevel& a, const BlockOf<T>& 
 
 }  // namespace
 
-template <class T>
-void colour_sweep(const KernelRunner& run, const StencilLevel& a, int colour, const BlockOf<T>& b, BlockOf<T>& x, bool from_zero) {
+void colour_sweep(const KernelRunner& run, const StencilLevel& a, int colour, const BlockOf<float>& b, BlockOf<float>& x, bool from_zero) {
   const std::vector<int>& rows = a.colour[std::size_t(colour)];
-  const CoefficientView<T> k = coefficients(a, T());
   for_chunks(run, rows.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
-    sweep_rows(rows.data() + begin, end - begin, k.inverse_diagonal, k.coupling, a.neighbour.data(), b.data.data(), x.data.data(), x.width,
-               from_zero);
+    sweep_rows(rows.data() + begin, end - begin, a.single.inverse_diagonal.data(), a.single.coupling.data(), a.neighbour.data(), b.data.data(),
+               x.data.data(), x.width, from_zero);
   });
 }
 
-template <class T>
-void restrict_residual(const KernelRunner& run, const StencilLevel& a, const BlockOf<T>& b, const BlockOf<T>& x, BlockOf<T>& coarse_b) {
-  const CoefficientView<T> k = coefficients(a, T());
+void restrict_residual(const KernelRunner& run, const StencilLevel& a, const BlockOf<float>& b, const BlockOf<float>& x,
+                       BlockOf<float>& coarse_b) {
   for_chunks(run, a.child_start.size() - 1, [&](std::size_t, std::size_t begin, std::size_t end) {
-    restrict_rows(a.child_start.data(), a.child.data(), begin, end, k.diagonal, k.coupling, a.neighbour.data(), b.data.data(), x.data.data(),
-                  coarse_b.data.data(), x.width);
+    restrict_rows(a.child_start.data(), a.child.data(), begin, end, a.single.diagonal.data(), a.single.coupling.data(), a.neighbour.data(),
+                  b.data.data(), x.data.data(), coarse_b.data.data(), x.width);
   });
 }
 
-template <class T>
-void prolong_add(const KernelRunner& run, const StencilLevel& a, const BlockOf<T>& coarse_x, T scale, BlockOf<T>& x) {
+void prolong_add(const KernelRunner& run, const StencilLevel& a, const BlockOf<float>& coarse_x, float scale, BlockOf<float>& x) {
   const int w = x.width;
   for_chunks(run, a.size, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t u = begin; u < end; ++u) {
-      const T* e = coarse_x.row(std::size_t(a.parent[u]));
-      T* out = x.row(u);
+      const float* e = coarse_x.row(std::size_t(a.parent[u]));
+      float* out = x.row(u);
 #pragma omp simd
       for (int c = 0; c < w; ++c) out[c] += scale * e[c];
     }
   });
 }
-
-template void colour_sweep<float>(const KernelRunner&, const StencilLevel&, int, const BlockOf<float>&, BlockOf<float>&, bool);
-template void restrict_residual<float>(const KernelRunner&, const StencilLevel&, const BlockOf<float>&, const BlockOf<float>&, BlockOf<float>&);
-template void prolong_add<float>(const KernelRunner&, const StencilLevel&, const BlockOf<float>&, float, BlockOf<float>&);
 
 namespace {
 
@@ -94,23 +86,37 @@ std::vector<double> apply_stencil(const KernelRunner& run, const StencilLevel& a
   });
 }
 
-std::vector<double> step_solution(const KernelRunner& run, const std::vector<double>& alpha, const Block& p, const Block& q, Block& x,
-                                  Block& r, BlockOf<float>& r_single) {
+std::vector<double> residual_norms(const KernelRunner& run, const StencilLevel& a, const Block& r) {
+  const int w = r.width;
+  return chunk_sums(run, a.size, 2 * w, [&](std::size_t begin, std::size_t end, double* s) {
+    for (std::size_t u = begin; u < end; ++u) {
+      const double* ru = r.row(u);
+      const double inv = a.inverse_diagonal[u];
+#pragma omp simd
+      for (int c = 0; c < w; ++c) s[c] += ru[c] * ru[c], s[w + c] += (ru[c] * inv) * (ru[c] * inv);
+    }
+  });
+}
+
+std::vector<double> step_solution(const KernelRunner& run, const StencilLevel& a, const std::vector<double>& alpha, const Block& p,
+                                  const Block& q, Block& x, Block& r, BlockOf<float>& r_single) {
   const int w = x.width;
   const double* al = alpha.data();
-  return chunk_sums(run, x.rows, w, [&](std::size_t begin, std::size_t end, double* s) {
+  return chunk_sums(run, x.rows, 2 * w, [&](std::size_t begin, std::size_t end, double* s) {
     for (std::size_t u = begin; u < end; ++u) {
       const double* pu = p.row(u);
       const double* qu = q.row(u);
       double* xu = x.row(u);
       double* ru = r.row(u);
       float* fu = r_single.row(u);
+      const double inv = a.inverse_diagonal[u];
 #pragma omp simd
       for (int c = 0; c < w; ++c) {
         xu[c] += al[c] * pu[c];
         ru[c] -= al[c] * qu[c];
         fu[c] = float(ru[c]);
         s[c] += ru[c] * ru[c];
+        s[w + c] += (ru[c] * inv) * (ru[c] * inv);
       }
     }
   });

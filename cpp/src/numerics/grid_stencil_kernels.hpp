@@ -32,25 +32,25 @@ void for_chunks(const KernelRunner& run, std::size_t n, Fn&& fn) {
   parallel_tasks(int(chunks), [&](int t) { one(std::size_t(t)); });
 }
 
-// The multigrid cycle's kernels, in single precision (T = float; double for tests of the kernels).
+// The multigrid cycle's kernels, in single precision (the level's `single` coefficients).
 // Red-black Gauss-Seidel over the rows of one colour (their neighbours all have the other one);
 // from_zero: the previous x is zero, so the rows are b / diagonal.
-template <class T>
-void colour_sweep(const KernelRunner& run, const StencilLevel& a, int colour, const BlockOf<T>& b, BlockOf<T>& x, bool from_zero);
+void colour_sweep(const KernelRunner& run, const StencilLevel& a, int colour, const BlockOf<float>& b, BlockOf<float>& x, bool from_zero);
 // coarse_b = P^T (b - A x): the residual summed over each aggregate, never stored on the fine level.
-template <class T>
-void restrict_residual(const KernelRunner& run, const StencilLevel& a, const BlockOf<T>& b, const BlockOf<T>& x, BlockOf<T>& coarse_b);
+void restrict_residual(const KernelRunner& run, const StencilLevel& a, const BlockOf<float>& b, const BlockOf<float>& x,
+                       BlockOf<float>& coarse_b);
 // x += scale P coarse_x
-template <class T>
-void prolong_add(const KernelRunner& run, const StencilLevel& a, const BlockOf<T>& coarse_x, T scale, BlockOf<T>& x);
+void prolong_add(const KernelRunner& run, const StencilLevel& a, const BlockOf<float>& coarse_x, float scale, BlockOf<float>& x);
 
 // Conjugate gradients' kernels, in double, each fused with what reads the same rows next: every
 // pass over a block is a pass over memory.
 // q = A p; returns p . q per column.
 std::vector<double> apply_stencil(const KernelRunner& run, const StencilLevel& a, const Block& p, Block& q);
-// x += alpha p, r -= alpha q, r_single = r rounded to single; returns r . r per column.
-std::vector<double> step_solution(const KernelRunner& run, const std::vector<double>& alpha, const Block& p, const Block& q, Block& x,
-                                  Block& r, BlockOf<float>& r_single);
+// The squared norms of r per column, plain then row-normalised: [sum r^2 ..., sum (r / d)^2 ...].
+std::vector<double> residual_norms(const KernelRunner& run, const StencilLevel& a, const Block& r);
+// x += alpha p, r -= alpha q, r_single = r rounded to single; returns residual_norms(r).
+std::vector<double> step_solution(const KernelRunner& run, const StencilLevel& a, const std::vector<double>& alpha, const Block& p,
+                                  const Block& q, Block& x, Block& r, BlockOf<float>& r_single);
 // p = z + beta p, beta per column, z the cycle's output.
 void step_direction(const KernelRunner& run, const std::vector<double>& beta, const BlockOf<float>& z, Block& p);
 // Per column: sum over rows of a * b.

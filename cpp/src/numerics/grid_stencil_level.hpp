@@ -27,11 +27,10 @@ struct BlockOf {
 };
 using Block = BlockOf<double>;
 
-// A level's coefficients in the precision a kernel runs in.
-template <class T>
-struct Coefficients {
-  std::vector<T> diagonal, inverse_diagonal;
-  std::vector<std::array<T, 6>> coupling;
+// A level's coefficients rounded for the multigrid cycle, which runs in single precision.
+struct SingleCoefficients {
+  std::vector<float> diagonal, inverse_diagonal;
+  std::vector<std::array<float, 6>> coupling;
 };
 
 struct StencilLevel {
@@ -42,22 +41,12 @@ struct StencilLevel {
   std::vector<std::array<int, 6>> neighbour;  // -x,+x,-y,+y,-z,+z: an unknown, or `size` (the zero row)
   std::vector<std::array<double, 6>> coupling;
   std::array<std::vector<int>, 2> colour;     // unknowns with i + j + k even, odd
-  Coefficients<float> single;                 // the multigrid cycle's, when it runs in single precision
+  SingleCoefficients single;
   // Towards the next coarser level (empty on the coarsest).
   std::vector<int> parent;                    // per unknown: its 2x2x2 aggregate there
   std::vector<int> child_start, child;        // per aggregate: its unknowns here
 };
 
-template <class T>
-struct CoefficientView {
-  const T* diagonal;
-  const T* inverse_diagonal;
-  const std::array<T, 6>* coupling;
-};
-inline CoefficientView<double> coefficients(const StencilLevel& a, double) { return {a.diagonal.data(), a.inverse_diagonal.data(), a.coupling.data()}; }
-inline CoefficientView<float> coefficients(const StencilLevel& a, float) {
-  return {a.single.diagonal.data(), a.single.inverse_diagonal.data(), a.single.coupling.data()};
-}
 // Fills a.single from the double coefficients.
 void round_to_single(StencilLevel& a);
 

@@ -2,8 +2,8 @@
 // Blender's Mesh Deform modifier reproduced: harmonic coordinates (Joshi, Meyer, DeRose, Green,
 // Sanocki 2007) solved on Blender's grid, bound statically (each point's coordinates, trilinear in
 // its 8 cells) or dynamically (each cell's coordinates, interpolated where the point is), applied
-// in displacement form x + sum_a w_a (c_a - c_a at rest) / sum_a w_a (docs/cage.md, "Mesh Deform
-// (harmonic coordinates)"; docs/math/cage.md, "Mesh Deform").
+// in displacement form x + sum_a w_a (c_a - c_a at rest) / sum_a w_a (docs/cage.md,
+// "Mesh Deform (harmonic coordinates)"; docs/math/mesh_deform.md, "Binding and evaluation").
 #include "deformkit/cage/cage_mesh.hpp"
 #include "deformkit/core/point_binding.hpp"
 
@@ -18,6 +18,11 @@ struct MeshDeformBinding : PointBinding {
   bool dynamic = false;
   std::vector<std::uint8_t> inside;  // per point: inside the rest cage (Blender's ray test)
   WeightTable weights;               // static: per point its kept, renormalised coordinates
+  // Dynamic: the cells the bound points reach, and per point its 8 cells (slots into cells) and
+  // their trilinear weights, so a frame sums each cell's influences once.
+  std::vector<std::int64_t> cells;
+  std::vector<std::uint32_t> corner_slot;
+  std::vector<double> corner_weight;
   std::vector<double> points_f64;    // n x 3 as bound (float64 points)
   std::vector<float> points_f32;     // (float32 points)
 };
@@ -26,6 +31,11 @@ namespace harmonic {
 struct Solved;  // the grid and, for a dynamic bind, its cells' coordinates
 }
 
+// How the grid system is solved: multigrid-preconditioned conjugate gradients (the default; every
+// column to a relative residual of 1e-10) or a sparse Cholesky factorisation (exact to rounding,
+// memory growing faster with the grid: kept as the reference the tests compare with).
+enum class GridSolver { Multigrid, Cholesky };
+
 class MeshDeform : public BoundDeformer {
  public:
   static constexpr int kMinPrecision = 2, kMaxPrecision = 10;
@@ -33,7 +43,8 @@ class MeshDeform : public BoundDeformer {
   // CageMesh. A dynamic deformer solves its grid here; a static one at each bind. bvh_arity: the
   // children per branch of the ray-cast tree of the Blender to match (2 since Blender 4.4, 4 before;
   // it decides which hit Blender keeps on a ray that meets the cage more than once).
-  MeshDeform(CageMesh cage, int precision, bool dynamic, int bvh_arity = 2);
+  MeshDeform(CageMesh cage, int precision, bool dynamic, int bvh_arity = 2,
+             GridSolver solver = GridSolver::Multigrid);
   ~MeshDeform() override;
 
   const CageMesh& cage() const { return cage_; }
@@ -83,6 +94,7 @@ class MeshDeform : public BoundDeformer {
   int precision_;
   bool dynamic_;
   int bvh_arity_;
+  GridSolver solver_;
   std::vector<double> current_;
   bool at_rest_ = true;
   std::shared_ptr<const harmonic::Solved> solved_;  // the grid, and a dynamic bind's cells
