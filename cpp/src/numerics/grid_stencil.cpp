@@ -15,7 +15,7 @@ namespace {
 // tolerance, and the true residual decides. The tolerance holds for the plain residual and for the
 // row-normalised one, D^-1 (b - A x) against D^-1 b: with very short cut edges a few rows' huge
 // diagonals dominate ||b||, and the plain test alone would leave the other rows inaccurate.
-constexpr double kRecursiveMargin = 0.5;
+constexpr double kRecursiveMargin = 0.9;
 
 void check_arguments(int columns, int block_columns, bool fill, bool take, double tolerance) {
   auto refuse = [](const std::string& what) { throw std::invalid_argument("solve_grid_stencil: " + what); };
