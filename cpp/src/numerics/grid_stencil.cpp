@@ -15,7 +15,7 @@ namespace {
 // tolerance, and the true residual decides. The tolerance holds for the plain residual and for the
 // row-normalised one, D^-1 (b - A x) against D^-1 b: with very short cut edges a few rows' huge
 // diagonals dominate ||b||, and the plain test alone would leave the other rows inaccurate.
-constexpr double kRecursiveMargin = 0.5;
+constexpr double kRecursiveMargin = 0.9;
 
 void check_arguments(int columns, int block_columns, bool fill, bool take, double tolerance) {
   auto refuse = [](const std::string& what) { throw std::invalid_argument("solve_grid_stencil: " + what); };
@@ -40,6 +40,7 @@ class BlockSolver {
   // rhs (caller's rows) in, solution (caller's rows) out; returns the CG steps taken.
   int solve(Eigen::MatrixXd& rhs, int first, double tolerance) {
     const int w = int(rhs.cols());
+    first_ = first;
     for (Block* v : {&x_, &r_, &p_, &q_})
       if (v->width != w) v->resize(a_.size, w);
     std::fill(x_.data.begin(), x_.data.end(), 0.0);
@@ -86,8 +87,10 @@ class BlockSolver {
     const std::vector<double> pq = apply_stencil(run_, a_, p_, q_);
     for (std::size_t c = 0; c < w; ++c) {
       if (!state[c].active) continue;
-      if (!(pq[c] > 0.0) || !std::isfinite(rz[c]))
-        throw std::runtime_error("solve_grid_stencil: conjugate gradients broke down (p^T A p = " + std::to_string(pq[c]) + "); the system is not positive definite");
+      if (!(pq[c] > 0.0) || !(rz[c] > 0.0) || !std::isfinite(pq[c]) || !std::isfinite(rz[c]))
+        throw std::runtime_error("solve_grid_stencil: conjugate gradients broke down on right-hand side " + std::to_string(first_ + int(c)) +
+                                 " (p^T A p = " + std::to_string(pq[c]) + ", r^T z = " + std::to_string(rz[c]) +
+                                 "); the system or its multigrid cycle is not positive definite");
       alpha[c] = rz[c] / pq[c];
     }
     const std::vector<double> rr = step_solution(run_, a_, alpha, p_, q_, x_, r_, mg_.rhs(int(w)));
@@ -142,6 +145,7 @@ class BlockSolver {
   const std::vector<int>& external_;
   KernelRunner run_;
   int max_iterations_;
+  int first_ = 0;  // the block's first column, for messages
   Block x_, r_, p_, q_;
 };
 
