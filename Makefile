@@ -23,7 +23,9 @@ FIXTURES := blend_fixtures/.fixtures-made
 # Laplacian entries re-evaluated; the core library on a real mesh (OBJ + PNG in
 # demo_out/core); and a twisted cage subdivided with OpenSubdiv and checked for smoothness
 # (demo_out/subdivision); Sumner's horse poses transferred onto the camel (demo_out/transfer); a
-# tube bent by a new Laplacian entry beside Blender's Laplacian Deform (demo_out/laplacian_vs_blender).
+# tube bent by a new Laplacian entry beside Blender's Laplacian Deform (demo_out/laplacian_vs_blender);
+# a cage generated around a mesh and bent (demo_out/cage_generation); Blender's Mesh Deform beside
+# the Cage entry's Harmonic method, with both binds timed (demo_out/mesh_deform).
 demo: build $(FIXTURES)
 	scripts/deformkit-batch 'blend_fixtures/*.blend' --recipe blend_fixtures/demo_recipe.json \
 	    --out demo_out/batch --jobs $(JOBS) --preview
@@ -34,6 +36,7 @@ demo: build $(FIXTURES)
 	$(PY) scripts/demo_transfer.py --out demo_out/transfer
 	$(PY) scripts/demo_laplacian.py --out demo_out/laplacian_vs_blender
 	$(PY) scripts/demo_cage_generation.py --out demo_out/cage_generation
+	$(PY) scripts/demo_mesh_deform.py --out demo_out/mesh_deform
 
 $(FIXTURES): blend_fixtures/make_fixtures.py $(VENV)/.deformkit-installed
 	@mkdir -p build
