@@ -123,8 +123,8 @@ def test_cages_deform_their_mesh_without_folds():
     angle = 0.3 * (cp[:, 2] - cp[:, 2].min()) / np.ptp(cp[:, 2])
     c, s = np.cos(angle), np.sin(angle)
     moved = np.column_stack([c * cp[:, 0] - s * cp[:, 1], s * cp[:, 0] + c * cp[:, 1], cp[:, 2]])
-    for cls in (dk.MeanValueCage, dk.GreenCage):
-        cage = cls(cp, ct)
+    for make in (dk.MeanValueCage, dk.GreenCage, lambda p, t: dk.MeshDeform(p, t, precision=5)):
+        cage = make(cp, ct)
         b = cage.bind(points)
         cage.cage_points = moved
         out = cage.deform_bound(b)
