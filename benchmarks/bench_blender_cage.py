@@ -3,10 +3,11 @@
     .venv/bin/python benchmarks/bench_blender_cage.py [--models Ogre,FireHydrant,Beast,WireSphere]
         [--repeats R] [--precision P] [--no-shape-key] [--addon DIR]
 
-One bpy 5.0 process, per model of ../shared/cages: three copies of the model, each with its own copy
+One bpy 5.0 process, per model of ../shared/cages: four copies of the model, each with its own copy
 of the rest cage at the same place: one with a deformkit Cage entry of Method Mean Value, one with
-Method Green (both bound by api.bind_cage, what the entry's Bind button runs), and one with Blender's
-Mesh Deform modifier (Precision 5, the default, bound by its Bind operator). Bind times: the call and
+Method Green, one with Method Harmonic (Mesh Deform) at the same precision as the modifier (all
+bound by api.bind_cage, what the entry's Bind button runs), and one with Blender's Mesh Deform
+modifier (Precision 5, the default, bound by its Bind operator). Bind times: the call and
 the depsgraph update that shows its result (Mesh Deform binds in that evaluation).
 
 A frame: set the cage mesh's positions to the provided deformed cage, or back to the rest cage
@@ -54,7 +55,8 @@ import bpy  # noqa: E402
 from deformkit_addon import api, native  # noqa: E402
 dk = native.dk
 
-ENTRIES = (("Cage entry Mean Value", "MEAN_VALUE", "MeanValueCage"), ("Cage entry Green", "GREEN", "GreenCage"))
+ENTRIES = (("Cage entry Mean Value", "MEAN_VALUE", "MeanValueCage"), ("Cage entry Green", "GREEN", "GreenCage"),
+           ("Cage entry Harmonic", "HARMONIC", "MeshDeform"))
 MESH_DEFORM = "Blender Mesh Deform"
 
 
@@ -79,8 +81,14 @@ def twin(source, name):
     return obj
 
 
+def harmonic(cls):
+    """Mesh Deform's settings for the Harmonic method (its class), none for the others."""
+    return {"precision": args.precision} if cls == "MeshDeform" else {}
+
+
 def expected_results(cls, m):
-    deformer = getattr(dk, cls)(m.rest, m.cage_faces)
+    extra = dict(harmonic(cls), blender_version=tuple(bpy.app.version[:2])) if harmonic(cls) else {}
+    deformer = getattr(dk, cls)(m.rest, m.cage_faces, **extra)
     deformer.cage_points = m.moved
     return {"moved": deformer.deform(m.points), "rest": m.points}
 
@@ -96,7 +104,7 @@ def sides_of(m):
     sides = []
     for label, method, cls in ENTRIES:  # the twins first: m.model then gets Mesh Deform
         model, cage = twin(m.model, label), twin(m.cage, label + " cage")
-        api.add_entry(model, "CAGE", cage=cage, cage_method=method)
+        api.add_entry(model, "CAGE", cage=cage, cage_method=method, **harmonic(cls))
         side = Side(label, model, cage, expected_results(cls, m))
         side.bind = timed_bind(lambda: api.bind_cage(model, 0))
         sides.append(side)
