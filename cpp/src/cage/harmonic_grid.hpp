@@ -34,8 +34,8 @@ class RayCage {
   // Where triangle `triangle` meets that line (decided exactly), at coordinate t along it.
   bool meets(int triangle, int axis, double pu, double pv, double& t) const;
   // The triangle Blender's ray cast keeps for the ray from origin along sign * axis, `length`
-  // long (BlenderBvh), or -1; t its coordinate along the axis.
-  int blender_hit(const Vec3& origin, int axis, int sign, double length, double& t) const;
+  // long (BlenderBvh), or -1; t (unless null) its coordinate along the axis.
+  int blender_hit(const Vec3& origin, int axis, int sign, double length, double* t) const;
 
   int face_of(int triangle) const { return triangle_face_[std::size_t(triangle)]; }
   // Component `axis` of the polygon's outward (Newell) normal.
@@ -55,6 +55,8 @@ class RayCage {
   std::vector<Vec3> point_;
   std::vector<std::array<int, 3>> triangle_;
   std::vector<int> triangle_face_;
+  std::vector<Vec3> triangle_normal_;             // (p1 - p0) x (p2 - p0)
+  std::vector<std::array<signed char, 3>> turn_;  // per axis: the triangle's turn seen from +axis
   std::vector<Vec3> normal_;
   Buckets buckets_[3];
   BlenderBvh bvh_;
