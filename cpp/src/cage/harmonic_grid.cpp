@@ -31,10 +31,19 @@ double half_tangent(const Vec3& x, const Vec3& a, const Vec3& b) {
   return (da.norm() * db.norm() - da.dot(db)) / area;
 }
 
+double segment_distance2(const Vec3& x, const Vec3& a, const Vec3& b) {
+  const Vec3 ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0.0 ? std::clamp((x - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return (a + t * ab - x).squaredNorm();
+}
+
+}  // namespace
+
 // The sign of component `axis` of (b - a) x (c - a), as cage_exact::turn_along decides it: from
 // the doubles when the determinant exceeds the bound on its rounding error (Shewchuk 1997,
 // "Adaptive precision floating-point arithmetic and fast robust geometric predicates", orient2d's
-// first stage, eq. for ccwerrboundA), else exactly. Most calls end at the first stage.
+// first stage, bound ccwerrboundA), else exactly. Most calls end at the first stage.
 int turn_along(const Vec3& a, const Vec3& b, const Vec3& c, int axis) {
   const int u = (axis + 1) % 3, v = (axis + 2) % 3;
   const double left = (b[u] - a[u]) * (c[v] - a[v]), right = (b[v] - a[v]) * (c[u] - a[u]);
@@ -49,15 +58,6 @@ int turn_along(const Vec3& a, const Vec3& b, const Vec3& c, int axis) {
   }
   return cage_exact::turn_along(a, b, c, axis);
 }
-
-double segment_distance2(const Vec3& x, const Vec3& a, const Vec3& b) {
-  const Vec3 ab = b - a;
-  const double len2 = ab.squaredNorm();
-  const double t = len2 > 0.0 ? std::clamp((x - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-  return (a + t * ab - x).squaredNorm();
-}
-
-}  // namespace
 
 namespace {
 

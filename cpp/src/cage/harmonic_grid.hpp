@@ -15,6 +15,10 @@
 
 namespace deformkit::harmonic {
 
+// The exact sign (-1, 0, 1) of component `axis` of (b - a) x (c - a), as cage_exact::turn_along
+// gives it, mostly without its exact arithmetic (a floating-point filter in front).
+int turn_along(const Vec3& a, const Vec3& b, const Vec3& c, int axis);
+
 // The cage as Blender ray-casts it: its polygons tessellated as Blender does (a quad on its 0-2
 // diagonal unless that diagonal lies outside it; a triangle as it is; larger polygons as CageMesh
 // splits them), outward, with each triangle's polygon; and per axis a bucket grid of the

@@ -188,45 +188,49 @@ void solve_cells(Solved& s, int precision) {
 // cells x m, never unknowns x m), and per point its 8 corners and where each corner's values are.
 struct ReachedCells {
   std::size_t m = 0;
-  std::vector<Corners> corners;      // per inside point
+  std::vector<double> weight;        // per inside point, its 8 corners' trilinear weights
+  std::vector<double> gradient;      // and (when asked for) their gradients, 3 per corner
   std::vector<int> source;           // per point and corner: its slot in kept, or ~(its index in outer)
   std::vector<double> kept;          // slot-major: a reached unknown's m values side by side
   std::vector<SparseValues> outer;   // the reached exterior cells' values
 };
 
 ReachedCells reach_cells(const Solved& s, int precision, const std::vector<double>& points,
-                         const std::vector<std::size_t>& inside) {
+                         const std::vector<std::size_t>& inside, bool gradients) {
   ReachedCells r;
   const std::size_t m = r.m = s.cage.vertex_count(), n = inside.size();
-  r.corners.resize(n);
+  std::vector<std::int64_t> cell(8 * n);
+  r.weight.resize(8 * n);
+  if (gradients) r.gradient.resize(24 * n);
   parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
-    for (std::size_t i = lo; i < hi; ++i) r.corners[i] = corners_of(s.grid, points.data() + 3 * inside[i]);
+    for (std::size_t i = lo; i < hi; ++i) {
+      const Corners c = corners_of(s.grid, points.data() + 3 * inside[i]);
+      std::copy(c.cell, c.cell + 8, cell.begin() + std::ptrdiff_t(8 * i));
+      std::copy(c.weight, c.weight + 8, r.weight.begin() + std::ptrdiff_t(8 * i));
+      if (gradients) std::copy(&c.gradient[0][0], &c.gradient[0][0] + 24, r.gradient.begin() + std::ptrdiff_t(24 * i));
+    }
   });
   r.source.resize(8 * n);
   std::vector<int> slot(s.stencil.diagonal.size(), -1);
   std::vector<int> slot_unknown;
   std::vector<std::int64_t> outer;
-  for (std::size_t i = 0; i < n; ++i)
-    for (int k = 0; k < 8; ++k) {
-      const std::int64_t cell = r.corners[i].cell[k];
-      const int u = s.stencil.unknown[std::size_t(cell)];
-      if (u < 0) {
-        outer.push_back(cell);
-        continue;
-      }
-      if (slot[std::size_t(u)] < 0) {
-        slot[std::size_t(u)] = int(slot_unknown.size());
-        slot_unknown.push_back(u);
-      }
-      r.source[8 * i + std::size_t(k)] = slot[std::size_t(u)];
+  for (std::size_t e = 0; e < 8 * n; ++e) {
+    const int u = s.stencil.unknown[std::size_t(cell[e])];
+    if (u < 0) {
+      outer.push_back(cell[e]);
+      continue;
     }
+    if (slot[std::size_t(u)] < 0) {
+      slot[std::size_t(u)] = int(slot_unknown.size());
+      slot_unknown.push_back(u);
+    }
+    r.source[e] = slot[std::size_t(u)];
+  }
   std::sort(outer.begin(), outer.end());
   outer.erase(std::unique(outer.begin(), outer.end()), outer.end());
-  for (std::size_t i = 0; i < n; ++i)
-    for (int k = 0; k < 8; ++k)
-      if (s.stencil.unknown[std::size_t(r.corners[i].cell[k])] < 0)
-        r.source[8 * i + std::size_t(k)] =
-            ~int(std::lower_bound(outer.begin(), outer.end(), r.corners[i].cell[k]) - outer.begin());
+  for (std::size_t e = 0; e < 8 * n; ++e)
+    if (s.stencil.unknown[std::size_t(cell[e])] < 0)
+      r.source[e] = ~int(std::lower_bound(outer.begin(), outer.end(), cell[e]) - outer.begin());
   r.outer.resize(outer.size());
   parallel_blocks(outer.size(), [&](std::size_t lo, std::size_t hi) {
     for (std::size_t k = lo; k < hi; ++k) r.outer[k] = exterior_values(s.rays, s.grid, outer[k]);
@@ -241,28 +245,46 @@ ReachedCells reach_cells(const Solved& s, int precision, const std::vector<doubl
   return r;
 }
 
-// Inside point i's m coordinates, trilinear in its 8 cells (summed in corner order), into w; with
-// dw (3 per coordinate), their gradients.
+// Inside point i's m coordinates, trilinear in its 8 cells (summed in corner order, from 0), into
+// w; with dw (3 per coordinate), their gradients.
 void trilinear_row(const ReachedCells& r, std::size_t i, double* w, double* dw) {
   const std::size_t m = r.m;
+  const int* source = r.source.data() + 8 * i;
+  const double* t = r.weight.data() + 8 * i;
+  if (!dw && std::all_of(source, source + 8, [](int k) { return k >= 0; })) {
+    // All 8 cells are unknowns (the usual case): one pass, the same sums in the same order.
+    const double* v[8];
+    for (int k = 0; k < 8; ++k) v[k] = r.kept.data() + std::size_t(source[k]) * m;
+    for (std::size_t a = 0; a < m; ++a) {
+      double x = 0.0;
+      x += t[0] * v[0][a];
+      x += t[1] * v[1][a];
+      x += t[2] * v[2][a];
+      x += t[3] * v[3][a];
+      x += t[4] * v[4][a];
+      x += t[5] * v[5][a];
+      x += t[6] * v[6][a];
+      x += t[7] * v[7][a];
+      w[a] = x;
+    }
+    return;
+  }
   std::fill(w, w + m, 0.0);
   if (dw) std::fill(dw, dw + 3 * m, 0.0);
-  const Corners& c = r.corners[i];
   for (int k = 0; k < 8; ++k) {
-    const int source = r.source[8 * i + std::size_t(k)];
-    const double t = c.weight[k];
-    if (source >= 0) {
-      const double* value = r.kept.data() + std::size_t(source) * m;
-      for (std::size_t a = 0; a < m; ++a) w[a] += t * value[a];
+    const double* g = dw ? r.gradient.data() + 24 * i + 3 * std::size_t(k) : nullptr;
+    if (source[k] >= 0) {
+      const double* value = r.kept.data() + std::size_t(source[k]) * m;
+      for (std::size_t a = 0; a < m; ++a) w[a] += t[k] * value[a];
       if (dw)
         for (std::size_t a = 0; a < m; ++a)
-          for (int q = 0; q < 3; ++q) dw[3 * a + q] += c.gradient[k][q] * value[a];
+          for (int q = 0; q < 3; ++q) dw[3 * a + q] += g[q] * value[a];
       continue;
     }
-    for (const auto& [vertex, value] : r.outer[std::size_t(~source)]) {
-      w[std::size_t(vertex)] += t * value;
+    for (const auto& [vertex, value] : r.outer[std::size_t(~source[k])]) {
+      w[std::size_t(vertex)] += t[k] * value;
       if (dw)
-        for (int q = 0; q < 3; ++q) dw[3 * std::size_t(vertex) + q] += c.gradient[k][q] * value;
+        for (int q = 0; q < 3; ++q) dw[3 * std::size_t(vertex) + q] += g[q] * value;
     }
   }
 }
@@ -292,19 +314,18 @@ WeightTable kept_rows(const ReachedCells& r, const std::vector<std::size_t>& ins
         run.indices.resize(grown);
         run.values.resize(grown);
       }
-      // Without branches (a kept weight is unpredictable): every weight is written, the next slot
-      // taken only when it is kept; adding +0.0 for a dropped one leaves the sum as it was.
+      // Without branches (which weights are kept is unpredictable): every weight is written, the
+      // next slot taken only when it is kept. Then the kept ones summed in order, and scaled.
       std::int32_t* index = run.indices.data() + run.used;
       double* value = run.values.data() + run.used;
-      double sum = 0.0;
       std::size_t kept = 0;
       for (std::size_t a = 0; a < m; ++a) {
-        const bool keep = w[a] > kStaticMin;
-        sum += keep ? w[a] : 0.0;
         index[kept] = std::int32_t(a);
         value[kept] = w[a];
-        kept += keep;
+        kept += w[a] > kStaticMin;
       }
+      double sum = 0.0;
+      for (std::size_t e = 0; e < kept; ++e) sum += value[e];
       for (std::size_t e = 0; e < kept; ++e) value[e] /= sum;
       run.used += kept;
       t.indptr[inside[i] + 1] = std::int64_t(kept);
@@ -463,7 +484,7 @@ MeshDeformBinding MeshDeform::bind_points(const T* in, std::size_t n) const {
   std::vector<std::size_t> inside;
   for (std::size_t i = 0; i < n; ++i)
     if (b.inside[i]) inside.push_back(i);
-  b.weights = harmonic::kept_rows(harmonic::reach_cells(s, precision_, points, inside), inside, n);
+  b.weights = harmonic::kept_rows(harmonic::reach_cells(s, precision_, points, inside, false), inside, n);
   return b;
 }
 
@@ -609,7 +630,7 @@ bool MeshDeform::jacobian_impl(const double* in, double* jac, std::size_t n) con
   }
   const std::vector<double> points = harmonic::as_doubles(in, n);
   const std::size_t m = vertex_count();
-  const harmonic::ReachedCells reached = harmonic::reach_cells(s, precision_, points, inside);
+  const harmonic::ReachedCells reached = harmonic::reach_cells(s, precision_, points, inside, true);
   parallel_blocks(inside.size(), [&](std::size_t lo, std::size_t hi) {
     std::vector<double> w(m), dw(3 * m);
     for (std::size_t r = lo; r < hi; ++r) {
