@@ -40,6 +40,25 @@ double segment_distance2(const Vec3& x, const Vec3& a, const Vec3& b) {
 
 }  // namespace
 
+// The sign of component `axis` of (b - a) x (c - a), as cage_exact::turn_along decides it: from
+// the doubles when the determinant exceeds the bound on its rounding error (Shewchuk 1997,
+// "Adaptive precision floating-point arithmetic and fast robust geometric predicates", orient2d's
+// first stage, bound ccwerrboundA), else exactly. Most calls end at the first stage.
+int turn_along(const Vec3& a, const Vec3& b, const Vec3& c, int axis) {
+  const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+  const double left = (b[u] - a[u]) * (c[v] - a[v]), right = (b[v] - a[v]) * (c[u] - a[u]);
+  const double det = left - right, magnitude = std::abs(left) + std::abs(right);
+  constexpr double eps = 0x1p-53;  // half an ulp of 1
+  constexpr double bound = (3.0 + 16.0 * eps) * eps;
+  // Far from underflow the bound holds; below it (or for non-finite input) decide exactly.
+  if (magnitude > 0x1p-900 && magnitude < 0x1p900) {
+    const double error = bound * magnitude;
+    if (det > error) return 1;
+    if (-det > error) return -1;
+  }
+  return cage_exact::turn_along(a, b, c, axis);
+}
+
 namespace {
 
 std::vector<std::array<std::array<float, 3>, 3>> float_triangles(const std::vector<Vec3>& point,
@@ -87,6 +106,15 @@ RayCage::RayCage(const CageMesh& cage, int bvh_arity) : polygons_(&cage.polygons
     } else {
       for (const auto& t : split[f]) add(t[0], t[1], t[2]);
     }
+  }
+  for (const auto& t : triangle_) {
+    const Vec3& p0 = point_[std::size_t(t[0])];
+    const Vec3& p1 = point_[std::size_t(t[1])];
+    const Vec3& p2 = point_[std::size_t(t[2])];
+    triangle_normal_.push_back((p1 - p0).cross(p2 - p0));
+    std::array<signed char, 3> turn;
+    for (int axis = 0; axis < 3; ++axis) turn[std::size_t(axis)] = static_cast<signed char>(turn_along(p0, p1, p2, axis));
+    turn_.push_back(turn);
   }
   bvh_ = BlenderBvh(float_triangles(point_, triangle_), bvh_arity);
   // Per axis, the triangles' projections bucketed on a res x res grid over the cage's projection.
@@ -159,23 +187,28 @@ void RayCage::line_hits(int axis, double pu, double pv, std::vector<Hit>& out) c
 
 bool RayCage::meets(int triangle, int axis, double pu, double pv, double& t) const {
   const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+  const std::array<int, 3>& corner = triangle_[std::size_t(triangle)];
+  const Vec3& p0 = point_[std::size_t(corner[0])];
+  const Vec3& p1 = point_[std::size_t(corner[1])];
+  const Vec3& p2 = point_[std::size_t(corner[2])];
+  // Outside the projection's bounding box: no hit, nothing to decide.
+  if (pu < std::min({p0[u], p1[u], p2[u]}) || pu > std::max({p0[u], p1[u], p2[u]}) ||
+      pv < std::min({p0[v], p1[v], p2[v]}) || pv > std::max({p0[v], p1[v], p2[v]}))
+    return false;
+  const int whole = turn_[std::size_t(triangle)][std::size_t(axis)];
+  if (whole == 0) return false;  // edge-on to the line (Blender's watertight test misses it too)
   Vec3 x = Vec3::Zero();
   x[u] = pu;
   x[v] = pv;
-  const Vec3& p0 = point_[std::size_t(triangle_[std::size_t(triangle)][0])];
-  const Vec3& p1 = point_[std::size_t(triangle_[std::size_t(triangle)][1])];
-  const Vec3& p2 = point_[std::size_t(triangle_[std::size_t(triangle)][2])];
-  const int whole = cage_exact::turn_along(p0, p1, p2, axis);
-  if (whole == 0) return false;  // edge-on to the line (Blender's watertight test misses it too)
-  const int s0 = cage_exact::turn_along(x, p0, p1, axis), s1 = cage_exact::turn_along(x, p1, p2, axis),
-            s2 = cage_exact::turn_along(x, p2, p0, axis);
-  if (s0 * whole < 0 || s1 * whole < 0 || s2 * whole < 0) return false;
-  const Vec3 n = (p1 - p0).cross(p2 - p0);
+  if (turn_along(x, p0, p1, axis) * whole < 0 || turn_along(x, p1, p2, axis) * whole < 0 ||
+      turn_along(x, p2, p0, axis) * whole < 0)
+    return false;
+  const Vec3& n = triangle_normal_[std::size_t(triangle)];
   t = p0[axis] - (n[u] * (pu - p0[u]) + n[v] * (pv - p0[v])) / n[axis];
   return true;
 }
 
-int RayCage::blender_hit(const Vec3& origin, int axis, int sign, double length, double& t) const {
+int RayCage::blender_hit(const Vec3& origin, int axis, int sign, double length, double* t) const {
   const int u = (axis + 1) % 3, v = (axis + 2) % 3;
   const float o[3] = {float(origin[0]), float(origin[1]), float(origin[2])};
   const int found = bvh_.first_hit(o, axis, sign, float(length), [&](int tri, double& dist) {
@@ -184,7 +217,7 @@ int RayCage::blender_hit(const Vec3& origin, int axis, int sign, double length, 
     dist = (at - origin[axis]) * sign;
     return true;
   });
-  if (found >= 0) meets(found, axis, origin[u], origin[v], t);
+  if (found >= 0 && t) meets(found, axis, origin[u], origin[v], *t);
   return found;
 }
 
@@ -304,10 +337,10 @@ HarmonicGrid build_grid(const RayCage& cage, const std::vector<double>& cage_poi
             from[v] = pv;
             from[axis] = c0;
             double t = 0.0;
-            int tri = cage.blender_hit(from, axis, 1, g.width, t);
+            int tri = cage.blender_hit(from, axis, 1, g.width, &t);
             if (tri >= 0) up = {t, tri};
             from[axis] = c1;
-            tri = cage.blender_hit(from, axis, -1, g.width, t);
+            tri = cage.blender_hit(from, axis, -1, g.width, &t);
             if (tri >= 0) down = {t, tri};
           }
           auto at = [&](double t) {
@@ -364,8 +397,7 @@ HarmonicGrid build_grid(const RayCage& cage, const std::vector<double>& cage_poi
 bool inside_cage(const RayCage& cage, const HarmonicGrid& grid, const Vec3& p, std::vector<RayCage::Hit>& /*scratch*/) {
   for (int axis = 0; axis < 3; ++axis)
     for (int sign = 1; sign >= -1; sign -= 2) {
-      double t = 0.0;
-      const int tri = cage.blender_hit(p, axis, sign, grid.ray_length, t);
+      const int tri = cage.blender_hit(p, axis, sign, grid.ray_length, nullptr);
       // Blender: inside when the kept hit's polygon faces along the ray (seen from inside).
       if (tri >= 0 && sign * cage.normal(cage.face_of(tri), axis) > 0.0) return true;
     }

@@ -15,6 +15,10 @@
 
 namespace deformkit::harmonic {
 
+// The exact sign (-1, 0, 1) of component `axis` of (b - a) x (c - a), as cage_exact::turn_along
+// gives it, mostly without its exact arithmetic (a floating-point filter in front).
+int turn_along(const Vec3& a, const Vec3& b, const Vec3& c, int axis);
+
 // The cage as Blender ray-casts it: its polygons tessellated as Blender does (a quad on its 0-2
 // diagonal unless that diagonal lies outside it; a triangle as it is; larger polygons as CageMesh
 // splits them), outward, with each triangle's polygon; and per axis a bucket grid of the
@@ -34,8 +38,8 @@ class RayCage {
   // Where triangle `triangle` meets that line (decided exactly), at coordinate t along it.
   bool meets(int triangle, int axis, double pu, double pv, double& t) const;
   // The triangle Blender's ray cast keeps for the ray from origin along sign * axis, `length`
-  // long (BlenderBvh), or -1; t its coordinate along the axis.
-  int blender_hit(const Vec3& origin, int axis, int sign, double length, double& t) const;
+  // long (BlenderBvh), or -1; t (unless null) its coordinate along the axis.
+  int blender_hit(const Vec3& origin, int axis, int sign, double length, double* t) const;
 
   int face_of(int triangle) const { return triangle_face_[std::size_t(triangle)]; }
   // Component `axis` of the polygon's outward (Newell) normal.
@@ -55,6 +59,8 @@ class RayCage {
   std::vector<Vec3> point_;
   std::vector<std::array<int, 3>> triangle_;
   std::vector<int> triangle_face_;
+  std::vector<Vec3> triangle_normal_;             // (p1 - p0) x (p2 - p0)
+  std::vector<std::array<signed char, 3>> turn_;  // per axis: the triangle's turn seen from +axis
   std::vector<Vec3> normal_;
   Buckets buckets_[3];
   BlenderBvh bvh_;

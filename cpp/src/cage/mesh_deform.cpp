@@ -184,80 +184,163 @@ void solve_cells(Solved& s, int precision) {
   }
 }
 
-// Static bind: each inside point's coordinates, trilinear in its 8 cells, handed to
-// visit(r, w, dw) (r the point's rank among `inside`; w its m values, dw 3 per value with
-// `gradients`, else null), in parallel. Only the cells the points reach keep their values from
-// the solve: memory is those cells x m, never unknowns x m.
-void static_rows(const Solved& s, int precision, const std::vector<double>& points,
-                 const std::vector<std::size_t>& inside, bool gradients,
-                 const std::function<void(std::size_t, const double*, const double*)>& visit) {
-  const std::size_t m = s.cage.vertex_count(), n = inside.size();
-  std::vector<Corners> corners(n);
+// Static bind: the cells the inside points reach and their values from the solve (memory is those
+// cells x m, never unknowns x m), and per point its 8 corners and where each corner's values are.
+struct ReachedCells {
+  std::size_t m = 0;
+  std::vector<double> weight;        // per inside point, its 8 corners' trilinear weights
+  std::vector<double> gradient;      // and (when asked for) their gradients, 3 per corner
+  std::vector<int> source;           // per point and corner: its slot in kept, or ~(its index in outer)
+  std::vector<double> kept;          // slot-major: a reached unknown's m values side by side
+  std::vector<SparseValues> outer;   // the reached exterior cells' values
+};
+
+ReachedCells reach_cells(const Solved& s, int precision, const std::vector<double>& points,
+                         const std::vector<std::size_t>& inside, bool gradients) {
+  ReachedCells r;
+  const std::size_t m = r.m = s.cage.vertex_count(), n = inside.size();
+  std::vector<std::int64_t> cell(8 * n);
+  r.weight.resize(8 * n);
+  if (gradients) r.gradient.resize(24 * n);
   parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
-    for (std::size_t i = lo; i < hi; ++i) corners[i] = corners_of(s.grid, points.data() + 3 * inside[i]);
+    for (std::size_t i = lo; i < hi; ++i) {
+      const Corners c = corners_of(s.grid, points.data() + 3 * inside[i]);
+      std::copy(c.cell, c.cell + 8, cell.begin() + std::ptrdiff_t(8 * i));
+      std::copy(c.weight, c.weight + 8, r.weight.begin() + std::ptrdiff_t(8 * i));
+      if (gradients) std::copy(&c.gradient[0][0], &c.gradient[0][0] + 24, r.gradient.begin() + std::ptrdiff_t(24 * i));
+    }
   });
-  // The unknowns the points reach get a slot each; the exterior cells they reach, their values.
+  r.source.resize(8 * n);
   std::vector<int> slot(s.stencil.diagonal.size(), -1);
   std::vector<int> slot_unknown;
   std::vector<std::int64_t> outer;
-  for (const Corners& c : corners)
-    for (std::int64_t cell : c.cell) {
-      const int u = s.stencil.unknown[std::size_t(cell)];
-      if (u < 0) outer.push_back(cell);
-      else if (slot[std::size_t(u)] < 0) {
-        slot[std::size_t(u)] = int(slot_unknown.size());
-        slot_unknown.push_back(u);
-      }
+  for (std::size_t e = 0; e < 8 * n; ++e) {
+    const int u = s.stencil.unknown[std::size_t(cell[e])];
+    if (u < 0) {
+      outer.push_back(cell[e]);
+      continue;
     }
+    if (slot[std::size_t(u)] < 0) {
+      slot[std::size_t(u)] = int(slot_unknown.size());
+      slot_unknown.push_back(u);
+    }
+    r.source[e] = slot[std::size_t(u)];
+  }
   std::sort(outer.begin(), outer.end());
   outer.erase(std::unique(outer.begin(), outer.end()), outer.end());
-  std::vector<SparseValues> outer_values(outer.size());
+  for (std::size_t e = 0; e < 8 * n; ++e)
+    if (s.stencil.unknown[std::size_t(cell[e])] < 0)
+      r.source[e] = ~int(std::lower_bound(outer.begin(), outer.end(), cell[e]) - outer.begin());
+  r.outer.resize(outer.size());
   parallel_blocks(outer.size(), [&](std::size_t lo, std::size_t hi) {
-    for (std::size_t k = lo; k < hi; ++k) outer_values[k] = exterior_values(s.rays, s.grid, outer[k]);
+    for (std::size_t k = lo; k < hi; ++k) r.outer[k] = exterior_values(s.rays, s.grid, outer[k]);
   });
-  std::vector<double> kept(slot_unknown.size() * m);  // slot-major: a cell's m values side by side
+  r.kept.resize(slot_unknown.size() * m);
   solve_columns(s, precision, [&](int first, const Eigen::Ref<const Eigen::MatrixXd>& x) {
     parallel_blocks(slot_unknown.size(), [&](std::size_t lo, std::size_t hi) {
       for (std::size_t k = lo; k < hi; ++k)
-        for (Eigen::Index c = 0; c < x.cols(); ++c) kept[k * m + std::size_t(first + c)] = x(slot_unknown[k], c);
+        for (Eigen::Index c = 0; c < x.cols(); ++c) r.kept[k * m + std::size_t(first + c)] = x(slot_unknown[k], c);
     });
   });
-  parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
-    std::vector<double> w(m), dw(gradients ? 3 * m : 0);
-    for (std::size_t i = lo; i < hi; ++i) {
-      std::fill(w.begin(), w.end(), 0.0);
-      std::fill(dw.begin(), dw.end(), 0.0);
-      const Corners& c = corners[i];
-      for (int k = 0; k < 8; ++k) {
-        const int u = s.stencil.unknown[std::size_t(c.cell[k])];
-        if (u >= 0) {
-          const double* value = kept.data() + std::size_t(slot[std::size_t(u)]) * m;
-          for (std::size_t a = 0; a < m; ++a) w[a] += c.weight[k] * value[a];
-          if (gradients)
-            for (std::size_t a = 0; a < m; ++a)
-              for (int q = 0; q < 3; ++q) dw[3 * a + q] += c.gradient[k][q] * value[a];
-          continue;
-        }
-        const std::size_t at = std::size_t(std::lower_bound(outer.begin(), outer.end(), c.cell[k]) - outer.begin());
-        for (const auto& [vertex, value] : outer_values[at]) {
-          w[std::size_t(vertex)] += c.weight[k] * value;
-          if (gradients)
-            for (int q = 0; q < 3; ++q) dw[3 * std::size_t(vertex) + q] += c.gradient[k][q] * value;
-        }
-      }
-      visit(i, w.data(), gradients ? dw.data() : nullptr);
-    }
-  });
+  return r;
 }
 
-// Blender's compaction: weights above the threshold kept, scaled to sum to 1.
-void keep_row(const double* w, std::size_t m, std::vector<std::pair<std::int32_t, double>>& row) {
-  double sum = 0.0;
-  for (std::size_t a = 0; a < m; ++a)
-    if (w[a] > kStaticMin) sum += w[a];
-  row.clear();
-  for (std::size_t a = 0; a < m; ++a)
-    if (w[a] > kStaticMin) row.push_back({std::int32_t(a), w[a] / sum});
+// Inside point i's m coordinates, trilinear in its 8 cells (summed in corner order, from 0), into
+// w; with dw (3 per coordinate), their gradients.
+void trilinear_row(const ReachedCells& r, std::size_t i, double* w, double* dw) {
+  const std::size_t m = r.m;
+  const int* source = r.source.data() + 8 * i;
+  const double* t = r.weight.data() + 8 * i;
+  if (!dw && std::all_of(source, source + 8, [](int k) { return k >= 0; })) {
+    // All 8 cells are unknowns (the usual case): one pass, the same sums in the same order.
+    const double* v[8];
+    for (int k = 0; k < 8; ++k) v[k] = r.kept.data() + std::size_t(source[k]) * m;
+    for (std::size_t a = 0; a < m; ++a) {
+      double x = 0.0;
+      x += t[0] * v[0][a];
+      x += t[1] * v[1][a];
+      x += t[2] * v[2][a];
+      x += t[3] * v[3][a];
+      x += t[4] * v[4][a];
+      x += t[5] * v[5][a];
+      x += t[6] * v[6][a];
+      x += t[7] * v[7][a];
+      w[a] = x;
+    }
+    return;
+  }
+  std::fill(w, w + m, 0.0);
+  if (dw) std::fill(dw, dw + 3 * m, 0.0);
+  for (int k = 0; k < 8; ++k) {
+    const double* g = dw ? r.gradient.data() + 24 * i + 3 * std::size_t(k) : nullptr;
+    if (source[k] >= 0) {
+      const double* value = r.kept.data() + std::size_t(source[k]) * m;
+      for (std::size_t a = 0; a < m; ++a) w[a] += t[k] * value[a];
+      if (dw)
+        for (std::size_t a = 0; a < m; ++a)
+          for (int q = 0; q < 3; ++q) dw[3 * a + q] += g[q] * value[a];
+      continue;
+    }
+    for (const auto& [vertex, value] : r.outer[std::size_t(~source[k])]) {
+      w[std::size_t(vertex)] += t[k] * value;
+      if (dw)
+        for (int q = 0; q < 3; ++q) dw[3 * std::size_t(vertex) + q] += g[q] * value;
+    }
+  }
+}
+
+// Blender's compaction of each inside point's row: weights above the threshold kept, scaled to
+// sum to 1; outside points get empty rows. Each task writes its run of points into one buffer
+// (no allocation per point), and the buffers are joined in order.
+WeightTable kept_rows(const ReachedCells& r, const std::vector<std::size_t>& inside, std::size_t n) {
+  const std::size_t m = r.m, count = inside.size();
+  const int tasks = count < 2 * kParallelGrain || forked_after_threads() ? 1 : parallel_threads();
+  struct Run {
+    std::vector<std::int32_t> indices;
+    std::vector<double> values;
+    std::size_t used = 0;
+  };
+  std::vector<Run> runs(static_cast<std::size_t>(tasks));
+  WeightTable t;
+  t.indptr.assign(n + 1, 0);
+  parallel_tasks(tasks, [&](int task) {
+    const std::size_t lo = count * std::size_t(task) / std::size_t(tasks), hi = count * std::size_t(task + 1) / std::size_t(tasks);
+    Run& run = runs[std::size_t(task)];
+    std::vector<double> w(m);
+    for (std::size_t i = lo; i < hi; ++i) {
+      trilinear_row(r, i, w.data(), nullptr);
+      if (run.values.size() < run.used + m) {
+        const std::size_t grown = std::max(run.used + m, 2 * run.values.size());
+        run.indices.resize(grown);
+        run.values.resize(grown);
+      }
+      // Without branches (which weights are kept is unpredictable): every weight is written, the
+      // next slot taken only when it is kept. Then the kept ones summed in order, and scaled.
+      std::int32_t* index = run.indices.data() + run.used;
+      double* value = run.values.data() + run.used;
+      std::size_t kept = 0;
+      for (std::size_t a = 0; a < m; ++a) {
+        index[kept] = std::int32_t(a);
+        value[kept] = w[a];
+        kept += w[a] > kStaticMin;
+      }
+      double sum = 0.0;
+      for (std::size_t e = 0; e < kept; ++e) sum += value[e];
+      for (std::size_t e = 0; e < kept; ++e) value[e] /= sum;
+      run.used += kept;
+      t.indptr[inside[i] + 1] = std::int64_t(kept);
+    }
+  });
+  for (std::size_t i = 0; i < n; ++i) t.indptr[i + 1] += t.indptr[i];
+  t.indices.resize(std::size_t(t.indptr[n]));
+  t.values.resize(std::size_t(t.indptr[n]));
+  std::size_t at = 0;
+  for (const Run& run : runs) {
+    std::copy(run.indices.begin(), run.indices.begin() + std::ptrdiff_t(run.used), t.indices.begin() + std::ptrdiff_t(at));
+    std::copy(run.values.begin(), run.values.begin() + std::ptrdiff_t(run.used), t.values.begin() + std::ptrdiff_t(at));
+    at += run.used;
+  }
+  return t;
 }
 
 template <class T>
@@ -401,21 +484,7 @@ MeshDeformBinding MeshDeform::bind_points(const T* in, std::size_t n) const {
   std::vector<std::size_t> inside;
   for (std::size_t i = 0; i < n; ++i)
     if (b.inside[i]) inside.push_back(i);
-  const std::size_t m = vertex_count();
-  std::vector<std::vector<std::pair<std::int32_t, double>>> rows(inside.size());
-  harmonic::static_rows(s, precision_, points, inside, false, [&](std::size_t r, const double* w, const double*) {
-    harmonic::keep_row(w, m, rows[r]);
-  });
-  b.weights.indptr.assign(1, 0);
-  std::size_t next = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (next < inside.size() && inside[next] == i)
-      for (const auto& [a, w] : rows[next++]) {
-        b.weights.indices.push_back(a);
-        b.weights.values.push_back(w);
-      }
-    b.weights.indptr.push_back(std::int64_t(b.weights.indices.size()));
-  }
+  b.weights = harmonic::kept_rows(harmonic::reach_cells(s, precision_, points, inside, false), inside, n);
   return b;
 }
 
@@ -561,21 +630,26 @@ bool MeshDeform::jacobian_impl(const double* in, double* jac, std::size_t n) con
   }
   const std::vector<double> points = harmonic::as_doubles(in, n);
   const std::size_t m = vertex_count();
-  harmonic::static_rows(s, precision_, points, inside, true, [&](std::size_t r, const double* w, const double* dw) {
-    double sum = 0.0, dsum[3] = {0, 0, 0}, num[3] = {0, 0, 0}, dnum[3][3] = {{0}};
-    for (std::size_t a = 0; a < m; ++a) {
-      if (!(w[a] > harmonic::kStaticMin)) continue;
-      sum += w[a];
-      for (int q = 0; q < 3; ++q) dsum[q] += dw[3 * a + q];
-      for (int p = 0; p < 3; ++p) {
-        num[p] += w[a] * disp[3 * a + p];
-        for (int q = 0; q < 3; ++q) dnum[p][q] += disp[3 * a + p] * dw[3 * a + q];
+  const harmonic::ReachedCells reached = harmonic::reach_cells(s, precision_, points, inside, true);
+  parallel_blocks(inside.size(), [&](std::size_t lo, std::size_t hi) {
+    std::vector<double> w(m), dw(3 * m);
+    for (std::size_t r = lo; r < hi; ++r) {
+      harmonic::trilinear_row(reached, r, w.data(), dw.data());
+      double sum = 0.0, dsum[3] = {0, 0, 0}, num[3] = {0, 0, 0}, dnum[3][3] = {{0}};
+      for (std::size_t a = 0; a < m; ++a) {
+        if (!(w[a] > harmonic::kStaticMin)) continue;
+        sum += w[a];
+        for (int q = 0; q < 3; ++q) dsum[q] += dw[3 * a + q];
+        for (int p = 0; p < 3; ++p) {
+          num[p] += w[a] * disp[3 * a + p];
+          for (int q = 0; q < 3; ++q) dnum[p][q] += disp[3 * a + p] * dw[3 * a + q];
+        }
       }
+      if (!(sum > 0.0)) continue;
+      double* J = jac + 9 * inside[r];
+      for (int p = 0; p < 3; ++p)
+        for (int q = 0; q < 3; ++q) J[3 * p + q] += dnum[p][q] / sum - num[p] * dsum[q] / (sum * sum);
     }
-    if (!(sum > 0.0)) return;
-    double* J = jac + 9 * inside[r];
-    for (int p = 0; p < 3; ++p)
-      for (int q = 0; q < 3; ++q) J[3 * p + q] += dnum[p][q] / sum - num[p] * dsum[q] / (sum * sum);
   });
   return false;
 }

@@ -5,6 +5,7 @@
 // rounding level; and an affine move of the cage moves points affinely wherever the cut-edge
 // Laplacian and the trilinear interpolation reproduce linear functions (see affine_move below).
 #include "cage/cage_shapes.hpp"
+#include "cage/exact_geometry.hpp"
 #include "cage/harmonic_grid.hpp"
 #include "deformkit/cage/mesh_deform.hpp"
 
@@ -207,4 +208,32 @@ TEST(CageMeshDeform, JacobianMatchesCentralDifferences) {
               << "dynamic " << dynamic << " point " << i;
     }
   }
+}
+
+// The filtered turn in front of the ray tests decides as CGAL's exact predicate does, on triples
+// built to be (nearly) collinear in the projection: on a line to the last bit, one ulp off it, at
+// magnitudes from 1e-3 to 1e6, and edge-on (zero) cases.
+TEST(CageMeshDeform, FilteredTurnEqualsTheExactPredicateOnNearlyCollinearPoints) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), along(-2.0, 3.0);
+  std::uniform_int_distribution<int> pick(0, 5);
+  const double scales[] = {1e-3, 1.0, 37.0, 1e6};
+  int zero = 0, nonzero = 0;
+  for (int trial = 0; trial < 200000; ++trial) {
+    const double scale = scales[trial % 4];
+    const Vec3 a(scale * unit(rng), scale * unit(rng), scale * unit(rng));
+    const Vec3 b = a + scale * Vec3(unit(rng), unit(rng), unit(rng));
+    Vec3 c = a + along(rng) * (b - a);  // on the line up to rounding
+    const int nudge = pick(rng);
+    if (nudge < 3) c[nudge] = std::nextafter(c[nudge], nudge % 2 ? INFINITY : -INFINITY);
+    if (nudge == 5) c = b;  // exactly degenerate
+    for (int axis = 0; axis < 3; ++axis) {
+      const int exact = cage_exact::turn_along(a, b, c, axis);
+      ASSERT_EQ(harmonic::turn_along(a, b, c, axis), exact) << "trial " << trial << " axis " << axis;
+      ASSERT_EQ(harmonic::turn_along(c, a, b, axis), exact);
+      (exact == 0 ? zero : nonzero) += 1;
+    }
+  }
+  EXPECT_GT(zero, 1000);
+  EXPECT_GT(nonzero, 1000);
 }
