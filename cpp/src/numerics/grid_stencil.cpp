@@ -16,6 +16,11 @@ namespace {
 // row-normalised one, D^-1 (b - A x) against D^-1 b: with very short cut edges a few rows' huge
 // diagonals dominate ||b||, and the plain test alone would leave the other rows inaccurate.
 constexpr double kRecursiveMargin = 0.9;
+// The search direction p is stored in single precision: half its memory traffic in the three
+// passes that read it. x and r stay in double and q = A p is formed in double from the rounded p,
+// so x += alpha p and r -= alpha q move together and the true residual still reaches any
+// tolerance; the rounding only perturbs p's A-conjugacy, by about 1e-7. r^T z is taken on the
+// single-precision r the cycle was applied to (z = M r_single), which keeps it positive.
 
 void check_arguments(int columns, int block_columns, bool fill, bool take, double tolerance) {
   auto refuse = [](const std::string& what) { throw std::invalid_argument("solve_grid_stencil: " + what); };
@@ -41,8 +46,9 @@ class BlockSolver {
   int solve(Eigen::MatrixXd& rhs, int first, double tolerance) {
     const int w = int(rhs.cols());
     first_ = first;
-    for (Block* v : {&x_, &r_, &p_, &q_})
+    for (Block* v : {&x_, &r_, &q_})
       if (v->width != w) v->resize(a_.size, w);
+    if (p_.width != w) p_.resize(a_.size, w);
     std::fill(x_.data.begin(), x_.data.end(), 0.0);
     gather(rhs, r_, mg_.rhs(w));
     std::vector<ColumnState> state(static_cast<std::size_t>(w));
@@ -77,7 +83,7 @@ class BlockSolver {
   void iterate(std::vector<ColumnState>& state) {
     const std::size_t w = state.size();
     const BlockOf<float>& z = mg_.cycle();  // of r, which the last step left in mg_.rhs()
-    const std::vector<double> rz = column_dots(run_, r_, z);
+    const std::vector<double> rz = column_dots(run_, mg_.rhs(int(w)), z);
     std::vector<double> beta(w, 0.0), alpha(w, 0.0);
     for (std::size_t c = 0; c < w; ++c) {
       if (state[c].active && !state[c].fresh) beta[c] = rz[c] / state[c].rz;
@@ -146,7 +152,8 @@ class BlockSolver {
   KernelRunner run_;
   int max_iterations_;
   int first_ = 0;  // the block's first column, for messages
-  Block x_, r_, p_, q_;
+  Block x_, r_, q_;
+  BlockOf<float> p_;
 };
 
 void check_finite(const Eigen::MatrixXd& rhs, int first) {

@@ -44,7 +44,8 @@ struct StencilLevel {
   SingleCoefficients single;
   // Towards the next coarser level (empty on the coarsest).
   std::vector<int> parent;                    // per unknown: its 2x2x2 aggregate there
-  std::vector<int> child_start, child;        // per aggregate: its unknowns here
+  std::vector<int> child_start, child;        // per aggregate: its unknowns here, colour 0 first
+  std::vector<int> colour0_end;               // per aggregate: where its colour-0 unknowns end in child
 };
 
 // Fills a.single from the double coefficients.

@@ -62,9 +62,10 @@ void GridMultigrid::cycle(std::size_t l) {
     colour_sweep(run_, a, 0, b, x, s == 0);
     colour_sweep(run_, a, 1, b, x, false);
   }
-  restrict_residual(run_, a, b, x, b_[l + 1]);
+  const bool swept = settings_.smoothing > 0;
+  restrict_residual(run_, a, b, x, b_[l + 1], swept);
   cycle(l + 1);
-  prolong_add(run_, a, x_[l + 1], float(settings_.correction_scale), x);
+  prolong_add(run_, a, x_[l + 1], float(settings_.correction_scale), x, swept);
   for (int s = 0; s < settings_.smoothing; ++s) {
     colour_sweep(run_, a, 1, b, x, false);
     colour_sweep(run_, a, 0, b, x, false);

@@ -56,7 +56,7 @@ void SweepRowsT(const int* rows, size_t count, const T* inverse_diagonal, const 
 }
 
 template <class T>
-void RestrictRowsT(const int* child_start, const int* child, size_t begin, size_t end, const T* diagonal,
+void RestrictRowsT(const int* child_start, const int* child_end, const int* child, size_t begin, size_t end, const T* diagonal,
                    const std::array<T, 6>* coupling, const std::array<int, 6>* neighbour, const T* b, const T* x, T* coarse_b,
                    int width_in) {
   const hn::ScalableTag<T> d;
@@ -65,7 +65,7 @@ void RestrictRowsT(const int* child_start, const int* child, size_t begin, size_
   for (size_t g = begin; g < end; ++g) {
     T* sum = coarse_b + g * width;
     for (size_t c = 0; c < width; ++c) sum[c] = T(0);
-    for (int k = child_start[g]; k < child_start[g + 1]; ++k) {
+    for (int k = child_start[g]; k < child_end[g]; ++k) {
       const size_t u = size_t(child[k]);
       const T* r[6];
       for (int j = 0; j < 6; ++j) r[j] = x + size_t(neighbour[u][size_t(j)]) * width;
@@ -91,9 +91,9 @@ void SweepRowsF32(const int* rows, size_t count, const float* inv, const std::ar
                   const float* b, float* x, int width, bool from_zero) {
   SweepRowsT(rows, count, inv, coupling, nb, b, x, width, from_zero);
 }
-void RestrictRowsF32(const int* start, const int* child, size_t begin, size_t end, const float* diagonal, const std::array<float, 6>* coupling,
+void RestrictRowsF32(const int* start, const int* child_end, const int* child, size_t begin, size_t end, const float* diagonal, const std::array<float, 6>* coupling,
                      const std::array<int, 6>* nb, const float* b, const float* x, float* coarse_b, int width) {
-  RestrictRowsT(start, child, begin, end, diagonal, coupling, nb, b, x, coarse_b, width);
+  RestrictRowsT(start, child_end, child, begin, end, diagonal, coupling, nb, b, x, coarse_b, width);
 }
 
 }  // namespace HWY_NAMESPACE
@@ -110,10 +110,10 @@ void sweep_rows(const int* rows, std::size_t count, const float* inv, const std:
                        const std::array<int, 6>* nb, const float* b, float* x, int width, bool from_zero) {
   HWY_DYNAMIC_DISPATCH(SweepRowsF32)(rows, count, inv, coupling, nb, b, x, width, from_zero);
 }
-void restrict_rows(const int* start, const int* child, std::size_t begin, std::size_t end, const float* diagonal,
+void restrict_rows(const int* start, const int* child_end, const int* child, std::size_t begin, std::size_t end, const float* diagonal,
                           const std::array<float, 6>* coupling, const std::array<int, 6>* nb, const float* b, const float* x,
                           float* coarse_b, int width) {
-  HWY_DYNAMIC_DISPATCH(RestrictRowsF32)(start, child, begin, end, diagonal, coupling, nb, b, x, coarse_b, width);
+  HWY_DYNAMIC_DISPATCH(RestrictRowsF32)(start, child_end, child, begin, end, diagonal, coupling, nb, b, x, coarse_b, width);
 }
 }  // namespace deformkit::numerics
 #endif  // HWY_ONCE

@@ -12,9 +12,9 @@ namespace deformkit::numerics {
 void sweep_rows(const int* rows, std::size_t count, const float* inverse_diagonal, const std::array<float, 6>* coupling,
                 const std::array<int, 6>* neighbour, const float* b, float* x, int width, bool from_zero);
 
-// coarse_b_g = sum over u in child[child_start[g] .. child_start[g + 1]) of b_u - diagonal_u x_u +
+// coarse_b_g = sum over u in child[child_start[g] .. child_end[g]) of b_u - diagonal_u x_u +
 // sum_k coupling_uk x_nb(u,k), for g in [begin, end).
-void restrict_rows(const int* child_start, const int* child, std::size_t begin, std::size_t end, const float* diagonal,
+void restrict_rows(const int* child_start, const int* child_end, const int* child, std::size_t begin, std::size_t end, const float* diagonal,
                    const std::array<float, 6>* coupling, const std::array<int, 6>* neighbour, const float* b, const float* x,
                    float* coarse_b, int width);
 
