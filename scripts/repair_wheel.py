@@ -43,10 +43,11 @@ LICENSES = {
     "libeigen3-dev": "MPL-2.0",
     "libnanoflann-dev": "BSD-2-Clause",
     # The cage's exact predicates: CGAL's kernel, intersection and number-type headers (LGPL) and
-    # GMP, which their exact fallback calls; the cage generator: CGAL's 3D Alpha Wrapping, Surface
+    # GMP and MPFR, which their exact fallback calls; the cage generator: CGAL's 3D Alpha Wrapping, Surface
     # Mesh Simplification, AABB tree and Polygon Mesh Processing headers (GPL-3.0-or-later).
     "libcgal-dev": "LGPL-3.0-or-later AND GPL-3.0-or-later",
     "libgmp10": "LGPL-3.0-or-later OR GPL-2.0-or-later",
+    "libmpfr6": "LGPL-3.0-or-later",  # CGAL's exact number types (Gmpq / Mpzf with interval filters) call it
     "pybind11": "BSD-3-Clause",  # from PyPI (requirements-dev.txt), not Debian
 }
 # Header-only libraries compiled into _core (no file of theirs in the wheel, their code is).
