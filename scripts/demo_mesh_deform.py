@@ -10,23 +10,10 @@ between the two results over the cage's bounding-box diagonal.
 """
 import argparse
 import pathlib
-import sys
-import tempfile
 import time
 
 import numpy as np
-
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-
-
-def import_addon():
-    """The add-on from this checkout, under the package name users get (deformkit_addon)."""
-    addons = pathlib.Path(tempfile.mkdtemp(prefix="deformkit_demo_"))
-    (addons / "deformkit_addon").symlink_to(ROOT / "python_addon", target_is_directory=True)
-    sys.path.insert(0, str(addons))
-    import deformkit_addon
-    deformkit_addon.register()
-    return deformkit_addon
+from demo_laplacian import import_addon  # the add-on from this checkout, registered
 
 
 def suzanne(bpy, name):
