@@ -18,6 +18,23 @@ def core_missing(operator):
     return False
 
 
+def mesh_poll(operator, context, needs, accepts=lambda obj: True):
+    """The poll of an operator on the active mesh object: the core is there, the object is a mesh
+    that `accepts` (else `needs` is the poll message, if any), and it is not in Edit Mode, which
+    holds its own copy of the mesh."""
+    if core_missing(operator):
+        return False
+    obj = mesh_object(context)
+    if obj is None or not accepts(obj):
+        if needs:
+            operator.poll_message_set(needs)
+        return False
+    if obj.mode == "EDIT":
+        operator.poll_message_set("Leave edit mode first")
+        return False
+    return True
+
+
 class Operator:
     """`run(context)` does the work and returns the operator's result set (None: FINISHED)."""
     bl_options = {"REGISTER", "UNDO"}

@@ -3,7 +3,7 @@ Bind), and Convert Mesh Deform to deformkit."""
 import bpy
 
 from .. import mesh_deform
-from .base import BindOperator, Operator, UnbindOperator, core_missing, mesh_object
+from .base import BindOperator, Operator, UnbindOperator, mesh_poll
 
 TYPES, NEEDS = ("CAGE",), "Needs a mesh with a Cage entry"
 
@@ -30,16 +30,7 @@ class DEFORMKIT_OT_convert_mesh_deform(Operator, bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if core_missing(cls):
-            return False
-        obj = mesh_object(context)
-        if obj is None or not mesh_deform.mesh_deforms(obj):
-            cls.poll_message_set("Needs a mesh with a Mesh Deform modifier")
-            return False
-        if obj.mode == "EDIT":
-            cls.poll_message_set("Leave edit mode first")
-            return False
-        return True
+        return mesh_poll(cls, context, "Needs a mesh with a Mesh Deform modifier", mesh_deform.mesh_deforms)
 
     def run(self, context):
         lines = mesh_deform.convert(context.object)

@@ -5,7 +5,7 @@ import numpy as np
 from bpy.props import BoolProperty, FloatProperty, IntProperty
 
 from .. import api, meshdata, native
-from .base import Operator, core_missing, mesh_object
+from .base import Operator, mesh_poll
 
 
 def world_mesh(obj, context):
@@ -66,16 +66,7 @@ class DEFORMKIT_OT_generate_cage(Operator, bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if core_missing(cls):
-            return False
-        obj = mesh_object(context)
-        if obj is None:
-            cls.poll_message_set("Needs an active mesh object")
-            return False
-        if obj.mode == "EDIT":
-            cls.poll_message_set("Leave edit mode first")
-            return False
-        return True
+        return mesh_poll(cls, context, "Needs an active mesh object")
 
     def run(self, context):
         obj = context.object
