@@ -435,7 +435,8 @@ def test_the_scheduler_dies_mid_run(tmp_path, fake_blender):
         stdout, stderr = launcher.communicate(timeout=120)
     assert launcher.returncode == 1, stdout + stderr
     report = report_of(out)
-    assert report["complete"] and report["pending"] == 0 and report["files"][1]["status"] == "failed"
+    assert report["complete"] and report["pending"] == 0 and report["files"][1]["status"] == "failed", \
+        (report, stdout, stderr)
     for row in report["files"]:
         assert row["status"] == "ok" or row["error"].startswith(
             "SchedulerLost: the connection to the Dask scheduler was lost before the file was done"), row

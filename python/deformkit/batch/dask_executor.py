@@ -22,6 +22,12 @@ from .run import BLENDERS, failed_row
 WORKER_LOST = ("KilledWorker", "CommClosedError", "CommError", "StreamClosedError")
 
 
+def connected(client):
+    """Whether the client still talks to its scheduler: after the scheduler dies it is
+    "connecting" (for its timeout), then "closed"; a task sent meanwhile waits for that."""
+    return getattr(client, "status", "running") == "running"
+
+
 def interrupt_run(staging, grace=5.0):
     """Runs on each worker (client.run): no Blender of the run starts here any more, and those
     this worker started for it (their jobs' work folders are under `staging`; their job files may
@@ -72,6 +78,9 @@ class DaskExecutor(concurrent.futures.Executor):
         return future
 
     def _send(self, future, fn, job):
+        if not connected(self.client):  # it would wait for a scheduler that is gone
+            return _settle(future, attempts.lost_row(job, self.plan, f"the client is {self.client.status}",
+                                                      scheduler_lost=True))
         with self._lock:
             self._sent += 1
             self._sends[job.index] = self._sends.get(job.index, 0) + 1
@@ -116,6 +125,8 @@ class DaskExecutor(concurrent.futures.Executor):
                     raise
                 lost = f"{type(exc).__name__}: {exc}"
             attempts.note_lost(self.plan.staging, job.index, lost, self.plan.token)
+            if not connected(self.client):  # the result was lost with the scheduler, not with a worker
+                return _settle(future, attempts.lost_row(job, self.plan, lost, scheduler_lost=True))
             made = len(attempts.attempt_numbers(self.plan.staging, job.index))
             sends = self._sends.get(job.index, 0)
             if made < self.plan.max_attempts and sends < 3 * self.plan.max_attempts and not self._cancelled:
@@ -171,7 +182,7 @@ class DaskExecutor(concurrent.futures.Executor):
         """Until the attempts that live workers still run have ended (a cancelled task's thread
         runs on until its Blender is gone), at most `seconds`: the staging folder is removed next."""
         deadline = time.monotonic() + seconds
-        while time.monotonic() < deadline:
+        while time.monotonic() < deadline and connected(self.client):
             live = set(self.client.scheduler_info()["workers"])
             if not any(r.get("worker") in live for r in attempts.open_attempts(self.plan.staging)):
                 return True
@@ -196,7 +207,11 @@ class DaskExecutor(concurrent.futures.Executor):
             elif wait:
                 concurrent.futures.wait(list(self._tasks))
         finally:
-            self.client.unsubscribe_topic(self.topic)
+            try:
+                self.client.unsubscribe_topic(self.topic)
+            except Exception:  # a closed client refuses to send: its scheduler, and the topic, are gone
+                if connected(self.client):
+                    raise
 
 
 def _settle(future, row):
