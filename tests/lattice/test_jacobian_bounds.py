@@ -183,7 +183,7 @@ def test_rest_lattices_give_one_exactly_and_the_rest_volume(kind):
     # A translation: P - R equal up to the rounding of the subtraction, so det J = 1 to rounding.
     moved = KINDS[kind](control_points=lat.rest_control_points + [0.3, -0.1, 0.2])
     b = moved.volume_ratio_bounds()
-    assert b.lower <= 1.0 <= b.upper and b.upper - b.lower < 1e-13 and moved.fold_free()
+    assert b.lower <= 1.0 <= b.upper and b.upper - b.lower < 1e-11 and moved.fold_free()
     assert moved.deformed_volume() == pytest.approx(rest, rel=1e-13)
 
 

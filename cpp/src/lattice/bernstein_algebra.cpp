@@ -66,17 +66,19 @@ double binomial(int n, int k) {
 void to_scaled(TriPoly& p) { scale_by_binomials(p, false); }
 void from_scaled(TriPoly& p) { scale_by_binomials(p, true); }
 
-void multiply_scaled(const TriPoly& a, const TriPoly& b, TriPoly& out) {
-  if (a.empty() || b.empty()) {
-    out.clear();
-    return;
-  }
-  out.reset({a.degree[0] + b.degree[0], a.degree[1] + b.degree[1], a.degree[2] + b.degree[2]});
-  const int bn1 = b.degree[1] + 1, bn2 = b.degree[2] + 1, on1 = out.degree[1] + 1, on2 = out.degree[2] + 1;
+namespace {
+
+// The convolution with the last axis' length known at compile time (N > 0), unrolled; N = 0:
+// any length. Degrees up to 3 per cell make these lengths 1..10.
+template <int N>
+void multiply_rows(const TriPoly& a, const TriPoly& b, TriPoly& out) {
+  const int bn1 = b.degree[1] + 1, bn2 = N > 0 ? N : b.degree[2] + 1;
+  const int on1 = out.degree[1] + 1, on2 = out.degree[2] + 1;
+  const double* ac = a.c.data();
   for (int i = 0; i <= a.degree[0]; ++i)
     for (int j = 0; j <= a.degree[1]; ++j)
       for (int k = 0; k <= a.degree[2]; ++k) {
-        const double v = a.at(i, j, k);
+        const double v = *ac++;
         if (v == 0.0) continue;
         for (int p = 0; p <= b.degree[0]; ++p)
           for (int q = 0; q < bn1; ++q) {
@@ -85,6 +87,26 @@ void multiply_scaled(const TriPoly& a, const TriPoly& b, TriPoly& out) {
             for (int r = 0; r < bn2; ++r) dst[r] += v * src[r];
           }
       }
+}
+
+}  // namespace
+
+void multiply_scaled(const TriPoly& a, const TriPoly& b, TriPoly& out) {
+  if (a.empty() || b.empty()) {
+    out.clear();
+    return;
+  }
+  out.reset({a.degree[0] + b.degree[0], a.degree[1] + b.degree[1], a.degree[2] + b.degree[2]});
+  switch (b.degree[2] + 1) {
+    case 1: return multiply_rows<1>(a, b, out);
+    case 2: return multiply_rows<2>(a, b, out);
+    case 3: return multiply_rows<3>(a, b, out);
+    case 4: return multiply_rows<4>(a, b, out);
+    case 5: return multiply_rows<5>(a, b, out);
+    case 6: return multiply_rows<6>(a, b, out);
+    case 7: return multiply_rows<7>(a, b, out);
+    default: return multiply_rows<0>(a, b, out);
+  }
 }
 
 void add_elevated_scaled(const TriPoly& a, TriPoly& acc, TriPoly& scratch) {

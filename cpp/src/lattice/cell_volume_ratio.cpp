@@ -21,8 +21,9 @@ namespace {
 struct AxisForm {
   int degree = 0;
   int width = 0;
-  int index[kMaxAxisWidth] = {};
-  double b[kMaxAxisWidth * kMaxAxisWidth] = {};
+  // Not zero-initialised: 2 kB per axis and cell would cost more than a trilinear cell's det.
+  int index[kMaxAxisWidth];
+  double b[kMaxAxisWidth * kMaxAxisWidth];
 };
 
 // c on [0,1] re-expressed over [lo, hi]: coefficient i is the blossom at (lo^(n-i), hi^i).
@@ -59,6 +60,7 @@ AxisForm axis_form(const AxisBasis& axis, const CellSpec& cell, int a) {
       case BasisKind::Bernstein:
       case BasisKind::BezierBlocks:
         f.degree = f.width - 1;
+        std::fill(f.b, f.b + f.width * f.width, 0.0);
         for (int q = 0; q <= f.degree; ++q) f.b[q * f.width + q] = 1.0;
         break;
       case BasisKind::BlenderLinear:
@@ -110,6 +112,16 @@ double abs_row_sum(const AxisForm& f) {
     m = std::max(m, s);
   }
   return m;
+}
+
+// Forward error bound of det M's coefficients: each step sums at most `terms` products with
+// non-negative binomial weights, of entries of magnitude at most 1 + kappa (six terms in a
+// determinant), after the contraction of the offsets (the bases' widths).
+double rounding_allowance(double kappa, std::size_t column, const AxisForm f[3]) {
+  const double terms = 3.0 * double(column) + f[0].width + f[1].width + f[2].width +
+                       9.0 * (f[0].degree + f[1].degree + f[2].degree);
+  const double entry = 1.0 + kappa;
+  return 8.0 * terms * std::numeric_limits<double>::epsilon() * 6.0 * entry * entry * entry;
 }
 
 struct Workspace {
@@ -197,6 +209,52 @@ void jacobian_column(const LatticeView& v, Workspace& in, int a, double factor) 
   for (int r = 0; r < 3; ++r) to_scaled(*out[r]);
 }
 
+// p += 1 in the scaled form of p's degree: the product of the three binomials.
+void add_scaled_one(TriPoly& p) {
+  std::size_t e = 0;
+  const auto& d = p.degree;
+  for (int i = 0; i <= d[0]; ++i)
+    for (int j = 0; j <= d[1]; ++j)
+      for (int k = 0; k <= d[2]; ++k, ++e) p.c[e] += binomial(d[0], i) * binomial(d[1], j) * binomial(d[2], k);
+}
+
+// det(I + K) of a cell of degree 1 per axis (Blender's linear cells, FFD(1)): column a of
+// M = I + K is bilinear in the other two coordinates, so det M = M0 . (M1 x M2) has degree
+// (2, 2, 2), 27 coefficients; what the general path computes, with sizes known here.
+void trilinear_det(const LatticeView& v, const Workspace& ws, const double factor[3], TriPoly& out) {
+  // col[a][u][w]: column a at the Bezier index pair (u, w) over the other two axes, in order.
+  Vec3 col[3][2][2];
+  for (int a = 0; a < 3; ++a)
+    for (int u = 0; u < 2; ++u)
+      for (int w = 0; w < 2; ++w) {
+        int lo[3], hi[3];
+        const int b = a == 0 ? 1 : 0, c = a == 2 ? 1 : 2;
+        lo[a] = 0, hi[a] = 1, lo[b] = hi[b] = u, lo[c] = hi[c] = w;
+        Vec3 diff;
+        for (int r = 0; r < 3; ++r)
+          diff[r] = factor[a] * (ws.net[r].at(hi[0], hi[1], hi[2]) - ws.net[r].at(lo[0], lo[1], lo[2]));
+        col[a][u][w] = v.to_box * diff;
+        col[a][u][w][a] += 1.0;
+      }
+  // M1 (indices i, k) x M2 (indices i, j): degree (2, 1, 1) in (i, j, k).
+  Vec3 cross[3][2][2];
+  for (auto& x : cross)
+    for (auto& y : x)
+      for (auto& z : y) z.setZero();
+  for (int i1 = 0; i1 < 2; ++i1)
+    for (int k1 = 0; k1 < 2; ++k1)
+      for (int i2 = 0; i2 < 2; ++i2)
+        for (int j2 = 0; j2 < 2; ++j2) cross[i1 + i2][j2][k1] += col[1][i1][k1].cross(col[2][i2][j2]);
+  // M0 (indices j, k) . cross: degree (2, 2, 2), then the binomials of degree 2 divided out.
+  out.reset({2, 2, 2});
+  for (int j0 = 0; j0 < 2; ++j0)
+    for (int k0 = 0; k0 < 2; ++k0)
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 2; ++j)
+          for (int k = 0; k < 2; ++k) out.at(i, j0 + j, k0 + k) += col[0][j0][k0].dot(cross[i][j][k]);
+  from_scaled(out);
+}
+
 }  // namespace
 
 LatticeView::LatticeView(const BoxLattice& l) : lattice(&l), to_box(l.box().to_box) {
@@ -216,70 +274,62 @@ CellVolumeRatio cell_volume_ratio(const LatticeView& v, const CellSpec& cell) {
   for (int a = 0; a < 3; ++a) f[a] = axis_form(axes[a], cell, a);
   double max_offset = 0.0;
   displacement_net(v, f, ws, max_offset);
-  // det(I + K) = 1 + tr K + (principal 2x2 minors) + det K: exactly 1 where K vanishes.
-  bool present[3];
-  std::array<int, 3> result{0, 0, 0};
-  double kappa = 0.0;  // a bound on |K|'s coefficients, for the rounding allowance
   const double a_norm = v.to_box.cwiseAbs().rowwise().sum().maxCoeff();
   const double beta = abs_row_sum(f[0]) * abs_row_sum(f[1]) * abs_row_sum(f[2]);
+  if (f[0].degree == 1 && f[1].degree == 1 && f[2].degree == 1) {
+    CellVolumeRatio out;
+    double factor[3], kappa = 0.0;
+    for (int a = 0; a < 3; ++a) {
+      factor[a] = axes[a].scale() / (cell.hi[a] - cell.lo[a]);
+      kappa = std::max(kappa, 2.0 * std::abs(factor[a]) * a_norm * beta * max_offset);
+    }
+    trilinear_det(v, ws, factor, out.coefficients);
+    if (kappa > 0.0) out.rounding = rounding_allowance(kappa, 4, f);
+    return out;
+  }
+  // M = I + K column by column; a column of a frozen axis is e_a (degree 0). In the scaled form
+  // 1 has integer coefficients (binomials), so where K vanishes every product below is exact
+  // and det M comes out 1 exactly.
+  std::array<int, 3> result{0, 0, 0};
+  double kappa = 0.0;  // a bound on |K|'s coefficients, for the rounding allowance
+  auto& M = ws.k;
   for (int a = 0; a < 3; ++a) {
-    present[a] = f[a].degree > 0;
-    if (!present[a]) {
-      for (int r = 0; r < 3; ++r) ws.k[r][a].clear();
+    if (f[a].degree == 0) {
+      for (int r = 0; r < 3; ++r) {
+        if (r == a) M[r][a].reset({0, 0, 0}, 1.0);
+        else M[r][a].clear();
+      }
       continue;
     }
     const double factor = axes[a].scale() / (cell.hi[a] - cell.lo[a]);
     jacobian_column(v, ws, a, factor);
-    for (int b = 0; b < 3; ++b) result[b] += ws.k[0][a].degree[b];
+    add_scaled_one(M[a][a]);
+    for (int b = 0; b < 3; ++b) result[b] += M[a][a].degree[b];
     kappa = std::max(kappa, 2.0 * f[a].degree * std::abs(factor) * a_norm * beta * max_offset);
   }
   CellVolumeRatio out;
   TriPoly& acc = out.coefficients;
   acc.reset(result);
-  {
-    std::size_t e = 0;
-    for (int i = 0; i <= result[0]; ++i)
-      for (int j = 0; j <= result[1]; ++j)
-        for (int k = 0; k <= result[2]; ++k, ++e)
-          acc.c[e] = binomial(result[0], i) * binomial(result[1], j) * binomial(result[2], k);
-  }
-  if (!v.at_rest) {
-    auto& K = ws.k;
-    for (int a = 0; a < 3; ++a) add_elevated_scaled(K[a][a], acc, ws.scratch);
-    // Principal minors (a, b) for a < b: K_aa K_bb - K_ba K_ab.
-    for (int a = 0; a < 3; ++a)
-      for (int b = a + 1; b < 3; ++b) {
-        if (!present[a] || !present[b]) continue;
-        multiply_scaled(K[a][a], K[b][b], ws.p);
-        multiply_scaled(K[b][a], K[a][b], ws.q);
-        for (std::size_t e = 0; e < ws.p.c.size(); ++e) ws.p.c[e] -= ws.q.c[e];
-        add_elevated_scaled(ws.p, acc, ws.scratch);
-      }
-    if (present[0] && present[1] && present[2]) {
-      // det K along column 0: sum_r (-1)^r K_r0 (minor of rows other than r, columns 1 and 2).
-      const int rows[3][2] = {{1, 2}, {0, 2}, {0, 1}};
-      for (int r = 0; r < 3; ++r) {
-        const int x = rows[r][0], y = rows[r][1];
-        multiply_scaled(K[x][1], K[y][2], ws.p);
-        multiply_scaled(K[y][1], K[x][2], ws.q);
-        for (std::size_t e = 0; e < ws.p.c.size(); ++e) ws.p.c[e] -= ws.q.c[e];
-        multiply_scaled(K[r][0], ws.p, ws.r);
-        if (r == 1)
-          for (double& c : ws.r.c) c = -c;
-        add_elevated_scaled(ws.r, acc, ws.scratch);
-      }
-    }
+  // det M along column 0: sum_r (-1)^r M_r0 (the minor of the other rows in columns 1 and 2).
+  const int rows[3][2] = {{1, 2}, {0, 2}, {0, 1}};
+  for (int r = 0; r < 3; ++r) {
+    if (M[r][0].empty()) continue;
+    const int x = rows[r][0], y = rows[r][1];
+    multiply_scaled(M[x][1], M[y][2], ws.p);
+    multiply_scaled(M[y][1], M[x][2], ws.q);
+    if (ws.p.empty() && ws.q.empty()) continue;
+    if (ws.p.empty()) ws.p.reset(ws.q.degree);
+    if (!ws.q.empty())
+      for (std::size_t e = 0; e < ws.p.c.size(); ++e) ws.p.c[e] -= ws.q.c[e];
+    multiply_scaled(M[r][0], ws.p, ws.r);
+    const double sign = r == 1 ? -1.0 : 1.0;
+    for (std::size_t e = 0; e < acc.c.size(); ++e) acc.c[e] += sign * ws.r.c[e];
   }
   from_scaled(acc);
-  // Forward error of the above: each step sums at most `terms` products with non-negative
-  // binomial weights, over terms of magnitude at most 3 kappa + 6 kappa^2 + 6 kappa^3.
   if (kappa > 0.0) {
-    const std::size_t column = ws.k[0][present[0] ? 0 : present[1] ? 1 : 2].c.size();
-    const double terms = 3.0 * double(column) + f[0].width + f[1].width + f[2].width + 3.0 * (result[0] + result[1] + result[2]);
-    const double eps = std::numeric_limits<double>::epsilon();
-    double max_abs = 0.0;
-    for (double c : acc.c) max_abs = std::max(max_abs, std::abs(c));
-    out.rounding = 8.0 * terms * eps * (3.0 * kappa + 6.0 * kappa * kappa + 6.0 * kappa * kappa * kappa) + eps * max_abs;
+    std::size_t column = 0;
+    for (int a = 0; a < 3; ++a) column = std::max(column, M[a][a].c.size());
+    out.rounding = rounding_allowance(kappa, column, f);
   }
   return out;
 }
