@@ -187,6 +187,15 @@ def test_rest_lattices_give_one_exactly_and_the_rest_volume(kind):
     assert moved.deformed_volume() == pytest.approx(rest, rel=1e-13)
 
 
+@pytest.mark.parametrize("degree", [8, 15])
+def test_high_degree_rest_ffd_gives_one_exactly(degree):
+    """det J of degree 3 * 15 - 1 = 44 per axis: its scaled coefficients (binomial products up to
+    1e37) are no longer integers a double holds, yet a rest lattice is still exactly (1, 1)."""
+    lat = dk.FFD(degree, **PLACE)
+    assert tuple(lat.volume_ratio_bounds()) == (1.0, 1.0) and lat.fold_free().lower == 1.0
+    assert lat.deformed_volume() == pytest.approx(abs(np.linalg.det(EDGES)), rel=1e-14)
+
+
 def deformed_boundary_volume(lat, n):
     lo, hi = domain(lat)
     verts, faces = box_surface(n)

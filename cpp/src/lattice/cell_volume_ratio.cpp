@@ -309,6 +309,10 @@ CellVolumeRatio cell_volume_ratio(const LatticeView& v, const CellSpec& cell) {
   }
   CellVolumeRatio out;
   TriPoly& acc = out.coefficients;
+  if (v.at_rest) {  // beyond degree 8 or so the binomial products leave the integers doubles hold
+    acc.reset(result, 1.0);
+    return out;
+  }
   acc.reset(result);
   // det M along column 0: sum_r (-1)^r M_r0 (the minor of the other rows in columns 1 and 2).
   const int rows[3][2] = {{1, 2}, {0, 2}, {0, 1}};
