@@ -149,12 +149,14 @@ void displacement_net(const LatticeView& v, const AxisForm f[3], Workspace& ws, 
       }
   // The weights sum to 1, so a constant taken off every offset leaves the derivatives as they
   // are: the offsets' midrange goes, and a translated cell has K = 0 exactly, with no rounding.
-  max_offset = 0.0;
-  for (std::size_t e = 0; e < ws.block.size(); ++e) {
-    const int c = int(e % 3);
-    ws.block[e] -= 0.5 * (lo[c] + hi[c]);
-    max_offset = std::max(max_offset, std::abs(ws.block[e]));
-  }
+  const double mid[3] = {0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])};
+  double largest = 0.0;
+  for (std::size_t e = 0; e < ws.block.size(); e += 3)
+    for (int c = 0; c < 3; ++c) {
+      ws.block[e + c] -= mid[c];
+      largest = std::max(largest, std::abs(ws.block[e + c]));
+    }
+  max_offset = largest;
   // Along axis 2: t1[p][q][k][c], then axis 1: t2[p][j][k][c], then axis 0 into the nets.
   ws.t1.assign(std::size_t(3) * w0 * w1 * n2, 0.0);
   for (int p = 0; p < w0; ++p)
