@@ -128,6 +128,26 @@ def test_bounds_enclose_every_sample_and_meet_the_tolerance(kind, amount):
     assert true_max - 1e-9 <= b.upper <= true_max + tol * b.scale + 1e-9
 
 
+@pytest.mark.parametrize("kind", ["blender-linear", "blender-mixed", "blender-flat", "blender-cardinal"])
+@pytest.mark.parametrize("amount", [0.02, 0.15])
+def test_region_bounds_hold_on_blenders_faces(kind, amount):
+    """Blender evaluates a point on the box's far face (s = 1), or one rounded just below s = 0,
+    in the cell beyond the box, where a linear axis does not vary: det J jumps there (a C0 map),
+    and the region's bounds cover that side of the faces too."""
+    lat = perturbed(kind, amount, 3)
+    b = lat.volume_ratio_bounds(tolerance=1e-4)
+    g = np.linspace(0, 1, 41)
+    faces = []
+    for axis in range(3):
+        for side in (-1e-15, 0.0, 1.0, 1.0 + 1e-15):
+            s = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+            s[:, axis] = side
+            faces.append(s)
+    v = lat.volume_ratio(ORIGIN + np.concatenate(faces) @ EDGES)
+    assert b.lower - 1e-12 * b.scale <= v.min() and v.max() <= b.upper + 1e-12 * b.scale
+    assert bool(lat.fold_free()) <= bool(v.min() > 0)
+
+
 @pytest.mark.parametrize("kind", ["ffd-3", "bezier-211", "bspline-546", "blender-linear", "blender-cardinal",
                                   "blender-mixed"])
 def test_fold_free_is_never_true_where_sampling_finds_a_fold(kind):

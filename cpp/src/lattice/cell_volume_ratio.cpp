@@ -350,17 +350,31 @@ double cell_rest_volume(const BoxLattice& lattice, const CellSpec& cell) {
   return v;
 }
 
-std::vector<CellSpec> region_cells(const BoxLattice& lattice) {
+std::vector<CellSpec> region_cells(const BoxLattice& lattice, bool faces) {
   const LatticeAxes& axes = lattice.axes();
+  // Per axis (piece, frozen): the pieces of the domain, and for Blender's linear interpolation
+  // the box's faces as the cells beyond them give them (index clamping: the map does not vary
+  // along the axis there, so det J jumps, the map being C0): the far face s = 1, which Blender
+  // evaluates in cell count - 1, and the near face, where s rounded below 0 falls in cell -1.
+  std::vector<std::pair<int, bool>> spans[3];
+  for (int a = 0; a < 3; ++a) {
+    const bool single = is_blender(axes[a].kind) && axes[a].count == 1;
+    for (int i = 0; i < axes[a].pieces(); ++i) spans[a].push_back({i, single});
+    if (faces && axes[a].kind == BasisKind::BlenderLinear && !single) {
+      spans[a].push_back({-1, true});
+      spans[a].push_back({axes[a].count - 1, true});
+    }
+  }
   std::vector<CellSpec> cells;
-  cells.reserve(std::size_t(axes[0].pieces()) * axes[1].pieces() * axes[2].pieces());
-  for (int i = 0; i < axes[0].pieces(); ++i)
-    for (int j = 0; j < axes[1].pieces(); ++j)
-      for (int k = 0; k < axes[2].pieces(); ++k) {
+  cells.reserve(spans[0].size() * spans[1].size() * spans[2].size());
+  for (const auto& x : spans[0])
+    for (const auto& y : spans[1])
+      for (const auto& z : spans[2]) {
         CellSpec c;
-        c.piece = {i, j, k};
+        c.piece = {x.first, y.first, z.first};
+        c.frozen = {x.second, y.second, z.second};
         for (int a = 0; a < 3; ++a)
-          if (is_blender(axes[a].kind) && axes[a].count == 1) c.frozen[a] = true, c.lo[a] = c.hi[a] = 0.0;
+          if (c.frozen[a]) c.lo[a] = c.hi[a] = 0.0;
         cells.push_back(c);
       }
   return cells;

@@ -322,7 +322,7 @@ FoldCertificate fold_certificate(const BoxLattice& lattice, const std::vector<Ce
 
 double deformed_volume(const BoxLattice& lattice) {
   const LatticeView view(lattice);
-  const std::vector<CellSpec> cells = region_cells(lattice);
+  const std::vector<CellSpec> cells = region_cells(lattice, false);  // faces have no volume
   std::vector<double> volume(cells.size());
   const std::size_t per_cell = cell_volume_ratio(view, cells[0]).coefficients.size();
   for_each_cell(cells.size(), per_cell, [&](std::size_t c) {

@@ -29,8 +29,10 @@ struct CellVolumeRatio {
   double rounding = 0.0;
 };
 
-// The cells of the lattice's region: every piece of the domain, [0, 1] per axis.
-std::vector<CellSpec> region_cells(const BoxLattice& lattice);
+// The cells of the lattice's region: every piece of the domain, [0, 1] per axis; with faces, also
+// the box's two faces along Blender linear axes as the cells beyond them give them (pieces -1 and
+// count - 1, frozen), where Blender evaluates points on (or rounded just past) a face.
+std::vector<CellSpec> region_cells(const BoxLattice& lattice, bool faces = true);
 // The cells holding the given points (n x 3), and whether some point lies where the map is the
 // identity ('unchanged' outside the domain: det J = 1 there). Throws std::invalid_argument naming
 // `points` for a non-finite row or, with 'extrapolate', one too far out to evaluate.
