@@ -269,6 +269,9 @@ def test_points_outside_the_domain_follow_the_outside_policy(kind, outside):
     assert b.lower - slack <= v.min() and v.max() <= b.upper + slack
     if outside == "unchanged":
         assert b.lower <= 1.0 <= b.upper
+        far = ORIGIN + np.array([[2.0, 2.0, 2.0]]) @ EDGES  # only the identity
+        only = lat.volume_ratio_bounds(points=far)
+        assert tuple(only) == (1.0, 1.0) and only.cells == 0 and only.where is None and lat.fold_free(far)
 
 
 def test_the_result_unpacks_as_a_pair():
@@ -313,3 +316,18 @@ def test_bad_inputs_are_named():
     far = dk.FFD(3, outside="extrapolate", control_points=lat.control_points, **PLACE)
     with pytest.raises(ValueError, match="^points: row 1 lies too far outside"):
         far.volume_ratio_bounds(points=np.array([[0.5, 0.5, 0.5], [1e4, 0.5, 0.5]]))
+
+
+def test_strength_counts_and_per_point_weights_do_not():
+    """The bounds are of volume_ratio with the lattice's strength and without per-point weights:
+    strength 0 is the identity, a negative strength moves the other way (sampled), and weights
+    leave the bounds as they are (docs/lattice.md)."""
+    lat = perturbed("bspline-546", 0.1, 14)
+    P = lat.control_points
+    assert tuple(dk.BSplineLattice((5, 4, 6), **PLACE, control_points=P, strength=0.0).volume_ratio_bounds()) == (1, 1)
+    neg = dk.BSplineLattice((5, 4, 6), **PLACE, control_points=P, strength=-0.7)
+    b = neg.volume_ratio_bounds(tolerance=1e-5)
+    v = neg.volume_ratio(region_points(neg, 20000, np.random.default_rng(15)))
+    assert b.lower <= v.min() <= b.lower + 1e-3 and b.upper >= v.max()
+    weighted = dk.BSplineLattice((5, 4, 6), **PLACE, control_points=P, strength=-0.7, weights=np.full(4, 0.5))
+    assert tuple(weighted.volume_ratio_bounds(tolerance=1e-5)) == tuple(b)

@@ -258,9 +258,10 @@ VolumeRatioBounds volume_ratio_bounds(const BoxLattice& lattice, const std::vect
   for (const CellRoot& r : roots) out.lower = std::min(out.lower, r.lower), out.upper = std::max(out.upper, r.upper);
   out.minimum = least.value();
   out.where = least.where();
+  out.has_where = !cells.empty();
   if (identity_points) {
     out.lower = std::min(out.lower, 1.0), out.upper = std::max(out.upper, 1.0);
-    out.minimum = std::min(out.minimum, 1.0);
+    if (!(out.minimum <= 1.0)) out.minimum = 1.0, out.has_where = false;
   }
   out.converged = !capped;
   out.subdivisions = budget.subdivisions.load();

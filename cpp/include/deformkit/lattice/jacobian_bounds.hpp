@@ -52,6 +52,7 @@ struct VolumeRatioBounds {
   bool converged = true;          // false: the work cap stopped the refinement
   double minimum = 1.0;           // the least det J value found (at `where`): lower <= minimum
   CellPoint where;                // where `minimum` was found
+  bool has_where = false;         // false: no cells, or the least value is the identity's 1
   double scale = 1.0;             // the tolerance is relative to this: max(1, max |det J| found)
   std::size_t cells = 0;          // cells bounded
   std::size_t subdivisions = 0;   // de Casteljau subdivisions made
