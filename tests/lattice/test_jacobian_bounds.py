@@ -328,6 +328,9 @@ def test_strength_counts_and_per_point_weights_do_not():
     neg = dk.BSplineLattice((5, 4, 6), **PLACE, control_points=P, strength=-0.7)
     b = neg.volume_ratio_bounds(tolerance=1e-5)
     v = neg.volume_ratio(region_points(neg, 20000, np.random.default_rng(15)))
-    assert b.lower <= v.min() <= b.lower + 1e-3 and b.upper >= v.max()
+    assert b.lower <= v.min() and b.upper >= v.max()
+    cell, local = b.where
+    at = neg.volume_ratio(to_points(neg, cell, [inside_cell(local)]))[0]
+    assert at == pytest.approx(b.minimum, abs=1e-7) and b.minimum - 1e-5 * b.scale <= b.lower <= b.minimum
     weighted = dk.BSplineLattice((5, 4, 6), **PLACE, control_points=P, strength=-0.7, weights=np.full(4, 0.5))
     assert tuple(weighted.volume_ratio_bounds(tolerance=1e-5)) == tuple(b)
