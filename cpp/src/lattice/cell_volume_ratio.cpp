@@ -317,20 +317,14 @@ CellVolumeRatio cell_volume_ratio(const LatticeView& v, const CellSpec& cell) {
   }
   acc.reset(result);
   // det M along column 0: sum_r (-1)^r M_r0 (the minor of the other rows in columns 1 and 2).
+  TriPoly* minor[3] = {&ws.p, &ws.q, &ws.r};
   const int rows[3][2] = {{1, 2}, {0, 2}, {0, 1}};
   for (int r = 0; r < 3; ++r) {
-    if (M[r][0].empty()) continue;
     const int x = rows[r][0], y = rows[r][1];
-    multiply_scaled(M[x][1], M[y][2], ws.p);
-    multiply_scaled(M[y][1], M[x][2], ws.q);
-    if (ws.p.empty() && ws.q.empty()) continue;
-    if (ws.p.empty()) ws.p.reset(ws.q.degree);
-    if (!ws.q.empty())
-      for (std::size_t e = 0; e < ws.p.c.size(); ++e) ws.p.c[e] -= ws.q.c[e];
-    multiply_scaled(M[r][0], ws.p, ws.r);
-    const double sign = r == 1 ? -1.0 : 1.0;
-    for (std::size_t e = 0; e < acc.c.size(); ++e) acc.c[e] += sign * ws.r.c[e];
+    multiply_sum_scaled({{&M[x][1], &M[y][2], 1.0}, {&M[y][1], &M[x][2], -1.0}}, *minor[r]);
   }
+  multiply_sum_scaled({{&M[0][0], minor[0], 1.0}, {&M[1][0], minor[1], -1.0}, {&M[2][0], minor[2], 1.0}}, ws.scratch);
+  if (!ws.scratch.empty()) acc.c = ws.scratch.c;
   from_scaled(acc);
   if (kappa > 0.0) {
     std::size_t column = 0;
