@@ -21,6 +21,7 @@ namespace {
 struct AxisForm {
   int degree = 0;
   int width = 0;
+  bool identity = false;  // the weights are the Bernstein polynomials themselves: the net is the offsets
   // Not zero-initialised: 2 kB per axis and cell would cost more than a trilinear cell's det.
   int index[kMaxAxisWidth];
   double b[kMaxAxisWidth * kMaxAxisWidth];
@@ -100,6 +101,9 @@ AxisForm axis_form(const AxisBasis& axis, const CellSpec& cell, int a) {
   for (int q = 0; q <= f.degree; ++q)
     for (int k = 0; k < kept; ++k) f.b[q * kept + k] = f.b[q * f.width + k];
   f.width = kept;
+  f.identity = f.width == f.degree + 1;
+  for (int q = 0; q <= f.degree && f.identity; ++q)
+    for (int k = 0; k < kept; ++k) f.identity = f.identity && f.b[q * kept + k] == (q == k ? 1.0 : 0.0);
   return f;
 }
 
@@ -117,9 +121,9 @@ double abs_row_sum(const AxisForm& f) {
 // Forward error bound of det M's coefficients: each step sums at most `terms` products with
 // non-negative binomial weights, of entries of magnitude at most 1 + kappa (six terms in a
 // determinant), after the contraction of the offsets (the bases' widths).
-double rounding_allowance(double kappa, std::size_t column, const AxisForm f[3]) {
-  const double terms = 3.0 * double(column) + f[0].width + f[1].width + f[2].width +
-                       9.0 * (f[0].degree + f[1].degree + f[2].degree);
+double rounding_allowance(double kappa, std::size_t column, const AxisForm* const f[3]) {
+  const double terms = 3.0 * double(column) + f[0]->width + f[1]->width + f[2]->width +
+                       9.0 * (f[0]->degree + f[1]->degree + f[2]->degree);
   const double entry = 1.0 + kappa;
   return 8.0 * terms * std::numeric_limits<double>::epsilon() * 6.0 * entry * entry * entry;
 }
@@ -132,16 +136,16 @@ struct Workspace {
 };
 
 // D's Bezier net over the cell (up to a constant), per component: the offsets contracted axis by axis.
-void displacement_net(const LatticeView& v, const AxisForm f[3], Workspace& ws, double& max_offset) {
+void displacement_net(const LatticeView& v, const AxisForm* const f[3], Workspace& ws, double& max_offset) {
   const auto res = v.lattice->resolution();
-  const int w0 = f[0].width, w1 = f[1].width, w2 = f[2].width;
-  const int n0 = f[0].degree + 1, n1 = f[1].degree + 1, n2 = f[2].degree + 1;
+  const int w0 = f[0]->width, w1 = f[1]->width, w2 = f[2]->width;
+  const int n0 = f[0]->degree + 1, n1 = f[1]->degree + 1, n2 = f[2]->degree + 1;
   ws.block.assign(std::size_t(3) * w0 * w1 * w2, 0.0);
   double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
   for (int p = 0; p < w0; ++p)
     for (int q = 0; q < w1; ++q)
       for (int r = 0; r < w2; ++r) {
-        const double* o = &v.offset[3 * ((std::size_t(f[0].index[p]) * res[1] + f[1].index[q]) * res[2] + f[2].index[r])];
+        const double* o = &v.offset[3 * ((std::size_t(f[0]->index[p]) * res[1] + f[1]->index[q]) * res[2] + f[2]->index[r])];
         for (int c = 0; c < 3; ++c) {
           ws.block[((std::size_t(p) * w1 + q) * w2 + r) * 3 + c] = o[c];
           lo[c] = std::min(lo[c], o[c]), hi[c] = std::max(hi[c], o[c]);
@@ -157,13 +161,19 @@ void displacement_net(const LatticeView& v, const AxisForm f[3], Workspace& ws, 
       largest = std::max(largest, std::abs(ws.block[e + c]));
     }
   max_offset = largest;
+  for (int c = 0; c < 3; ++c) ws.net[c].reset({f[0]->degree, f[1]->degree, f[2]->degree});
+  if (f[0]->identity && f[1]->identity && f[2]->identity) {  // FFD, Bezier blocks, Blender's linear cells
+    for (std::size_t e = 0, n = ws.block.size() / 3; e < n; ++e)
+      for (int c = 0; c < 3; ++c) ws.net[c].c[e] = ws.block[3 * e + c];
+    return;
+  }
   // Along axis 2: t1[p][q][k][c], then axis 1: t2[p][j][k][c], then axis 0 into the nets.
   ws.t1.assign(std::size_t(3) * w0 * w1 * n2, 0.0);
   for (int p = 0; p < w0; ++p)
     for (int q = 0; q < w1; ++q)
       for (int k = 0; k < n2; ++k)
         for (int r = 0; r < w2; ++r) {
-          const double b = f[2].b[k * w2 + r];
+          const double b = f[2]->b[k * w2 + r];
           const double* src = &ws.block[((std::size_t(p) * w1 + q) * w2 + r) * 3];
           double* dst = &ws.t1[((std::size_t(p) * w1 + q) * n2 + k) * 3];
           for (int c = 0; c < 3; ++c) dst[c] += b * src[c];
@@ -172,17 +182,16 @@ void displacement_net(const LatticeView& v, const AxisForm f[3], Workspace& ws, 
   for (int p = 0; p < w0; ++p)
     for (int j = 0; j < n1; ++j)
       for (int q = 0; q < w1; ++q) {
-        const double b = f[1].b[j * w1 + q];
+        const double b = f[1]->b[j * w1 + q];
         for (int k = 0; k < n2; ++k) {
           const double* src = &ws.t1[((std::size_t(p) * w1 + q) * n2 + k) * 3];
           double* dst = &ws.t2[((std::size_t(p) * n1 + j) * n2 + k) * 3];
           for (int c = 0; c < 3; ++c) dst[c] += b * src[c];
         }
       }
-  for (int c = 0; c < 3; ++c) ws.net[c].reset({f[0].degree, f[1].degree, f[2].degree});
   for (int i = 0; i < n0; ++i)
     for (int p = 0; p < w0; ++p) {
-      const double b = f[0].b[i * w0 + p];
+      const double b = f[0]->b[i * w0 + p];
       for (int j = 0; j < n1; ++j)
         for (int k = 0; k < n2; ++k) {
           const double* src = &ws.t2[((std::size_t(p) * n1 + j) * n2 + k) * 3];
@@ -272,13 +281,31 @@ LatticeView::LatticeView(const BoxLattice& l) : lattice(&l), to_box(l.box().to_b
 CellVolumeRatio cell_volume_ratio(const LatticeView& v, const CellSpec& cell) {
   thread_local Workspace ws;
   const LatticeAxes& axes = v.lattice->axes();
-  AxisForm f[3];
-  for (int a = 0; a < 3; ++a) f[a] = axis_form(axes[a], cell, a);
+  // Neighbouring cells share two of their three axis pieces: the last form per axis is kept.
+  struct Cached {
+    BasisKind kind;
+    int count = -1, piece = 0;
+    bool frozen = false;
+    double lo = 0, hi = 0;
+    AxisForm form;
+  };
+  thread_local Cached cache[3];
+  const AxisForm* f[3];
+  for (int a = 0; a < 3; ++a) {
+    Cached& k = cache[a];
+    if (k.count != axes[a].count || k.kind != axes[a].kind || k.piece != cell.piece[a] || k.frozen != cell.frozen[a] ||
+        k.lo != cell.lo[a] || k.hi != cell.hi[a]) {
+      k.form = axis_form(axes[a], cell, a);
+      k.kind = axes[a].kind, k.count = axes[a].count, k.piece = cell.piece[a], k.frozen = cell.frozen[a];
+      k.lo = cell.lo[a], k.hi = cell.hi[a];
+    }
+    f[a] = &k.form;
+  }
   double max_offset = 0.0;
   displacement_net(v, f, ws, max_offset);
   const double a_norm = v.to_box.cwiseAbs().rowwise().sum().maxCoeff();
-  const double beta = abs_row_sum(f[0]) * abs_row_sum(f[1]) * abs_row_sum(f[2]);
-  if (f[0].degree == 1 && f[1].degree == 1 && f[2].degree == 1) {
+  const double beta = abs_row_sum(*f[0]) * abs_row_sum(*f[1]) * abs_row_sum(*f[2]);
+  if (f[0]->degree == 1 && f[1]->degree == 1 && f[2]->degree == 1) {
     CellVolumeRatio out;
     double factor[3], kappa = 0.0;
     for (int a = 0; a < 3; ++a) {
@@ -296,7 +323,7 @@ CellVolumeRatio cell_volume_ratio(const LatticeView& v, const CellSpec& cell) {
   double kappa = 0.0;  // a bound on |K|'s coefficients, for the rounding allowance
   auto& M = ws.k;
   for (int a = 0; a < 3; ++a) {
-    if (f[a].degree == 0) {
+    if (f[a]->degree == 0) {
       for (int r = 0; r < 3; ++r) {
         if (r == a) M[r][a].reset({0, 0, 0}, 1.0);
         else M[r][a].clear();
@@ -307,7 +334,7 @@ CellVolumeRatio cell_volume_ratio(const LatticeView& v, const CellSpec& cell) {
     jacobian_column(v, ws, a, factor);
     add_scaled_one(M[a][a]);
     for (int b = 0; b < 3; ++b) result[b] += M[a][a].degree[b];
-    kappa = std::max(kappa, 2.0 * f[a].degree * std::abs(factor) * a_norm * beta * max_offset);
+    kappa = std::max(kappa, 2.0 * f[a]->degree * std::abs(factor) * a_norm * beta * max_offset);
   }
   CellVolumeRatio out;
   TriPoly& acc = out.coefficients;

@@ -183,7 +183,9 @@ VolumeRatioBounds volume_ratio_bounds(const BoxLattice& lattice, const std::vect
   std::vector<CellVolumeRatio> kept(keep ? cells.size() : 0);
   for_each_cell(cells.size(), per_cell, [&](std::size_t c) {
     CellVolumeRatio cv = cell_volume_ratio(view, cells[c]);
-    const Piece q = make_piece(TriPoly(cv.coefficients), {0, 0, 0}, {1, 1, 1}, 0, cv.rounding, 0.0);
+    const double rounding = cv.rounding;
+    const Piece q = make_piece(keep ? TriPoly(cv.coefficients) : std::move(cv.coefficients), {0, 0, 0}, {1, 1, 1}, 0,
+                               rounding, 0.0);
     roots[c] = {q.lower, q.upper};
     least.offer(q.corner_min, cells[c], q.at_min);
     greatest.offer(q.corner_max, cells[c], q.at_max);
@@ -281,8 +283,13 @@ FoldCertificate fold_certificate(const BoxLattice& lattice, const std::vector<Ce
   for_each_cell(cells.size(), per_cell, [&](std::size_t c) {
     CellVolumeRatio cv = cell_volume_ratio(view, cells[c]);
     const double max_abs = max_abs_of(cv.coefficients);
+    Piece root = make_piece(std::move(cv.coefficients), {0, 0, 0}, {1, 1, 1}, 0, cv.rounding, max_abs);
+    if (root.lower > 0.0) {  // most cells: certified by their coefficients alone
+      lower[c] = root.lower;
+      return;
+    }
     std::priority_queue<Piece, std::vector<Piece>, ByLower> heap;
-    heap.push(make_piece(std::move(cv.coefficients), {0, 0, 0}, {1, 1, 1}, 0, cv.rounding, max_abs));
+    heap.push(std::move(root));
     FoldCell fold;
     // A piece with a value <= 0 decides the cell; so does a least bound > 0.
     auto folds = [&](const Piece& q) {
