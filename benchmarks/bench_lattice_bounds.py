@@ -70,11 +70,13 @@ def main(argv=None):
         for what, fn in (("volume_ratio_bounds", lambda: lat.volume_ratio_bounds(tolerance=1e-3)),
                          ("fold_free", lambda: lat.fold_free()), ("deformed_volume", lambda: lat.deformed_volume())):
             r = measure(fn, repeats)
-            r.update(case=name, call=what, cells=cells, cells_per_cpu_s=cells / r["cpu_s"] if r["cpu_s"] else float("nan"))
+            # The bounds of a Blender linear lattice also cover its faces as Blender evaluates them.
+            n = {"volume_ratio_bounds": lambda: fn().cells, "fold_free": lambda: fn().cells_checked}.get(what, lambda: cells)()
+            r.update(case=name, call=what, cells=n, cells_per_cpu_s=n / r["cpu_s"] if r["cpu_s"] else float("nan"))
             target = TARGETS.get(name)
             verdict = "" if target is None or what == "deformed_volume" else \
                 f"  target <= {target * 1e3:.0f} ms: {'met' if r['wall_s'] <= target else 'NOT met'} (wall)"
-            print(f"{name:18s} {what:20s} {cells:7d} cells  wall {r['wall_s'] * 1e3:8.2f} ms (min "
+            print(f"{name:18s} {what:20s} {n:7d} cells  wall {r['wall_s'] * 1e3:8.2f} ms (min "
                   f"{r['wall_min_s'] * 1e3:.2f})  CPU {r['cpu_s'] * 1e3:8.2f} ms  {r['cells_per_cpu_s'] / 1e6:6.2f} M "
                   f"cells/CPU-s  others {r['other_load']:.0%}{verdict}")
             rows.append(r)
