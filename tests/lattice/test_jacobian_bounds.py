@@ -334,3 +334,17 @@ def test_strength_counts_and_per_point_weights_do_not():
     assert at == pytest.approx(b.minimum, abs=1e-7) and b.minimum - 1e-5 * b.scale <= b.lower <= b.minimum
     weighted = dk.BSplineLattice((5, 4, 6), **PLACE, control_points=P, strength=-0.7, weights=np.full(4, 0.5))
     assert tuple(weighted.volume_ratio_bounds(tolerance=1e-5)) == tuple(b)
+
+
+@pytest.mark.parametrize("kind", ["bezier-211", "bspline-546", "blender-linear"])
+def test_a_tolerance_below_rounding_stops_unconverged_with_bounds_that_hold(kind):
+    """1e-15 is below the coefficients' rounding allowance: the refinement stops (converged False,
+    the cap's report) instead of halving pieces it cannot tighten, and the bounds still hold."""
+    lat = perturbed(kind, 0.1, 16)
+    b = lat.volume_ratio_bounds(tolerance=1e-15)
+    assert not b.converged
+    v = lat.volume_ratio(region_points(lat, 20000, np.random.default_rng(17)))
+    assert b.lower <= v.min() and v.max() <= b.upper
+    fine = lat.volume_ratio_bounds(tolerance=1e-6)
+    assert fine.converged and abs(b.lower - fine.lower) <= 1e-6 * fine.scale
+    assert abs(b.upper - fine.upper) <= 1e-6 * fine.scale

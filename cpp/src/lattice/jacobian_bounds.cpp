@@ -29,11 +29,16 @@ struct Piece {
   std::array<double, 3> lo{0, 0, 0}, hi{1, 1, 1};
   int depth = 0;
   double lower = 0, upper = 0;           // coefficient bounds widened by the rounding allowance
+  double delta = 0;                       // that allowance
   double corner_min = 0, corner_max = 0;  // values: the corner coefficients
   std::array<double, 3> at_min{}, at_max{}, at_lowest{};  // unit-cube points of those, and of the least coefficient
 };
 
 bool can_split(const Piece& q) { return q.depth < kMaxDepth && (q.p.degree[0] | q.p.degree[1] | q.p.degree[2]) != 0; }
+// Halving brings a piece's least (greatest) coefficient toward its least (greatest) corner value;
+// once they are within twice the rounding allowance it cannot bring the bound any closer.
+bool lower_can_tighten(const Piece& q) { return can_split(q) && q.corner_min - q.lower > 2.0 * q.delta; }
+bool upper_can_tighten(const Piece& q) { return can_split(q) && q.upper - q.corner_max > 2.0 * q.delta; }
 
 // The cell's bound on rounding plus what halving adds: one rounding per de Casteljau level.
 Piece make_piece(TriPoly&& p, const std::array<double, 3>& lo, const std::array<double, 3>& hi, int depth,
@@ -48,6 +53,7 @@ Piece make_piece(TriPoly&& p, const std::array<double, 3>& lo, const std::array<
     if (q.p.c[e] < q.p.c[lowest]) lowest = e;
     if (q.p.c[e] > q.p.c[highest]) highest = e;
   }
+  q.delta = delta;
   q.lower = q.p.c[lowest] - delta;
   q.upper = q.p.c[highest] + delta;
   auto point = [&](int i, int j, int k) {
@@ -209,7 +215,7 @@ VolumeRatioBounds volume_ratio_bounds(const BoxLattice& lattice, const std::vect
     // Lower bound: the piece with the least bound is halved until it is within the gap of the
     // least value found anywhere.
     while (!low.empty() && low.top().lower + gap < least.value()) {
-      if (!can_split(low.top())) {
+      if (!lower_can_tighten(low.top())) {
         done.push_back(low.top());
         low.pop();
         capped = true;
@@ -229,8 +235,10 @@ VolumeRatioBounds volume_ratio_bounds(const BoxLattice& lattice, const std::vect
     }
     std::priority_queue<Piece, std::vector<Piece>, ByUpper> high;
     for (; !low.empty(); low.pop()) high.push(low.top());
+    for (Piece& q : done) high.push(std::move(q));  // settled for the lower bound, not the upper
+    done.clear();
     while (!high.empty() && high.top().upper - gap > greatest.value()) {
-      if (!can_split(high.top())) {
+      if (!upper_can_tighten(high.top())) {
         done.push_back(high.top());
         high.pop();
         capped = true;
@@ -301,7 +309,7 @@ FoldCertificate fold_certificate(const BoxLattice& lattice, const std::vector<Ce
     bool decided = folds(heap.top());
     while (!decided && heap.top().lower <= 0.0) {
       const Piece& top = heap.top();
-      if (!can_split(top) || heap.size() > kMaxLivePieces || !budget.take(top.p.size())) {
+      if (!lower_can_tighten(top) || heap.size() > kMaxLivePieces || !budget.take(top.p.size())) {
         fold.where = cell_point(cells[c], top.at_lowest);
         break;
       }

@@ -61,7 +61,7 @@ struct VolumeRatioBounds {
 // Work cap of the refinement: at most this many coefficients subdivided over the whole call
 // (each subdivision of a cell piece of N coefficients counts N), and at most kMaxLivePieces
 // pieces awaiting refinement in one cell.
-constexpr double kSubdivisionBudget = double(1 << 26);
+constexpr double kSubdivisionBudget = double(1 << 24);
 constexpr std::size_t kMaxLivePieces = 1 << 14;
 
 // Bounds of det J over `cells` (identity_points: include the value 1); lower within
