@@ -224,8 +224,9 @@ def deformed_boundary_volume(lat, n):
     return sign * mesh_volume(lat.deform(x), faces)
 
 
-@pytest.mark.parametrize("kind", ["ffd-3", "bezier-211", "bspline-546", "blender-bspline", "blender-linear",
-                                  "blender-mixed"])
+@pytest.mark.parametrize("kind", ["ffd-3", "ffd-213", "bezier-211", "bspline-546", "blender-bspline",
+                                  "blender-linear", "blender-cardinal", "blender-catmull_rom", "blender-mixed",
+                                  "blender-flat"])
 def test_exact_volume_matches_the_tessellated_boundary_and_quadrature(kind):
     lat = perturbed(kind, 0.06, 6)
     exact = lat.deformed_volume()
