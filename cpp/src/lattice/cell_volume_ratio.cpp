@@ -394,8 +394,9 @@ std::vector<CellSpec> region_cells(const BoxLattice& lattice, bool faces) {
         CellSpec c;
         c.piece = {x.first, y.first, z.first};
         c.frozen = {x.second, y.second, z.second};
+        // The near face's cell -1 is reported at its t = 1, on the face (its value is the same all along).
         for (int a = 0; a < 3; ++a)
-          if (c.frozen[a]) c.lo[a] = c.hi[a] = 0.0;
+          if (c.frozen[a]) c.lo[a] = c.hi[a] = c.piece[a] == -1 ? 1.0 : 0.0;
         cells.push_back(c);
       }
   return cells;
