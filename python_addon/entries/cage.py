@@ -36,7 +36,7 @@ TYPES = tuple(row[0] for row in ENTRY_TYPES)  # its entry.type identifiers
 CAGE_METHODS = [
     ("MEAN_VALUE", "Mean Value", "Mean value coordinates (Ju, Schaefer, Warren 2005): smooth, interpolate the cage", 0),
     ("GREEN", "Green", "Green coordinates (Lipman, Levin, Cohen-Or 2008): keep details' shape (quasi-conformal)", 1),
-    ("HARMONIC", "Harmonic (Mesh Deform)", "Harmonic coordinates on a grid (Joshi et al. 2007), as Blender's Mesh "
+    ("HARMONIC", "Harmonic", "Harmonic coordinates on a grid (Joshi et al. 2007), as Blender's Mesh "
      "Deform modifier computes them, with its Precision and Dynamic", 2),
 ]
 ICON = "MOD_MESHDEFORM"
