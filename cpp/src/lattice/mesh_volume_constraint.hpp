@@ -1,7 +1,7 @@
 #pragma once
 // The signed volume of a closed mesh carried by a lattice, as a function of a handle change: the
-// constraint of volume-preserving direct manipulation (docs/math/lattice.md,
-// "Volume-preserving direct manipulation").
+// constraint of volume-preserving direct manipulation
+// (docs/math/lattice.md, "Volume-preserving direct manipulation").
 #include "deformkit/core/polygon_mesh.hpp"
 #include "deformkit/lattice/control_lattice.hpp"
 

@@ -106,8 +106,8 @@ double LatticeMeshVolume::value(const Eigen::MatrixXd& dp, Eigen::MatrixXd* grad
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> y = y0_;
   for (Eigen::Index v = 0; v < y.rows(); ++v)
     for (std::int64_t e = indptr_[v]; e < indptr_[v + 1]; ++e) y.row(v) += weight_[e] * dp.row(handle_[e]);
-  // V = 1/6 sum a . (b x c); dV/da = (b x c) / 6, cyclically (docs/math/lattice.md,
-  // "Volume-preserving direct manipulation").
+  // V = 1/6 sum a . (b x c); dV/da = (b x c) / 6, cyclically
+  // (docs/math/lattice.md, "Volume-preserving direct manipulation").
   CompensatedSum volume;
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> dy;
   if (gradient) dy = Eigen::MatrixXd::Zero(y.rows(), 3);
@@ -148,8 +148,8 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
   double scale = 0.0;  // the lattice's size: the floor of the stationarity test
   for (double c : lattice.control_points()) scale = std::max(scale, std::abs(c));
 
-  // SQP with the objective's Hessian I for the Lagrangian's (docs/math/lattice.md,
-  // "Volume-preserving direct manipulation"): x = x_ls + u, u in the handles' null space.
+  // SQP with the objective's Hessian I for the Lagrangian's: x = x_ls + u, u in the handles' null
+  // space (docs/math/lattice.md, "Volume-preserving direct manipulation").
   Eigen::MatrixXd x = solve.dp, u = Eigen::MatrixXd::Zero(x.rows(), 3), gradient;
   double rho = 0.0, v = volume.value(x, &gradient);
   constexpr int kMaxIterations = 100;
