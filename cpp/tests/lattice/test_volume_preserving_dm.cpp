@@ -87,6 +87,14 @@ TEST(VolumePreservingDM, VolumeAndGradientMatchTheDeformedMesh) {
         // V is cubic: central differences err by h^2/6 of its third derivative.
         EXPECT_NEAR(gradient(k, a), (volume.value(plus) - volume.value(minus)) / (2 * h), 1e-9) << kind << " " << k;
       }
+    // The Hessian along a random direction against central differences of the gradient (exact:
+    // the gradient is quadratic).
+    Eigen::MatrixXd d(dp.rows(), 3), g_plus, g_minus;
+    for (Eigen::Index i = 0; i < d.size(); ++i) d.data()[i] = n(rng);
+    volume.value(dp + h * d, &g_plus);
+    volume.value(dp - h * d, &g_minus);
+    const Eigen::MatrixXd hd = volume.hessian_times(dp, d);
+    EXPECT_LT((hd - (g_plus - g_minus) / (2 * h)).cwiseAbs().maxCoeff(), 1e-8 * hd.cwiseAbs().maxCoeff()) << kind;
   }
 }
 
