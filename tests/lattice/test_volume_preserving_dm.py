@@ -212,6 +212,8 @@ def test_bad_meshes_and_pairs_are_named(rng):
     flat = np.array([[0.4, 0.4, 0.5], [0.6, 0.4, 0.5], [0.5, 0.6, 0.5]])
     with pytest.raises(ValueError, match="^preserve_volume: the mesh encloses no volume"):
         dm((flat, [[0, 1, 2], [0, 2, 1]]))
+    with pytest.raises(ValueError, match="^preserve_volume: mesh_points: the mesh's volume .* overflows"):
+        dm((points * 1e120, faces))
     np.testing.assert_array_equal(lat.control_points, setup("ffd", np.random.default_rng(1234))[0].control_points)
 
 

@@ -186,7 +186,10 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
   const LatticeMeshVolume volume(lattice, preserve_volume);
   const Eigen::MatrixXd zero = Eigen::MatrixXd::Zero(lattice.handle_count(), 3);
   const double target = volume.value(zero);
-  if (!std::isfinite(target) || !(std::abs(target) > 1e-8 * volume.unsigned_sum())) {
+  if (!std::isfinite(target) || !std::isfinite(volume.unsigned_sum()))
+    throw std::invalid_argument("preserve_volume: mesh_points: the mesh's volume under the current control points "
+                                "overflows a double");
+  if (!(std::abs(target) > 1e-8 * volume.unsigned_sum())) {
     std::ostringstream msg;
     msg << "preserve_volume: the mesh encloses no volume (" << target << " under the current control points, "
         << "against " << volume.unsigned_sum() << " for its faces' unsigned volumes); expected a closed mesh of "
