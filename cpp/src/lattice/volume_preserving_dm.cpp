@@ -175,6 +175,28 @@ bool solve_newton_matrix(const LatticeMeshVolume& volume, const HandleSolve& sol
   return rr <= stop;
 }
 
+struct LagrangeStep {
+  Eigen::MatrixXd step;  // in the handles' null space
+  double multiplier = 0.0;
+};
+
+// Newton on the Lagrangian's stationarity u + mu Pi G = 0 and g = 0, with M = I + mu_k Pi H Pi the
+// Lagrangian's Hessian: step = -M^-1 u - mu M^-1 Pi G, mu chosen so that G . step = -g. Where M is
+// not positive definite (or mu_k = 0) the objective's Hessian I stands in for it: the SQP step.
+LagrangeStep lagrange_step(const LatticeMeshVolume& volume, const HandleSolve& solve, const Eigen::MatrixXd& x,
+                           const Eigen::MatrixXd& u, const Eigen::MatrixXd& free_gradient, double g, double mu_k) {
+  Eigen::MatrixXd m_u = u, m_g = free_gradient;
+  if (mu_k != 0.0 && !(solve_newton_matrix(volume, solve, x, mu_k, u, m_u) &&
+                       solve_newton_matrix(volume, solve, x, mu_k, free_gradient, m_g))) {
+    m_u = u;
+    m_g = free_gradient;
+  }
+  LagrangeStep s;
+  s.multiplier = (g - free_gradient.cwiseProduct(m_u).sum()) / free_gradient.cwiseProduct(m_g).sum();
+  s.step = -s.multiplier * m_g - m_u;
+  return s;
+}
+
 }  // namespace
 
 DirectManipulationResult direct_manipulation(const ControlLattice& lattice, const double* points,
@@ -219,17 +241,9 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
              "preserve_volume";
       throw std::invalid_argument(msg.str());
     }
-    // Newton on the Lagrangian's stationarity u + mu Pi G = 0 and g = 0, with M = I + mu_k Pi H Pi
-    // the Lagrangian's Hessian: step = -M^-1 u - mu M^-1 Pi G, mu chosen so that G . step = -r.
-    // Where M is not positive definite the objective's Hessian I stands in for it (the SQP step).
-    Eigen::MatrixXd mu_u = u, mu_g = free_gradient;
-    if (multiplier != 0.0 && !(solve_newton_matrix(volume, solve, x, multiplier, u, mu_u) &&
-                               solve_newton_matrix(volume, solve, x, multiplier, free_gradient, mu_g))) {
-      mu_u = u;
-      mu_g = free_gradient;
-    }
-    const double mu = (r - free_gradient.cwiseProduct(mu_u).sum()) / free_gradient.cwiseProduct(mu_g).sum();
-    const Eigen::MatrixXd step = -mu * mu_g - mu_u;
+    const LagrangeStep newton = lagrange_step(volume, solve, x, u, free_gradient, r, multiplier);
+    const Eigen::MatrixXd& step = newton.step;
+    const double mu = newton.multiplier;
     const double step_norm = step.norm();
     if (std::abs(r) <= tolerance && step_norm <= 1e-9 * x.norm() + 1e-14 * scale) break;
     if (iterations == kMaxIterations) {
@@ -241,10 +255,10 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
       throw std::invalid_argument(msg.str());
     }
     // Backtracking on the l1 merit 1/2 |u|^2 + rho |V - V0|, whose slope along step is
-    // -|step|^2 + mu r - rho |r| < 0 once rho >= |mu|; rounding of the terms is allowed for.
+    // -step.M step + mu r - rho |r| < 0 once rho >= |mu|; rounding of the terms is allowed for.
     rho = std::max(rho, 1.5 * std::abs(mu));
     const double merit = 0.5 * u.squaredNorm() + rho * std::abs(r);
-    const double slope = gradient.size() ? u.cwiseProduct(step).sum() - rho * std::abs(r) : 0.0;
+    const double slope = u.cwiseProduct(step).sum() - rho * std::abs(r);
     double alpha = 1.0, v_trial = 0.0;
     Eigen::MatrixXd trial;
     for (;;) {
