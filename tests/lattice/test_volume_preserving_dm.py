@@ -229,3 +229,46 @@ def test_pinned_control_points_are_refused(rng):
     # The same handles moved rigidly keep the volume: nothing to correct, no error.
     r = lat.direct_manipulation(x, lat.deform(x) + [0.05, 0, 0], preserve_volume=(points, faces))
     assert r.volume_residual <= 1e-12 and r.rank == 8
+
+
+LATTICES = {
+    "strength": lambda cp=None: dk.BSplineLattice((5, 5, 5), control_points=cp, strength=-0.7, **BOX),
+    "clamp-outside": lambda cp=None: dk.FFD(2, control_points=cp, **BOX),
+    "extrapolate-outside": lambda cp=None: dk.BezierFFD(1, control_points=cp, outside="extrapolate", **BOX),
+    "unchanged-outside": lambda cp=None: dk.BlenderLattice(4, "cardinal", control_points=cp, outside="unchanged", **BOX),
+}
+
+
+@pytest.mark.parametrize("name", LATTICES)
+@pytest.mark.parametrize("inward", [False, True])
+def test_strength_points_outside_and_inward_meshes(name, inward, rng):
+    """The mesh is carried as lattice.deform carries it (strength, every outside policy: a sphere that
+    sticks out of the box), and an inward-facing mesh keeps its negative volume."""
+    make = LATTICES[name]
+    lat = make(make().rest_control_points + 0.02 * rng.normal(size=make().rest_control_points.shape))
+    points, faces = sphere(level=2, radius=0.45, center=CENTRE + [0.3, 0, 0])
+    if inward:
+        faces = faces[:, ::-1]
+    x, targets = handles_on_top(lat, points, 0.1)
+    r = lat.direct_manipulation(x, targets, preserve_volume=(points, faces))
+    v0 = volume(lat.deform(points), faces)
+    assert (v0 < 0) == inward and r.volume_target == pytest.approx(v0, rel=1e-12)
+    assert abs(volume(make(r.control_points).deform(points), faces) / v0 - 1) < 1e-10
+    assert abs(volume(make(lat.direct_manipulation(x, targets).control_points).deform(points), faces) / v0 - 1) > 1e-3
+    np.testing.assert_allclose(make(r.control_points).deform(x), targets, atol=1e-12)
+
+
+def test_merged_handles_of_a_cylinder_move_together():
+    cyl = dk.ExtendedFFD.cylinder(radius=1.0, height=1.0, blocks=(1, 4, 1))
+    points, faces = sphere(level=2, radius=0.5)
+    x = points[np.argsort(points[:, 0])[-1:]]
+    targets = cyl.deform(x) + [0.2, 0.0, 0.1]
+    r = cyl.direct_manipulation(x, targets, preserve_volume=(points, faces))
+    index = cyl.handle_index.ravel()
+    delta = r.displacement.reshape(-1, 3)
+    for h in np.unique(index):  # merged control points coincide at rest up to rounding; they move as one
+        np.testing.assert_array_equal(delta[index == h], np.broadcast_to(delta[index == h][0], delta[index == h].shape))
+    moved = dk.ExtendedFFD.cylinder(radius=1.0, height=1.0, blocks=(1, 4, 1))
+    moved.control_points = r.control_points
+    assert abs(volume(moved.deform(points), faces) / volume(cyl.deform(points), faces) - 1) < 1e-10
+    np.testing.assert_allclose(moved.deform(x), targets, atol=1e-12)
