@@ -64,7 +64,8 @@ Setup = namedtuple("Setup", "deformer bind fingerprint harmonic", defaults=(None
 Frame = namedtuple("Frame", "now turn bound weights", defaults=(None,))
 # In the cache: "cage_binding", (object cache key, entry index, "viewport"/"render") -> (bind key
 # (object cache key, bind id, method[, precision, dynamic]), points, binding); "cage_deformer", bind
-# key -> (crc of the per-point weights, deformer); "cage_bound", bind key -> the points bound at Bind.
+# key -> (crc of the per-point weights, deformer); "cage_bound", bind key -> the points bound at Bind;
+# "cage_rest", bind key -> a Harmonic entry's rest cage in the cage's space.
 
 
 UNSET = "no cage object set: pick a closed mesh object around the mesh"
@@ -181,10 +182,20 @@ def mesh_change(obj, entry, bound):
 def harmonic_frame(obj, cage, entry, points):
     """(Frame, the rest cage and the current cage in the cage's space) of a Harmonic entry."""
     now = relative(obj, cage)
-    to_cage, at_bind = affine_inverse(now), saved_frame(entry)
+    to_cage = affine_inverse(now)
     turn = None if np.array_equal(now[:3, :3], np.eye(3)) else now[:3, :3]
-    rest = to_space(np.asarray(entry[REST], np.float64).reshape(-1, 3), affine_inverse(at_bind))
-    return Frame(to_cage, turn, bound_points(obj, entry)), rest, to_space(points, to_cage)
+    return Frame(to_cage, turn, bound_points(obj, entry)), rest_in_cage(obj, entry), to_space(points, to_cage)
+
+
+def rest_in_cage(obj, entry):
+    """A Harmonic entry's rest cage in the cage's space at bind, read from the entry once per bind
+    (the cache's "cage_rest" space), not every frame."""
+    key = bind_key(obj, entry)
+    rest = cache.get("cage_rest", key)
+    if rest is None:
+        at_bind = affine_inverse(saved_frame(entry))
+        rest = cache.put("cage_rest", key, to_space(np.asarray(entry[REST], np.float64).reshape(-1, 3), at_bind))
+    return rest
 
 
 def setup(obj, entry, reuse_weights=False):
@@ -255,7 +266,11 @@ def harmonic_offsets(key, setup_, points, out):
         local = frame.bound[1]
     else:
         local = cage_space(points, frame.now)
-    bound = kept_binding("cage_binding", key, setup_.bind, local, setup_.deformer.bind)
+    cached = cache.get("cage_binding", key)
+    if cached is not None and cached[0] == setup_.bind and cached[1] is local:  # the points kept at Bind
+        bound = cached[2]
+    else:
+        bound = kept_binding("cage_binding", key, setup_.bind, local, setup_.deformer.bind)
     moved = setup_.deformer.displacement_bound(bound, out=out)
     if frame.weights is not None:
         if len(frame.weights) != len(points):
@@ -324,7 +339,7 @@ def prune(object_key, entries):
     """Bindings of binds no entry has any more go."""
     forget_bindings(object_key, "cage_binding", entries, grid_tail)
     alive = {grid_tail(e) for e in entries}
-    for space in ("cage_deformer", "cage_bound"):
+    for space in ("cage_deformer", "cage_bound", "cage_rest"):
         cache.forget(object_key, space, keep=lambda k: k[1:] in alive)
 
 
