@@ -36,7 +36,7 @@ struct Solved;  // the grid and, for a dynamic bind, its cells' coordinates
 }
 
 // How the grid system is solved: multigrid-preconditioned conjugate gradients (the default; every
-// column to a relative residual of 1e-10) or a sparse Cholesky factorisation (exact to rounding,
+// column to a relative residual of 1e-7) or a sparse Cholesky factorisation (exact to rounding,
 // memory growing faster with the grid: kept as the reference the tests compare with).
 enum class GridSolver { Multigrid, Cholesky };
 
