@@ -1,6 +1,7 @@
 """dk.MeshDeform's frame: displacement_bound is w (F(x) - x) of the bound points in one pass, the
 harmonic coordinates' formula w sum_a w_a (c_a - c_a at bind) / sum_a w_a (docs/cage.md), exactly
-zero at the rest cage, the same bits on one thread as on the pool."""
+zero at the rest cage, the same bits on one thread as on the pool; a float32 binding's coordinates
+are Blender's floats."""
 import os
 import subprocess
 import sys
@@ -72,6 +73,19 @@ def test_displacement_bound_refuses_what_deform_bound_refuses():
         md.displacement_bound(b, out=np.empty(pts.shape, np.float64))
     with pytest.raises(TypeError, match="out: must have dtype"):
         md.displacement_bound(b, out=np.empty(pts.shape, np.float16))
+
+
+def test_a_float32_binding_keeps_its_coordinates_as_blenders_floats():
+    """Blender's MDefInfluence holds a float weight; a float32 binding does too (the frame reads 8
+    bytes a weight), a float64 binding keeps doubles: the same coordinates, rounded or not."""
+    md, b32, pts, _ = setting(np.float32, False, False)
+    b64 = md.bind(pts.astype(np.float64))
+    (ptr32, col32, w32), (ptr64, col64, w64) = b32.weights(), b64.weights()
+    np.testing.assert_array_equal(ptr32, ptr64)
+    np.testing.assert_array_equal(col32, col64)
+    rounded = w64.astype(np.float32).astype(np.float64)
+    np.testing.assert_array_equal(w32, rounded)
+    assert not np.array_equal(rounded, w64)
 
 
 SCRIPT = """

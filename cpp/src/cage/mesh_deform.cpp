@@ -278,8 +278,9 @@ void trilinear_row(const ReachedCells& r, std::size_t i, double* w, double* dw) 
 }
 
 // Blender's compaction of each inside point's row: weights above the threshold kept, scaled to
-// sum to 1; outside points get empty rows. Each task writes
-// its run of points into one buffer (no allocation per point), and the buffers are joined in order.
+// sum to 1; outside points get no row. Each task writes its run of points into one buffer (no
+// allocation per point), and the buffers are joined, then ordered by row length (the binding's
+// layout, MeshDeformBinding).
 void kept_rows(const ReachedCells& r, const std::vector<std::size_t>& inside, MeshDeformBinding& b) {
   const std::size_t m = r.m, count = inside.size(), n = b.size();
   const int tasks = count < 2 * kParallelGrain || forked_after_threads() ? 1 : parallel_threads();
@@ -320,14 +321,37 @@ void kept_rows(const ReachedCells& r, const std::vector<std::size_t>& inside, Me
   });
   for (std::size_t i = 0; i < n; ++i) start[i + 1] += start[i];
   if (start[n] >= std::uint64_t(UINT32_MAX)) throw std::bad_alloc();
-  b.weight_start.assign(start.begin(), start.end());
-  b.weight_vertex.resize(std::size_t(start[n]));
-  b.weight_value.resize(std::size_t(start[n]));
+  std::vector<std::uint32_t> vertex(static_cast<std::size_t>(start[n]));
+  std::vector<double> value(static_cast<std::size_t>(start[n]));
   std::size_t at = 0;
   for (const Run& run : runs) {
-    std::copy(run.indices.begin(), run.indices.begin() + std::ptrdiff_t(run.used), b.weight_vertex.begin() + std::ptrdiff_t(at));
-    for (std::size_t e = 0; e < run.used; ++e) b.weight_value[at + e] = run.values[e];
+    std::copy(run.indices.begin(), run.indices.begin() + std::ptrdiff_t(run.used), vertex.begin() + std::ptrdiff_t(at));
+    std::copy(run.values.begin(), run.values.begin() + std::ptrdiff_t(run.used), value.begin() + std::ptrdiff_t(at));
     at += run.used;
+  }
+  // The rows by length, points in order within a length (a counting sort).
+  std::vector<std::size_t> of_length(m + 2, 0);
+  for (std::size_t i = 0; i < n; ++i) ++of_length[std::size_t(start[i + 1] - start[i]) + 1];
+  for (std::size_t k = 1; k < of_length.size(); ++k) of_length[k] += of_length[k - 1];
+  const std::size_t empty = of_length[1];  // points without coordinates get no row
+  b.row_point.assign(n - empty, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t length = std::size_t(start[i + 1] - start[i]);
+    if (length) b.row_point[of_length[length]++ - empty] = std::uint32_t(i);
+  }
+  b.weight_start.assign(b.row_point.size() + 1, 0);
+  b.weight_vertex.resize(vertex.size());
+  if (b.single_precision) b.weight_value_f32.resize(value.size());
+  else b.weight_value.resize(value.size());
+  for (std::size_t r = 0; r < b.row_point.size(); ++r) {
+    const std::size_t i = b.row_point[r], from = std::size_t(start[i]), length = std::size_t(start[i + 1] - start[i]);
+    const std::size_t to = b.weight_start[r];
+    b.weight_start[r + 1] = std::uint32_t(to + length);
+    std::copy(vertex.begin() + std::ptrdiff_t(from), vertex.begin() + std::ptrdiff_t(from + length), b.weight_vertex.begin() + std::ptrdiff_t(to));
+    for (std::size_t e = 0; e < length; ++e) {
+      if (b.single_precision) b.weight_value_f32[to + e] = float(value[from + e]);
+      else b.weight_value[to + e] = value[from + e];
+    }
   }
 }
 
@@ -481,11 +505,18 @@ MeshDeformBinding MeshDeform::bind(const float* points, std::size_t n) const { r
 
 WeightTable MeshDeform::weights_table(const MeshDeformBinding& b) const {
   check_binding(b);
-  if (!b.dynamic) {
+  if (!b.dynamic) {  // the rows back in point order
     WeightTable t;
-    t.indptr.assign(b.weight_start.begin(), b.weight_start.end());
-    t.indices.assign(b.weight_vertex.begin(), b.weight_vertex.end());
-    t.values.assign(b.weight_value.begin(), b.weight_value.end());
+    t.indptr.assign(b.size() + 1, 0);
+    for (std::size_t r = 0; r < b.row_point.size(); ++r) t.indptr[b.row_point[r] + 1] = b.weight_start[r + 1] - b.weight_start[r];
+    for (std::size_t i = 0; i < b.size(); ++i) t.indptr[i + 1] += t.indptr[i];
+    t.indices.resize(b.weight_vertex.size());
+    t.values.resize(b.weight_vertex.size());
+    for (std::size_t r = 0; r < b.row_point.size(); ++r)
+      for (std::uint32_t e = b.weight_start[r], to = std::uint32_t(t.indptr[b.row_point[r]]); e < b.weight_start[r + 1]; ++e, ++to) {
+        t.indices[to] = std::int32_t(b.weight_vertex[e]);
+        t.values[to] = b.single_precision ? double(b.weight_value_f32[e]) : b.weight_value[e];
+      }
     return t;
   }
   const harmonic::Solved& s = *solved_;

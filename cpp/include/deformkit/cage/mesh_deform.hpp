@@ -17,11 +17,16 @@ namespace deformkit {
 struct MeshDeformBinding : PointBinding {
   bool dynamic = false;
   std::vector<std::uint8_t> inside;  // per point: inside the rest cage (Blender's ray test)
-  // Static: per point its kept, renormalised coordinates, CSR: point i's are
-  // [weight_start[i], weight_start[i + 1]) (12 bytes a weight: what a frame reads).
+  // Static: the kept, renormalised coordinates of each point that has any, a row per such point
+  // (row_point: its point), the rows ordered by length (a frame's loop then runs one length many
+  // times over, which the branch predictor follows), CSR: row r's are [weight_start[r],
+  // weight_start[r + 1]). The values in the points' precision: float for float32 points, as
+  // Blender stores them (8 bytes a weight, what a frame reads), double for float64 points.
+  std::vector<std::uint32_t> row_point;
   std::vector<std::uint32_t> weight_start;
   std::vector<std::uint32_t> weight_vertex;
   std::vector<double> weight_value;
+  std::vector<float> weight_value_f32;
   // Dynamic: the cells the bound points reach, and per point its 8 cells (slots into cells) and
   // their trilinear weights, so a frame sums each cell's influences once.
   std::vector<std::int64_t> cells;
