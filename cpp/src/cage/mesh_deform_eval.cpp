@@ -97,8 +97,9 @@ bool MeshDeform::evaluate_bound(const MeshDeformBinding& b, T* out, bool offsets
   const T* weight = nullptr;
   if constexpr (std::is_same<T, float>::value) weight = b.weight_value_f32.data();
   else weight = b.weight_value.data();
-  // The tasks split the weights, not the rows, evenly: the rows are ordered by length.
-  const int tasks = b.size() < 2 * kParallelGrain || forked_after_threads() ? 1 : parallel_threads();
+  // The tasks split the weights, not the rows, evenly: the rows are ordered by length. Four tasks a
+  // thread: a worker the scheduler wakes late (the other core busy) still takes the tasks left.
+  const int tasks = b.size() < 2 * kParallelGrain || forked_after_threads() ? 1 : 4 * parallel_threads();
   const double total = double(start[rows]);
   parallel_tasks(tasks, [&](int task) {
     auto row_at = [&](int t) {
