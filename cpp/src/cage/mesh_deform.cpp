@@ -290,7 +290,7 @@ void kept_rows(const ReachedCells& r, const std::vector<std::size_t>& inside, Me
     std::size_t used = 0;
   };
   std::vector<Run> runs(static_cast<std::size_t>(tasks));
-  std::vector<std::uint64_t> start(n + 1, 0);
+  std::vector<std::uint32_t> length(n, 0);  // per point: its kept coordinates
   parallel_tasks(tasks, [&](int task) {
     const std::size_t lo = count * std::size_t(task) / std::size_t(tasks), hi = count * std::size_t(task + 1) / std::size_t(tasks);
     Run& run = runs[std::size_t(task)];
@@ -316,43 +316,51 @@ void kept_rows(const ReachedCells& r, const std::vector<std::size_t>& inside, Me
       for (std::size_t e = 0; e < kept; ++e) sum += value[e];
       for (std::size_t e = 0; e < kept; ++e) value[e] /= sum;
       run.used += kept;
-      start[inside[i] + 1] = kept;
+      length[inside[i]] = std::uint32_t(kept);
     }
   });
-  for (std::size_t i = 0; i < n; ++i) start[i + 1] += start[i];
-  if (start[n] >= std::uint64_t(UINT32_MAX)) throw std::bad_alloc();
-  std::vector<std::uint32_t> vertex(static_cast<std::size_t>(start[n]));
-  std::vector<double> value(static_cast<std::size_t>(start[n]));
-  std::size_t at = 0;
-  for (const Run& run : runs) {
-    std::copy(run.indices.begin(), run.indices.begin() + std::ptrdiff_t(run.used), vertex.begin() + std::ptrdiff_t(at));
-    std::copy(run.values.begin(), run.values.begin() + std::ptrdiff_t(run.used), value.begin() + std::ptrdiff_t(at));
-    at += run.used;
-  }
-  // The rows by length, points in order within a length (a counting sort).
+  // The rows by length, points in order within a length (a counting sort), then each task's run
+  // copied to its rows' places.
   std::vector<std::size_t> of_length(m + 2, 0);
-  for (std::size_t i = 0; i < n; ++i) ++of_length[std::size_t(start[i + 1] - start[i]) + 1];
+  for (std::size_t i = 0; i < n; ++i) ++of_length[length[i] + 1];
   for (std::size_t k = 1; k < of_length.size(); ++k) of_length[k] += of_length[k - 1];
   const std::size_t empty = of_length[1];  // points without coordinates get no row
   b.row_point.assign(n - empty, 0);
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::size_t length = std::size_t(start[i + 1] - start[i]);
-    if (length) b.row_point[of_length[length]++ - empty] = std::uint32_t(i);
-  }
-  b.weight_start.assign(b.row_point.size() + 1, 0);
-  b.weight_vertex.resize(vertex.size());
-  if (b.single_precision) b.weight_value_f32.resize(value.size());
-  else b.weight_value.resize(value.size());
-  for (std::size_t r = 0; r < b.row_point.size(); ++r) {
-    const std::size_t i = b.row_point[r], from = std::size_t(start[i]), length = std::size_t(start[i + 1] - start[i]);
-    const std::size_t to = b.weight_start[r];
-    b.weight_start[r + 1] = std::uint32_t(to + length);
-    std::copy(vertex.begin() + std::ptrdiff_t(from), vertex.begin() + std::ptrdiff_t(from + length), b.weight_vertex.begin() + std::ptrdiff_t(to));
-    for (std::size_t e = 0; e < length; ++e) {
-      if (b.single_precision) b.weight_value_f32[to + e] = float(value[from + e]);
-      else b.weight_value[to + e] = value[from + e];
+  std::vector<std::uint32_t> row_of(n, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    if (length[i]) {
+      row_of[i] = std::uint32_t(of_length[length[i]]++ - empty);
+      b.row_point[row_of[i]] = std::uint32_t(i);
     }
+  b.weight_start.assign(b.row_point.size() + 1, 0);
+  std::uint64_t total = 0;
+  for (std::size_t row = 0; row < b.row_point.size(); ++row) {
+    total += length[b.row_point[row]];
+    if (total >= std::uint64_t(UINT32_MAX)) throw std::bad_alloc();
+    b.weight_start[row + 1] = std::uint32_t(total);
   }
+  b.weight_vertex.resize(std::size_t(total));
+  if (b.single_precision) b.weight_value_f32.resize(std::size_t(total));
+  else b.weight_value.resize(std::size_t(total));
+  parallel_tasks(tasks, [&](int task) {
+    const std::size_t lo = count * std::size_t(task) / std::size_t(tasks), hi = count * std::size_t(task + 1) / std::size_t(tasks);
+    Run& run = runs[std::size_t(task)];
+    std::size_t from = 0;
+    for (std::size_t i = lo; i < hi; ++i) {
+      const std::size_t point = inside[i], kept = length[point];
+      if (!kept) continue;
+      const std::size_t to = b.weight_start[row_of[point]];
+      std::copy(run.indices.begin() + std::ptrdiff_t(from), run.indices.begin() + std::ptrdiff_t(from + kept),
+                b.weight_vertex.begin() + std::ptrdiff_t(to));
+      if (b.single_precision)
+        for (std::size_t e = 0; e < kept; ++e) b.weight_value_f32[to + e] = float(run.values[from + e]);
+      else
+        std::copy(run.values.begin() + std::ptrdiff_t(from), run.values.begin() + std::ptrdiff_t(from + kept),
+                  b.weight_value.begin() + std::ptrdiff_t(to));
+      from += kept;
+    }
+    run = Run();
+  });
 }
 
 template <class T>
