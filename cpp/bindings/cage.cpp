@@ -138,6 +138,18 @@ py::array py_md_deform_bound(const MeshDeform& md, const PyMeshDeformBinding& pb
   return result;
 }
 
+py::array py_md_displacement_bound(const MeshDeform& md, const PyMeshDeformBinding& pb, const py::object& out) {
+  const MeshDeformBinding& b = *pb.binding;
+  const auto rows = py::ssize_t(b.size());
+  py::array result = b.single_precision ? output_array<float>(out, rows, py::none(), false)
+                                        : output_array<double>(out, rows, py::none(), false);
+  without_gil("the Mesh Deform's working arrays", [&] {
+    if (b.single_precision) md.displacement_bound(b, static_cast<float*>(result.mutable_data()));
+    else md.displacement_bound(b, static_cast<double*>(result.mutable_data()));
+  });
+  return result;
+}
+
 }  // namespace
 
 void bind_cage(py::module_& m) {
@@ -296,7 +308,10 @@ Blender keeps on a ray that meets the cage more than once, e.g. which points cou
 Static: solves the grid for every cage vertex and keeps each inside point's coordinates.
 Dynamic: finds which points are inside (the grid was solved by the constructor).)")
       .def("deform_bound", &py_md_deform_bound, "binding"_a, py::kw_only(), "out"_a = py::none(),
-           "Deform bound points with the current cage. The dtype is that of the bound points.");
+           "Deform bound points with the current cage. The dtype is that of the bound points.")
+      .def("displacement_bound", &py_md_displacement_bound, "binding"_a, py::kw_only(), "out"_a = py::none(),
+           R"(w (F(x) - x) of the bound points in one pass: the offsets Blender's modifier adds
+(w the per-point weights, 1 without); exactly 0 at the rest cage. The dtype is that of the bound points.)");
 }
 
 }  // namespace deformkit_py

@@ -56,14 +56,16 @@ NOT_COPIED = binding.NOT_COPIED  # a copy arrives unbound
 # harmonic: a Harmonic entry's Frame, else None.
 Setup = namedtuple("Setup", "deformer bind fingerprint harmonic", defaults=(None,))
 # A Harmonic entry in the cage's own space: now, this object's space to the cage's (4 x 4); turn,
-# the cage's displacements into this object's space (3 x 3, None when that is the identity);
-# bound, (points, in the cage's space) of a bind that keeps its points (not Dynamic), else None;
-# weights, the per-point influence (vertex group, strength) scaling the displacement, or None: the
-# grid is solved without them, so a Strength drag never solves it again.
+# the cage's displacements into this object's space (3 x 3, None when that is the identity; setup
+# turns the cage's displacements, so the deformer's offsets are this object's);
+# bound, (points, in the cage's space as float32) of a bind that keeps its points (not Dynamic),
+# else None; weights, the per-point influence (vertex group, strength) scaling the displacement,
+# or None: the grid is solved without them, so a Strength drag never solves it again.
 Frame = namedtuple("Frame", "now turn bound weights", defaults=(None,))
 # In the cache: "cage_binding", (object cache key, entry index, "viewport"/"render") -> (bind key
 # (object cache key, bind id, method[, precision, dynamic]), points, binding); "cage_deformer", bind
-# key -> (crc of the per-point weights, deformer); "cage_bound", bind key -> the points bound at Bind.
+# key -> (crc of the per-point weights, deformer); "cage_bound", bind key -> the points bound at Bind;
+# "cage_rest", bind key -> a Harmonic entry's rest cage in the cage's space.
 
 
 UNSET = "no cage object set: pick a closed mesh object around the mesh"
@@ -140,6 +142,12 @@ def to_space(points, matrix):
     return np.asarray(points, np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
 
 
+def cage_space(points, to_cage):
+    """Mesh points in the cage's space, as float32 (Blender's own bind and frame are float): their
+    binding then writes float32 offsets straight into Blender's attribute."""
+    return to_space(points, to_cage).astype(np.float32)
+
+
 def relative(obj, cage):
     """obj^-1 cage: the cage's local space in obj's."""
     return np.array(obj.matrix_world.inverted() @ cage.matrix_world, np.float64)
@@ -159,7 +167,7 @@ def bound_points(obj, entry):
     kept = cache.get("cage_bound", key)
     if kept is None:
         points = np.array(entry[BOUND], np.float32).reshape(-1, 3)
-        kept = cache.put("cage_bound", key, (points, to_space(points, affine_inverse(saved_frame(entry)))))
+        kept = cache.put("cage_bound", key, (points, cage_space(points, affine_inverse(saved_frame(entry)))))
     return kept
 
 
@@ -174,10 +182,20 @@ def mesh_change(obj, entry, bound):
 def harmonic_frame(obj, cage, entry, points):
     """(Frame, the rest cage and the current cage in the cage's space) of a Harmonic entry."""
     now = relative(obj, cage)
-    to_cage, at_bind = affine_inverse(now), saved_frame(entry)
+    to_cage = affine_inverse(now)
     turn = None if np.array_equal(now[:3, :3], np.eye(3)) else now[:3, :3]
-    rest = to_space(np.asarray(entry[REST], np.float64).reshape(-1, 3), affine_inverse(at_bind))
-    return Frame(to_cage, turn, bound_points(obj, entry)), rest, to_space(points, to_cage)
+    return Frame(to_cage, turn, bound_points(obj, entry)), rest_in_cage(obj, entry), to_space(points, to_cage)
+
+
+def rest_in_cage(obj, entry):
+    """A Harmonic entry's rest cage in the cage's space at bind, read from the entry once per bind
+    (the cache's "cage_rest" space), not every frame."""
+    key = bind_key(obj, entry)
+    rest = cache.get("cage_rest", key)
+    if rest is None:
+        at_bind = affine_inverse(saved_frame(entry))
+        rest = cache.put("cage_rest", key, to_space(np.asarray(entry[REST], np.float64).reshape(-1, 3), at_bind))
+    return rest
 
 
 def setup(obj, entry, reuse_weights=False):
@@ -197,6 +215,9 @@ def setup(obj, entry, reuse_weights=False):
         frame = frame._replace(weights=weights)
         key, deformer, _ = _deformer(obj, entry, topology, None, rest)
         crc = weights_crc(weights)
+        if frame.turn is not None:  # R sum_a w_a d_a = sum_a w_a (R d_a): the offsets come out turned
+            rest = deformer.rest_cage_points
+            points = rest + (points - rest) @ frame.turn.T
     else:
         key, deformer, crc = _deformer(obj, entry, topology, weights)
     deformer.cage_points = points
@@ -218,26 +239,45 @@ def deform(key, prepared, points):
 
 
 def harmonic_deform(key, setup_, points):
-    """Mesh Deform's result in this object's space: the points in the cage's space (as bound at
-    Bind, or as they come with Dynamic) move by their harmonic displacement, turned into this
-    object's space and added to the points as they come: x + R sum_a w_a (c_a - c_a at bind)."""
+    """Mesh Deform's result in this object's space: the points as they come plus their offsets."""
+    return (points + harmonic_offsets(key, setup_, points, None)).astype(np.float32, copy=False)
+
+
+def displace(key, prepared, points, out):
+    """The entry's offsets on `points` into `out` (float32): Harmonic's in one pass of the bound
+    coordinates (Mesh Deform's own evaluation); the other methods' deform minus the points."""
+    setup_ = prepared.data
+    if setup_ is None:
+        out[...] = 0.0
+        return out
+    if setup_.harmonic is not None:
+        return harmonic_offsets(key, setup_, points, out)
+    return np.subtract(deform(key, prepared, points), points, out=out, casting="same_kind")
+
+
+def harmonic_offsets(key, setup_, points, out):
+    """w R sum_a w_a (c_a - c_a at bind) / sum_a w_a at the points in the cage's space (as bound at
+    Bind, or as they come with Dynamic), float32, into `out` if given: the deformer's cage carries
+    the turn R (setup), its binding is float32, so this is one pass (exact zeros at the rest cage)."""
     frame = setup_.harmonic
     if frame.bound is not None:
         if len(frame.bound[0]) != len(points):
             raise EntryError(binding.counts_changed("the mesh", (len(frame.bound[0]),), (len(points),)))
         local = frame.bound[1]
     else:
-        local = to_space(points, frame.now)
-    bound = kept_binding("cage_binding", key, setup_.bind, local, setup_.deformer.bind)
-    moved = setup_.deformer.deform_bound(bound) - local
+        local = cage_space(points, frame.now)
+    cached = cache.get("cage_binding", key)
+    if cached is not None and cached[0] == setup_.bind and cached[1] is local:  # the points kept at Bind
+        bound = cached[2]
+    else:
+        bound = kept_binding("cage_binding", key, setup_.bind, local, setup_.deformer.bind)
+    moved = setup_.deformer.displacement_bound(bound, out=out)
     if frame.weights is not None:
         if len(frame.weights) != len(points):
             raise EntryError(f"the vertex group's weights are for {len(frame.weights)} vertices, the mesh coming into "
                              f"the entry has {len(points)}")
-        moved *= np.asarray(frame.weights, np.float64)[:, None]
-    if frame.turn is not None:
-        moved = moved @ frame.turn.T
-    return (points + moved).astype(np.float32)
+        np.multiply(moved, np.asarray(frame.weights)[:, None], out=moved, casting="same_kind")
+    return moved
 
 
 def bind(obj, entry, incoming, rest=None):
@@ -257,7 +297,7 @@ def bind(obj, entry, incoming, rest=None):
     # Checks the cage: ValueError naming its first open edge, bad face, ...
     deformer = _make(_class(entry), entry, rest_points, faces)
     mesh = np.asarray(incoming(), np.float32).reshape(-1, 3) if harmonic and not entry.use_dynamic_bind else None
-    local = None if mesh is None else to_space(mesh, to_cage)
+    local = None if mesh is None else cage_space(mesh, to_cage)
     try:
         made = None if local is None else deformer.bind(local)  # Mesh Deform's solve: its failure leaves the entry
     except RuntimeError as exc:  # "cannot find a bind solution", naming the cage
@@ -299,7 +339,7 @@ def prune(object_key, entries):
     """Bindings of binds no entry has any more go."""
     forget_bindings(object_key, "cage_binding", entries, grid_tail)
     alive = {grid_tail(e) for e in entries}
-    for space in ("cage_deformer", "cage_bound"):
+    for space in ("cage_deformer", "cage_bound", "cage_rest"):
         cache.forget(object_key, space, keep=lambda k: k[1:] in alive)
 
 
