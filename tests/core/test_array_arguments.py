@@ -177,7 +177,7 @@ def test_every_object_parameter_is_walked_or_not_an_array():
                 "interpolation", "axis", "deform_axis", "source_faces", "target_faces", "markers", "correspondence",
                 "fixed_vertices", "lock_x", "lock_y", "lock_z", "invert_weights", "stretch", "binding", "out",
                 "ptex", "deformer", "sharpen_two_edge_vertices", "limit_surface", "mode", "angle", "factor",
-                "quads", "dynamic", "blender_version"}
+                "quads", "dynamic", "blender_version", "inside"}
     walked = {c[6] for c in CALLS} | {"cage_points", "targets", "handle_targets", "initial", "source_pose",
                                       "fixed_positions", "points", "normals", "reference", "uv", "profile",
                                       "preserve_volume"}

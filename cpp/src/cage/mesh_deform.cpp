@@ -463,7 +463,10 @@ std::vector<double> MeshDeform::displacements() const {
 }
 
 template <class T>
-MeshDeformBinding MeshDeform::bind_points(const T* in, std::size_t n) const {
+MeshDeformBinding MeshDeform::bind_points(const T* in, std::size_t n, const std::uint8_t* kept) const {
+  if (kept && !dynamic_)
+    throw std::invalid_argument("inside: only a dynamic MeshDeform takes the points' inside flags from Bind; a static "
+                                "bind tests its points and keeps their coordinates");
   require_finite_rows(in, n, "points");
   const harmonic::Solved& s = *solved_;
   MeshDeformBinding b;
@@ -475,7 +478,9 @@ MeshDeformBinding MeshDeform::bind_points(const T* in, std::size_t n) const {
   else b.points_f64.assign(in, in + 3 * n);
   const std::vector<double> points = harmonic::as_doubles(in, n);
   b.inside.assign(n, 0);
-  parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
+  if (kept)  // Blender's dynverts: decided at Bind, not where the points are now
+    for (std::size_t i = 0; i < n; ++i) b.inside[i] = kept[i] != 0;
+  else parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
     std::vector<harmonic::RayCage::Hit> scratch;
     for (std::size_t i = lo; i < hi; ++i)
       b.inside[i] = harmonic::inside_cage(s.rays, s.grid, Vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]), scratch);
@@ -508,8 +513,12 @@ MeshDeformBinding MeshDeform::bind_points(const T* in, std::size_t n) const {
   return b;
 }
 
-MeshDeformBinding MeshDeform::bind(const double* points, std::size_t n) const { return bind_points(points, n); }
-MeshDeformBinding MeshDeform::bind(const float* points, std::size_t n) const { return bind_points(points, n); }
+MeshDeformBinding MeshDeform::bind(const double* points, std::size_t n, const std::uint8_t* inside) const {
+  return bind_points(points, n, inside);
+}
+MeshDeformBinding MeshDeform::bind(const float* points, std::size_t n, const std::uint8_t* inside) const {
+  return bind_points(points, n, inside);
+}
 
 WeightTable MeshDeform::weights_table(const MeshDeformBinding& b) const {
   check_binding(b);
@@ -573,7 +582,7 @@ void MeshDeform::bound_points(const PointBinding& binding, StoredPoints<double>&
 template <class T>
 bool MeshDeform::deform_points(const T* in, T* out, std::size_t n) const {
   if (!harmonic::finite_rows(in, n)) return false;
-  const MeshDeformBinding b = bind_points(in, n);
+  const MeshDeformBinding b = bind_points(in, n, nullptr);
   return evaluate_bound(b, out, false, nullptr);
 }
 
@@ -584,7 +593,7 @@ bool MeshDeform::deform_impl(const double* in, double* out, std::size_t n) const
 // quotient rule through the 8 cells' sums (dynamic); outside the cage J = I.
 bool MeshDeform::jacobian_impl(const double* in, double* jac, std::size_t n) const {
   if (!harmonic::finite_rows(in, n)) return false;
-  const MeshDeformBinding b = bind_points(in, n);
+  const MeshDeformBinding b = bind_points(in, n, nullptr);
   const std::vector<double> disp = displacements();
   const harmonic::Solved& s = *solved_;
   for (std::size_t i = 0; i < n; ++i) {

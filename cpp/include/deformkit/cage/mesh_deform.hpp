@@ -72,8 +72,11 @@ class MeshDeform : public BoundDeformer {
   // Blender's bind of these points (their inside test, and for a static bind the grid solve and
   // their coordinates). Throws std::invalid_argument naming `points` for a non-finite row, and
   // std::runtime_error naming the cage when the grid has no cell inside it or no solution.
-  MeshDeformBinding bind(const double* points, std::size_t n) const;
-  MeshDeformBinding bind(const float* points, std::size_t n) const;
+  // `inside` (n flags, dynamic only, else std::invalid_argument naming it): which points are
+  // deformed, as Blender's dynamic bind keeps them from Bind (dynverts), instead of testing the
+  // points where they are now; a kept point in cells without coordinates is not displaced.
+  MeshDeformBinding bind(const double* points, std::size_t n, const std::uint8_t* inside = nullptr) const;
+  MeshDeformBinding bind(const float* points, std::size_t n, const std::uint8_t* inside = nullptr) const;
   // The coordinates of the bound points (static: as stored; dynamic: interpolated at the bound
   // points), a point outside the cage an empty row.
   WeightTable weights_table(const MeshDeformBinding& binding) const;
@@ -82,7 +85,7 @@ class MeshDeform : public BoundDeformer {
 
  private:
   template <class T>
-  MeshDeformBinding bind_points(const T* in, std::size_t n) const;
+  MeshDeformBinding bind_points(const T* in, std::size_t n, const std::uint8_t* inside) const;
   template <class T>
   bool deform_points(const T* in, T* out, std::size_t n) const;
   // offsets: out = w_i o_i (w null: o_i), else out = x_i + o_i, o_i the point's displacement
