@@ -116,6 +116,10 @@ class DirectManipulation:
     residual: npt.NDArray[np.float64]
     max_residual: float
     rank: int
+    volume: float | None
+    volume_target: float | None
+    volume_residual: float | None
+    iterations: int
 
 class VolumeRatioBounds:
     """Bounds of det J over a lattice's region: unpacks as (lower, upper)."""
@@ -174,7 +178,8 @@ class Lattice(Deformer):
     def displacement_bound(self, binding: LatticeBinding, *, out: npt.NDArray[np.floating] | None = None
                            ) -> npt.NDArray[np.floating]: ...
     def lattice_coordinates(self, points: npt.ArrayLike) -> npt.NDArray[np.float64]: ...
-    def direct_manipulation(self, points: npt.ArrayLike, targets: npt.ArrayLike) -> DirectManipulation: ...
+    def direct_manipulation(self, points: npt.ArrayLike, targets: npt.ArrayLike, *,
+                            preserve_volume: tuple[npt.ArrayLike, _Faces] | None = None) -> DirectManipulation: ...
 
 class FFD(Lattice):
     """Sederberg-Parry FFD: one trivariate Bernstein polynomial of degree (l, m, n)."""
@@ -499,9 +504,11 @@ class MeshDeform(Deformer):
     def unknowns(self) -> int: ...
     @property
     def flipped(self) -> bool: ...
-    def bind(self, points: npt.ArrayLike) -> MeshDeformBinding: ...
+    def bind(self, points: npt.ArrayLike, *, inside: npt.ArrayLike | None = None) -> MeshDeformBinding: ...
     def deform_bound(self, binding: MeshDeformBinding, *, out: npt.NDArray[np.floating] | None = None
                      ) -> npt.NDArray[np.floating]: ...
+    def displacement_bound(self, binding: MeshDeformBinding, *, out: npt.NDArray[np.floating] | None = None
+                           ) -> npt.NDArray[np.floating]: ...
 
 _RbfKernel = Literal["thin_plate_spline", "cubic", "quintic", "linear", "gaussian", "multiquadric",
                      "inverse_multiquadric", "inverse_quadratic", "wendland_c0", "wendland_c2", "wendland_c4", "clip"]
