@@ -143,6 +143,20 @@ void for_each_cell(std::size_t count, std::size_t work_per_cell, Fn&& fn) {
   });
 }
 
+// The coefficients of a cell's det J, (3 n_a) per axis of degree n_a (at most: a cell may have
+// frozen axes): what a cell's work and memory scale with.
+std::size_t coefficients_per_cell(const BoxLattice& lattice) {
+  std::size_t size = 1;
+  for (const AxisBasis& a : lattice.axes()) {
+    const int degree = a.kind == BasisKind::Bernstein ? a.count - 1
+                       : a.kind == BasisKind::BlenderLinear ? 1
+                       : is_blender(a.kind) && a.count == 1 ? 0
+                                                            : 3;
+    size *= std::size_t(degree > 0 ? 3 * degree : 1);
+  }
+  return size;
+}
+
 struct CellRoot {
   double lower = 0, upper = 0;
 };
@@ -184,7 +198,7 @@ VolumeRatioBounds volume_ratio_bounds(const BoxLattice& lattice, const std::vect
   Extreme least(true), greatest(false);
   std::vector<CellRoot> roots(cells.size());
   // Keep the first pass's coefficients when they are few enough; otherwise recompute them.
-  const std::size_t per_cell = cells.empty() ? 0 : cell_volume_ratio(view, cells[0]).coefficients.size();
+  const std::size_t per_cell = coefficients_per_cell(lattice);
   const bool keep = cells.size() * per_cell <= (std::size_t(1) << 22);
   std::vector<CellVolumeRatio> kept(keep ? cells.size() : 0);
   for_each_cell(cells.size(), per_cell, [&](std::size_t c) {
@@ -287,7 +301,7 @@ FoldCertificate fold_certificate(const BoxLattice& lattice, const std::vector<Ce
   std::vector<FoldCell> found(cells.size());
   std::vector<char> flagged(cells.size(), 0);
   Budget budget;
-  const std::size_t per_cell = cells.empty() ? 0 : cell_volume_ratio(view, cells[0]).coefficients.size();
+  const std::size_t per_cell = coefficients_per_cell(lattice);
   for_each_cell(cells.size(), per_cell, [&](std::size_t c) {
     CellVolumeRatio cv = cell_volume_ratio(view, cells[c]);
     const double max_abs = max_abs_of(cv.coefficients);
@@ -340,7 +354,7 @@ double deformed_volume(const BoxLattice& lattice) {
   const LatticeView view(lattice);
   const std::vector<CellSpec> cells = region_cells(lattice, false);  // faces have no volume
   std::vector<double> volume(cells.size());
-  const std::size_t per_cell = cell_volume_ratio(view, cells[0]).coefficients.size();
+  const std::size_t per_cell = coefficients_per_cell(lattice);
   for_each_cell(cells.size(), per_cell, [&](std::size_t c) {
     const TriPoly p = cell_volume_ratio(view, cells[c]).coefficients;
     double sum = 0.0;
