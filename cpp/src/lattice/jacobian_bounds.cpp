@@ -38,6 +38,11 @@ bool can_split(const Piece& q) { return q.depth < kMaxDepth && (q.p.degree[0] | 
 // Halving brings a piece's least (greatest) coefficient toward its least (greatest) corner value;
 // once they are within twice the rounding allowance it cannot bring the bound any closer.
 bool lower_can_tighten(const Piece& q) { return can_split(q) && q.corner_min - q.lower > 2.0 * q.delta; }
+// The memory cap of one cell's heap, which still lets a degree-15 FFD's pieces (91 125
+// coefficients each) be halved a few dozen times.
+bool too_many_live(std::size_t pieces, const Piece& q) {
+  return pieces > 64 && pieces * q.p.size() > kMaxLiveCoefficients;
+}
 bool upper_can_tighten(const Piece& q) { return can_split(q) && q.upper - q.corner_max > 2.0 * q.delta; }
 
 // The cell's bound on rounding plus what halving adds: one rounding per de Casteljau level.
@@ -235,7 +240,7 @@ VolumeRatioBounds volume_ratio_bounds(const BoxLattice& lattice, const std::vect
         capped = true;
         continue;
       }
-      if (low.size() > kMaxLivePieces || !budget.take(low.top().p.size())) {
+      if (too_many_live(low.size(), low.top()) || !budget.take(low.top().p.size())) {
         capped = true;
         break;
       }
@@ -258,7 +263,7 @@ VolumeRatioBounds volume_ratio_bounds(const BoxLattice& lattice, const std::vect
         capped = true;
         continue;
       }
-      if (high.size() > kMaxLivePieces || !budget.take(high.top().p.size())) {
+      if (too_many_live(high.size(), high.top()) || !budget.take(high.top().p.size())) {
         capped = true;
         break;
       }
@@ -323,7 +328,7 @@ FoldCertificate fold_certificate(const BoxLattice& lattice, const std::vector<Ce
     bool decided = folds(heap.top());
     while (!decided && heap.top().lower <= 0.0) {
       const Piece& top = heap.top();
-      if (!lower_can_tighten(top) || heap.size() > kMaxLivePieces || !budget.take(top.p.size())) {
+      if (!lower_can_tighten(top) || too_many_live(heap.size(), top) || !budget.take(top.p.size())) {
         fold.where = cell_point(cells[c], top.at_lowest);
         break;
       }

@@ -59,10 +59,11 @@ struct VolumeRatioBounds {
 };
 
 // Work cap of the refinement: at most this many coefficients subdivided over the whole call
-// (each subdivision of a cell piece of N coefficients counts N), and at most kMaxLivePieces
-// pieces awaiting refinement in one cell.
+// (each subdivision of a cell piece of N coefficients counts N), and at most
+// kMaxLiveCoefficients coefficients (16 MB) in the pieces awaiting refinement in one cell (or
+// 64 pieces, if more).
 constexpr double kSubdivisionBudget = double(1 << 24);
-constexpr std::size_t kMaxLivePieces = 1 << 14;
+constexpr std::size_t kMaxLiveCoefficients = std::size_t(1) << 21;
 
 // Bounds of det J over `cells` (identity_points: include the value 1); lower within
 // tolerance * scale of the true minimum and upper of the true maximum unless the cap is hit.
