@@ -266,11 +266,6 @@ std::vector<CellSpec> bounded_cells(const BoxLattice& lat, const py::object& poi
   return cells_holding(lat, p.data(), std::size_t(p.shape(0)), identity);
 }
 
-std::array<int, 3> parse_cell(const BoxLattice& lat, const py::object& cell) {
-  const auto c = parse_counts(cell, "cell");
-  (void)lat;
-  return c;
-}
 
 template <class L, class C>
 void add_bounds_methods(C&& cls) {
@@ -305,7 +300,7 @@ are not applied. Returns a VolumeRatioBounds, which unpacks as (lower, upper).)"
         return v;
       }, "The exact volume of the deformed lattice region: the integral of det J (signed where it folds).")
       .def("volume_ratio_coefficients", [](const L& lat, const py::object& cell) {
-        const auto c = parse_cell(lat, cell);
+        const auto c = parse_counts(cell, "cell");
         const auto& axes = lat.axes();
         for (int a = 0; a < 3; ++a)
           if (c[a] < 0 || c[a] >= axes[a].pieces())
@@ -321,7 +316,7 @@ are not applied. Returns a VolumeRatioBounds, which unpacks as (lower, upper).)"
       R"(The Bernstein coefficients of det J over a cell of the region, shape (l+1, m+1, n+1) for degree
 (l, m, n) in the cell's local coordinates (each in [0, 1]).)")
       .def("cell_control_indices", [](const L& lat, const py::object& cell) {
-        const auto idx = cell_control_indices(lat, parse_cell(lat, cell));
+        const auto idx = cell_control_indices(lat, parse_counts(cell, "cell"));
         std::vector<int> flat;
         for (const auto& i : idx) flat.insert(flat.end(), i.begin(), i.end());
         return copied_array(flat.data(), {py::ssize_t(idx.size()), py::ssize_t(3)});
