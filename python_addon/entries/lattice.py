@@ -16,6 +16,7 @@ import numpy as np
 
 from .. import cache, meshdata, native
 from ..errors import EntryError
+from ..panel_text import box_budget, label_wrapped
 from .common import Prepared, affine_inverse, draw_vertex_group, followed_object, influence_weights, stack_index
 
 ENTRY_TYPES = [
@@ -38,7 +39,8 @@ OUTSIDE = [
 ICON = "MOD_LATTICE"
 DEFORMS_INTO = True  # deform takes out=: the result is written into the given array
 MENU = (("deformkit.add_lattice", "OUTLINER_OB_LATTICE"),)  # below the Add menu's entry types
-FIELDS = ("lattice", "lattice_basis", "outside", "strength", "vertex_group", "invert_vertex_group")
+FIELDS = ("lattice", "lattice_basis", "outside", "strength", "vertex_group", "invert_vertex_group",
+          "preserve_volume")
 
 BASES = tuple(b[0] for b in LATTICE_BASES)
 CLASSES = {"BLENDER": "BlenderLattice", "BERNSTEIN": "FFD", "BEZIER": "BezierFFD", "BSPLINE": "BSplineLattice"}
@@ -49,6 +51,14 @@ CLASSES = {"BLENDER": "BlenderLattice", "BERNSTEIN": "FFD", "BEZIER": "BezierFFD
 Setup = namedtuple("Setup", "deformer fingerprint layout lattice local co")
 # The vertex counts of a binding (Bind's report).
 Bound = namedtuple("Bound", "inside outside not_placed")
+# The lattice's certificate over the cells that hold the mesh, and its volume change, as the panel
+# shows them (lattice_tools.lattice_bounds computes them, after an edit rather than during it).
+# layout, binding, offsets: what they were computed for; centres: one point in each grid interval
+# that holds the mesh, in the lattice's space (occupied_cells), kept while the binding is; folds: True (det J <= 0 found), None
+# (not certified either way), False (certified fold-free); lower: the certificate's lower bound of
+# the volume ratio; cells: the offending (cell, parameters, lower bound) triples; volume_change:
+# deformed volume / rest volume - 1 of the whole lattice region.
+Bounds = namedtuple("Bounds", "layout binding offsets centres folds lower cells volume_change")
 
 # Bindings are kept in the cache's "lattice" space: (object cache key, entry index, "viewport"/"render")
 # -> (layout, bound points, binding, counts). The rest grids are not: they belong to Lattice data
@@ -256,7 +266,7 @@ def prune(object_key, entries):
     """The lattices kept for places no Lattice entry has any more go (bindings stay: they are
     checked against the points and layout when used)."""
     alive = {stack_index(e) for e in entries}
-    cache.forget(object_key, "lattice", keep=lambda k: k[2] != "setup" or k[1] in alive)
+    cache.forget(object_key, "lattice", keep=lambda k: k[2] not in ("setup", "bounds") or k[1] in alive)
 
 
 def binding_counts(object_key, index):
@@ -266,6 +276,99 @@ def binding_counts(object_key, index):
         if cached is not None:
             return cached[3]
     return None
+
+
+def occupied_cells(binding, resolution):
+    """Points standing for the cells that hold the bound points, as the lattice's certificate
+    takes them: the centre (in the rest cube [-1/2, 1/2]^3) of each grid interval (points - 1 per
+    axis) holding points inside the lattice, and the mask of the points outside it (whose cells,
+    clamped or extrapolated, are passed as they are). Every basis's polynomial cells are unions of
+    these intervals (Blender's cells, the B-spline's spans, Bezier blocks, the one Bernstein cell),
+    so a centre is inside exactly the cell that holds its points, away from its boundaries: the
+    certificate then costs the cells, not the vertices."""
+    status = np.asarray(binding.status)
+    inside = status == 0
+    bins = np.maximum(np.asarray(resolution) - 1, 1)
+    index = np.clip(np.floor(np.asarray(binding.parameters)[inside] * bins).astype(np.int64), 0, bins - 1)
+    seen = np.zeros(int(np.prod(bins)), bool)
+    seen[np.ravel_multi_index(index.T, bins)] = True
+    occupied = np.stack(np.unravel_index(np.flatnonzero(seen), bins), axis=1)
+    return (occupied + 0.5) / bins - 0.5, status == 1
+
+
+def cell_box(basis, resolution, cell):
+    """(lo, hi) of one polynomial cell of the basis in the rest cube [-1/2, 1/2]^3."""
+    lo, hi = np.empty(3), np.empty(3)
+    for axis, (n, c) in enumerate(zip(resolution, cell)):
+        if basis == "BERNSTEIN" or n < 2:
+            a, b, spans = 0, 1, 1
+        elif basis == "BEZIER":
+            a, b, spans = c, c + 1, (n - 1) // 3
+        elif basis == "BSPLINE":  # n - 3 spans over the inner n - 3 of the n - 1 intervals
+            a, b, spans = c + 1, c + 2, n - 1
+        else:
+            a, b, spans = c, c + 1, n - 1
+        lo[axis], hi[axis] = a / spans - 0.5, b / spans - 0.5
+    return lo, hi
+
+
+def cell_points(basis, resolution, frame, cells):
+    """The lattice-space points of (cell, parameters in [0, 1]^3, ...) triples."""
+    if not cells:
+        return None
+    at = []
+    for cell, parameters, *_rest in cells:
+        lo, hi = cell_box(basis, resolution, cell)
+        at.append(lo + (hi - lo) * np.asarray(parameters, np.float64))
+    return np.array(at) @ frame[:3, :3].T + frame[:3, 3]
+
+
+def cell_control_points(deformer, basis, resolution, frame, cells):
+    """Blender's indices (u fastest) of the lattice points that shape the given cells: those whose
+    weight is non-zero somewhere inside a cell, read from the lattice's own weights at a 3 x 3 x 3
+    grid of inner points of each (a cubic weight may vanish at one point, not at all 27)."""
+    inner = np.stack(np.meshgrid(*[(0.25, 0.5, 0.75)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    samples = []
+    for cell in cells:
+        lo, hi = cell_box(basis, resolution, cell)
+        samples.append(lo + (hi - lo) * inner)
+    rest = np.concatenate(samples) @ frame[:3, :3].T + frame[:3, 3]
+    _indptr, columns, values = deformer.bind(rest).weights()
+    used = np.unique(np.asarray(columns)[np.asarray(values) != 0])
+    nu, nv, nw = resolution
+    i, j, k = used // (nv * nw), used // nw % nv, used % nw  # dk's columns: (i * nv + j) * nw + k
+    return np.sort(i + nu * (j + nv * k))
+
+
+def kept_bounds(object_key, index):
+    """The last Bounds computed for the entry, if they are of its current binding's layout."""
+    bounds = cache.get("lattice", (object_key, index, "bounds"))
+    bound = cache.get("lattice", (object_key, index, "viewport"))
+    if bounds is None or bound is None or bound[0] != bounds.layout:
+        return None
+    return bounds
+
+
+def bounds_current(object_key, index, bounds):
+    """Whether `bounds` were computed for the entry's binding and lattice as evaluation keeps them."""
+    bound = cache.get("lattice", (object_key, index, "viewport"))
+    kept = cache.get("lattice", (object_key, index, "setup"))
+    return (bounds is not None and bound is not None and kept is not None and bound[2] is bounds.binding
+            and kept[3] is bounds.offsets)
+
+
+def fold_message(bounds):
+    """The panel's warning for these bounds, or "" when the cells that hold the mesh are certified."""
+    if bounds is None or bounds.folds is False:
+        return ""
+    cells = f"{len(bounds.cells)} cell{'s' if len(bounds.cells) != 1 else ''}"
+    if bounds.folds:
+        return f"The lattice folds: volume ratio down to {bounds.lower:.2f} in {cells} holding the mesh"
+    return f"The lattice may fold: volume ratio not proven positive in {cells} (bound {bounds.lower:.2g})"
+
+
+def volume_text(bounds):
+    return f"Volume: {100 * bounds.volume_change:+.1f}%"
 
 
 def followed(entry):
@@ -320,8 +423,17 @@ def draw(col, obj, entry):
     row.operator("deformkit.lattice_bind", text="Rebind" if bound else "Bind", icon="FILE_REFRESH").index = index
     row.operator("deformkit.lattice_reset", text="Reset", icon="LOOP_BACK").index = index
     # Short labels: "Selection to Empties" is cut on a half row at the default width.
+    bounds = kept_bounds(meshdata.cache_key(obj), index)
+    if bounds is not None:
+        col.label(text=volume_text(bounds))
+        message = fold_message(bounds)
+        if message:
+            label_wrapped(col, message, "ERROR", box_budget())
+            col.operator("deformkit.lattice_select_folded", text="Select Folded Cells",
+                         icon="RESTRICT_SELECT_OFF").index = index
     col.label(text="Move Selection To")
     row = col.row(align=True)
     for targets, label, icon in (("CURSOR", "Cursor", "PIVOT_CURSOR"), ("EMPTIES", "Empties", "EMPTY_AXIS")):
         op = row.operator("deformkit.lattice_direct", text=label, icon=icon)
         op.index, op.targets = index, targets
+    col.prop(entry, "preserve_volume")
