@@ -21,6 +21,9 @@ struct PyDirect {
   py::array control_points, displacement, residual;
   double max_residual = 0.0;
   int rank = 0;
+  // None unless preserve_volume was given.
+  py::object volume = py::none(), volume_target = py::none(), volume_residual = py::none();
+  int iterations = 0;
 };
 
 std::array<int, 3> parse_counts(const py::object& obj, const char* name) {
@@ -179,21 +182,49 @@ py::tuple py_weights(const PyBinding& pb) {
   return csr_tuple(std::move(w.indptr), std::move(w.indices), std::move(w.values));
 }
 
-PyDirect py_direct(const ControlLattice& lat, const py::object& points, const py::object& targets) {
+// preserve_volume=(mesh_points, mesh_faces) read as every mesh argument is, its errors named
+// "preserve_volume: mesh_points: ..." / "preserve_volume: mesh_faces: ...".
+PolygonMesh parse_volume_mesh(const py::object& pair) {
+  if (!(py::isinstance<py::tuple>(pair) || py::isinstance<py::list>(pair)) || py::len(pair) != 2)
+    throw py::type_error("preserve_volume: expected a pair (mesh_points, mesh_faces) of a closed mesh, got " +
+                         std::string(py::str(py::type::of(pair).attr("__name__"))) +
+                         (sequence_length(pair) >= 0 ? " of length " + std::to_string(sequence_length(pair)) : ""));
+  const auto seq = py::reinterpret_borrow<py::sequence>(pair);
+  try {
+    return with_mesh_prefix("mesh", [&] { return parse_polygon_mesh(seq[0], seq[1]); });
+  } catch (const py::type_error& e) {
+    throw py::type_error(std::string("preserve_volume: ") + e.what());
+  } catch (const py::value_error& e) {
+    throw py::value_error(std::string("preserve_volume: ") + e.what());
+  }
+}
+
+PyDirect py_direct(const ControlLattice& lat, const py::object& points, const py::object& targets,
+                   const py::object& preserve_volume) {
   const auto p = as_double(points_array(points, "points"));
   const auto t = as_double(points_array(targets, "targets"), "targets");
   if (t.shape(0) != p.shape(0))
     throw py::value_error("targets: has " + std::to_string(t.shape(0)) + " rows but points has " +
                           std::to_string(p.shape(0)));
+  std::optional<PolygonMesh> mesh;
+  if (!preserve_volume.is_none()) mesh = parse_volume_mesh(preserve_volume);
   DirectManipulationResult r;
-  without_gil("the dense least-squares system of the direct manipulation",
-              [&] { r = direct_manipulation(lat, p.data(), t.data(), std::size_t(p.shape(0))); });
+  without_gil("the dense least-squares system of the direct manipulation", [&] {
+    r = mesh ? direct_manipulation(lat, p.data(), t.data(), std::size_t(p.shape(0)), *mesh)
+             : direct_manipulation(lat, p.data(), t.data(), std::size_t(p.shape(0)));
+  });
   PyDirect d;
   d.control_points = grid_array(r.control_points, lat.resolution());
   d.displacement = grid_array(r.displacement, lat.resolution());
   d.residual = copied_array(r.residual.data(), {py::ssize_t(r.residual.size())});
   for (double x : r.residual) d.max_residual = std::max(d.max_residual, x);  // finite: the core checks
   d.rank = r.rank;
+  if (r.preserves_volume) {
+    d.volume = py::float_(r.volume);
+    d.volume_target = py::float_(r.volume_target);
+    d.volume_residual = py::float_(r.volume_residual);
+    d.iterations = r.iterations;
+  }
   return d;
 }
 
@@ -234,7 +265,14 @@ unchanged are empty.)");
       .def_readonly("displacement", &PyDirect::displacement, "New minus old control points.")
       .def_readonly("residual", &PyDirect::residual, "Distance from each deformed point to its target.")
       .def_readonly("max_residual", &PyDirect::max_residual)
-      .def_readonly("rank", &PyDirect::rank, "Rank of the constraint matrix.");
+      .def_readonly("rank", &PyDirect::rank, "Rank of the constraint matrix.")
+      .def_readonly("volume", &PyDirect::volume,
+                    "With preserve_volume: the mesh's signed volume under the new control points (else None).")
+      .def_readonly("volume_target", &PyDirect::volume_target,
+                    "With preserve_volume: its volume under the lattice's current control points (else None).")
+      .def_readonly("volume_residual", &PyDirect::volume_residual,
+                    "With preserve_volume: |volume - volume_target| / |volume_target|, at most 1e-12 (else None).")
+      .def_readonly("iterations", &PyDirect::iterations, "With preserve_volume: the SQP iterations taken (else 0).");
 
   Class<ControlLattice, Deformer, std::shared_ptr<ControlLattice>>(m, "Lattice", "Interface of the lattice deformers.")
       .def_property("control_points",
@@ -265,14 +303,22 @@ unchanged are empty.)");
       .def("lattice_coordinates", [](const std::shared_ptr<ControlLattice>& l, const py::object& points) {
         return parameters_array(*py_bind(l, points).binding);
       }, "points"_a, "Normalised lattice coordinates (s, t, u) of each point (the lecture's cross-product formulas).")
-      .def("direct_manipulation", &py_direct, "points"_a, "targets"_a,
+      .def("direct_manipulation", &py_direct, "points"_a, "targets"_a, py::kw_only(),
+           "preserve_volume"_a = py::none(),
            R"(Smallest control-point change that moves `points` to `targets` (Hsu, Hughes, Kaufman 1992).
 
 Minimum-norm least squares over the control points (merged ones move together): exact when the
 constraints allow it, otherwise the least-squares compromise, whose distances are `residual`.
 With per-point weights (one per row of `points`) a point of weight w moves w times as far, as
 deform() moves it, and the solve plans for that; a point of weight 0 cannot move. Returns a
-DirectManipulation; the lattice is not modified (assign result.control_points).)");
+DirectManipulation; the lattice is not modified (assign result.control_points).
+
+preserve_volume=(mesh_points, mesh_faces), a closed, consistently oriented mesh (faces: an
+(m, k) array or a list of polygons), also keeps the mesh's signed volume under the lattice
+(without per-point weights) at its volume under the current control points, to 1e-12 relative:
+the smallest change that meets the targets as closely as without it, found by SQP (Hirota et
+al. 1999); result.volume, volume_target, volume_residual and iterations report it. A clear error
+when the handles pin every control point that could change the volume.)");
 
   Class<FFD, ControlLattice, std::shared_ptr<FFD>>(m, "FFD", (std::string(R"(Sederberg-Parry free-form deformation.
 

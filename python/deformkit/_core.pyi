@@ -116,6 +116,10 @@ class DirectManipulation:
     residual: npt.NDArray[np.float64]
     max_residual: float
     rank: int
+    volume: float | None
+    volume_target: float | None
+    volume_residual: float | None
+    iterations: int
 
 class Lattice(Deformer):
     """Interface of the lattice deformers: F(x) = x + strength * sum w(x) (P - R)."""
@@ -138,7 +142,8 @@ class Lattice(Deformer):
     def displacement_bound(self, binding: LatticeBinding, *, out: npt.NDArray[np.floating] | None = None
                            ) -> npt.NDArray[np.floating]: ...
     def lattice_coordinates(self, points: npt.ArrayLike) -> npt.NDArray[np.float64]: ...
-    def direct_manipulation(self, points: npt.ArrayLike, targets: npt.ArrayLike) -> DirectManipulation: ...
+    def direct_manipulation(self, points: npt.ArrayLike, targets: npt.ArrayLike, *,
+                            preserve_volume: tuple[npt.ArrayLike, _Faces] | None = None) -> DirectManipulation: ...
 
 class FFD(Lattice):
     """Sederberg-Parry FFD: one trivariate Bernstein polynomial of degree (l, m, n)."""

@@ -1,5 +1,7 @@
 #include "deformkit/lattice/direct_manipulation.hpp"
 
+#include "lattice/handle_solve.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -8,8 +10,7 @@
 
 namespace deformkit {
 
-DirectManipulationResult direct_manipulation(const ControlLattice& lattice, const double* points,
-                                             const double* targets, std::size_t m) {
+HandleSolve solve_handles(const ControlLattice& lattice, const double* points, const double* targets, std::size_t m) {
   if (m == 0) throw std::invalid_argument("points: no points to move");
   require_finite_rows(points, m, "points");
   require_finite_rows(targets, m, "targets");
@@ -50,7 +51,9 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
 
   // B (m x h) over handles: merged control points add up in their handle.
   const auto& handle_of = lattice.handle_of();
-  Eigen::MatrixXd dq(Eigen::Index(m), 3);
+  HandleSolve solve;
+  Eigen::MatrixXd& dq = solve.dq;
+  dq.resize(Eigen::Index(m), 3);
   for (std::size_t r = 0; r < m; ++r)
     for (int a = 0; a < 3; ++a) dq(Eigen::Index(r), a) = (targets[3 * r + a] - current[3 * r + a]) / lattice.strength();
 
@@ -64,20 +67,26 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
 
   // Minimum-norm least squares: B^+ dQ (B^T (B B^T)^-1 dQ at full row rank)
   // (docs/math/lattice.md, "Direct manipulation").
-  Eigen::MatrixXd b = Eigen::MatrixXd::Zero(Eigen::Index(m), handles);
+  Eigen::MatrixXd& b = solve.b;
+  b = Eigen::MatrixXd::Zero(Eigen::Index(m), handles);
   for (std::size_t r = 0; r < m; ++r)
     for (std::int64_t e = w.indptr[r]; e < w.indptr[r + 1]; ++e)
       b(Eigen::Index(r), handle_of[w.indices[e]]) += weight_of(r) * w.values[e];
-  const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(b);
-  const Eigen::MatrixXd dp = cod.solve(dq);
-  const int rank = static_cast<int>(cod.rank());
-  if (!dp.allFinite())
+  solve.cod.compute(b);
+  solve.dp = solve.cod.solve(dq);
+  if (!solve.dp.allFinite())
     throw std::invalid_argument("targets: the control-point change needed overflows (targets too far from where "
                                 "the current control_points put the points, or strength too small)");
-  const Eigen::MatrixXd reached = b * dp;
+  return solve;
+}
 
+DirectManipulationResult handle_result(const ControlLattice& lattice, const HandleSolve& solve,
+                                       const Eigen::MatrixXd& dp) {
+  const Eigen::MatrixXd reached = solve.b * dp;
+  const Eigen::MatrixXd& dq = solve.dq;
+  const std::size_t m = std::size_t(dq.rows());
   DirectManipulationResult result;
-  result.rank = rank;
+  result.rank = static_cast<int>(solve.cod.rank());
   result.residual.resize(m);
   // stableNorm: a miss of 1e200 per axis squares past the double range in norm().
   for (std::size_t r = 0; r < m; ++r) {
@@ -95,6 +104,12 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
       result.control_points[3 * g + a] += dp(lattice.handle_of()[g], a);
     }
   return result;
+}
+
+DirectManipulationResult direct_manipulation(const ControlLattice& lattice, const double* points,
+                                             const double* targets, std::size_t m) {
+  const HandleSolve solve = solve_handles(lattice, points, targets, m);
+  return handle_result(lattice, solve, solve.dp);
 }
 
 }  // namespace deformkit
