@@ -1,6 +1,7 @@
 // Python bindings of the lattice family: argument conversion and checking only.
 #include "common.hpp"
 #include "declared.hpp"
+#include "deformkit/lattice/jacobian_bounds.hpp"
 
 #include <cmath>
 #include <memory>
@@ -241,6 +242,157 @@ points where they are (a jump where boundary control points moved); 'extrapolate
 the polynomials, and refuses points whose weights' magnitudes sum past 1e6, too far out for the
 sum to be accurate (docs/lattice.md, "Far outside").)";
 
+
+// ---- Certified volume-ratio bounds, fold certificate, exact volume (issue 34) ----
+
+struct PyVolumeBounds {
+  VolumeRatioBounds b;
+};
+
+struct PyFoldCertificate {
+  FoldCertificate c;
+};
+
+py::tuple triple(const std::array<int, 3>& v) { return py::make_tuple(v[0], v[1], v[2]); }
+py::tuple triple(const std::array<double, 3>& v) { return py::make_tuple(v[0], v[1], v[2]); }
+
+// The cells the bounds cover: the whole region, or those holding `points` (not empty).
+std::vector<CellSpec> bounded_cells(const BoxLattice& lat, const py::object& points, bool& identity) {
+  identity = false;
+  if (points.is_none()) return region_cells(lat);
+  const auto p = as_double(points_array(points, "points"));
+  if (p.shape(0) == 0)
+    throw py::value_error("points: has no rows; give at least one point, or None for the lattice's whole region");
+  return cells_holding(lat, p.data(), std::size_t(p.shape(0)), identity);
+}
+
+std::array<int, 3> parse_cell(const BoxLattice& lat, const py::object& cell) {
+  const auto c = parse_counts(cell, "cell");
+  (void)lat;
+  return c;
+}
+
+template <class L, class C>
+void add_bounds_methods(C&& cls) {
+  cls.def("volume_ratio_bounds", [](const L& lat, double tolerance, const py::object& points) {
+        bool identity = false;
+        const auto cells = bounded_cells(lat, points, identity);
+        PyVolumeBounds r;
+        without_gil("the Bernstein coefficients of det J", [&] {
+          r.b = volume_ratio_bounds(lat, cells, identity, tolerance);
+        });
+        return r;
+      }, py::kw_only(), "tolerance"_a = 1e-3, "points"_a = py::none(),
+      R"(Guaranteed bounds (lower, upper) of volume_ratio (det J, 1 at rest) over the lattice's region.
+
+From the Bernstein coefficients of det J cell by cell, refined by de Casteljau subdivision until
+lower is within tolerance * scale of the least value found (scale = max(1, max |det J| at the
+cells' corners)), likewise upper, or until the work cap (converged False). With `points`, only
+the cells holding them (docs/lattice.md, "Certified volume-ratio bounds"). Per-point weights
+are not applied. Returns a VolumeRatioBounds, which unpacks as (lower, upper).)")
+      .def("fold_free", [](const L& lat, const py::object& points) {
+        bool identity = false;
+        const auto cells = bounded_cells(lat, points, identity);
+        PyFoldCertificate r;
+        without_gil("the Bernstein coefficients of det J", [&] { r.c = fold_certificate(lat, cells, identity); });
+        return r;
+      }, "points"_a = py::none(),
+      R"(A FoldCertificate: truthy only when det J > 0 is proven over the region (or the cells holding
+`points`); otherwise its `cells` say where det J <= 0 was found or could not be ruled out.)")
+      .def("deformed_volume", [](const L& lat) {
+        double v = 0.0;
+        without_gil("the Bernstein coefficients of det J", [&] { v = deformed_volume(lat); });
+        return v;
+      }, "The exact volume of the deformed lattice region: the integral of det J (signed where it folds).")
+      .def("volume_ratio_coefficients", [](const L& lat, const py::object& cell) {
+        const auto c = parse_cell(lat, cell);
+        const auto& axes = lat.axes();
+        for (int a = 0; a < 3; ++a)
+          if (c[a] < 0 || c[a] >= axes[a].pieces())
+            throw py::value_error("cell: index " + std::to_string(c[a]) + " along axis " + std::to_string(a) +
+                                  " is outside 0.." + std::to_string(axes[a].pieces() - 1));
+        CellSpec spec;
+        for (const CellSpec& s : region_cells(lat))
+          if (s.piece == c) spec = s;
+        const TriPoly p = cell_volume_ratio(lat, spec).coefficients;
+        return copied_array(p.c.data(), {py::ssize_t(p.degree[0] + 1), py::ssize_t(p.degree[1] + 1),
+                                         py::ssize_t(p.degree[2] + 1)});
+      }, "cell"_a,
+      R"(The Bernstein coefficients of det J over a cell of the region, shape (l+1, m+1, n+1) for degree
+(l, m, n) in the cell's local coordinates (each in [0, 1]).)")
+      .def("cell_control_indices", [](const L& lat, const py::object& cell) {
+        const auto idx = cell_control_indices(lat, parse_cell(lat, cell));
+        std::vector<int> flat;
+        for (const auto& i : idx) flat.insert(flat.end(), i.begin(), i.end());
+        return copied_array(flat.data(), {py::ssize_t(idx.size()), py::ssize_t(3)});
+      }, "cell"_a, "The grid indices (i, j, k) of the control points that move the map on a cell, (m, 3).")
+      .def_property_readonly("cell_grid", [](const L& lat) {
+        const auto& a = lat.axes();
+        return py::make_tuple(a[0].pieces(), a[1].pieces(), a[2].pieces());
+      }, "Cells of the region per axis (blocks, spans or Blender's cells); cell (i, j, k) covers "
+         "local coordinates [0, 1]^3.");
+}
+
+void bind_lattice_bounds(py::module_& m) {
+  Class<PyVolumeBounds>(m, "VolumeRatioBounds", R"(Bounds of det J: unpacks as (lower, upper).
+
+`converged` is False when the work cap stopped the refinement; `minimum` is the least value of
+det J found, at `where` ((cell), (local coordinates)); `cells` how many cells were bounded.)")
+      .def_property_readonly("lower", [](const PyVolumeBounds& r) { return r.b.lower; })
+      .def_property_readonly("upper", [](const PyVolumeBounds& r) { return r.b.upper; })
+      .def_property_readonly("converged", [](const PyVolumeBounds& r) { return r.b.converged; })
+      .def_property_readonly("minimum", [](const PyVolumeBounds& r) { return r.b.minimum; })
+      .def_property_readonly("where", [](const PyVolumeBounds& r) -> py::object {
+        if (r.b.cells == 0) return py::none();
+        return py::make_tuple(triple(r.b.where.cell), triple(r.b.where.local));
+      })
+      .def_property_readonly("scale", [](const PyVolumeBounds& r) { return r.b.scale; })
+      .def_property_readonly("cells", [](const PyVolumeBounds& r) { return r.b.cells; })
+      .def_property_readonly("subdivisions", [](const PyVolumeBounds& r) { return r.b.subdivisions; })
+      .def("__len__", [](const PyVolumeBounds&) { return 2; })
+      .def("__getitem__", [](const PyVolumeBounds& r, std::int64_t i) {
+        if (i < -2 || i > 1) throw py::index_error("VolumeRatioBounds index out of range (it is (lower, upper))");
+        return (i == 0 || i == -2) ? r.b.lower : r.b.upper;
+      }, "index"_a)
+      .def("__iter__", [](const PyVolumeBounds& r) { return py::iter(py::make_tuple(r.b.lower, r.b.upper)); })
+      .def("__repr__", [](const PyVolumeBounds& r) {
+        return "VolumeRatioBounds(lower=" + std::string(py::repr(py::float_(r.b.lower))) +
+               ", upper=" + std::string(py::repr(py::float_(r.b.upper))) +
+               ", converged=" + (r.b.converged ? "True" : "False") + ", cells=" + std::to_string(r.b.cells) + ")";
+      });
+
+  Class<PyFoldCertificate>(m, "FoldCertificate", R"(Whether a lattice is proven not to fold (det J > 0).
+
+Truthy only when `certified`. `lower` is the least lower bound of det J the decision reached;
+`cells` lists (cell, local coordinates, lower bound) for each cell where det J <= 0 was found
+(`folded` True at that index: the coordinates are where) or could not be ruled out within the
+work cap (the coordinates are where the bound is least).)")
+      .def_property_readonly("certified", [](const PyFoldCertificate& r) { return r.c.certified; })
+      .def_property_readonly("lower", [](const PyFoldCertificate& r) { return r.c.lower; })
+      .def_property_readonly("cells", [](const PyFoldCertificate& r) {
+        py::list out;
+        for (const FoldCell& f : r.c.cells) out.append(py::make_tuple(triple(f.where.cell), triple(f.where.local), f.lower));
+        return out;
+      })
+      .def_property_readonly("folded", [](const PyFoldCertificate& r) {
+        py::list out;
+        for (const FoldCell& f : r.c.cells) out.append(f.folded);
+        return out;
+      })
+      .def_property_readonly("cells_checked", [](const PyFoldCertificate& r) { return r.c.cells_checked; })
+      .def("__bool__", [](const PyFoldCertificate& r) { return r.c.certified; })
+      .def("__repr__", [](const PyFoldCertificate& r) {
+        return "FoldCertificate(certified=" + std::string(r.c.certified ? "True" : "False") +
+               ", lower=" + std::string(py::repr(py::float_(r.c.lower))) + ", cells=" + std::to_string(r.c.cells.size()) + ")";
+      });
+  add_bounds_methods<FFD>(Class<FFD, ControlLattice, std::shared_ptr<FFD>>(m.attr("FFD")));
+  add_bounds_methods<BezierFFD>(Class<BezierFFD, ControlLattice, std::shared_ptr<BezierFFD>>(m.attr("BezierFFD")));
+  add_bounds_methods<BSplineLattice>(
+      Class<BSplineLattice, ControlLattice, std::shared_ptr<BSplineLattice>>(m.attr("BSplineLattice")));
+  add_bounds_methods<BlenderLattice>(
+      Class<BlenderLattice, ControlLattice, std::shared_ptr<BlenderLattice>>(m.attr("BlenderLattice")));
+}
+
 }  // namespace
 
 void bind_lattice(py::module_& m) {
@@ -446,6 +598,7 @@ u along the axis over `height`, centred at `center`. The seam and the axis are m
 (where the control points of each s merge into the edge through C), u along the height.)")
       .def_property_readonly("tolerance", [](const ExtendedFFD& l) { return l.newton().tolerance; })
       .def_property_readonly("max_iterations", [](const ExtendedFFD& l) { return l.newton().max_iterations; });
+  bind_lattice_bounds(m);
 }
 
 }  // namespace deformkit_py

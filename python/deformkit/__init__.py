@@ -39,6 +39,7 @@ from ._core import (
     DirectManipulation,
     ExtendedFFD,
     FFD,
+    FoldCertificate,
     GreenCage,
     Lattice,
     LimitSurface,
@@ -59,6 +60,7 @@ from ._core import (
     SurfaceDeformer,
     Taper,
     Twist,
+    VolumeRatioBounds,
     build_info,
     cotangent_laplacian,
     extrapolated_start,
@@ -78,4 +80,5 @@ __all__ = [
     "generate_cage",
     "RBF", "RBFBinding",
     "DeformationTransfer",
+    "FoldCertificate", "VolumeRatioBounds",
 ]

@@ -98,6 +98,13 @@ ENTRY_POINTS = {
     "lattice_coordinates": (lambda *a, **k: ffd().lattice_coordinates(*a, **k), "lattice_coordinates", (PTS,), {}),
     "direct_manipulation": (lambda *a, **k: ffd().direct_manipulation(*a, **k), "direct_manipulation",
                             (PTS[:3], PTS[:3] + 0.1), {}),
+    "volume_ratio_bounds": (lambda *a, **k: ffd().volume_ratio_bounds(*a, **k), "volume_ratio_bounds", (),
+                            {"points": PTS}),
+    "fold_free": (lambda *a, **k: ffd().fold_free(*a, **k), "fold_free", (PTS,), {}),
+    "volume_ratio_coefficients": (lambda *a, **k: ffd().volume_ratio_coefficients(*a, **k),
+                                  "volume_ratio_coefficients", ((0, 0, 0),), {}),
+    "cell_control_indices": (lambda *a, **k: ffd().cell_control_indices(*a, **k), "cell_control_indices",
+                             ((0, 0, 0),), {}),
     "SurfaceDeformer.deform": (lambda *a, **k: surface().deform(*a, **k), "deform", (GRID[[8]] + 0.2,), {}),
     "Subdivider.subdivide": (lambda *a, **k: subdivider().subdivide(*a, **k), "subdivide", (), {}),
     "Subdivider.mesh": (lambda *a, **k: subdivider().mesh(*a, **k), "mesh", (), {}),
@@ -110,6 +117,8 @@ DOC_OWNER = {  # where each entry point's signature is documented
     "transform_normals": dk.Deformer.transform_normals, "volume_ratio": dk.Deformer.volume_ratio,
     "SimpleDeform.bind": dk.SimpleDeform.bind, "bind": dk.Lattice.bind, "deform_bound": dk.Lattice.deform_bound,
     "lattice_coordinates": dk.Lattice.lattice_coordinates, "direct_manipulation": dk.Lattice.direct_manipulation,
+    "volume_ratio_bounds": dk.FFD.volume_ratio_bounds, "fold_free": dk.FFD.fold_free,
+    "volume_ratio_coefficients": dk.FFD.volume_ratio_coefficients, "cell_control_indices": dk.FFD.cell_control_indices,
     "MeanValueCage.bind": dk.CageDeformer.bind, "MeanValueCage.deform_bound": dk.CageDeformer.deform_bound,
     "RBF.bind": dk.RBF.bind, "RBF.deform_bound": dk.RBF.deform_bound,
     "MeshDeform.bind": dk.MeshDeform.bind, "MeshDeform.deform_bound": dk.MeshDeform.deform_bound,
@@ -154,7 +163,7 @@ def test_every_entry_point_is_walked():
     exported = {n for n in dk.__all__ if callable(getattr(dk, n))}
     walked = {e.split(".")[0] for e in ENTRY_POINTS} | {"Deformer", "Lattice", "CageDeformer"}
     results = {"LatticeBinding", "BarrDeformer", "DirectManipulation", "SubdividedMesh", "SmoothnessReport", "build_info",
-               "CageBinding", "RBFBinding", "MeshDeformBinding"}
+               "CageBinding", "RBFBinding", "MeshDeformBinding", "VolumeRatioBounds", "FoldCertificate"}
     assert exported - walked - results == set()
 
 

@@ -52,7 +52,7 @@ SAMPLES = {
 }
 # Classes whose instances only report (results): nothing of theirs takes an array.
 RESULTS = {"LatticeBinding", "CageBinding", "RBFBinding", "MeshDeformBinding", "DirectManipulation", "SubdividedMesh", "SmoothnessReport",
-           "Deformer", "Lattice", "CageDeformer"}
+           "Deformer", "Lattice", "CageDeformer", "VolumeRatioBounds", "FoldCertificate"}
 
 # Valid positional arguments of each public method, by name, given its instance: the walk replaces
 # each float array among them (and each keyword array) by every refused dtype.
@@ -70,9 +70,11 @@ METHOD_CALLS = {
     "evaluate": lambda d: (([0], np.array([[0.5, 0.5]])), {"points": CUBE}),
     "smoothness_report": lambda d: ((), {"points": CUBE, "reference": CUBE}),
     "transfer": lambda d: ((GRID,), {"fixed_positions": GRID[:1]}),
+    "volume_ratio_bounds": lambda d: ((), {"points": PTS}), "fold_free": lambda d: ((PTS,), {}),
 }
 # Methods that take no array: binding results, generators (walked as functions below), reports.
-NO_ARRAYS = {"weights", "cylinder", "prism", "vertex_parameters"}
+NO_ARRAYS = {"weights", "cylinder", "prism", "vertex_parameters", "deformed_volume", "volume_ratio_coefficients",
+             "cell_control_indices"}
 
 # Constructors and functions: valid calls with every real-valued array argument given.
 FUNCTIONS = {
@@ -177,7 +179,7 @@ def test_every_object_parameter_is_walked_or_not_an_array():
                 "interpolation", "axis", "deform_axis", "source_faces", "target_faces", "markers", "correspondence",
                 "fixed_vertices", "lock_x", "lock_y", "lock_z", "invert_weights", "stretch", "binding", "out",
                 "ptex", "deformer", "sharpen_two_edge_vertices", "limit_surface", "mode", "angle", "factor",
-                "quads", "dynamic", "blender_version"}
+                "quads", "dynamic", "blender_version", "cell"}
     walked = {c[6] for c in CALLS} | {"cage_points", "targets", "handle_targets", "initial", "source_pose",
                                       "fixed_positions", "points", "normals", "reference", "uv", "profile"}
     for cls_name in (n for n in dir(dk) if not n.startswith("_")):

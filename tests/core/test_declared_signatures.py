@@ -38,6 +38,9 @@ SAMPLES = {
     "MeshDeformBinding": lambda: dk.MeshDeform(CUBE * 2 - 0.5, CUBE_FACES, precision=3).bind(PTS),
     "RBF": lambda: dk.RBF(CUBE, CUBE + 0.1), "RBFBinding": lambda: dk.RBF(CUBE, CUBE + 0.1).bind(PTS),
     "DeformationTransfer": lambda: dk.DeformationTransfer(GRID, QUADS, GRID * 1.5),
+    "FFD": lambda: dk.FFD(2), "BezierFFD": lambda: dk.BezierFFD(1), "BSplineLattice": lambda: dk.BSplineLattice(4),
+    "BlenderLattice": lambda: dk.BlenderLattice(2), "VolumeRatioBounds": lambda: dk.FFD(2).volume_ratio_bounds(),
+    "FoldCertificate": lambda: dk.FFD(2).fold_free(),
 }
 # A value each kind of parameter takes (for the arguments a call needs besides the one under test;
 # pybind11 refuses the call while converting, so the body never sees them), and values it refuses.
