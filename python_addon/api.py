@@ -363,6 +363,11 @@ def lattice_bounds(obj, index):
     return lattice_tools.lattice_bounds(obj, index)
 
 
+def folded_control_points(obj, index):
+    """The lattice points of the cells where entry `index`'s lattice folds: ValueError when none (lattice_tools)."""
+    return lattice_tools.folded_control_points(obj, index)
+
+
 def select_folded(obj, index):
     """Select the lattice points of the cells where entry `index`'s lattice folds (lattice_tools)."""
     return lattice_tools.select_folded(obj, index)

@@ -198,7 +198,7 @@ def lattice_bounds(obj, index):
     layout, points, binding, _counts = bound
     if lattice.layout != layout:
         return None
-    basis, resolution = layout[0], layout[1]
+    resolution = layout[1]
     frame = np.frombuffer(layout[4]).reshape(4, 4)
     centres = bounds.centres if bounds is not None and bounds.binding is binding else None
     if centres is None:
@@ -206,33 +206,33 @@ def lattice_bounds(obj, index):
         centres = np.concatenate([inner @ frame[:3, :3].T + frame[:3, 3], np.asarray(points, np.float64)[outside]])
     deformer = lattice.deformer
     certificate = deformer.fold_free(centres) if len(centres) else None
-    if certificate is None or certificate:
-        folds, lower, offending = False, (float(certificate.lower) if certificate is not None else 1.0), []
-    else:
-        offending = [(tuple(int(c) for c in cell), tuple(float(t) for t in at), float(low))
-                     for cell, at, low in certificate.cells]
-        # A fold is found where det J <= 0 at a cell's reported parameters; else it is not certified.
-        found = deformer.volume_ratio(kind.cell_points(basis, resolution, frame, offending)) <= 0
-        folds = True if found.any() else None
-        lower = float(certificate.lower)
-    rest = abs(float(np.linalg.det(frame[:3, :3])))
-    change = float(deformer.deformed_volume()) / rest - 1.0
-    bounds = kind.Bounds(layout, binding, kept[3], centres, folds, lower, offending, change)
+    folds, lower, offending = False, 1.0, []
+    if certificate is not None and not certificate:
+        offending = [(tuple(cell), tuple(at), float(low)) for cell, at, low in certificate.cells]
+        folds = True if any(certificate.folded) else None
+        # The certificate stops at the first value <= 0 in a cell: how far it folds is the bounds'.
+        lower = float(deformer.volume_ratio_bounds(points=centres).lower)
+    volume = float(deformer.deformed_volume())
+    # The region's rest volume: the box's, or the B-spline's inner part of it.
+    rest = bounds.rest_volume if bounds is not None and bounds.layout == layout else None
+    if rest is None:
+        moved, deformer.control_points = deformer.control_points, deformer.rest_control_points
+        rest = float(deformer.deformed_volume())
+        deformer.control_points = moved
+    bounds = kind.Bounds(layout, binding, kept[3], centres, folds, lower, offending, volume / rest - 1.0, rest)
     return cache.put("lattice", (key, index, "bounds"), bounds)
 
 
 def folded_control_points(obj, index):
     """Blender's indices of the lattice points that shape the cells where entry `index`'s lattice
-    folds (or may fold) where the mesh is; empty when the lattice is certified there."""
+    folds (or may fold) where the mesh is; ValueError when it is certified there."""
     bounds = lattice_bounds(obj, index)
     if bounds is None:
         raise ValueError("the lattice entry is not bound yet, or shows a message: fix it first")
     if not bounds.cells:
-        return np.zeros(0, np.int64)
+        raise ValueError("the lattice does not fold where the mesh is: nothing to select")
     lattice = kind.lattice_setup(obj, _lattice_entry(obj, index))
-    frame = np.frombuffer(bounds.layout[4]).reshape(4, 4)
-    return kind.cell_control_points(lattice.deformer, bounds.layout[0], bounds.layout[1], frame,
-                                    [cell for cell, _at, _low in bounds.cells])
+    return kind.cell_control_points(lattice.deformer, bounds.layout[1], [cell for cell, _at, _low in bounds.cells])
 
 
 def select_folded(obj, index):
@@ -240,8 +240,6 @@ def select_folded(obj, index):
     Lattice data's `select` flags: Edit Mode's selection); returns (lattice object, point indices).
     ValueError when it does not fold where the mesh is."""
     points = folded_control_points(obj, index)
-    if not len(points):
-        raise ValueError("the lattice does not fold where the mesh is: nothing to select")
     lattice = _lattice_entry(obj, index).lattice
     chosen = np.zeros(len(lattice.data.points), bool)
     chosen[points] = True

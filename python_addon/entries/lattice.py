@@ -53,12 +53,14 @@ Setup = namedtuple("Setup", "deformer fingerprint layout lattice local co")
 Bound = namedtuple("Bound", "inside outside not_placed")
 # The lattice's certificate over the cells that hold the mesh, and its volume change, as the panel
 # shows them (lattice_tools.lattice_bounds computes them, after an edit rather than during it).
-# layout, binding, offsets: what they were computed for; centres: one point in each grid interval
-# that holds the mesh, in the lattice's space (occupied_cells), kept while the binding is; folds: True (det J <= 0 found), None
-# (not certified either way), False (certified fold-free); lower: the certificate's lower bound of
-# the volume ratio; cells: the offending (cell, parameters, lower bound) triples; volume_change:
-# deformed volume / rest volume - 1 of the whole lattice region.
-Bounds = namedtuple("Bounds", "layout binding offsets centres folds lower cells volume_change")
+# layout, binding, offsets: what they were computed for; centres: the points standing for the
+# cells that hold the mesh (occupied_cells), in the lattice's space, kept while the binding is;
+# folds: True (det J <= 0 found), None (not proven positive within the work cap), False (proven
+# positive); lower: a lower bound of det J there, within 1e-3 of its minimum (1 when certified:
+# not computed); cells: the certificate's (cell, local coordinates, lower bound) of the offending
+# cells; volume_change: deformed volume / rest volume - 1 of the lattice's whole region (the box,
+# or the B-spline's inner part of it), rest_volume the latter.
+Bounds = namedtuple("Bounds", "layout binding offsets centres folds lower cells volume_change rest_volume")
 
 # Bindings are kept in the cache's "lattice" space: (object cache key, entry index, "viewport"/"render")
 # -> (layout, bound points, binding, counts). The rest grids are not: they belong to Lattice data
@@ -296,48 +298,12 @@ def occupied_cells(binding, resolution):
     return (occupied + 0.5) / bins - 0.5, status == 1
 
 
-def cell_box(basis, resolution, cell):
-    """(lo, hi) of one polynomial cell of the basis in the rest cube [-1/2, 1/2]^3."""
-    lo, hi = np.empty(3), np.empty(3)
-    for axis, (n, c) in enumerate(zip(resolution, cell)):
-        if basis == "BERNSTEIN" or n < 2:
-            a, b, spans = 0, 1, 1
-        elif basis == "BEZIER":
-            a, b, spans = c, c + 1, (n - 1) // 3
-        elif basis == "BSPLINE":  # n - 3 spans over the inner n - 3 of the n - 1 intervals
-            a, b, spans = c + 1, c + 2, n - 1
-        else:
-            a, b, spans = c, c + 1, n - 1
-        lo[axis], hi[axis] = a / spans - 0.5, b / spans - 0.5
-    return lo, hi
-
-
-def cell_points(basis, resolution, frame, cells):
-    """The lattice-space points of (cell, parameters in [0, 1]^3, ...) triples."""
-    if not cells:
-        return None
-    at = []
-    for cell, parameters, *_rest in cells:
-        lo, hi = cell_box(basis, resolution, cell)
-        at.append(lo + (hi - lo) * np.asarray(parameters, np.float64))
-    return np.array(at) @ frame[:3, :3].T + frame[:3, 3]
-
-
-def cell_control_points(deformer, basis, resolution, frame, cells):
-    """Blender's indices (u fastest) of the lattice points that shape the given cells: those whose
-    weight is non-zero somewhere inside a cell, read from the lattice's own weights at a 3 x 3 x 3
-    grid of inner points of each (a cubic weight may vanish at one point, not at all 27)."""
-    inner = np.stack(np.meshgrid(*[(0.25, 0.5, 0.75)] * 3, indexing="ij"), -1).reshape(-1, 3)
-    samples = []
-    for cell in cells:
-        lo, hi = cell_box(basis, resolution, cell)
-        samples.append(lo + (hi - lo) * inner)
-    rest = np.concatenate(samples) @ frame[:3, :3].T + frame[:3, 3]
-    _indptr, columns, values = deformer.bind(rest).weights()
-    used = np.unique(np.asarray(columns)[np.asarray(values) != 0])
-    nu, nv, nw = resolution
-    i, j, k = used // (nv * nw), used // nw % nv, used % nw  # dk's columns: (i * nv + j) * nw + k
-    return np.sort(i + nu * (j + nv * k))
+def cell_control_points(deformer, resolution, cells):
+    """Blender's indices (u fastest) of the lattice points that shape the given cells (the
+    module's cell_control_indices: the points whose weight is not zero there)."""
+    nu, nv, _nw = resolution
+    grid = np.concatenate([deformer.cell_control_indices(cell) for cell in cells]).astype(np.int64)
+    return np.unique(grid[:, 0] + nu * (grid[:, 1] + nv * grid[:, 2]))
 
 
 def kept_bounds(object_key, index):
@@ -363,8 +329,8 @@ def fold_message(bounds):
         return ""
     cells = f"{len(bounds.cells)} cell{'s' if len(bounds.cells) != 1 else ''}"
     if bounds.folds:
-        return f"The lattice folds: volume ratio down to {bounds.lower:.2f} in {cells} holding the mesh"
-    return f"The lattice may fold: volume ratio not proven positive in {cells} (bound {bounds.lower:.2g})"
+        return f"The lattice folds: volume ratio down to {bounds.lower:.2f} in {cells}"
+    return f"The lattice may fold: volume ratio not proven positive in {cells} (bound {bounds.lower:.2f})"
 
 
 def volume_text(bounds):

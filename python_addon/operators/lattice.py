@@ -110,7 +110,7 @@ class DEFORMKIT_OT_lattice_direct(_LatticeOperator, bpy.types.Operator):
             self.report({"WARNING"}, f"Targets not all reached: up to {result.max_residual:.3g} away (more "
                                      "constraints than the lattice's points allow, or vertices outside it)")
         else:
-            kept = f", volume kept within {result.volume_residual:.2g}" if preserve else ""
+            kept = f", volume kept to {result.volume_residual:.1g} relative" if preserve else ""
             self.report({"INFO"}, f"Moved {len(vertices)} vertices to their targets "
                                   f"(within {result.max_residual:.2g}{kept})")
 
@@ -125,12 +125,15 @@ class DEFORMKIT_OT_lattice_select_folded(_LatticeOperator, bpy.types.Operator):
         if obj.mode == "EDIT":
             with context.temp_override(object=obj, active_object=obj):
                 bpy.ops.object.mode_set(mode="OBJECT")
-        lattice, points = api.select_folded(obj, index)
-        if lattice.mode != "EDIT":  # in its Edit Mode the flags were set on the edit copy already
+        api.folded_control_points(obj, index)  # a ValueError before any mode changes
+        lattice = api.lattice_entry(obj, index).lattice
+        if lattice.mode != "EDIT":
+            # Its Edit Mode first, so that the flags are set on the edit copy, which undo restores.
             context.view_layer.objects.active = lattice
             lattice.select_set(True)
             with context.temp_override(object=lattice, active_object=lattice):
                 bpy.ops.object.mode_set(mode="EDIT")
+        lattice, points = api.select_folded(obj, index)
         self.report({"INFO"}, f"{len(points)} points of '{lattice.name}' selected")
 
 

@@ -9,13 +9,14 @@ from addon_helpers import (CheckingLayout, evaluated, lattice_points, make_latti
                            select_vertices, to_world, update)
 
 CLASSES = {"BLENDER": "BlenderLattice", "BERNSTEIN": "FFD", "BEZIER": "BezierFFD", "BSPLINE": "BSplineLattice"}
-# (basis, resolution, the point pulled through its neighbour along u: its grid index and new u)
+# (basis, resolution, the grid index (i, j, k) of the point pulled through its neighbour along u,
+# or (i,) for the whole layer i, and its new u); the smooth bases need a layer pulled to fold
 FOLDS = {
-    "blender_bspline": ("BLENDER", (3, 3, 3), (1, 1, 1), 0.8),
+    "blender_bspline": ("BLENDER", (3, 3, 3), (1,), 1.2),
     "blender_linear": ("BLENDER", (3, 3, 3), (1, 1, 1), 0.8),
-    "bernstein": ("BERNSTEIN", (3, 3, 3), (1, 1, 1), 0.9),
-    "bezier": ("BEZIER", (4, 4, 4), (1, 1, 1), 0.45),
-    "bspline": ("BSPLINE", (5, 5, 5), (2, 2, 2), 0.45),
+    "bernstein": ("BERNSTEIN", (3, 3, 3), (1,), 1.2),
+    "bezier": ("BEZIER", (4, 4, 4), (1,), 1.2),
+    "bspline": ("BSPLINE", (5, 5, 5), (2,), 0.8),
 }
 
 
@@ -48,8 +49,11 @@ def blender_index(resolution, i, j, k):
 
 def pull_through(lat, resolution, point, u):
     co = lattice_points(lat, "co")
-    index = blender_index(resolution, *point)
-    co[index, 0] = u
+    i = np.arange(len(co)) % resolution[0]
+    if len(point) == 3:
+        co[blender_index(resolution, *point), 0] = u
+    else:
+        co[i == point[0], 0] = u
     lat.data.points.foreach_set("co_deform", co.ravel())
     lat.data.update_tag()
     update()
@@ -59,7 +63,7 @@ def setup_case(bpy, case):
     from deformkit_addon import api
     basis, resolution, _point, _u = FOLDS[case]
     obj = make_object(bpy)
-    lat = make_lattice(bpy, resolution=resolution, scale=(2.6, 2.4, 4.2),
+    lat = make_lattice(bpy, resolution=resolution,
                        interpolation="KEY_LINEAR" if case == "blender_linear" else "KEY_BSPLINE")
     api.add_entry(obj, "LATTICE", lattice=lat, lattice_basis=basis)
     update()
@@ -92,16 +96,16 @@ def labels(log):
     return [text for kind, text in log if kind == "label"]
 
 
-def box_surface(m):
-    """The surface of the cube [-1/2, 1/2]^3, m x m quads per face split into triangles, outward."""
-    t = np.linspace(-0.5, 0.5, m + 1)
+def box_surface(m, half=0.5):
+    """The surface of the cube [-half, half]^3, m x m quads per face split into triangles, outward."""
+    t = np.linspace(-half, half, m + 1)
     a, b = np.meshgrid(t, t, indexing="ij")
     points, triangles = [], []
     for axis in range(3):
         for side in (-0.5, 0.5):
             grid = np.zeros((m + 1, m + 1, 3))
             others = [x for x in range(3) if x != axis]
-            grid[..., others[0]], grid[..., others[1]], grid[..., axis] = a, b, side
+            grid[..., others[0]], grid[..., others[1]], grid[..., axis] = a, b, side * 2 * half
             base = sum(len(p) for p in points)
             points.append(grid.reshape(-1, 3))
             idx = base + np.arange((m + 1) ** 2).reshape(m + 1, m + 1)
@@ -138,7 +142,8 @@ def test_a_folded_lattice_shows_the_warning_as_the_module_certifies(scene, case)
         cells, samples = occupied_samples(dk_lat, points, resolution)
         ratios = dk_lat.volume_ratio((samples - 0.5) @ frame[:3, :3].T + frame[:3, 3])
         ratios = np.concatenate([ratios, dk_lat.volume_ratio(points)])
-        shown = [t for t in labels(panel_log(obj)) if "fold" in t]
+        text = " ".join(labels(panel_log(obj)))  # a long message is wrapped over several labels
+        shown = "lattice folds" in text or "may fold" in text
         if state == "rest":
             assert bool(certificate) and bounds.folds is False and not shown
             assert ratios.min() > 0
@@ -146,11 +151,12 @@ def test_a_folded_lattice_shows_the_warning_as_the_module_certifies(scene, case)
             assert not certificate and (ratios <= 0).any(), ratios.min()  # it folds where the mesh is
             assert bounds.folds is True and shown, (bounds, shown)
             assert bounds.lower <= ratios.min() + 1e-12  # a bound of every sampled value
-            assert abs(bounds.lower - certificate.lower) <= 1e-9 * max(1.0, abs(certificate.lower))
+            lower, _upper = dk_lat.volume_ratio_bounds(points=points)
+            assert abs(bounds.lower - lower) <= 1e-9 * max(1.0, abs(lower))
             assert {c[0] for c in bounds.cells} == {tuple(c[0]) for c in certificate.cells}
-            assert f"{bounds.lower:.2f}" in " ".join(shown)
+            assert f"The lattice folds: volume ratio down to {bounds.lower:.2f} in {len(bounds.cells)} cell" in text
         # The warning appears exactly when a sampled value is <= 0 or the certificate fails.
-        assert bool(shown) == ((ratios <= 0).any() or not certificate)
+        assert shown == ((ratios <= 0).any() or not certificate)
 
 
 def cell_support(basis, resolution, cell, interpolation):
@@ -189,21 +195,20 @@ def test_select_picks_the_points_of_the_folded_cells_and_undoes(scene, case):
     for cell, *_rest in bounds.cells:
         expected |= cell_support(basis, resolution, cell, lat.data.interpolation_type_u)
     expected = {blender_index(resolution, *ijk) for ijk in expected}
-    before = np.zeros(len(lat.data.points), bool)
-    lat.data.points.foreach_get("select", before)
+    before = np.arange(len(lat.data.points)) % 5 == 0  # some other selection (a new lattice has all)
+    lat.data.points.foreach_set("select", before)
+    lat.data.update_tag()  # undo stores the data that changed
+    update()
     bpy.ops.ed.undo_push(message="before select")
     with bpy.context.temp_override(object=obj, active_object=obj):
         assert bpy.ops.deformkit.lattice_select_folded("EXEC_DEFAULT", True) == {"FINISHED"}
     assert lat.mode == "EDIT" and bpy.context.view_layer.objects.active == lat
-    bpy.ops.object.mode_set(mode="OBJECT")  # the edit copy's selection written back
-    selected = np.zeros(len(lat.data.points), bool)
+    selected = np.zeros(len(lat.data.points), bool)  # in Edit Mode: the edit copy's flags
     lat.data.points.foreach_get("select", selected)
     assert set(np.flatnonzero(selected)) == expected
-    bpy.ops.ed.undo()  # the mode change
-    bpy.ops.ed.undo()  # the selection
+    bpy.ops.ed.undo()
     lat = bpy.data.objects["Lattice"]
-    if lat.mode == "EDIT":
-        bpy.ops.object.mode_set(mode="OBJECT")
+    assert lat.mode == "OBJECT"
     lat.data.points.foreach_get("select", selected)
     np.testing.assert_array_equal(selected, before)
 
@@ -217,7 +222,7 @@ def test_volume_change_is_the_deformed_box_volume(scene, case):
     from deformkit_addon import api
     basis, resolution, _point, _u = FOLDS[case]
     obj, lat = setup_case(bpy, case)
-    assert api.lattice_bounds(obj, 0).volume_change == 0.0  # at rest: exactly
+    assert abs(api.lattice_bounds(obj, 0).volume_change) < 1e-12  # at rest
     co = lattice_points(lat, "co")
     rng = np.random.default_rng(4)
     co += rng.uniform(-0.04, 0.04, co.shape).astype(np.float32) + np.float32(0.06) * co  # a 6 % growth and noise
@@ -226,8 +231,10 @@ def test_volume_change_is_the_deformed_box_volume(scene, case):
     update()
     bounds = api.lattice_bounds(obj, 0)
     dk_lat, frame = dk_lattice(obj, lat, basis)
-    rest = abs(np.linalg.det(frame[:3, :3]))
-    surface, triangles = box_surface(96)
+    # The lattice's region: the box, or for the B-spline its inner part (one interval in from each side).
+    half = 0.5 - (1 / (resolution[0] - 1) if basis == "BSPLINE" else 0.0)
+    rest = abs(np.linalg.det(frame[:3, :3])) * (2 * half) ** 3
+    surface, triangles = box_surface(96, half)
     deformed = dk_lat.deform(surface @ frame[:3, :3].T + frame[:3, 3])
     measured = divergence_volume(deformed, triangles) / rest - 1.0  # converges as h^2
     assert abs(measured) > 0.1
@@ -271,10 +278,13 @@ def test_preserve_volume_keeps_the_evaluated_volume_and_moves_the_selection(scen
         results[preserve] = (mesh_volume(obj, after) / volume - 1.0, np.abs(moved - cursor).max())
     plain, kept = results[False], results[True]
     assert abs(plain[0]) > 1e-3, plain  # the plain edit changes the volume
-    assert abs(kept[0]) < 1e-6, kept  # float32 positions and lattice points: see the report
+    # Blender stores the evaluated positions and the lattice points in float32 (an ulp is 6e-8 of a
+    # coordinate): rounding them alone moves a sphere's volume by a few 1e-9 (measured in float64
+    # with the same lattice), so 1e-7 here; the solve itself keeps it to 1e-12 (below).
+    assert abs(kept[0]) < 1e-7, kept
     assert kept[1] < 1e-4, kept  # and the selection still reaches the cursor
     result = api.direct_manipulation(obj, 0, chosen, before[chosen] + 0.1, preserve_volume=True)
-    assert abs(result.volume_residual) <= 1e-9 * abs(result.volume)  # the module's solve itself
+    assert result.volume_residual <= 1e-9  # relative: the module's solve itself
     bpy.ops.ed.undo_push(message="before")
     with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]):
         assert bpy.ops.deformkit.lattice_direct("EXEC_DEFAULT", True, targets="CURSOR") == {"FINISHED"}
