@@ -202,7 +202,7 @@ def lattice_bounds(obj, index):
     frame = np.frombuffer(layout[4]).reshape(4, 4)
     centres = bounds.centres if bounds is not None and bounds.binding is binding else None
     if centres is None:
-        inner, outside = kind.occupied_cells(binding, resolution)
+        inner, outside = kind.occupied_cells(binding, resolution, layout[3])
         centres = np.concatenate([inner @ frame[:3, :3].T + frame[:3, 3], np.asarray(points, np.float64)[outside]])
     deformer = lattice.deformer
     certificate = deformer.fold_free(centres) if len(centres) else None

@@ -280,22 +280,28 @@ def binding_counts(object_key, index):
     return None
 
 
-def occupied_cells(binding, resolution):
-    """Points standing for the cells that hold the bound points, as the lattice's certificate
-    takes them: the centre (in the rest cube [-1/2, 1/2]^3) of each grid interval (points - 1 per
-    axis) holding points inside the lattice, and the mask of the points outside it (whose cells,
-    clamped or extrapolated, are passed as they are). Every basis's polynomial cells are unions of
-    these intervals (Blender's cells, the B-spline's spans, Bezier blocks, the one Bernstein cell),
-    so a centre is inside exactly the cell that holds its points, away from its boundaries: the
-    certificate then costs the cells, not the vertices."""
+def occupied_cells(binding, resolution, outside):
+    """Indices of bound points that stand for the cells holding them all, as the lattice's
+    certificate takes them, and the centres (in the rest cube [-1/2, 1/2]^3) of the grid intervals
+    (points - 1 per axis) that hold points inside the lattice. Every basis's polynomial cells are
+    unions of these intervals (Blender's cells, the B-spline's spans, Bezier blocks, the one
+    Bernstein cell), so a centre stands for exactly the cell holding its interval's points, away
+    from its boundaries. Outside the lattice, clamped or unchanged, the map depends on the side and
+    the interval (two deep, as Blender's outside cells), so one point of each such group stands for
+    it; extrapolated points all count (their cells widen with them). The certificate then costs
+    the cells, not the vertices."""
     status = np.asarray(binding.status)
-    inside = status == 0
     bins = np.maximum(np.asarray(resolution) - 1, 1)
-    index = np.clip(np.floor(np.asarray(binding.parameters)[inside] * bins).astype(np.int64), 0, bins - 1)
+    index = np.clip(np.floor(np.asarray(binding.parameters) * bins), -2, bins + 1).astype(np.int64)
+    inside = status == 0
     seen = np.zeros(int(np.prod(bins)), bool)
-    seen[np.ravel_multi_index(index.T, bins)] = True
+    seen[np.ravel_multi_index(np.minimum(np.maximum(index[inside], 0), bins - 1).T, bins)] = True
     occupied = np.stack(np.unravel_index(np.flatnonzero(seen), bins), axis=1)
-    return (occupied + 0.5) / bins - 0.5, status == 1
+    out = np.flatnonzero(status == 1)
+    if outside != "EXTRAPOLATE" and len(out):
+        _, first = np.unique(np.ravel_multi_index((index[out] + 2).T, bins + 4), return_index=True)
+        out = out[first]
+    return (occupied + 0.5) / bins - 0.5, out
 
 
 def cell_control_points(deformer, resolution, cells):

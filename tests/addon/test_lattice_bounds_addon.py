@@ -17,7 +17,10 @@ FOLDS = {
     "bernstein": ("BERNSTEIN", (3, 3, 3), (1,), 1.2),
     "bezier": ("BEZIER", (4, 4, 4), (1,), 1.2),
     "bspline": ("BSPLINE", (5, 5, 5), (2,), 0.8),
+    "blender_partly_outside": ("BLENDER", (4, 4, 4), (1,), 0.9),
 }
+# A lattice smaller than the mesh: points outside it too, clamped (their cells are Blender's outside cells).
+SCALES = {"blender_partly_outside": (1.6, 1.5, 2.6)}
 
 
 def dk_lattice(obj, lat, basis, strength=1.0):
@@ -63,7 +66,7 @@ def setup_case(bpy, case):
     from deformkit_addon import api
     basis, resolution, _point, _u = FOLDS[case]
     obj = make_object(bpy)
-    lat = make_lattice(bpy, resolution=resolution,
+    lat = make_lattice(bpy, resolution=resolution, scale=SCALES.get(case, (3.4, 3.0, 4.8)),
                        interpolation="KEY_LINEAR" if case == "blender_linear" else "KEY_BSPLINE")
     api.add_entry(obj, "LATTICE", lattice=lat, lattice_basis=basis)
     update()
@@ -139,6 +142,8 @@ def test_a_folded_lattice_shows_the_warning_as_the_module_certifies(scene, case)
         dk_lat, frame = dk_lattice(obj, lat, basis)
         assert np.abs(dk_lat.deform(points) - evaluated(obj)).max() < 1e-5  # the same lattice as Blender's
         certificate = dk_lat.fold_free(points)  # the module on the mesh's own points
+        if case in SCALES:
+            assert (dk_lat.bind(points).status == 1).sum() > 50
         cells, samples = occupied_samples(dk_lat, points, resolution)
         ratios = dk_lat.volume_ratio((samples - 0.5) @ frame[:3, :3].T + frame[:3, 3])
         ratios = np.concatenate([ratios, dk_lat.volume_ratio(points)])
