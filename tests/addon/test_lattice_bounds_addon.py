@@ -164,6 +164,29 @@ def test_a_folded_lattice_shows_the_warning_as_the_module_certifies(scene, case)
         assert shown == ((ratios <= 0).any() or not certificate)
 
 
+def test_the_check_runs_after_an_edit_not_during_it(scene):
+    """A lattice edit schedules the check (a timer, pushed back by every update); evaluation itself
+    computes nothing, and what the timer runs brings the panel up to date."""
+    import bpy
+    from deformkit_addon import handlers, meshdata
+    from deformkit_addon.entries import lattice as lattices
+    basis, resolution, point, u = FOLDS["blender_linear"]
+    obj, lat = setup_case(bpy, "blender_linear")
+    handlers.check_lattices()
+    key = meshdata.cache_key(obj)
+    rest = lattices.kept_bounds(key, 0)
+    assert rest.folds is False and lattices.bounds_current(key, 0, rest)
+    if bpy.app.timers.is_registered(handlers.check_lattices):
+        bpy.app.timers.unregister(handlers.check_lattices)
+    pull_through(lat, resolution, point, u)  # evaluates, through the depsgraph handler
+    assert bpy.app.timers.is_registered(handlers.check_lattices)
+    assert lattices.kept_bounds(key, 0) is rest and not lattices.bounds_current(key, 0, rest)
+    assert "lattice folds" not in " ".join(labels(panel_log(obj)))  # the last result until the check
+    handlers.check_lattices()  # what the timer runs
+    assert lattices.kept_bounds(key, 0).folds is True
+    assert "lattice folds" in " ".join(labels(panel_log(obj)))
+
+
 def cell_support(basis, resolution, cell, interpolation):
     """Grid indices (i, j, k) whose weight functions are non-zero on the cell, from each basis's
     definition: Bernstein all, a Bezier block its 4, a B-spline span its 4, Blender's linear cell
