@@ -322,6 +322,26 @@ def test_preserve_volume_keeps_the_evaluated_volume_and_moves_the_selection(scen
     assert not np.array_equal(lattice_points(lat), moved)
 
 
+def test_preserve_volume_is_saved_and_refuses_a_vertex_group(scene, tmp_path):
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    lat = make_lattice(bpy, resolution=(3, 3, 3))
+    api.add_entry(obj, "LATTICE", lattice=lat, preserve_volume=True, vertex_group="Upper")
+    path = str(tmp_path / "preserve.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    obj, lat = bpy.data.objects["Obj"], bpy.data.objects["Lattice"]
+    assert obj.deformkit.entries[0].preserve_volume
+    select_vertices(obj, [int(np.argmax(positions(obj.data)[:, 2]))])
+    scene = bpy.context.scene
+    scene.cursor.location = (0.4, 0.0, 2.0)
+    with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]):
+        with pytest.raises(RuntimeError, match="clear the entry's vertex group 'Upper'"):
+            bpy.ops.deformkit.lattice_direct(targets="CURSOR")
+    np.testing.assert_array_equal(lattice_points(lat), lattice_points(lat, "co"))
+
+
 def test_preserve_volume_refuses_an_open_mesh(scene):
     import bpy
     from deformkit_addon import api
