@@ -28,12 +28,14 @@ import time
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 SCREEN = (1920, 1080)
-# One object per entry type; a mesh without entries (the compact panel); one whose entries show
+# One object per entry type (the Cage entry also with its Harmonic method, bound, and once more
+# after its mesh changed under the binding: the Rebind row); a mesh without entries (the compact
+# panel); new Cage, RBF and Laplacian entries (their hints, Generate Cage); one whose entries show
 # messages (a deleted lattice, an unbound Laplacian, Check Smoothness's figures); and the Twist
 # tube's twin with Blender's own Simple Deform, to hold the panel and Edit Mode against. The inner
 # part builds them, the outer checks that each left its three pictures.
-SHOTS = ("no_entries", "twist", "bend", "taper", "stretch", "lattice", "laplacian", "cage", "subdivide",
-         "messages", "blender_simple_deform")
+SHOTS = ("no_entries", "twist", "bend", "taper", "stretch", "lattice", "laplacian", "cage", "harmonic", "rebind",
+         "rbf", "new_entries", "subdivide", "messages", "blender_simple_deform")
 VIEWS = ("panel", "object_mode", "edit_mode")
 INNER_FLAG = "--deformkit-screenshots-inner"
 
@@ -219,6 +221,10 @@ def build_scene(bpy):
         if v.co.z > 0:
             v.co.x, v.co.y = v.co.x * 1.5 - 0.3 * v.co.y, v.co.y * 1.5 + 0.3 * v.co.x
     cage.data.update()
+    objects["harmonic"] = harmonic_tube(bpy, "Harmonic Tube")
+    obj = objects["rebind"] = harmonic_tube(bpy, "Rebind Tube")
+    obj.data.vertices.add(1)  # a vertex more than at bind: the entry asks for Rebind
+    obj.data.update()
     obj = objects["rbf"] = tube(bpy, "RBF Tube")
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1, radius=1.2, location=(0.0, 0.0, 1.5))
     controls = bpy.context.active_object
@@ -242,6 +248,23 @@ def build_scene(bpy):
     mod.deform_method, mod.angle, mod.deform_axis = "TWIST", math.radians(120), "Z"  # the Twist entry's settings
     bpy.context.view_layer.update()
     return objects
+
+
+def harmonic_tube(bpy, name):
+    """A tube in a box cage bound with the Harmonic method (Mesh Deform's coordinates), the cage's
+    top turned and widened."""
+    from deformkit_addon import api
+    obj = tube(bpy, name)
+    bpy.ops.mesh.primitive_cube_add(location=(0.0, 0.0, 1.5), scale=(0.8, 0.8, 1.8))
+    cage = bpy.context.active_object
+    cage.name, cage.display_type = f"{name} Cage", "WIRE"
+    api.add_entry(obj, "CAGE", cage=cage, cage_method="HARMONIC")
+    api.bind_cage(obj, 0)
+    for v in cage.data.vertices:
+        if v.co.z > 0:
+            v.co.x, v.co.y = v.co.x * 1.5 - 0.3 * v.co.y, v.co.y * 1.5 + 0.3 * v.co.x
+    cage.data.update()
+    return obj
 
 
 def messages_tube(bpy):

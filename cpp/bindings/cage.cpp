@@ -114,14 +114,36 @@ int bvh_arity_of(const py::object& version) {
   return parts[0] > 4 || (parts[0] == 4 && parts[1] >= 4) ? 2 : 4;
 }
 
-PyMeshDeformBinding py_md_bind(const std::shared_ptr<MeshDeform>& md, const py::object& points) {
+// A dynamic bind's kept inside flags: None, or one True/False per point (a bool array or a
+// sequence of bools; integers are refused: 0/1 are too easily a row index array).
+std::vector<std::uint8_t> inside_flags(const py::object& inside, std::size_t n) {
+  if (inside.is_none()) return {};
+  const py::array a = py::array::ensure(inside);
+  if (!a || (a.size() > 0 && a.dtype().kind() != 'b'))
+    throw py::type_error("inside: expected one True/False flag per point (a bool array), got " +
+                         (a ? "dtype " + py::str(a.dtype()).cast<std::string>()
+                            : py::str(py::type::of(inside).attr("__name__")).cast<std::string>()));
+  if (a.ndim() != 1 || std::size_t(a.shape(0)) != n)
+    throw py::value_error("inside: expected one flag per point, shape (" + std::to_string(n) + ",), got shape " +
+                          py::str(py::tuple(py::cast(std::vector<py::ssize_t>(a.shape(), a.shape() + a.ndim()))))
+                              .cast<std::string>());
+  const auto flags = py::array_t<bool, py::array::c_style | py::array::forcecast>::ensure(a);
+  std::vector<std::uint8_t> kept(n);
+  for (std::size_t i = 0; i < n; ++i) kept[i] = flags.data()[i] ? 1 : 0;
+  return kept;
+}
+
+PyMeshDeformBinding py_md_bind(const std::shared_ptr<MeshDeform>& md, const py::object& points,
+                               const py::object& inside) {
   const py::array pts = points_array(points, "points");
   const auto n = static_cast<std::size_t>(pts.shape(0));
+  const std::vector<std::uint8_t> kept = inside_flags(inside, n);
+  const std::uint8_t* flags = inside.is_none() ? nullptr : kept.data();
   auto b = std::make_shared<MeshDeformBinding>();
   const double bytes = 8.0 * double(md->vertex_count()) + 40.0;
   without_gil("the Mesh Deform binding (" + working_size(n, bytes) + ")", [&] {
-    if (is_float32(pts)) *b = md->bind(static_cast<const float*>(pts.data()), n);
-    else *b = md->bind(static_cast<const double*>(pts.data()), n);
+    if (is_float32(pts)) *b = md->bind(static_cast<const float*>(pts.data()), n, flags);
+    else *b = md->bind(static_cast<const double*>(pts.data()), n, flags);
   });
   return PyMeshDeformBinding{b, md};
 }
@@ -134,6 +156,18 @@ py::array py_md_deform_bound(const MeshDeform& md, const PyMeshDeformBinding& pb
   without_gil("the Mesh Deform's working arrays", [&] {
     if (b.single_precision) md.deform_bound(b, static_cast<float*>(result.mutable_data()));
     else md.deform_bound(b, static_cast<double*>(result.mutable_data()));
+  });
+  return result;
+}
+
+py::array py_md_displacement_bound(const MeshDeform& md, const PyMeshDeformBinding& pb, const py::object& out) {
+  const MeshDeformBinding& b = *pb.binding;
+  const auto rows = py::ssize_t(b.size());
+  py::array result = b.single_precision ? output_array<float>(out, rows, py::none(), false)
+                                        : output_array<double>(out, rows, py::none(), false);
+  without_gil("the Mesh Deform's working arrays", [&] {
+    if (b.single_precision) md.displacement_bound(b, static_cast<float*>(result.mutable_data()));
+    else md.displacement_bound(b, static_cast<double*>(result.mutable_data()));
   });
   return result;
 }
@@ -291,12 +325,18 @@ Blender keeps on a ray that meets the cage more than once, e.g. which points cou
       .def_property_readonly("grid_size", &MeshDeform::grid_size, "Cells a side: 2^precision + 2.")
       .def_property_readonly("flipped", [](const MeshDeform& c) { return c.cage().flipped(); },
                              "True when the cage's faces pointed inward (negative volume) and were flipped.")
-      .def("bind", &py_md_bind, "points"_a, R"(Bind points as Blender's Bind button does (MeshDeformBinding).
+      .def("bind", &py_md_bind, "points"_a, py::kw_only(), "inside"_a = py::none(),
+           R"(Bind points as Blender's Bind button does (MeshDeformBinding).
 
 Static: solves the grid for every cage vertex and keeps each inside point's coordinates.
-Dynamic: finds which points are inside (the grid was solved by the constructor).)")
+Dynamic: finds which points are inside (the grid was solved by the constructor); or, with
+`inside` (one bool per point, e.g. binding.inside of the points at Bind), takes those flags as
+Blender's dynamic bind keeps them from Bind, wherever the points are now.)")
       .def("deform_bound", &py_md_deform_bound, "binding"_a, py::kw_only(), "out"_a = py::none(),
-           "Deform bound points with the current cage. The dtype is that of the bound points.");
+           "Deform bound points with the current cage. The dtype is that of the bound points.")
+      .def("displacement_bound", &py_md_displacement_bound, "binding"_a, py::kw_only(), "out"_a = py::none(),
+           R"(w (F(x) - x) of the bound points in one pass: the offsets Blender's modifier adds
+(w the per-point weights, 1 without); exactly 0 at the rest cage. The dtype is that of the bound points.)");
 }
 
 }  // namespace deformkit_py

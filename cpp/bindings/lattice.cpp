@@ -337,13 +337,14 @@ void bind_lattice_bounds(py::module_& m) {
   Class<PyVolumeBounds>(m, "VolumeRatioBounds", R"(Bounds of det J: unpacks as (lower, upper).
 
 `converged` is False when the work cap stopped the refinement; `minimum` is the least value of
-det J found, at `where` ((cell), (local coordinates)); `cells` how many cells were bounded.)")
+det J found, at `where` ((cell), (local coordinates); None when it is the identity's 1 outside
+the lattice ('unchanged') or no cell was bounded); `cells` how many cells were bounded.)")
       .def_property_readonly("lower", [](const PyVolumeBounds& r) { return r.b.lower; })
       .def_property_readonly("upper", [](const PyVolumeBounds& r) { return r.b.upper; })
       .def_property_readonly("converged", [](const PyVolumeBounds& r) { return r.b.converged; })
       .def_property_readonly("minimum", [](const PyVolumeBounds& r) { return r.b.minimum; })
       .def_property_readonly("where", [](const PyVolumeBounds& r) -> py::object {
-        if (r.b.cells == 0) return py::none();
+        if (!r.b.has_where) return py::none();
         return py::make_tuple(triple(r.b.where.cell), triple(r.b.where.local));
       })
       .def_property_readonly("scale", [](const PyVolumeBounds& r) { return r.b.scale; })

@@ -36,7 +36,7 @@ TYPES = tuple(row[0] for row in ENTRY_TYPES)  # its entry.type identifiers
 CAGE_METHODS = [
     ("MEAN_VALUE", "Mean Value", "Mean value coordinates (Ju, Schaefer, Warren 2005): smooth, interpolate the cage", 0),
     ("GREEN", "Green", "Green coordinates (Lipman, Levin, Cohen-Or 2008): keep details' shape (quasi-conformal)", 1),
-    ("HARMONIC", "Harmonic (Mesh Deform)", "Harmonic coordinates on a grid (Joshi et al. 2007), as Blender's Mesh "
+    ("HARMONIC", "Harmonic", "Harmonic coordinates on a grid (Joshi et al. 2007), as Blender's Mesh "
      "Deform modifier computes them, with its Precision and Dynamic", 2),
 ]
 ICON = "MOD_MESHDEFORM"
@@ -45,6 +45,9 @@ CLASSES = {"MEAN_VALUE": "MeanValueCage", "GREEN": "GreenCage", "HARMONIC": "Mes
 
 REST = "deformkit_cage_rest"  # the entry's ID property: the cage at bind, x y z per vertex, in this object's space
 BOUND = "deformkit_cage_bound"  # Harmonic, not Dynamic: the points that came into the entry at bind, x y z
+# Harmonic, Dynamic: which of the points that came into the entry at bind were inside the cage (1/0
+# per vertex): Mesh Deform's dynamic bind deforms those, wherever they are now (its dynverts).
+INSIDE = "deformkit_cage_inside"
 # Harmonic: this object's inverse times the cage object's matrix at bind (4 x 4, row-major). Mesh
 # Deform lays its grid along the cage object's own axes and turns the displacement by how the two
 # objects stand now, so the entry does too.
@@ -56,14 +59,18 @@ NOT_COPIED = binding.NOT_COPIED  # a copy arrives unbound
 # harmonic: a Harmonic entry's Frame, else None.
 Setup = namedtuple("Setup", "deformer bind fingerprint harmonic", defaults=(None,))
 # A Harmonic entry in the cage's own space: now, this object's space to the cage's (4 x 4); turn,
-# the cage's displacements into this object's space (3 x 3, None when that is the identity);
-# bound, (points, in the cage's space) of a bind that keeps its points (not Dynamic), else None;
-# weights, the per-point influence (vertex group, strength) scaling the displacement, or None: the
-# grid is solved without them, so a Strength drag never solves it again.
-Frame = namedtuple("Frame", "now turn bound weights", defaults=(None,))
+# the cage's displacements into this object's space (3 x 3, None when that is the identity; setup
+# turns the cage's displacements, so the deformer's offsets are this object's);
+# bound, (points, in the cage's space as float32) of a bind that keeps its points (not Dynamic),
+# else None; inside, a Dynamic bind's flags of Bind (bool per point), else None; weights, the
+# per-point influence (vertex group, strength) scaling the displacement, or None: the grid is
+# solved without them, so a Strength drag never solves it again.
+Frame = namedtuple("Frame", "now turn bound inside weights", defaults=(None, None))
 # In the cache: "cage_binding", (object cache key, entry index, "viewport"/"render") -> (bind key
 # (object cache key, bind id, method[, precision, dynamic]), points, binding); "cage_deformer", bind
-# key -> (crc of the per-point weights, deformer); "cage_bound", bind key -> the points bound at Bind.
+# key -> (crc of the per-point weights, deformer); "cage_bound", bind key -> the points bound at Bind;
+# "cage_inside", bind key -> a Dynamic bind's inside flags of Bind;
+# "cage_rest", bind key -> a Harmonic entry's rest cage in the cage's space.
 
 
 UNSET = "no cage object set: pick a closed mesh object around the mesh"
@@ -140,6 +147,12 @@ def to_space(points, matrix):
     return np.asarray(points, np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
 
 
+def cage_space(points, to_cage):
+    """Mesh points in the cage's space, as float32 (Blender's own bind and frame are float): their
+    binding then writes float32 offsets straight into Blender's attribute."""
+    return to_space(points, to_cage).astype(np.float32)
+
+
 def relative(obj, cage):
     """obj^-1 cage: the cage's local space in obj's."""
     return np.array(obj.matrix_world.inverted() @ cage.matrix_world, np.float64)
@@ -159,25 +172,53 @@ def bound_points(obj, entry):
     kept = cache.get("cage_bound", key)
     if kept is None:
         points = np.array(entry[BOUND], np.float32).reshape(-1, 3)
-        kept = cache.put("cage_bound", key, (points, to_space(points, affine_inverse(saved_frame(entry)))))
+        kept = cache.put("cage_bound", key, (points, cage_space(points, affine_inverse(saved_frame(entry)))))
     return kept
 
 
-def mesh_change(obj, entry, bound):
-    """What changed in the mesh since a Harmonic bind of its points, or ''. In Edit Mode the mesh's
-    count is the edit mesh's: deform checks it there."""
-    if bound is None or obj.mode == "EDIT":
+def inside_at_bind(obj, entry):
+    """A Dynamic Harmonic entry's inside flags of Bind (bool per point), or None (bound before the
+    entry kept them: the points are then tested where they are); read once per bind."""
+    if entry.cage_method != "HARMONIC" or not entry.use_dynamic_bind or INSIDE not in entry:
+        return None
+    key = bind_key(obj, entry)
+    kept = cache.get("cage_inside", key)
+    if kept is None:
+        kept = cache.put("cage_inside", key, np.array(entry[INSIDE], np.int32) != 0)
+    return kept
+
+
+def mesh_change(obj, entry, count):
+    """What changed in the mesh since a Harmonic bind of its points (`count` of them), or ''. In
+    Edit Mode the mesh's count is the edit mesh's: deform checks it there."""
+    if count is None or obj.mode == "EDIT":
         return ""
-    return binding.counts_changed("the mesh", (len(bound[0]),), (len(obj.data.vertices),))
+    return binding.counts_changed("the mesh", (count,), (len(obj.data.vertices),))
+
+
+def bound_count(frame):
+    """How many points a Harmonic bind holds (Mesh Deform's verts_num, either mode), or None."""
+    return len(frame.bound[0]) if frame.bound is not None else None if frame.inside is None else len(frame.inside)
 
 
 def harmonic_frame(obj, cage, entry, points):
     """(Frame, the rest cage and the current cage in the cage's space) of a Harmonic entry."""
     now = relative(obj, cage)
-    to_cage, at_bind = affine_inverse(now), saved_frame(entry)
+    to_cage = affine_inverse(now)
     turn = None if np.array_equal(now[:3, :3], np.eye(3)) else now[:3, :3]
-    rest = to_space(np.asarray(entry[REST], np.float64).reshape(-1, 3), affine_inverse(at_bind))
-    return Frame(to_cage, turn, bound_points(obj, entry)), rest, to_space(points, to_cage)
+    frame = Frame(to_cage, turn, bound_points(obj, entry), inside_at_bind(obj, entry))
+    return frame, rest_in_cage(obj, entry), to_space(points, to_cage)
+
+
+def rest_in_cage(obj, entry):
+    """A Harmonic entry's rest cage in the cage's space at bind, read from the entry once per bind
+    (the cache's "cage_rest" space), not every frame."""
+    key = bind_key(obj, entry)
+    rest = cache.get("cage_rest", key)
+    if rest is None:
+        at_bind = affine_inverse(saved_frame(entry))
+        rest = cache.put("cage_rest", key, to_space(np.asarray(entry[REST], np.float64).reshape(-1, 3), at_bind))
+    return rest
 
 
 def setup(obj, entry, reuse_weights=False):
@@ -190,13 +231,16 @@ def setup(obj, entry, reuse_weights=False):
     changed = "bound for another method: Rebind" if harmonic and FRAME not in entry else topology_change(entry, topo)
     if harmonic and not changed:
         frame, rest, points = harmonic_frame(obj, cage, entry, points)
-        changed = mesh_change(obj, entry, frame.bound)
+        changed = mesh_change(obj, entry, bound_count(frame))
     binding.require_current(entry, changed)
     weights = scaled_influence(obj, entry, reuse_weights)
     if frame is not None:
         frame = frame._replace(weights=weights)
         key, deformer, _ = _deformer(obj, entry, topology, None, rest)
         crc = weights_crc(weights)
+        if frame.turn is not None:  # R sum_a w_a d_a = sum_a w_a (R d_a): the offsets come out turned
+            rest = deformer.rest_cage_points
+            points = rest + (points - rest) @ frame.turn.T
     else:
         key, deformer, crc = _deformer(obj, entry, topology, weights)
     deformer.cage_points = points
@@ -218,33 +262,53 @@ def deform(key, prepared, points):
 
 
 def harmonic_deform(key, setup_, points):
-    """Mesh Deform's result in this object's space: the points in the cage's space (as bound at
-    Bind, or as they come with Dynamic) move by their harmonic displacement, turned into this
-    object's space and added to the points as they come: x + R sum_a w_a (c_a - c_a at bind)."""
+    """Mesh Deform's result in this object's space: the points as they come plus their offsets."""
+    return (points + harmonic_offsets(key, setup_, points, None)).astype(np.float32, copy=False)
+
+
+def displace(key, prepared, points, out):
+    """The entry's offsets on `points` into `out` (float32): Harmonic's in one pass of the bound
+    coordinates (Mesh Deform's own evaluation); the other methods' deform minus the points."""
+    setup_ = prepared.data
+    if setup_ is None:
+        out[...] = 0.0
+        return out
+    if setup_.harmonic is not None:
+        return harmonic_offsets(key, setup_, points, out)
+    return np.subtract(deform(key, prepared, points), points, out=out, casting="same_kind")
+
+
+def harmonic_offsets(key, setup_, points, out):
+    """w R sum_a w_a (c_a - c_a at bind) / sum_a w_a at the points in the cage's space (as bound at
+    Bind, or as they come with Dynamic), float32, into `out` if given: the deformer's cage carries
+    the turn R (setup), its binding is float32, so this is one pass (exact zeros at the rest cage)."""
     frame = setup_.harmonic
-    if frame.bound is not None:
-        if len(frame.bound[0]) != len(points):
-            raise EntryError(binding.counts_changed("the mesh", (len(frame.bound[0]),), (len(points),)))
-        local = frame.bound[1]
+    count = bound_count(frame)
+    if count is not None and count != len(points):
+        raise EntryError(binding.counts_changed("the mesh", (count,), (len(points),)))
+    local = frame.bound[1] if frame.bound is not None else cage_space(points, frame.now)
+    cached = cache.get("cage_binding", key)
+    if cached is not None and cached[0] == setup_.bind and cached[1] is local:  # the points kept at Bind
+        bound = cached[2]
+    elif frame.inside is not None:
+        bound = kept_binding("cage_binding", key, setup_.bind, local,
+                             lambda p: setup_.deformer.bind(p, inside=frame.inside))
     else:
-        local = to_space(points, frame.now)
-    bound = kept_binding("cage_binding", key, setup_.bind, local, setup_.deformer.bind)
-    moved = setup_.deformer.deform_bound(bound) - local
+        bound = kept_binding("cage_binding", key, setup_.bind, local, setup_.deformer.bind)
+    moved = setup_.deformer.displacement_bound(bound, out=out)
     if frame.weights is not None:
         if len(frame.weights) != len(points):
             raise EntryError(f"the vertex group's weights are for {len(frame.weights)} vertices, the mesh coming into "
                              f"the entry has {len(points)}")
-        moved *= np.asarray(frame.weights, np.float64)[:, None]
-    if frame.turn is not None:
-        moved = moved @ frame.turn.T
-    return (points + moved).astype(np.float32)
+        np.multiply(moved, np.asarray(frame.weights)[:, None], out=moved, casting="same_kind")
+    return moved
 
 
 def bind(obj, entry, incoming, rest=None):
     """Record the cage's current evaluated shape (or `rest`, its points in obj's space) as its rest
-    (checked: a closed, consistently oriented cage); Harmonic without Dynamic also binds the points
-    coming into the entry (incoming()), as Mesh Deform's Bind. Nothing changes if that fails.
-    Returns the cage's vertex count."""
+    (checked: a closed, consistently oriented cage); Harmonic also binds the points coming into the
+    entry (incoming()), as Mesh Deform's Bind: without Dynamic their coordinates, with it which of
+    them are inside. Nothing changes if that fails. Returns the cage's vertex count."""
     cage = cage_object(entry, obj)
     points, topology, topo = evaluated_cage(obj, cage)
     faces = meshdata.polygons(topology)
@@ -256,15 +320,19 @@ def bind(obj, entry, incoming, rest=None):
     rest_points = points if frame is None else to_space(points.astype(np.float32), to_cage)
     # Checks the cage: ValueError naming its first open edge, bad face, ...
     deformer = _make(_class(entry), entry, rest_points, faces)
-    mesh = np.asarray(incoming(), np.float32).reshape(-1, 3) if harmonic and not entry.use_dynamic_bind else None
-    local = None if mesh is None else to_space(mesh, to_cage)
+    mesh = np.asarray(incoming(), np.float32).reshape(-1, 3) if harmonic else None
+    local = None if mesh is None else cage_space(mesh, to_cage)
     try:
         made = None if local is None else deformer.bind(local)  # Mesh Deform's solve: its failure leaves the entry
     except RuntimeError as exc:  # "cannot find a bind solution", naming the cage
         raise EntryError(str(exc)) from exc
+    inside = None
+    if made is not None and entry.use_dynamic_bind:  # only the flags are kept: the points are read as they come
+        inside, mesh, made = made.inside, None, None
     bind_id = new_bind_id(obj)
     store_array(entry, REST, points.astype(np.float32).ravel())
-    for name, values in ((BOUND, mesh), (FRAME, frame)):
+    flags = None if inside is None else inside.astype(np.int32)  # an ID property takes int32, not bytes
+    for name, values in ((BOUND, mesh), (FRAME, frame), (INSIDE, flags)):
         if values is not None:
             store_array(entry, name, values.ravel())
         elif name in entry:
@@ -282,7 +350,7 @@ def bind(obj, entry, incoming, rest=None):
 
 
 def unbind(obj, entry):
-    binding.forget(entry, (REST, BOUND, FRAME))
+    binding.forget(entry, (REST, BOUND, FRAME, INSIDE))
 
 
 def followed(entry):
@@ -299,12 +367,12 @@ def prune(object_key, entries):
     """Bindings of binds no entry has any more go."""
     forget_bindings(object_key, "cage_binding", entries, grid_tail)
     alive = {grid_tail(e) for e in entries}
-    for space in ("cage_deformer", "cage_bound"):
+    for space in ("cage_deformer", "cage_bound", "cage_rest", "cage_inside"):
         cache.forget(object_key, space, keep=lambda k: k[1:] in alive)
 
 
 def retyped(entry):
-    binding.forget(entry, (REST, BOUND, FRAME))
+    binding.forget(entry, (REST, BOUND, FRAME, INSIDE))
 
 
 def draw(col, obj, entry):

@@ -322,18 +322,44 @@ def test_strength_scales_the_displacement_without_a_new_solve(scene, dynamic):
     assert cache.get("cage_deformer", key)[1] is solved  # the same grid, not solved again
 
 
-def test_harmonic_follows_mesh_deform_when_the_cage_object_moves(scene):
+@pytest.mark.parametrize("dynamic", [False, True])
+def test_harmonic_follows_mesh_deform_when_the_cage_object_moves(scene, dynamic):
     """Mesh Deform turns the displacement with the cage object and does not carry the mesh along
-    (its grid lies in the cage's axes at bind). Not Dynamic: a Dynamic bind keeps which points were
-    inside at bind, which dk.MeshDeform's dynamic binding finds again where the points are now."""
+    (its grid lies in the cage's axes at bind); a Dynamic bind keeps which points were inside at
+    Bind, though the moved cage object now stands elsewhere around them."""
     import bpy
-    blender, ours, cage = twins(bpy, False)
+    blender, ours, cage = twins(bpy, dynamic)
     shake(cage, seed=7)
     cage.location = (0.3, -0.4, 0.2)
     cage.rotation_euler = (0.4, -0.3, 0.6)
     update()
     moved = evaluated(blender).astype(np.float64)
     assert_equal_to_blender(evaluated(ours), moved, cage_in(ours, cage))
+
+
+def test_a_dynamic_bind_keeps_the_points_inside_at_bind(scene):
+    """Mesh Deform's dynamic bind deforms the points that were inside the cage at Bind (its
+    dynverts), wherever they are now: after Bind the mesh slides across the cage's sides, points
+    leaving it and others entering it, and the entry still equals the modifier."""
+    import bpy
+    from deformkit_addon import api
+    blender = make_object(bpy, name="Blender")
+    ours = make_object(bpy, name="Ours")
+    cage = cage_around(bpy, blender, margin=-0.25)  # smaller than the mesh: points outside it at Bind
+    cage.rotation_euler = (0.1, 0.05, -0.2)
+    update()
+    mesh_deform(bpy, blender, cage, dynamic=True)
+    api.add_entry(ours, "CAGE", cage=cage, cage_method="HARMONIC", precision=MIN_PRECISION, use_dynamic_bind=True)
+    api.bind_cage(ours, 0)
+    for obj in (blender, ours):
+        co = positions(obj.data)
+        co[:, 0] += 0.4
+        obj.data.vertices.foreach_set("co", co.ravel())
+        obj.data.update()
+    for seed in (11, 12):
+        shake(cage, seed=seed)
+        moved = evaluated(blender).astype(np.float64)
+        assert_equal_to_blender(evaluated(ours), moved, cage_in(ours, cage))
 
 
 def test_harmonic_takes_the_vertex_group_as_mesh_deform(scene):

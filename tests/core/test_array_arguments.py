@@ -61,7 +61,7 @@ METHOD_CALLS = {
     "displacement": lambda d: ((PTS,), {}), "jacobian": lambda d: ((PTS,), {}),
     "volume_ratio": lambda d: ((PTS,), {}), "transform_normals": lambda d: ((PTS, PTS), {}),
     "bind": lambda d: ((PTS,), {}), "lattice_coordinates": lambda d: ((PTS,), {}),
-    "direct_manipulation": lambda d: ((PTS[:2], PTS[:2] + 0.05), {}),
+    "direct_manipulation": lambda d: ((PTS[:2], PTS[:2] + 0.05), {"preserve_volume": (CUBE * 0.5 + 0.25, CUBE_FACES)}),
     "deform_bound": lambda d: ((d.bind(PTS),), {}), "displacement_bound": lambda d: ((d.bind(PTS),), {}),
     "replace": lambda d: ((), {"origin": np.eye(4), "limits": np.array([0.0, 1.0])}),
     "subdivide": lambda d: ((), {"points": CUBE}), "mesh": lambda d: ((), {"points": CUBE}),
@@ -179,9 +179,10 @@ def test_every_object_parameter_is_walked_or_not_an_array():
                 "interpolation", "axis", "deform_axis", "source_faces", "target_faces", "markers", "correspondence",
                 "fixed_vertices", "lock_x", "lock_y", "lock_z", "invert_weights", "stretch", "binding", "out",
                 "ptex", "deformer", "sharpen_two_edge_vertices", "limit_surface", "mode", "angle", "factor",
-                "quads", "dynamic", "blender_version", "cell"}
+                "quads", "dynamic", "blender_version", "inside", "cell"}
     walked = {c[6] for c in CALLS} | {"cage_points", "targets", "handle_targets", "initial", "source_pose",
-                                      "fixed_positions", "points", "normals", "reference", "uv", "profile"}
+                                      "fixed_positions", "points", "normals", "reference", "uv", "profile",
+                                      "preserve_volume"}
     for cls_name in (n for n in dir(dk) if not n.startswith("_")):
         obj = getattr(dk, cls_name)
         members = [("__init__", obj.__init__)] if inspect.isclass(obj) else [(cls_name, obj)]

@@ -2,6 +2,7 @@
 
 #include "cage/grid_stencil_direct.hpp"
 #include "cage/harmonic_grid.hpp"
+#include "cage/mesh_deform_solved.hpp"
 #include "core/parallel.hpp"
 #include "deformkit/core/validation.hpp"
 
@@ -24,26 +25,12 @@ namespace harmonic {
 // a cell's influence at or above the second.
 const double kStaticMin = double(0.00001f);
 const double kDynamicMin = double(0.0005f);
-// Each column's relative residual. Against 1e-10 (Ogre, precisions 5-7, its deformed cage) the
-// positions move by at most 3e-9 of the cage's diagonal, but for the 1-2 points of 26k where a
-// weight crosses Blender's 1e-5 threshold (a jump at any tolerance); 1e-8 saves 2 of 12 steps.
-constexpr double kSolveTolerance = 1e-8;
-
-struct Solved {
-  Solved(const CageMesh& c, int precision, int bvh_arity, GridSolver solver)
-      : solver(solver), cage(c), rays(cage, bvh_arity), grid(build_grid(rays, cage.rest_points(), precision)), stencil(grid_stencil(grid)),
-        terms(boundary_terms(grid, stencil)) {}
-  GridSolver solver;
-  CageMesh cage;  // a copy: rays reads its polygons
-  RayCage rays;
-  HarmonicGrid grid;
-  numerics::GridStencil stencil;
-  std::vector<BoundaryTerm> terms;
-  // Dynamic: each cell's influences (cage vertex, weight), normalised per cell, as CSR.
-  std::vector<std::uint32_t> cell_start;
-  std::vector<std::int32_t> cell_vertex;
-  std::vector<double> cell_weight;
-};
+// Each column's relative residual. Against 1e-10 (Ogre, precisions 5-7, its deformed cage) 1e-8
+// moved the positions by at most 3e-9 of the cage's diagonal, but for the 1-2 points of 26k where a
+// weight crosses Blender's 1e-5 threshold (a jump at any tolerance). 1e-7 against 1e-8 (precision
+// 8): 4e-8 of the diagonal at the 99th percentile, 2.4e-6 at the one point where a weight crosses,
+// far inside the 1e-5 / 1e-4 Blender is matched to; one CG step of 8 fewer.
+constexpr double kSolveTolerance = 1e-7;
 
 namespace {
 
@@ -291,19 +278,19 @@ void trilinear_row(const ReachedCells& r, std::size_t i, double* w, double* dw) 
 }
 
 // Blender's compaction of each inside point's row: weights above the threshold kept, scaled to
-// sum to 1; outside points get empty rows. Each task writes its run of points into one buffer
-// (no allocation per point), and the buffers are joined in order.
-WeightTable kept_rows(const ReachedCells& r, const std::vector<std::size_t>& inside, std::size_t n) {
-  const std::size_t m = r.m, count = inside.size();
+// sum to 1; outside points get no row. Each task writes its run of points into one buffer (no
+// allocation per point), and the buffers are joined, then ordered by row length (the binding's
+// layout, MeshDeformBinding).
+void kept_rows(const ReachedCells& r, const std::vector<std::size_t>& inside, MeshDeformBinding& b) {
+  const std::size_t m = r.m, count = inside.size(), n = b.size();
   const int tasks = count < 2 * kParallelGrain || forked_after_threads() ? 1 : parallel_threads();
   struct Run {
-    std::vector<std::int32_t> indices;
+    std::vector<std::uint32_t> indices;
     std::vector<double> values;
     std::size_t used = 0;
   };
   std::vector<Run> runs(static_cast<std::size_t>(tasks));
-  WeightTable t;
-  t.indptr.assign(n + 1, 0);
+  std::vector<std::uint32_t> length(n, 0);  // per point: its kept coordinates
   parallel_tasks(tasks, [&](int task) {
     const std::size_t lo = count * std::size_t(task) / std::size_t(tasks), hi = count * std::size_t(task + 1) / std::size_t(tasks);
     Run& run = runs[std::size_t(task)];
@@ -317,11 +304,11 @@ WeightTable kept_rows(const ReachedCells& r, const std::vector<std::size_t>& ins
       }
       // Without branches (which weights are kept is unpredictable): every weight is written, the
       // next slot taken only when it is kept. Then the kept ones summed in order, and scaled.
-      std::int32_t* index = run.indices.data() + run.used;
+      std::uint32_t* index = run.indices.data() + run.used;
       double* value = run.values.data() + run.used;
       std::size_t kept = 0;
       for (std::size_t a = 0; a < m; ++a) {
-        index[kept] = std::int32_t(a);
+        index[kept] = std::uint32_t(a);
         value[kept] = w[a];
         kept += w[a] > kStaticMin;
       }
@@ -329,19 +316,51 @@ WeightTable kept_rows(const ReachedCells& r, const std::vector<std::size_t>& ins
       for (std::size_t e = 0; e < kept; ++e) sum += value[e];
       for (std::size_t e = 0; e < kept; ++e) value[e] /= sum;
       run.used += kept;
-      t.indptr[inside[i] + 1] = std::int64_t(kept);
+      length[inside[i]] = std::uint32_t(kept);
     }
   });
-  for (std::size_t i = 0; i < n; ++i) t.indptr[i + 1] += t.indptr[i];
-  t.indices.resize(std::size_t(t.indptr[n]));
-  t.values.resize(std::size_t(t.indptr[n]));
-  std::size_t at = 0;
-  for (const Run& run : runs) {
-    std::copy(run.indices.begin(), run.indices.begin() + std::ptrdiff_t(run.used), t.indices.begin() + std::ptrdiff_t(at));
-    std::copy(run.values.begin(), run.values.begin() + std::ptrdiff_t(run.used), t.values.begin() + std::ptrdiff_t(at));
-    at += run.used;
+  // The rows by length, points in order within a length (a counting sort), then each task's run
+  // copied to its rows' places.
+  std::vector<std::size_t> of_length(m + 2, 0);
+  for (std::size_t i = 0; i < n; ++i) ++of_length[length[i] + 1];
+  for (std::size_t k = 1; k < of_length.size(); ++k) of_length[k] += of_length[k - 1];
+  const std::size_t empty = of_length[1];  // points without coordinates get no row
+  b.row_point.assign(n - empty, 0);
+  std::vector<std::uint32_t> row_of(n, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    if (length[i]) {
+      row_of[i] = std::uint32_t(of_length[length[i]]++ - empty);
+      b.row_point[row_of[i]] = std::uint32_t(i);
+    }
+  b.weight_start.assign(b.row_point.size() + 1, 0);
+  std::uint64_t total = 0;
+  for (std::size_t row = 0; row < b.row_point.size(); ++row) {
+    total += length[b.row_point[row]];
+    if (total >= std::uint64_t(UINT32_MAX)) throw std::bad_alloc();
+    b.weight_start[row + 1] = std::uint32_t(total);
   }
-  return t;
+  b.weight_vertex.resize(std::size_t(total));
+  if (b.single_precision) b.weight_value_f32.resize(std::size_t(total));
+  else b.weight_value.resize(std::size_t(total));
+  parallel_tasks(tasks, [&](int task) {
+    const std::size_t lo = count * std::size_t(task) / std::size_t(tasks), hi = count * std::size_t(task + 1) / std::size_t(tasks);
+    Run& run = runs[std::size_t(task)];
+    std::size_t from = 0;
+    for (std::size_t i = lo; i < hi; ++i) {
+      const std::size_t point = inside[i], kept = length[point];
+      if (!kept) continue;
+      const std::size_t to = b.weight_start[row_of[point]];
+      std::copy(run.indices.begin() + std::ptrdiff_t(from), run.indices.begin() + std::ptrdiff_t(from + kept),
+                b.weight_vertex.begin() + std::ptrdiff_t(to));
+      if (b.single_precision)
+        for (std::size_t e = 0; e < kept; ++e) b.weight_value_f32[to + e] = float(run.values[from + e]);
+      else
+        std::copy(run.values.begin() + std::ptrdiff_t(from), run.values.begin() + std::ptrdiff_t(from + kept),
+                  b.weight_value.begin() + std::ptrdiff_t(to));
+      from += kept;
+    }
+    run = Run();
+  });
 }
 
 template <class T>
@@ -444,7 +463,10 @@ std::vector<double> MeshDeform::displacements() const {
 }
 
 template <class T>
-MeshDeformBinding MeshDeform::bind_points(const T* in, std::size_t n) const {
+MeshDeformBinding MeshDeform::bind_points(const T* in, std::size_t n, const std::uint8_t* kept) const {
+  if (kept && !dynamic_)
+    throw std::invalid_argument("inside: only a dynamic MeshDeform takes the points' inside flags from Bind; a static "
+                                "bind tests its points and keeps their coordinates");
   require_finite_rows(in, n, "points");
   const harmonic::Solved& s = *solved_;
   MeshDeformBinding b;
@@ -456,7 +478,9 @@ MeshDeformBinding MeshDeform::bind_points(const T* in, std::size_t n) const {
   else b.points_f64.assign(in, in + 3 * n);
   const std::vector<double> points = harmonic::as_doubles(in, n);
   b.inside.assign(n, 0);
-  parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
+  if (kept)  // Blender's dynverts: decided at Bind, not where the points are now
+    for (std::size_t i = 0; i < n; ++i) b.inside[i] = kept[i] != 0;
+  else parallel_blocks(n, [&](std::size_t lo, std::size_t hi) {
     std::vector<harmonic::RayCage::Hit> scratch;
     for (std::size_t i = lo; i < hi; ++i)
       b.inside[i] = harmonic::inside_cage(s.rays, s.grid, Vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]), scratch);
@@ -485,16 +509,33 @@ MeshDeformBinding MeshDeform::bind_points(const T* in, std::size_t n) const {
   std::vector<std::size_t> inside;
   for (std::size_t i = 0; i < n; ++i)
     if (b.inside[i]) inside.push_back(i);
-  b.weights = harmonic::kept_rows(harmonic::reach_cells(s, precision_, points, inside, false), inside, n);
+  harmonic::kept_rows(harmonic::reach_cells(s, precision_, points, inside, false), inside, b);
   return b;
 }
 
-MeshDeformBinding MeshDeform::bind(const double* points, std::size_t n) const { return bind_points(points, n); }
-MeshDeformBinding MeshDeform::bind(const float* points, std::size_t n) const { return bind_points(points, n); }
+MeshDeformBinding MeshDeform::bind(const double* points, std::size_t n, const std::uint8_t* inside) const {
+  return bind_points(points, n, inside);
+}
+MeshDeformBinding MeshDeform::bind(const float* points, std::size_t n, const std::uint8_t* inside) const {
+  return bind_points(points, n, inside);
+}
 
 WeightTable MeshDeform::weights_table(const MeshDeformBinding& b) const {
   check_binding(b);
-  if (!b.dynamic) return b.weights;
+  if (!b.dynamic) {  // the rows back in point order
+    WeightTable t;
+    t.indptr.assign(b.size() + 1, 0);
+    for (std::size_t r = 0; r < b.row_point.size(); ++r) t.indptr[b.row_point[r] + 1] = b.weight_start[r + 1] - b.weight_start[r];
+    for (std::size_t i = 0; i < b.size(); ++i) t.indptr[i + 1] += t.indptr[i];
+    t.indices.resize(b.weight_vertex.size());
+    t.values.resize(b.weight_vertex.size());
+    for (std::size_t r = 0; r < b.row_point.size(); ++r)
+      for (std::uint32_t e = b.weight_start[r], to = std::uint32_t(t.indptr[b.row_point[r]]); e < b.weight_start[r + 1]; ++e, ++to) {
+        t.indices[to] = std::int32_t(b.weight_vertex[e]);
+        t.values[to] = b.single_precision ? double(b.weight_value_f32[e]) : b.weight_value[e];
+      }
+    return t;
+  }
   const harmonic::Solved& s = *solved_;
   const std::size_t m = vertex_count();
   WeightTable t;
@@ -529,65 +570,6 @@ void MeshDeform::check_binding(const PointBinding& binding) const {
         "binding: was made by another MeshDeform (another rest cage, precision, bind mode or blender_version)");
 }
 
-template <class T>
-bool MeshDeform::displace_bound(const MeshDeformBinding& b, T* out) const {
-  const std::vector<double> disp = displacements();
-  const harmonic::Solved& s = *solved_;
-  // Dynamic: each reached cell's sum of weighted displacements and of weights, once a frame.
-  std::vector<double> cell_sum(4 * b.cells.size());
-  parallel_blocks(b.cells.size(), [&](std::size_t lo, std::size_t hi) {
-    for (std::size_t k = lo; k < hi; ++k) {
-      double* sum = cell_sum.data() + 4 * k;
-      const std::size_t cell = std::size_t(b.cells[k]);
-      for (std::uint32_t e = s.cell_start[cell]; e < s.cell_start[cell + 1]; ++e) {
-        const double w = s.cell_weight[e];
-        const double* d = disp.data() + 3 * s.cell_vertex[e];
-        for (int a = 0; a < 3; ++a) sum[a] += w * d[a];
-        sum[3] += w;
-      }
-    }
-  });
-  std::atomic<bool> finite{true};
-  parallel_blocks(b.size(), [&](std::size_t lo, std::size_t hi) {
-    bool ok = true;
-    for (std::size_t i = lo; i < hi; ++i) {
-      double p[3];
-      for (int a = 0; a < 3; ++a) p[a] = b.single_precision ? double(b.points_f32[3 * i + a]) : b.points_f64[3 * i + a];
-      double offset[3] = {0, 0, 0}, total = 0.0;
-      if (b.inside[i] && b.dynamic) {
-        for (int k = 0; k < 8; ++k) {
-          const double t = b.corner_weight[8 * i + std::size_t(k)];
-          const double* sum = cell_sum.data() + 4 * b.corner_slot[8 * i + std::size_t(k)];
-          for (int a = 0; a < 3; ++a) offset[a] += t * sum[a];
-          total += t * sum[3];
-        }
-      } else if (b.inside[i]) {
-        for (std::int64_t e = b.weights.indptr[i]; e < b.weights.indptr[i + 1]; ++e) {
-          const double w = b.weights.values[std::size_t(e)];
-          const double* d = disp.data() + 3 * b.weights.indices[std::size_t(e)];
-          for (int a = 0; a < 3; ++a) offset[a] += w * d[a];
-          total += w;
-        }
-      }
-      if (total > 0.0)
-        for (int a = 0; a < 3; ++a) offset[a] /= total;
-      for (int a = 0; a < 3; ++a) {
-        out[3 * i + a] = static_cast<T>(p[a] + offset[a]);
-        ok = ok && std::isfinite(out[3 * i + a]);
-      }
-    }
-    if (!ok) finite = false;
-  });
-  return finite;
-}
-
-bool MeshDeform::deform_bound_impl(const PointBinding& binding, float* out) const {
-  return displace_bound(static_cast<const MeshDeformBinding&>(binding), out);
-}
-bool MeshDeform::deform_bound_impl(const PointBinding& binding, double* out) const {
-  return displace_bound(static_cast<const MeshDeformBinding&>(binding), out);
-}
-
 void MeshDeform::bound_points(const PointBinding& binding, StoredPoints<float>& points) const {
   const auto& b = static_cast<const MeshDeformBinding&>(binding);
   points = {{b.points_f32.data(), b.points_f32.data() + 1, b.points_f32.data() + 2}, 3, nullptr};
@@ -600,8 +582,8 @@ void MeshDeform::bound_points(const PointBinding& binding, StoredPoints<double>&
 template <class T>
 bool MeshDeform::deform_points(const T* in, T* out, std::size_t n) const {
   if (!harmonic::finite_rows(in, n)) return false;
-  const MeshDeformBinding b = bind_points(in, n);
-  return displace_bound(b, out);
+  const MeshDeformBinding b = bind_points(in, n, nullptr);
+  return evaluate_bound(b, out, false, nullptr);
 }
 
 bool MeshDeform::deform_impl(const float* in, float* out, std::size_t n) const { return deform_points(in, out, n); }
@@ -611,7 +593,7 @@ bool MeshDeform::deform_impl(const double* in, double* out, std::size_t n) const
 // quotient rule through the 8 cells' sums (dynamic); outside the cage J = I.
 bool MeshDeform::jacobian_impl(const double* in, double* jac, std::size_t n) const {
   if (!harmonic::finite_rows(in, n)) return false;
-  const MeshDeformBinding b = bind_points(in, n);
+  const MeshDeformBinding b = bind_points(in, n, nullptr);
   const std::vector<double> disp = displacements();
   const harmonic::Solved& s = *solved_;
   for (std::size_t i = 0; i < n; ++i) {

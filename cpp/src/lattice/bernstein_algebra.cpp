@@ -66,25 +66,92 @@ double binomial(int n, int k) {
 void to_scaled(TriPoly& p) { scale_by_binomials(p, false); }
 void from_scaled(TriPoly& p) { scale_by_binomials(p, true); }
 
+namespace {
+
+// out += sum_t sign_t a_t * b_t, the convolutions fused so that each output row is loaded and
+// stored once for all T terms (the loop is bound by those memory operations, not the
+// multiplications); the last axis' length N known at compile time (N = 0: any), unrolled.
+template <int N, int T>
+void fused_rows(const TriPoly* const* a, const TriPoly* const* b, const double* sign, TriPoly& out) {
+  const std::array<int, 3> da = a[0]->degree, db = b[0]->degree;
+  const int bn1 = db[1] + 1, bn2 = N > 0 ? N : db[2] + 1;
+  const int on1 = out.degree[1] + 1, on2 = out.degree[2] + 1;
+  std::size_t e = 0;
+  for (int i = 0; i <= da[0]; ++i)
+    for (int j = 0; j <= da[1]; ++j)
+      for (int k = 0; k <= da[2]; ++k, ++e) {
+        double v[T];
+        bool any = false;
+        for (int t = 0; t < T; ++t) {
+          v[t] = sign[t] * a[t]->c[e];
+          any = any || v[t] != 0.0;
+        }
+        if (!any) continue;
+        for (int p = 0; p <= db[0]; ++p)
+          for (int q = 0; q < bn1; ++q) {
+            const std::size_t from = (std::size_t(p) * bn1 + q) * bn2;
+            const double* src[T];
+            for (int t = 0; t < T; ++t) src[t] = &b[t]->c[from];
+            double* dst = &out.c[(std::size_t(i + p) * on1 + (j + q)) * on2 + k];
+            for (int r = 0; r < bn2; ++r) {
+              double acc = dst[r];
+              for (int t = 0; t < T; ++t) acc += v[t] * src[t][r];
+              dst[r] = acc;
+            }
+          }
+      }
+}
+
+template <int T>
+void fused_by_length(const TriPoly* const* a, const TriPoly* const* b, const double* sign, TriPoly& out) {
+  switch (b[0]->degree[2] + 1) {
+    case 1: return fused_rows<1, T>(a, b, sign, out);
+    case 2: return fused_rows<2, T>(a, b, sign, out);
+    case 3: return fused_rows<3, T>(a, b, sign, out);
+    case 4: return fused_rows<4, T>(a, b, sign, out);
+    case 5: return fused_rows<5, T>(a, b, sign, out);
+    case 6: return fused_rows<6, T>(a, b, sign, out);
+    case 7: return fused_rows<7, T>(a, b, sign, out);
+    default: return fused_rows<0, T>(a, b, sign, out);
+  }
+}
+
+}  // namespace
+
 void multiply_scaled(const TriPoly& a, const TriPoly& b, TriPoly& out) {
   if (a.empty() || b.empty()) {
     out.clear();
     return;
   }
   out.reset({a.degree[0] + b.degree[0], a.degree[1] + b.degree[1], a.degree[2] + b.degree[2]});
-  const int bn1 = b.degree[1] + 1, bn2 = b.degree[2] + 1, on1 = out.degree[1] + 1, on2 = out.degree[2] + 1;
-  for (int i = 0; i <= a.degree[0]; ++i)
-    for (int j = 0; j <= a.degree[1]; ++j)
-      for (int k = 0; k <= a.degree[2]; ++k) {
-        const double v = a.at(i, j, k);
-        if (v == 0.0) continue;
-        for (int p = 0; p <= b.degree[0]; ++p)
-          for (int q = 0; q < bn1; ++q) {
-            const double* src = &b.c[(std::size_t(p) * bn1 + q) * bn2];
-            double* dst = &out.c[(std::size_t(i + p) * on1 + (j + q)) * on2 + k];
-            for (int r = 0; r < bn2; ++r) dst[r] += v * src[r];
-          }
-      }
+  const TriPoly* pa = &a;
+  const TriPoly* pb = &b;
+  const double one = 1.0;
+  fused_by_length<1>(&pa, &pb, &one, out);
+}
+
+void multiply_sum_scaled(const std::vector<ScaledTerm>& terms, TriPoly& out) {
+  const TriPoly* a[3];
+  const TriPoly* b[3];
+  double sign[3];
+  int n = 0;
+  for (const ScaledTerm& t : terms) {
+    if (t.a->empty() || t.b->empty()) continue;
+    if (n == 3) throw std::logic_error("multiply_sum_scaled: at most three terms");
+    a[n] = t.a, b[n] = t.b, sign[n] = t.sign;
+    ++n;
+  }
+  if (n == 0) {
+    out.clear();
+    return;
+  }
+  for (int t = 1; t < n; ++t)
+    if (a[t]->degree != a[0]->degree || b[t]->degree != b[0]->degree)
+      throw std::logic_error("multiply_sum_scaled: terms of different degrees");
+  out.reset({a[0]->degree[0] + b[0]->degree[0], a[0]->degree[1] + b[0]->degree[1], a[0]->degree[2] + b[0]->degree[2]});
+  if (n == 1) fused_by_length<1>(a, b, sign, out);
+  else if (n == 2) fused_by_length<2>(a, b, sign, out);
+  else fused_by_length<3>(a, b, sign, out);
 }
 
 void add_elevated_scaled(const TriPoly& a, TriPoly& acc, TriPoly& scratch) {

@@ -29,11 +29,16 @@ struct Piece {
   std::array<double, 3> lo{0, 0, 0}, hi{1, 1, 1};
   int depth = 0;
   double lower = 0, upper = 0;           // coefficient bounds widened by the rounding allowance
+  double delta = 0;                       // that allowance
   double corner_min = 0, corner_max = 0;  // values: the corner coefficients
   std::array<double, 3> at_min{}, at_max{}, at_lowest{};  // unit-cube points of those, and of the least coefficient
 };
 
 bool can_split(const Piece& q) { return q.depth < kMaxDepth && (q.p.degree[0] | q.p.degree[1] | q.p.degree[2]) != 0; }
+// Halving brings a piece's least (greatest) coefficient toward its least (greatest) corner value;
+// once they are within twice the rounding allowance it cannot bring the bound any closer.
+bool lower_can_tighten(const Piece& q) { return can_split(q) && q.corner_min - q.lower > 2.0 * q.delta; }
+bool upper_can_tighten(const Piece& q) { return can_split(q) && q.upper - q.corner_max > 2.0 * q.delta; }
 
 // The cell's bound on rounding plus what halving adds: one rounding per de Casteljau level.
 Piece make_piece(TriPoly&& p, const std::array<double, 3>& lo, const std::array<double, 3>& hi, int depth,
@@ -48,6 +53,7 @@ Piece make_piece(TriPoly&& p, const std::array<double, 3>& lo, const std::array<
     if (q.p.c[e] < q.p.c[lowest]) lowest = e;
     if (q.p.c[e] > q.p.c[highest]) highest = e;
   }
+  q.delta = delta;
   q.lower = q.p.c[lowest] - delta;
   q.upper = q.p.c[highest] + delta;
   auto point = [&](int i, int j, int k) {
@@ -137,6 +143,20 @@ void for_each_cell(std::size_t count, std::size_t work_per_cell, Fn&& fn) {
   });
 }
 
+// The coefficients of a cell's det J, (3 n_a) per axis of degree n_a (at most: a cell may have
+// frozen axes): what a cell's work and memory scale with.
+std::size_t coefficients_per_cell(const BoxLattice& lattice) {
+  std::size_t size = 1;
+  for (const AxisBasis& a : lattice.axes()) {
+    const int degree = a.kind == BasisKind::Bernstein ? a.count - 1
+                       : a.kind == BasisKind::BlenderLinear ? 1
+                       : is_blender(a.kind) && a.count == 1 ? 0
+                                                            : 3;
+    size *= std::size_t(degree > 0 ? 3 * degree : 1);
+  }
+  return size;
+}
+
 struct CellRoot {
   double lower = 0, upper = 0;
 };
@@ -178,12 +198,14 @@ VolumeRatioBounds volume_ratio_bounds(const BoxLattice& lattice, const std::vect
   Extreme least(true), greatest(false);
   std::vector<CellRoot> roots(cells.size());
   // Keep the first pass's coefficients when they are few enough; otherwise recompute them.
-  const std::size_t per_cell = cells.empty() ? 0 : cell_volume_ratio(view, cells[0]).coefficients.size();
+  const std::size_t per_cell = coefficients_per_cell(lattice);
   const bool keep = cells.size() * per_cell <= (std::size_t(1) << 22);
   std::vector<CellVolumeRatio> kept(keep ? cells.size() : 0);
   for_each_cell(cells.size(), per_cell, [&](std::size_t c) {
     CellVolumeRatio cv = cell_volume_ratio(view, cells[c]);
-    const Piece q = make_piece(TriPoly(cv.coefficients), {0, 0, 0}, {1, 1, 1}, 0, cv.rounding, 0.0);
+    const double rounding = cv.rounding;
+    const Piece q = make_piece(keep ? TriPoly(cv.coefficients) : std::move(cv.coefficients), {0, 0, 0}, {1, 1, 1}, 0,
+                               rounding, 0.0);
     roots[c] = {q.lower, q.upper};
     least.offer(q.corner_min, cells[c], q.at_min);
     greatest.offer(q.corner_max, cells[c], q.at_max);
@@ -207,7 +229,7 @@ VolumeRatioBounds volume_ratio_bounds(const BoxLattice& lattice, const std::vect
     // Lower bound: the piece with the least bound is halved until it is within the gap of the
     // least value found anywhere.
     while (!low.empty() && low.top().lower + gap < least.value()) {
-      if (!can_split(low.top())) {
+      if (!lower_can_tighten(low.top())) {
         done.push_back(low.top());
         low.pop();
         capped = true;
@@ -227,8 +249,10 @@ VolumeRatioBounds volume_ratio_bounds(const BoxLattice& lattice, const std::vect
     }
     std::priority_queue<Piece, std::vector<Piece>, ByUpper> high;
     for (; !low.empty(); low.pop()) high.push(low.top());
+    for (Piece& q : done) high.push(std::move(q));  // settled for the lower bound, not the upper
+    done.clear();
     while (!high.empty() && high.top().upper - gap > greatest.value()) {
-      if (!can_split(high.top())) {
+      if (!upper_can_tighten(high.top())) {
         done.push_back(high.top());
         high.pop();
         capped = true;
@@ -258,9 +282,10 @@ VolumeRatioBounds volume_ratio_bounds(const BoxLattice& lattice, const std::vect
   for (const CellRoot& r : roots) out.lower = std::min(out.lower, r.lower), out.upper = std::max(out.upper, r.upper);
   out.minimum = least.value();
   out.where = least.where();
+  out.has_where = !cells.empty();
   if (identity_points) {
     out.lower = std::min(out.lower, 1.0), out.upper = std::max(out.upper, 1.0);
-    out.minimum = std::min(out.minimum, 1.0);
+    if (!(out.minimum <= 1.0)) out.minimum = 1.0, out.has_where = false;
   }
   out.converged = !capped;
   out.subdivisions = budget.subdivisions.load();
@@ -276,12 +301,17 @@ FoldCertificate fold_certificate(const BoxLattice& lattice, const std::vector<Ce
   std::vector<FoldCell> found(cells.size());
   std::vector<char> flagged(cells.size(), 0);
   Budget budget;
-  const std::size_t per_cell = cells.empty() ? 0 : cell_volume_ratio(view, cells[0]).coefficients.size();
+  const std::size_t per_cell = coefficients_per_cell(lattice);
   for_each_cell(cells.size(), per_cell, [&](std::size_t c) {
     CellVolumeRatio cv = cell_volume_ratio(view, cells[c]);
     const double max_abs = max_abs_of(cv.coefficients);
+    Piece root = make_piece(std::move(cv.coefficients), {0, 0, 0}, {1, 1, 1}, 0, cv.rounding, max_abs);
+    if (root.lower > 0.0) {  // most cells: certified by their coefficients alone
+      lower[c] = root.lower;
+      return;
+    }
     std::priority_queue<Piece, std::vector<Piece>, ByLower> heap;
-    heap.push(make_piece(std::move(cv.coefficients), {0, 0, 0}, {1, 1, 1}, 0, cv.rounding, max_abs));
+    heap.push(std::move(root));
     FoldCell fold;
     // A piece with a value <= 0 decides the cell; so does a least bound > 0.
     auto folds = [&](const Piece& q) {
@@ -293,7 +323,7 @@ FoldCertificate fold_certificate(const BoxLattice& lattice, const std::vector<Ce
     bool decided = folds(heap.top());
     while (!decided && heap.top().lower <= 0.0) {
       const Piece& top = heap.top();
-      if (!can_split(top) || heap.size() > kMaxLivePieces || !budget.take(top.p.size())) {
+      if (!lower_can_tighten(top) || heap.size() > kMaxLivePieces || !budget.take(top.p.size())) {
         fold.where = cell_point(cells[c], top.at_lowest);
         break;
       }
@@ -322,9 +352,9 @@ FoldCertificate fold_certificate(const BoxLattice& lattice, const std::vector<Ce
 
 double deformed_volume(const BoxLattice& lattice) {
   const LatticeView view(lattice);
-  const std::vector<CellSpec> cells = region_cells(lattice);
+  const std::vector<CellSpec> cells = region_cells(lattice, false);  // faces have no volume
   std::vector<double> volume(cells.size());
-  const std::size_t per_cell = cell_volume_ratio(view, cells[0]).coefficients.size();
+  const std::size_t per_cell = coefficients_per_cell(lattice);
   for_each_cell(cells.size(), per_cell, [&](std::size_t c) {
     const TriPoly p = cell_volume_ratio(view, cells[c]).coefficients;
     double sum = 0.0;

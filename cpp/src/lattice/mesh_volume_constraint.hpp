@@ -1,7 +1,7 @@
 #pragma once
 // The signed volume of a closed mesh carried by a lattice, as a function of a handle change: the
-// constraint of volume-preserving direct manipulation (docs/math/lattice.md,
-// "Volume-preserving direct manipulation").
+// constraint of volume-preserving direct manipulation
+// (docs/math/lattice.md, "Volume-preserving direct manipulation").
 #include "deformkit/core/polygon_mesh.hpp"
 #include "deformkit/lattice/control_lattice.hpp"
 
@@ -25,6 +25,9 @@ class LatticeMeshVolume {
   // V(dP) = 1/6 sum over triangles det(y_a, y_b, y_c), y = F(x) under control points P + dP
   // (dP per handle, h x 3); with `gradient`, dV/dP (h x 3) as well.
   double value(const Eigen::MatrixXd& dp, Eigen::MatrixXd* gradient = nullptr) const;
+  // The Hessian of V at dP applied to a direction d (both h x 3): the derivative of the gradient
+  // along d.
+  Eigen::MatrixXd hessian_times(const Eigen::MatrixXd& dp, const Eigen::MatrixXd& d) const;
   // sum of |det| / 6 over the triangles at dP = 0: the scale the volume's rounding is relative to.
   double unsigned_sum() const { return unsigned_sum_; }
 
@@ -36,6 +39,11 @@ class LatticeMeshVolume {
   std::vector<double> weight_;        // times strength
   int handles_ = 0;
   double unsigned_sum_ = 0.0;
+
+  using Rows = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+  // offset + strength W dP per vertex, and strength W^T of per-vertex rows per handle.
+  Rows carried(const Rows& offset, const Eigen::MatrixXd& dp) const;
+  Eigen::MatrixXd pulled_back(const Rows& per_vertex) const;
 };
 
 }  // namespace deformkit

@@ -102,15 +102,27 @@ LatticeMeshVolume::LatticeMeshVolume(const ControlLattice& lattice, const Polygo
     unsigned_sum_ += std::abs(y0_.row(t[0]).dot(y0_.row(t[1]).cross(y0_.row(t[2])))) / 6.0;
 }
 
-double LatticeMeshVolume::value(const Eigen::MatrixXd& dp, Eigen::MatrixXd* gradient) const {
-  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> y = y0_;
+LatticeMeshVolume::Rows LatticeMeshVolume::carried(const Rows& offset, const Eigen::MatrixXd& dp) const {
+  Rows y = offset;
   for (Eigen::Index v = 0; v < y.rows(); ++v)
     for (std::int64_t e = indptr_[v]; e < indptr_[v + 1]; ++e) y.row(v) += weight_[e] * dp.row(handle_[e]);
-  // V = 1/6 sum a . (b x c); dV/da = (b x c) / 6, cyclically (docs/math/lattice.md,
-  // "Volume-preserving direct manipulation").
+  return y;
+}
+
+Eigen::MatrixXd LatticeMeshVolume::pulled_back(const Rows& per_vertex) const {
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(handles_, 3);
+  for (Eigen::Index v = 0; v < per_vertex.rows(); ++v)
+    for (std::int64_t e = indptr_[v]; e < indptr_[v + 1]; ++e) out.row(handle_[e]) += weight_[e] * per_vertex.row(v);
+  return out;
+}
+
+double LatticeMeshVolume::value(const Eigen::MatrixXd& dp, Eigen::MatrixXd* gradient) const {
+  const Rows y = carried(y0_, dp);
+  // V = 1/6 sum a . (b x c); dV/da = (b x c) / 6, cyclically
+  // (docs/math/lattice.md, "Volume-preserving direct manipulation").
   CompensatedSum volume;
-  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> dy;
-  if (gradient) dy = Eigen::MatrixXd::Zero(y.rows(), 3);
+  Rows dy;
+  if (gradient) dy = Rows::Zero(y.rows(), 3);
   for (const auto& t : triangles_) {
     const Vec3 a = y.row(t[0]), b = y.row(t[1]), c = y.row(t[2]);
     const Vec3 bc = b.cross(c);
@@ -120,13 +132,72 @@ double LatticeMeshVolume::value(const Eigen::MatrixXd& dp, Eigen::MatrixXd* grad
     dy.row(t[1]) += c.cross(a) / 6.0;
     dy.row(t[2]) += a.cross(b) / 6.0;
   }
-  if (gradient) {  // dV/dP_h = sum_v strength w_vh dV/dy_v
-    *gradient = Eigen::MatrixXd::Zero(handles_, 3);
-    for (Eigen::Index v = 0; v < y.rows(); ++v)
-      for (std::int64_t e = indptr_[v]; e < indptr_[v + 1]; ++e) gradient->row(handle_[e]) += weight_[e] * dy.row(v);
-  }
+  if (gradient) *gradient = pulled_back(dy);  // dV/dP_h = sum_v strength w_vh dV/dy_v
   return volume.value();
 }
+
+Eigen::MatrixXd LatticeMeshVolume::hessian_times(const Eigen::MatrixXd& dp, const Eigen::MatrixXd& d) const {
+  const Rows y = carried(y0_, dp), dy = carried(Rows::Zero(y0_.rows(), 3), d);
+  // d(b x c) = db x c + b x dc, cyclically: the gradient's derivative along d.
+  Rows out = Rows::Zero(y.rows(), 3);
+  for (const auto& t : triangles_) {
+    const Vec3 a = y.row(t[0]), b = y.row(t[1]), c = y.row(t[2]);
+    const Vec3 da = dy.row(t[0]), db = dy.row(t[1]), dc = dy.row(t[2]);
+    out.row(t[0]) += (db.cross(c) + b.cross(dc)) / 6.0;
+    out.row(t[1]) += (dc.cross(a) + c.cross(da)) / 6.0;
+    out.row(t[2]) += (da.cross(b) + a.cross(db)) / 6.0;
+  }
+  return pulled_back(out);
+}
+
+namespace {
+
+// Conjugate gradients on M v = v + mu Pi H Pi v over the handles' null space (H: the volume's
+// Hessian at x): false when M shows a direction of non-positive curvature or does not converge.
+bool solve_newton_matrix(const LatticeMeshVolume& volume, const HandleSolve& solve, const Eigen::MatrixXd& x,
+                         double mu, const Eigen::MatrixXd& rhs, Eigen::MatrixXd& v) {
+  v = Eigen::MatrixXd::Zero(rhs.rows(), 3);
+  Eigen::MatrixXd r = rhs, p = rhs;
+  double rr = r.squaredNorm();
+  const double stop = 1e-20 * rr;
+  const int limit = std::min<int>(100, int(3 * rhs.rows()));
+  for (int k = 0; k < limit && rr > stop; ++k) {
+    const Eigen::MatrixXd mp = p + mu * solve.free_part(volume.hessian_times(x, p));
+    const double curvature = p.cwiseProduct(mp).sum();
+    if (!(curvature > 1e-12 * p.squaredNorm())) return false;
+    const double step = rr / curvature;
+    v += step * p;
+    r -= step * mp;
+    const double next = r.squaredNorm();
+    p = r + (next / rr) * p;
+    rr = next;
+  }
+  return rr <= stop;
+}
+
+struct LagrangeStep {
+  Eigen::MatrixXd step;  // in the handles' null space
+  double multiplier = 0.0;
+};
+
+// Newton on the Lagrangian's stationarity u + mu Pi G = 0 and g = 0, with M = I + mu_k Pi H Pi the
+// Lagrangian's Hessian: step = -M^-1 u - mu M^-1 Pi G, mu chosen so that G . step = -g. Where M is
+// not positive definite (or mu_k = 0) the objective's Hessian I stands in for it: the SQP step.
+LagrangeStep lagrange_step(const LatticeMeshVolume& volume, const HandleSolve& solve, const Eigen::MatrixXd& x,
+                           const Eigen::MatrixXd& u, const Eigen::MatrixXd& free_gradient, double g, double mu_k) {
+  Eigen::MatrixXd m_u = u, m_g = free_gradient;
+  if (mu_k != 0.0 && !(solve_newton_matrix(volume, solve, x, mu_k, u, m_u) &&
+                       solve_newton_matrix(volume, solve, x, mu_k, free_gradient, m_g))) {
+    m_u = u;
+    m_g = free_gradient;
+  }
+  LagrangeStep s;
+  s.multiplier = (g - free_gradient.cwiseProduct(m_u).sum()) / free_gradient.cwiseProduct(m_g).sum();
+  s.step = -s.multiplier * m_g - m_u;
+  return s;
+}
+
+}  // namespace
 
 DirectManipulationResult direct_manipulation(const ControlLattice& lattice, const double* points,
                                              const double* targets, std::size_t m,
@@ -137,7 +208,10 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
   const LatticeMeshVolume volume(lattice, preserve_volume);
   const Eigen::MatrixXd zero = Eigen::MatrixXd::Zero(lattice.handle_count(), 3);
   const double target = volume.value(zero);
-  if (!std::isfinite(target) || !(std::abs(target) > 1e-8 * volume.unsigned_sum())) {
+  if (!std::isfinite(target) || !std::isfinite(volume.unsigned_sum()))
+    throw std::invalid_argument("preserve_volume: mesh_points: the mesh's volume under the current control points "
+                                "overflows a double");
+  if (!(std::abs(target) > 1e-8 * volume.unsigned_sum())) {
     std::ostringstream msg;
     msg << "preserve_volume: the mesh encloses no volume (" << target << " under the current control points, "
         << "against " << volume.unsigned_sum() << " for its faces' unsigned volumes); expected a closed mesh of "
@@ -148,10 +222,10 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
   double scale = 0.0;  // the lattice's size: the floor of the stationarity test
   for (double c : lattice.control_points()) scale = std::max(scale, std::abs(c));
 
-  // SQP with the objective's Hessian I for the Lagrangian's (docs/math/lattice.md,
-  // "Volume-preserving direct manipulation"): x = x_ls + u, u in the handles' null space.
+  // Newton / SQP on the Lagrangian over x = x_ls + u, u in the handles' null space
+  // (docs/math/lattice.md, "Volume-preserving direct manipulation").
   Eigen::MatrixXd x = solve.dp, u = Eigen::MatrixXd::Zero(x.rows(), 3), gradient;
-  double rho = 0.0, v = volume.value(x, &gradient);
+  double rho = 0.0, multiplier = 0.0, v = volume.value(x, &gradient);
   constexpr int kMaxIterations = 100;
   int iterations = 0;
   for (;; ++iterations) {
@@ -167,9 +241,9 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
              "preserve_volume";
       throw std::invalid_argument(msg.str());
     }
-    // The QP min 1/2 |u + d|^2 s.t. r + G . d = 0, d in the null space: u + d = -mu Pi G.
-    const double mu = (r - gradient.cwiseProduct(u).sum()) / free2;
-    const Eigen::MatrixXd step = -mu * free_gradient - u;
+    const LagrangeStep newton = lagrange_step(volume, solve, x, u, free_gradient, r, multiplier);
+    const Eigen::MatrixXd& step = newton.step;
+    const double mu = newton.multiplier;
     const double step_norm = step.norm();
     if (std::abs(r) <= tolerance && step_norm <= 1e-9 * x.norm() + 1e-14 * scale) break;
     if (iterations == kMaxIterations) {
@@ -181,10 +255,10 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
       throw std::invalid_argument(msg.str());
     }
     // Backtracking on the l1 merit 1/2 |u|^2 + rho |V - V0|, whose slope along step is
-    // -|step|^2 + mu r - rho |r| < 0 once rho >= |mu|; rounding of the terms is allowed for.
+    // -step.M step + mu r - rho |r| < 0 once rho >= |mu|; rounding of the terms is allowed for.
     rho = std::max(rho, 1.5 * std::abs(mu));
     const double merit = 0.5 * u.squaredNorm() + rho * std::abs(r);
-    const double slope = gradient.size() ? u.cwiseProduct(step).sum() - rho * std::abs(r) : 0.0;
+    const double slope = u.cwiseProduct(step).sum() - rho * std::abs(r);
     double alpha = 1.0, v_trial = 0.0;
     Eigen::MatrixXd trial;
     for (;;) {
@@ -203,6 +277,7 @@ DirectManipulationResult direct_manipulation(const ControlLattice& lattice, cons
     }
     x += alpha * step;
     u = trial;
+    multiplier = mu;
     v = volume.value(x, &gradient);
   }
   DirectManipulationResult result = handle_result(lattice, solve, x);

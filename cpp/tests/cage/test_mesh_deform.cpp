@@ -160,8 +160,8 @@ TEST(CageMeshDeform, PointsNoRayOfWhichMeetsTheCageStay) {
   for (int i = 9; i < 12; ++i) EXPECT_NEAR(out[std::size_t(i)], p[std::size_t(i)] + 0.25, 1e-12);  // a translation is reproduced
 }
 
-// The multigrid solve (the default) against the Cholesky one: the same coordinates to 1e-8 (each
-// column solved to Mesh Deform's relative residual, 1e-8), for a static and a dynamic bind.
+// The multigrid solve (the default) against the Cholesky one: the same coordinates to 1e-7 (each
+// column solved to the relative residual 1e-7), for a static and a dynamic bind.
 TEST(CageMeshDeform, MultigridAndCholeskyGiveTheSameCoordinates) {
   const CageMesh cage(test::polygon_mesh(test::l_prism()));
   const std::vector<double> p = l_points(300, 3);
@@ -174,7 +174,7 @@ TEST(CageMeshDeform, MultigridAndCholeskyGiveTheSameCoordinates) {
       std::vector<double> wa(cage.vertex_count(), 0.0), wb(cage.vertex_count(), 0.0);
       for (auto e = a.indptr[i]; e < a.indptr[i + 1]; ++e) wa[std::size_t(a.indices[std::size_t(e)])] = a.values[std::size_t(e)];
       for (auto e = b.indptr[i]; e < b.indptr[i + 1]; ++e) wb[std::size_t(b.indices[std::size_t(e)])] = b.values[std::size_t(e)];
-      for (std::size_t j = 0; j < wa.size(); ++j) EXPECT_NEAR(wa[j], wb[j], 1e-8) << "point " << i << " vertex " << j;
+      for (std::size_t j = 0; j < wa.size(); ++j) EXPECT_NEAR(wa[j], wb[j], 1e-7) << "point " << i << " vertex " << j;
     }
   }
 }

@@ -17,7 +17,16 @@ namespace deformkit {
 struct MeshDeformBinding : PointBinding {
   bool dynamic = false;
   std::vector<std::uint8_t> inside;  // per point: inside the rest cage (Blender's ray test)
-  WeightTable weights;               // static: per point its kept, renormalised coordinates
+  // Static: the kept, renormalised coordinates of each point that has any, a row per such point
+  // (row_point: its point), the rows ordered by length (a frame's loop then runs one length many
+  // times over, which the branch predictor follows), CSR: row r's are [weight_start[r],
+  // weight_start[r + 1]). The values in the points' precision: float for float32 points, as
+  // Blender stores them (8 bytes a weight, what a frame reads), double for float64 points.
+  std::vector<std::uint32_t> row_point;
+  std::vector<std::uint32_t> weight_start;
+  std::vector<std::uint32_t> weight_vertex;
+  std::vector<double> weight_value;
+  std::vector<float> weight_value_f32;
   // Dynamic: the cells the bound points reach, and per point its 8 cells (slots into cells) and
   // their trilinear weights, so a frame sums each cell's influences once.
   std::vector<std::int64_t> cells;
@@ -32,7 +41,7 @@ struct Solved;  // the grid and, for a dynamic bind, its cells' coordinates
 }
 
 // How the grid system is solved: multigrid-preconditioned conjugate gradients (the default; every
-// column to a relative residual of 1e-10) or a sparse Cholesky factorisation (exact to rounding,
+// column to a relative residual of 1e-7) or a sparse Cholesky factorisation (exact to rounding,
 // memory growing faster with the grid: kept as the reference the tests compare with).
 enum class GridSolver { Multigrid, Cholesky };
 
@@ -63,8 +72,11 @@ class MeshDeform : public BoundDeformer {
   // Blender's bind of these points (their inside test, and for a static bind the grid solve and
   // their coordinates). Throws std::invalid_argument naming `points` for a non-finite row, and
   // std::runtime_error naming the cage when the grid has no cell inside it or no solution.
-  MeshDeformBinding bind(const double* points, std::size_t n) const;
-  MeshDeformBinding bind(const float* points, std::size_t n) const;
+  // `inside` (n flags, dynamic only, else std::invalid_argument naming it): which points are
+  // deformed, as Blender's dynamic bind keeps them from Bind (dynverts), instead of testing the
+  // points where they are now; a kept point in cells without coordinates is not displaced.
+  MeshDeformBinding bind(const double* points, std::size_t n, const std::uint8_t* inside = nullptr) const;
+  MeshDeformBinding bind(const float* points, std::size_t n, const std::uint8_t* inside = nullptr) const;
   // The coordinates of the bound points (static: as stored; dynamic: interpolated at the bound
   // points), a point outside the cage an empty row.
   WeightTable weights_table(const MeshDeformBinding& binding) const;
@@ -73,11 +85,13 @@ class MeshDeform : public BoundDeformer {
 
  private:
   template <class T>
-  MeshDeformBinding bind_points(const T* in, std::size_t n) const;
+  MeshDeformBinding bind_points(const T* in, std::size_t n, const std::uint8_t* inside) const;
   template <class T>
   bool deform_points(const T* in, T* out, std::size_t n) const;
+  // offsets: out = w_i o_i (w null: o_i), else out = x_i + o_i, o_i the point's displacement
+  // (mesh_deform_eval.cpp); false where a result is not finite.
   template <class T>
-  bool displace_bound(const MeshDeformBinding& b, T* out) const;
+  bool evaluate_bound(const MeshDeformBinding& b, T* out, bool offsets, const double* w) const;
   std::uint64_t layout() const;
   std::vector<double> displacements() const;  // c_a - c_a at rest, m x 3
 
@@ -87,6 +101,8 @@ class MeshDeform : public BoundDeformer {
   void check_binding(const PointBinding& binding) const override;
   bool deform_bound_impl(const PointBinding& binding, float* out) const override;
   bool deform_bound_impl(const PointBinding& binding, double* out) const override;
+  bool displacement_bound_impl(const PointBinding& binding, float* out, const double* weights) const override;
+  bool displacement_bound_impl(const PointBinding& binding, double* out, const double* weights) const override;
   void bound_points(const PointBinding& binding, StoredPoints<float>& points) const override;
   void bound_points(const PointBinding& binding, StoredPoints<double>& points) const override;
 

@@ -40,6 +40,14 @@ void from_scaled(TriPoly& p);
 
 // out = a * b in the scaled form (out must not be a or b); empty when either is.
 void multiply_scaled(const TriPoly& a, const TriPoly& b, TriPoly& out);
+// out = sum of sign * a * b over at most three terms in the scaled form, all a of one degree and
+// all b of one degree; empty terms are skipped, and out is empty when all are.
+struct ScaledTerm {
+  const TriPoly* a;
+  const TriPoly* b;
+  double sign;
+};
+void multiply_sum_scaled(const std::vector<ScaledTerm>& terms, TriPoly& out);
 // acc += a elevated to acc's degree (scaled form): elevation by r along an axis is the product
 // with (t + (1 - t))^r, whose scaled coefficients are C(r, j). acc must have a's degree or more.
 void add_elevated_scaled(const TriPoly& a, TriPoly& acc, TriPoly& scratch);

@@ -29,8 +29,10 @@ struct CellVolumeRatio {
   double rounding = 0.0;
 };
 
-// The cells of the lattice's region: every piece of the domain, [0, 1] per axis.
-std::vector<CellSpec> region_cells(const BoxLattice& lattice);
+// The cells of the lattice's region: every piece of the domain, [0, 1] per axis; with faces, also
+// the box's two faces along Blender linear axes as the cells beyond them give them (pieces -1 and
+// count - 1, frozen), where Blender evaluates points on (or rounded just past) a face.
+std::vector<CellSpec> region_cells(const BoxLattice& lattice, bool faces = true);
 // The cells holding the given points (n x 3), and whether some point lies where the map is the
 // identity ('unchanged' outside the domain: det J = 1 there). Throws std::invalid_argument naming
 // `points` for a non-finite row or, with 'extrapolate', one too far out to evaluate.
@@ -50,6 +52,7 @@ struct VolumeRatioBounds {
   bool converged = true;          // false: the work cap stopped the refinement
   double minimum = 1.0;           // the least det J value found (at `where`): lower <= minimum
   CellPoint where;                // where `minimum` was found
+  bool has_where = false;         // false: no cells, or the least value is the identity's 1
   double scale = 1.0;             // the tolerance is relative to this: max(1, max |det J| found)
   std::size_t cells = 0;          // cells bounded
   std::size_t subdivisions = 0;   // de Casteljau subdivisions made
@@ -58,7 +61,7 @@ struct VolumeRatioBounds {
 // Work cap of the refinement: at most this many coefficients subdivided over the whole call
 // (each subdivision of a cell piece of N coefficients counts N), and at most kMaxLivePieces
 // pieces awaiting refinement in one cell.
-constexpr double kSubdivisionBudget = double(1 << 26);
+constexpr double kSubdivisionBudget = double(1 << 24);
 constexpr std::size_t kMaxLivePieces = 1 << 14;
 
 // Bounds of det J over `cells` (identity_points: include the value 1); lower within

@@ -1,0 +1,121 @@
+// Compiled once per x86 target by Highway and dispatched at run time: no -march needed.
+#include "cage/mesh_deform_simd.hpp"
+
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "cage/mesh_deform_simd.cpp"
+#include "hwy/foreach_target.h"  // IWYU pragma: keep
+#include "hwy/highway.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace deformkit::harmonic {
+namespace HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+// A row of 4 doubles is one vector (AVX2 and wider, capped), two (SSE) or four: one multiply-add
+// per weight and part. Two accumulators (even and odd weights) halve the chain of dependent adds.
+void WeightedRowsT(const std::uint32_t* start, const std::uint32_t* column, const double* weight, size_t begin, size_t end,
+                   const double* rows4, double* acc) {
+  const hn::CappedTag<double, 4> d;
+  using V = hn::Vec<decltype(d)>;
+  constexpr size_t kMaxParts = 4;
+  const size_t lanes = hn::Lanes(d), parts = 4 / lanes;
+  for (size_t i = begin; i < end; ++i) {
+    V even[kMaxParts], odd[kMaxParts];
+    for (size_t p = 0; p < kMaxParts; ++p) even[p] = odd[p] = hn::Zero(d);
+    std::uint32_t e = start[i];
+    const std::uint32_t stop = start[i + 1];
+    for (; e + 2 <= stop; e += 2) {
+      const auto w0 = hn::Set(d, weight[e]), w1 = hn::Set(d, weight[e + 1]);
+      const double* r0 = rows4 + 4 * size_t(column[e]);
+      const double* r1 = rows4 + 4 * size_t(column[e + 1]);
+      for (size_t p = 0; p < parts; ++p) {
+        even[p] = hn::MulAdd(w0, hn::LoadU(d, r0 + p * lanes), even[p]);
+        odd[p] = hn::MulAdd(w1, hn::LoadU(d, r1 + p * lanes), odd[p]);
+      }
+    }
+    if (e < stop) {
+      const auto w0 = hn::Set(d, weight[e]);
+      const double* r0 = rows4 + 4 * size_t(column[e]);
+      for (size_t p = 0; p < parts; ++p) even[p] = hn::MulAdd(w0, hn::LoadU(d, r0 + p * lanes), even[p]);
+    }
+    double* out = acc + 4 * (i - begin);
+    for (size_t p = 0; p < parts; ++p) hn::StoreU(hn::Add(even[p], odd[p]), d, out + p * lanes);
+  }
+}
+
+// Float rows of 4: two weights' rows side by side in one 8-lane vector where the target has
+// them (AVX2 and wider), else one row a vector; two accumulators, then the halves and the last
+// weights added.
+void WeightedRowsF32(const std::uint32_t* start, const std::uint32_t* column, const float* weight, size_t begin, size_t end,
+                     const float* rows4, float* acc) {
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX2
+  const hn::FixedTag<float, 8> d8;
+  const hn::FixedTag<float, 4> d4;
+  for (size_t i = begin; i < end; ++i) {
+    auto even = hn::Zero(d8), odd = hn::Zero(d8);
+    auto last = hn::Zero(d4);
+    std::uint32_t e = start[i];
+    const std::uint32_t stop = start[i + 1];
+    for (; e + 4 <= stop; e += 4) {
+      const auto r01 = hn::Combine(d8, hn::LoadU(d4, rows4 + 4 * size_t(column[e + 1])), hn::LoadU(d4, rows4 + 4 * size_t(column[e])));
+      const auto w01 = hn::Combine(d8, hn::Set(d4, weight[e + 1]), hn::Set(d4, weight[e]));
+      const auto r23 = hn::Combine(d8, hn::LoadU(d4, rows4 + 4 * size_t(column[e + 3])), hn::LoadU(d4, rows4 + 4 * size_t(column[e + 2])));
+      const auto w23 = hn::Combine(d8, hn::Set(d4, weight[e + 3]), hn::Set(d4, weight[e + 2]));
+      even = hn::MulAdd(w01, r01, even);
+      odd = hn::MulAdd(w23, r23, odd);
+    }
+    for (; e < stop; ++e) last = hn::MulAdd(hn::Set(d4, weight[e]), hn::LoadU(d4, rows4 + 4 * size_t(column[e])), last);
+    const auto both = hn::Add(even, odd);
+    hn::StoreU(hn::Add(hn::Add(hn::LowerHalf(d4, both), hn::UpperHalf(d4, both)), last), d4, acc + 4 * (i - begin));
+  }
+#else
+  const hn::CappedTag<float, 4> d;
+  using V = hn::Vec<decltype(d)>;
+  constexpr size_t kMaxParts = 4;
+  const size_t lanes = hn::Lanes(d), parts = 4 / lanes;
+  for (size_t i = begin; i < end; ++i) {
+    V even[kMaxParts], odd[kMaxParts];
+    for (size_t p = 0; p < kMaxParts; ++p) even[p] = odd[p] = hn::Zero(d);
+    std::uint32_t e = start[i];
+    const std::uint32_t stop = start[i + 1];
+    for (; e + 2 <= stop; e += 2) {
+      const auto w0 = hn::Set(d, weight[e]), w1 = hn::Set(d, weight[e + 1]);
+      const float* r0 = rows4 + 4 * size_t(column[e]);
+      const float* r1 = rows4 + 4 * size_t(column[e + 1]);
+      for (size_t p = 0; p < parts; ++p) {
+        even[p] = hn::MulAdd(w0, hn::LoadU(d, r0 + p * lanes), even[p]);
+        odd[p] = hn::MulAdd(w1, hn::LoadU(d, r1 + p * lanes), odd[p]);
+      }
+    }
+    if (e < stop) {
+      const auto w0 = hn::Set(d, weight[e]);
+      const float* r0 = rows4 + 4 * size_t(column[e]);
+      for (size_t p = 0; p < parts; ++p) even[p] = hn::MulAdd(w0, hn::LoadU(d, r0 + p * lanes), even[p]);
+    }
+    float* out = acc + 4 * (i - begin);
+    for (size_t p = 0; p < parts; ++p) hn::StoreU(hn::Add(even[p], odd[p]), d, out + p * lanes);
+  }
+#endif
+}
+
+}  // namespace HWY_NAMESPACE
+}  // namespace deformkit::harmonic
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace deformkit::harmonic {
+
+HWY_EXPORT(WeightedRowsT);
+HWY_EXPORT(WeightedRowsF32);
+
+void weighted_rows(const std::uint32_t* start, const std::uint32_t* column, const double* weight, std::size_t begin,
+                   std::size_t end, const double* rows4, double* acc) {
+  HWY_DYNAMIC_DISPATCH(WeightedRowsT)(start, column, weight, begin, end, rows4, acc);
+}
+void weighted_rows(const std::uint32_t* start, const std::uint32_t* column, const float* weight, std::size_t begin,
+                   std::size_t end, const float* rows4, float* acc) {
+  HWY_DYNAMIC_DISPATCH(WeightedRowsF32)(start, column, weight, begin, end, rows4, acc);
+}
+
+}  // namespace deformkit::harmonic
+#endif  // HWY_ONCE
