@@ -394,7 +394,7 @@ def draw(col, obj, entry):
     row = col.row(align=True)
     row.operator("deformkit.lattice_bind", text="Rebind" if bound else "Bind", icon="FILE_REFRESH").index = index
     row.operator("deformkit.lattice_reset", text="Reset", icon="LOOP_BACK").index = index
-    # Short labels: "Selection to Empties" is cut on a half row at the default width.
+    # The last check of the lattice (handlers.check_lattices, after an edit): not computed here.
     bounds = kept_bounds(meshdata.cache_key(obj), index)
     if bounds is not None:
         col.label(text=volume_text(bounds))
@@ -403,6 +403,7 @@ def draw(col, obj, entry):
             label_wrapped(col, message, "ERROR", box_budget())
             col.operator("deformkit.lattice_select_folded", text="Select Folded Cells",
                          icon="RESTRICT_SELECT_OFF").index = index
+    # Short labels: "Selection to Empties" is cut on a half row at the default width.
     col.label(text="Move Selection To")
     row = col.row(align=True)
     for targets, label, icon in (("CURSOR", "Cursor", "PIVOT_CURSOR"), ("EMPTIES", "Empties", "EMPTY_AXIS")):
