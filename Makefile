@@ -37,6 +37,7 @@ demo: build $(FIXTURES)
 	$(PY) scripts/demo_laplacian.py --out demo_out/laplacian_vs_blender
 	$(PY) scripts/demo_cage_generation.py --out demo_out/cage_generation
 	$(PY) scripts/demo_mesh_deform.py --out demo_out/mesh_deform
+	$(PY) scripts/demo_lattice_bounds.py --out demo_out/lattice_bounds
 
 $(FIXTURES): blend_fixtures/make_fixtures.py $(VENV)/.deformkit-installed
 	@mkdir -p build

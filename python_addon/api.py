@@ -351,10 +351,26 @@ def manipulation_targets(obj, index, vertex_indices, mode, cursor=None, empties=
     return lattice_tools.manipulation_targets(obj, index, vertex_indices, mode, cursor, empties)
 
 
-def direct_manipulation(obj, index, vertex_indices, targets):
+def direct_manipulation(obj, index, vertex_indices, targets, preserve_volume=False):
     """Move entry `index`'s lattice points so that the entry takes the vertices to `targets`
-    (lattice_tools): returns the distances left and the constraints' rank."""
-    return lattice_tools.direct_manipulation(obj, index, vertex_indices, targets)
+    (lattice_tools): returns the distances left and the constraints' rank; with preserve_volume,
+    keeping the volume of the entry's (closed) input mesh."""
+    return lattice_tools.direct_manipulation(obj, index, vertex_indices, targets, preserve_volume)
+
+
+def lattice_bounds(obj, index):
+    """Whether entry `index`'s lattice folds where the mesh is, and its volume change (lattice_tools)."""
+    return lattice_tools.lattice_bounds(obj, index)
+
+
+def folded_control_points(obj, index):
+    """The lattice points of the cells where entry `index`'s lattice folds: ValueError when none (lattice_tools)."""
+    return lattice_tools.folded_control_points(obj, index)
+
+
+def select_folded(obj, index):
+    """Select the lattice points of the cells where entry `index`'s lattice folds (lattice_tools)."""
+    return lattice_tools.select_folded(obj, index)
 
 
 # Smoothness (smoothness.py) ---------------------------------------------------------------------

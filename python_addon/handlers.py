@@ -7,11 +7,14 @@ are unchanged, which is also what stops the handlers from re-entering on their o
 import bpy
 from bpy.app.handlers import persistent
 
-from . import entries, evaluation, outputs, properties
+from . import entries, evaluation, lattice_tools, outputs, properties
 from .entries import common
 from .evaluation import Reason
 
 WATCHED = (bpy.types.Object, bpy.types.Mesh, bpy.types.Lattice, bpy.types.Collection, bpy.types.Key)
+# Seconds without updates before the lattices' certificates are computed again: once at the end of
+# a drag or of playback, not on every step of it.
+LATTICE_CHECK_DELAY = 0.3
 
 
 def _stack_objects(scene):
@@ -74,6 +77,7 @@ def on_depsgraph_update(scene, depsgraph):
     if relinked:
         _remove_orphaned_helpers()
     _copies_let_go(updates)
+    schedule_lattice_check(_stack_objects(scene))
     for obj in _stack_objects(scene):
         if evaluation.modifier_gone(obj):
             continue  # applied, converted or removed: the entries were removed or turned off
@@ -103,6 +107,29 @@ def on_depsgraph_update(scene, depsgraph):
             evaluation.evaluate(obj, Reason.LINKS)  # show (or clear) the entry's message
 
 
+def check_lattices():
+    """Every Lattice entry's certificate and volume change, computed again where its lattice or
+    binding changed (lattice_tools.lattice_bounds), then the panels redrawn. Run by a timer after
+    the last update."""
+    for obj in [o for scene in bpy.data.scenes for o in _stack_objects(scene)]:
+        for index in lattice_tools.lattice_entries(obj):
+            lattice_tools.lattice_bounds(obj, index)
+    for window in getattr(bpy.context.window_manager, "windows", ()):
+        for area in window.screen.areas:
+            if area.type == "PROPERTIES":
+                area.tag_redraw()
+    return None  # once
+
+
+def schedule_lattice_check(objects):
+    """Push the lattice check back to LATTICE_CHECK_DELAY from now, if any of objects has a Lattice entry."""
+    if not any(lattice_tools.lattice_entries(o) for o in objects):
+        return
+    if bpy.app.timers.is_registered(check_lattices):
+        bpy.app.timers.unregister(check_lattices)
+    bpy.app.timers.register(check_lattices, first_interval=LATTICE_CHECK_DELAY)
+
+
 @persistent
 def on_reload(*_args):
     evaluation.forget()
@@ -117,6 +144,7 @@ def on_reload(*_args):
                 bpy.context.evaluated_depsgraph_get()
         for obj in objects:
             evaluation.evaluate(obj, Reason.LOAD)
+        schedule_lattice_check(objects)
 
 
 @persistent
@@ -147,6 +175,8 @@ def register():
 
 
 def unregister():
+    if bpy.app.timers.is_registered(check_lattices):
+        bpy.app.timers.unregister(check_lattices)
     for handler_list, fn in HANDLERS:
         if fn in handler_list:
             handler_list.remove(fn)

@@ -125,6 +125,9 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
                             description="How far the mesh follows the lattice (as the Lattice modifier)")
     outside: EnumProperty(name="Outside", items=OUTSIDE, default="CLAMP", update=_changed,
                           description="What happens to points outside the lattice")
+    preserve_volume: BoolProperty(name="Preserve Volume", default=False,
+                                  description="Move Selection To keeps the volume of the mesh under the lattice "
+                                              "(the mesh must be closed)")
     vertex_group: StringProperty(name="Vertex Group", update=_changed,
                                  description="Vertex group whose weights scale the entry's effect per vertex "
                                              "(none: every vertex fully)")

@@ -201,6 +201,8 @@ def build_scene(bpy):
     points = entry.lattice.data.points
     for p in points[len(points) - 9:]:  # the top layer (w fastest last), widened and shifted
         p.co_deform = (p.co.x * 1.8 + 0.3, p.co.y * 1.8, p.co.z)
+    for p in points[9:18]:  # the middle layer pulled up through the top one: the panel's fold warning
+        p.co_deform = (p.co.x, p.co.y, 1.0)
     obj = objects["laplacian"] = tube(bpy, "Laplacian Tube")
     empty = bpy.data.objects.new("Handle", None)
     bpy.context.scene.collection.objects.link(empty)

@@ -16,6 +16,7 @@ import numpy as np
 
 from .. import cache, meshdata, native
 from ..errors import EntryError
+from ..panel_text import box_budget, label_wrapped
 from .common import Prepared, affine_inverse, draw_vertex_group, followed_object, influence_weights, stack_index
 
 ENTRY_TYPES = [
@@ -38,7 +39,8 @@ OUTSIDE = [
 ICON = "MOD_LATTICE"
 DEFORMS_INTO = True  # deform takes out=: the result is written into the given array
 MENU = (("deformkit.add_lattice", "OUTLINER_OB_LATTICE"),)  # below the Add menu's entry types
-FIELDS = ("lattice", "lattice_basis", "outside", "strength", "vertex_group", "invert_vertex_group")
+FIELDS = ("lattice", "lattice_basis", "outside", "strength", "vertex_group", "invert_vertex_group",
+          "preserve_volume")
 
 BASES = tuple(b[0] for b in LATTICE_BASES)
 CLASSES = {"BLENDER": "BlenderLattice", "BERNSTEIN": "FFD", "BEZIER": "BezierFFD", "BSPLINE": "BSplineLattice"}
@@ -49,6 +51,16 @@ CLASSES = {"BLENDER": "BlenderLattice", "BERNSTEIN": "FFD", "BEZIER": "BezierFFD
 Setup = namedtuple("Setup", "deformer fingerprint layout lattice local co")
 # The vertex counts of a binding (Bind's report).
 Bound = namedtuple("Bound", "inside outside not_placed")
+# The lattice's certificate over the cells that hold the mesh, and its volume change, as the panel
+# shows them (lattice_tools.lattice_bounds computes them, after an edit rather than during it).
+# layout, binding, offsets: what they were computed for; centres: the points standing for the
+# cells that hold the mesh (occupied_cells), in the lattice's space, kept while the binding is;
+# folds: True (det J <= 0 found), None (not proven positive within the work cap), False (proven
+# positive); lower: a lower bound of det J there, within 1e-3 of its minimum (1 when certified:
+# not computed); cells: the certificate's (cell, local coordinates, lower bound) of the offending
+# cells; volume_change: deformed volume / rest volume - 1 of the lattice's whole region (the box,
+# or the B-spline's inner part of it), rest_volume the latter.
+Bounds = namedtuple("Bounds", "layout binding offsets centres folds lower cells volume_change rest_volume")
 
 # Bindings are kept in the cache's "lattice" space: (object cache key, entry index, "viewport"/"render")
 # -> (layout, bound points, binding, counts). The rest grids are not: they belong to Lattice data
@@ -256,7 +268,7 @@ def prune(object_key, entries):
     """The lattices kept for places no Lattice entry has any more go (bindings stay: they are
     checked against the points and layout when used)."""
     alive = {stack_index(e) for e in entries}
-    cache.forget(object_key, "lattice", keep=lambda k: k[2] != "setup" or k[1] in alive)
+    cache.forget(object_key, "lattice", keep=lambda k: k[2] not in ("setup", "bounds") or k[1] in alive)
 
 
 def binding_counts(object_key, index):
@@ -266,6 +278,69 @@ def binding_counts(object_key, index):
         if cached is not None:
             return cached[3]
     return None
+
+
+def occupied_cells(binding, resolution, outside):
+    """Indices of bound points that stand for the cells holding them all, as the lattice's
+    certificate takes them, and the centres (in the rest cube [-1/2, 1/2]^3) of the grid intervals
+    (points - 1 per axis) that hold points inside the lattice. Every basis's polynomial cells are
+    unions of these intervals (Blender's cells, the B-spline's spans, Bezier blocks, the one
+    Bernstein cell), so a centre stands for exactly the cell holding its interval's points, away
+    from its boundaries. Outside the lattice, clamped or unchanged, the map depends on the side and
+    the interval (two deep, as Blender's outside cells), so one point of each such group stands for
+    it; extrapolated points all count (their cells widen with them). The certificate then costs
+    the cells, not the vertices."""
+    status = np.asarray(binding.status)
+    bins = np.maximum(np.asarray(resolution) - 1, 1)
+    index = np.clip(np.floor(np.asarray(binding.parameters) * bins), -2, bins + 1).astype(np.int64)
+    inside = status == 0
+    seen = np.zeros(int(np.prod(bins)), bool)
+    seen[np.ravel_multi_index(np.minimum(np.maximum(index[inside], 0), bins - 1).T, bins)] = True
+    occupied = np.stack(np.unravel_index(np.flatnonzero(seen), bins), axis=1)
+    out = np.flatnonzero(status == 1)
+    if outside != "EXTRAPOLATE" and len(out):
+        _, first = np.unique(np.ravel_multi_index((index[out] + 2).T, bins + 4), return_index=True)
+        out = out[first]
+    return (occupied + 0.5) / bins - 0.5, out
+
+
+def cell_control_points(deformer, resolution, cells):
+    """Blender's indices (u fastest) of the lattice points that shape the given cells (the
+    module's cell_control_indices: the points whose weight is not zero there)."""
+    nu, nv, _nw = resolution
+    grid = np.concatenate([deformer.cell_control_indices(cell) for cell in cells]).astype(np.int64)
+    return np.unique(grid[:, 0] + nu * (grid[:, 1] + nv * grid[:, 2]))
+
+
+def kept_bounds(object_key, index):
+    """The last Bounds computed for the entry, if they are of its current binding's layout."""
+    bounds = cache.get("lattice", (object_key, index, "bounds"))
+    bound = cache.get("lattice", (object_key, index, "viewport"))
+    if bounds is None or bound is None or bound[0] != bounds.layout:
+        return None
+    return bounds
+
+
+def bounds_current(object_key, index, bounds):
+    """Whether `bounds` were computed for the entry's binding and lattice as evaluation keeps them."""
+    bound = cache.get("lattice", (object_key, index, "viewport"))
+    kept = cache.get("lattice", (object_key, index, "setup"))
+    return (bounds is not None and bound is not None and kept is not None and bound[2] is bounds.binding
+            and kept[3] is bounds.offsets)
+
+
+def fold_message(bounds):
+    """The panel's warning for these bounds, or "" when the cells that hold the mesh are certified."""
+    if bounds is None or bounds.folds is False:
+        return ""
+    cells = f"{len(bounds.cells)} cell{'s' if len(bounds.cells) != 1 else ''}"
+    if bounds.folds:
+        return f"The lattice folds: volume ratio down to {bounds.lower:.2f} in {cells}"
+    return f"The lattice may fold: volume ratio not proven positive in {cells} (bound {bounds.lower:.2f})"
+
+
+def volume_text(bounds):
+    return f"Volume: {100 * bounds.volume_change:+.1f}%"
 
 
 def followed(entry):
@@ -319,9 +394,19 @@ def draw(col, obj, entry):
     row = col.row(align=True)
     row.operator("deformkit.lattice_bind", text="Rebind" if bound else "Bind", icon="FILE_REFRESH").index = index
     row.operator("deformkit.lattice_reset", text="Reset", icon="LOOP_BACK").index = index
+    # The last check of the lattice (handlers.check_lattices, after an edit): not computed here.
+    bounds = kept_bounds(meshdata.cache_key(obj), index)
+    if bounds is not None:
+        col.label(text=volume_text(bounds))
+        message = fold_message(bounds)
+        if message:
+            label_wrapped(col, message, "ERROR", box_budget())
+            col.operator("deformkit.lattice_select_folded", text="Select Folded Cells",
+                         icon="RESTRICT_SELECT_OFF").index = index
     # Short labels: "Selection to Empties" is cut on a half row at the default width.
     col.label(text="Move Selection To")
     row = col.row(align=True)
     for targets, label, icon in (("CURSOR", "Cursor", "PIVOT_CURSOR"), ("EMPTIES", "Empties", "EMPTY_AXIS")):
         op = row.operator("deformkit.lattice_direct", text=label, icon=icon)
         op.index, op.targets = index, targets
+    col.prop(entry, "preserve_volume")

@@ -1,5 +1,5 @@
-"""The Lattice entry's operators: Add Fitted Lattice (in the Add menu), Bind, Reset and Move Lattice
-to Targets (named by bl_idname in the entry's panel)."""
+"""The Lattice entry's operators: Add Fitted Lattice (in the Add menu), Bind, Reset, Move Lattice
+to Targets and Select Folded Lattice Cells (named by bl_idname in the entry's panel)."""
 import bpy
 import numpy as np
 from bpy.props import EnumProperty, IntVectorProperty
@@ -104,14 +104,38 @@ class DEFORMKIT_OT_lattice_direct(_LatticeOperator, bpy.types.Operator):
         empties = [o for o in context.selected_objects if o.type == "EMPTY"]
         vertices, targets = api.manipulation_targets(obj, index, np.flatnonzero(selected), self.targets,
                                                      cursor=context.scene.cursor.location, empties=empties)
-        result = api.direct_manipulation(obj, index, vertices, targets)
+        preserve = obj.deformkit.entries[index].preserve_volume
+        result = api.direct_manipulation(obj, index, vertices, targets, preserve_volume=preserve)
         if result.max_residual > 1e-5 * max(1.0, *obj.dimensions):
             self.report({"WARNING"}, f"Targets not all reached: up to {result.max_residual:.3g} away (more "
                                      "constraints than the lattice's points allow, or vertices outside it)")
         else:
+            kept = f", volume kept to {result.volume_residual:.1g} relative" if preserve else ""
             self.report({"INFO"}, f"Moved {len(vertices)} vertices to their targets "
-                                  f"(within {result.max_residual:.2g})")
+                                  f"(within {result.max_residual:.2g}{kept})")
+
+
+class DEFORMKIT_OT_lattice_select_folded(_LatticeOperator, bpy.types.Operator):
+    """Select the lattice points of the cells where the lattice folds (or may fold) where the mesh is, in the lattice's Edit Mode"""
+    bl_idname = "deformkit.lattice_select_folded"
+    bl_label = "Select Folded Lattice Cells"
+
+    def run(self, context):
+        obj, index = self.target(context)
+        if obj.mode == "EDIT":
+            with context.temp_override(object=obj, active_object=obj):
+                bpy.ops.object.mode_set(mode="OBJECT")
+        api.folded_control_points(obj, index)  # a ValueError before any mode changes
+        lattice = api.lattice_entry(obj, index).lattice
+        if lattice.mode != "EDIT":
+            # Its Edit Mode first, so that the flags are set on the edit copy, which undo restores.
+            context.view_layer.objects.active = lattice
+            lattice.select_set(True)
+            with context.temp_override(object=lattice, active_object=lattice):
+                bpy.ops.object.mode_set(mode="EDIT")
+        lattice, points = api.select_folded(obj, index)
+        self.report({"INFO"}, f"{len(points)} points of '{lattice.name}' selected")
 
 
 classes = (DEFORMKIT_OT_add_lattice, DEFORMKIT_OT_lattice_bind, DEFORMKIT_OT_lattice_reset,
-           DEFORMKIT_OT_lattice_direct)
+           DEFORMKIT_OT_lattice_direct, DEFORMKIT_OT_lattice_select_folded)

@@ -57,7 +57,7 @@ def test_operators_share_one_prefix_poll_and_undo(addon):
     # issue 15: Bind and Unbind to a cage; issue 16: Bind and Unbind to an RBF entry's controls;
     # issue 17: Transfer Deformation; issue 31: Add, Select, Remove, Mirror and Guess Marker Pair(s);
     # issue 32: Convert Mesh Deform to deformkit; issue 33: Generate Cage
-    assert len(operators) == 28
+    assert len(operators) == 29
     for cls in operators:
         assert cls.bl_idname.startswith("deformkit."), cls.bl_idname
         assert "poll" in {name for klass in cls.__mro__[:-1] if klass is not bpy.types.Operator
