@@ -11,11 +11,13 @@ namespace deformkit::harmonic {
 namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
-// A row of 4 doubles is one vector (AVX2 and wider, capped), two (SSE) or four: one multiply-add
-// per weight and part. Two accumulators (even and odd weights) halve the chain of dependent adds.
-void WeightedRowsT(const std::uint32_t* start, const std::uint32_t* column, const double* weight, size_t begin, size_t end,
-                   const double* rows4, double* acc) {
-  const hn::CappedTag<double, 4> d;
+// A row of 4 values is one vector (AVX2 and wider for doubles, capped), two (SSE) or four: one
+// multiply-add per weight and part. Two accumulators (even and odd weights) halve the chain of
+// dependent adds.
+template <class T>
+void WeightedRowsOf(const std::uint32_t* start, const std::uint32_t* column, const T* weight, size_t begin, size_t end,
+                    const T* rows4, T* acc) {
+  const hn::CappedTag<T, 4> d;
   using V = hn::Vec<decltype(d)>;
   constexpr size_t kMaxParts = 4;
   const size_t lanes = hn::Lanes(d), parts = 4 / lanes;
@@ -26,8 +28,8 @@ void WeightedRowsT(const std::uint32_t* start, const std::uint32_t* column, cons
     const std::uint32_t stop = start[i + 1];
     for (; e + 2 <= stop; e += 2) {
       const auto w0 = hn::Set(d, weight[e]), w1 = hn::Set(d, weight[e + 1]);
-      const double* r0 = rows4 + 4 * size_t(column[e]);
-      const double* r1 = rows4 + 4 * size_t(column[e + 1]);
+      const T* r0 = rows4 + 4 * size_t(column[e]);
+      const T* r1 = rows4 + 4 * size_t(column[e + 1]);
       for (size_t p = 0; p < parts; ++p) {
         even[p] = hn::MulAdd(w0, hn::LoadU(d, r0 + p * lanes), even[p]);
         odd[p] = hn::MulAdd(w1, hn::LoadU(d, r1 + p * lanes), odd[p]);
@@ -35,17 +37,22 @@ void WeightedRowsT(const std::uint32_t* start, const std::uint32_t* column, cons
     }
     if (e < stop) {
       const auto w0 = hn::Set(d, weight[e]);
-      const double* r0 = rows4 + 4 * size_t(column[e]);
+      const T* r0 = rows4 + 4 * size_t(column[e]);
       for (size_t p = 0; p < parts; ++p) even[p] = hn::MulAdd(w0, hn::LoadU(d, r0 + p * lanes), even[p]);
     }
-    double* out = acc + 4 * (i - begin);
+    T* out = acc + 4 * (i - begin);
     for (size_t p = 0; p < parts; ++p) hn::StoreU(hn::Add(even[p], odd[p]), d, out + p * lanes);
   }
 }
 
+void WeightedRowsT(const std::uint32_t* start, const std::uint32_t* column, const double* weight, size_t begin, size_t end,
+                   const double* rows4, double* acc) {
+  WeightedRowsOf(start, column, weight, begin, end, rows4, acc);
+}
+
 // Float rows of 4: two weights' rows side by side in one 8-lane vector where the target has
-// them (AVX2 and wider), else one row a vector; two accumulators, then the halves and the last
-// weights added.
+// them (AVX2 and wider; two accumulators, then the halves and the last weights added), else
+// as the doubles.
 void WeightedRowsF32(const std::uint32_t* start, const std::uint32_t* column, const float* weight, size_t begin, size_t end,
                      const float* rows4, float* acc) {
 #if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX2
@@ -69,32 +76,7 @@ void WeightedRowsF32(const std::uint32_t* start, const std::uint32_t* column, co
     hn::StoreU(hn::Add(hn::Add(hn::LowerHalf(d4, both), hn::UpperHalf(d4, both)), last), d4, acc + 4 * (i - begin));
   }
 #else
-  const hn::CappedTag<float, 4> d;
-  using V = hn::Vec<decltype(d)>;
-  constexpr size_t kMaxParts = 4;
-  const size_t lanes = hn::Lanes(d), parts = 4 / lanes;
-  for (size_t i = begin; i < end; ++i) {
-    V even[kMaxParts], odd[kMaxParts];
-    for (size_t p = 0; p < kMaxParts; ++p) even[p] = odd[p] = hn::Zero(d);
-    std::uint32_t e = start[i];
-    const std::uint32_t stop = start[i + 1];
-    for (; e + 2 <= stop; e += 2) {
-      const auto w0 = hn::Set(d, weight[e]), w1 = hn::Set(d, weight[e + 1]);
-      const float* r0 = rows4 + 4 * size_t(column[e]);
-      const float* r1 = rows4 + 4 * size_t(column[e + 1]);
-      for (size_t p = 0; p < parts; ++p) {
-        even[p] = hn::MulAdd(w0, hn::LoadU(d, r0 + p * lanes), even[p]);
-        odd[p] = hn::MulAdd(w1, hn::LoadU(d, r1 + p * lanes), odd[p]);
-      }
-    }
-    if (e < stop) {
-      const auto w0 = hn::Set(d, weight[e]);
-      const float* r0 = rows4 + 4 * size_t(column[e]);
-      for (size_t p = 0; p < parts; ++p) even[p] = hn::MulAdd(w0, hn::LoadU(d, r0 + p * lanes), even[p]);
-    }
-    float* out = acc + 4 * (i - begin);
-    for (size_t p = 0; p < parts; ++p) hn::StoreU(hn::Add(even[p], odd[p]), d, out + p * lanes);
-  }
+  WeightedRowsOf(start, column, weight, begin, end, rows4, acc);
 #endif
 }
 

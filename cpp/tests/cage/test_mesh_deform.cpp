@@ -7,9 +7,11 @@
 #include "cage/cage_shapes.hpp"
 #include "cage/exact_geometry.hpp"
 #include "cage/harmonic_grid.hpp"
+#include "cage/mesh_deform_simd.hpp"
 #include "deformkit/cage/mesh_deform.hpp"
 
 #include <gtest/gtest.h>
+#include <hwy/targets.h>
 
 #include <Eigen/Core>
 
@@ -236,4 +238,41 @@ TEST(CageMeshDeform, FilteredTurnEqualsTheExactPredicateOnNearlyCollinearPoints)
   }
   EXPECT_GT(zero, 1000);
   EXPECT_GT(nonzero, 1000);
+}
+
+// The frame's weighted sums on every SIMD target this build has and this CPU runs (SSE4's and
+// AVX2's float paths differ), against the sums in long double: rows of 0 to 9 weights.
+TEST(CageMeshDeform, WeightedRowsAgreeOnEveryTarget) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> value(-1.0, 1.0);
+  const std::size_t cage = 37, rows = 200;
+  std::vector<std::uint32_t> start{0}, column;
+  std::vector<double> weight, rows4(4 * cage);
+  for (double& r : rows4) r = value(rng);
+  for (std::size_t r = 0; r < rows; ++r) {
+    for (std::size_t k = 0; k < r % 10; ++k) {
+      column.push_back(std::uint32_t(rng() % cage));
+      weight.push_back(value(rng));
+    }
+    start.push_back(std::uint32_t(column.size()));
+  }
+  const std::vector<float> weight_f(weight.begin(), weight.end()), rows4_f(rows4.begin(), rows4.end());
+  std::vector<long double> expected(4 * rows, 0.0L);
+  for (std::size_t r = 0; r < rows; ++r)
+    for (std::uint32_t e = start[r]; e < start[r + 1]; ++e)
+      for (std::size_t c = 0; c < 4; ++c) expected[4 * r + c] += (long double)weight[e] * rows4[4 * column[e] + c];
+  const std::vector<std::int64_t> targets = hwy::SupportedAndGeneratedTargets();
+  ASSERT_FALSE(targets.empty());
+  for (const std::int64_t target : targets) {
+    hwy::SetSupportedTargetsForTest(target);
+    std::vector<double> acc(4 * rows);
+    std::vector<float> acc_f(4 * rows);
+    harmonic::weighted_rows(start.data(), column.data(), weight.data(), 0, rows, rows4.data(), acc.data());
+    harmonic::weighted_rows(start.data(), column.data(), weight_f.data(), 0, rows, rows4_f.data(), acc_f.data());
+    for (std::size_t i = 0; i < 4 * rows; ++i) {
+      EXPECT_NEAR(acc[i], double(expected[i]), 1e-14) << hwy::TargetName(target) << " row " << i / 4;
+      EXPECT_NEAR(acc_f[i], double(expected[i]), 5e-6) << hwy::TargetName(target) << " row " << i / 4;
+    }
+  }
+  hwy::SetSupportedTargetsForTest(0);
 }
