@@ -25,7 +25,8 @@ FIXTURES := blend_fixtures/.fixtures-made
 # (demo_out/subdivision); Sumner's horse poses transferred onto the camel (demo_out/transfer); a
 # tube bent by a new Laplacian entry beside Blender's Laplacian Deform (demo_out/laplacian_vs_blender);
 # a cage generated around a mesh and bent (demo_out/cage_generation); Blender's Mesh Deform beside
-# the Cage entry's Harmonic method, with both binds timed (demo_out/mesh_deform).
+# the Cage entry's Harmonic method, with both binds timed (demo_out/mesh_deform); a folded lattice
+# flagged by its certified Jacobian bounds and a volume-preserving lattice edit (demo_out/lattice_bounds).
 demo: build $(FIXTURES)
 	scripts/deformkit-batch 'blend_fixtures/*.blend' --recipe blend_fixtures/demo_recipe.json \
 	    --out demo_out/batch --jobs $(JOBS) --preview
