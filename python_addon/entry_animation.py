@@ -106,20 +106,23 @@ def _all_ids():
                     yield tree
 
 
-def _reading_targets(obj):
-    """(target, entry index, rest) of every driver variable target of any local ID (linked data
-    cannot be edited) that reads obj's entries."""
+def targets_reading(obj):
+    """Every driver variable target of any local ID (linked data cannot be edited) that reads obj."""
     for id in _all_ids():
         anim = getattr(id, "animation_data", None)
         if anim is None or id.library is not None:
             continue
         for fcurve in anim.drivers:
             for var in fcurve.driver.variables:
-                for target in var.targets:
-                    if target.id == obj:
-                        found = entry_path(target.data_path)
-                        if found is not None:
-                            yield (target, *found)
+                yield from (target for target in var.targets if target.id == obj)
+
+
+def _reading_targets(obj):
+    """(target, entry index, rest) of every driver variable target that reads obj's entries."""
+    for target in targets_reading(obj):
+        found = entry_path(target.data_path)
+        if found is not None:
+            yield (target, *found)
 
 
 def own_actions(obj, touched, adding=False):

@@ -130,17 +130,10 @@ def _move_animation(obj, name, index):
             else:
                 dropped.append(found.group(1))
                 fcurves.remove(fcurve)
-    readers = set(bpy.data.user_map(subset=[obj]).get(obj, ())) | set(bpy.data.objects)  # drivers reading obj
-    for id in readers:
-        anim = getattr(id, "animation_data", None)
-        if anim is None or id.library is not None:
-            continue
-        for fcurve in anim.drivers:
-            for var in fcurve.driver.variables:
-                for target in var.targets:
-                    found = path.match(target.data_path or "") if target.id == obj else None
-                    if found is not None and found.group(1) in MAPPED:
-                        target.data_path = f"deformkit.entries[{index}].{found.group(1)}"
+    for target in entry_animation.targets_reading(obj):
+        found = path.match(target.data_path or "")
+        if found is not None and found.group(1) in MAPPED:
+            target.data_path = f"deformkit.entries[{index}].{found.group(1)}"
     return sorted(set(dropped))
 
 
