@@ -339,7 +339,7 @@ void kept_rows(const ReachedCells& r, const std::vector<std::size_t>& inside, Me
     if (total >= std::uint64_t(UINT32_MAX)) throw std::bad_alloc();
     b.weight_start[row + 1] = std::uint32_t(total);
   }
-  b.weight_vertex.resize(std::size_t(total));
+  b.weight_vertex = WeightColumns(std::size_t(total), m);
   if (b.single_precision) b.weight_value_f32.resize(std::size_t(total));
   else b.weight_value.resize(std::size_t(total));
   parallel_tasks(tasks, [&](int task) {
@@ -350,8 +350,7 @@ void kept_rows(const ReachedCells& r, const std::vector<std::size_t>& inside, Me
       const std::size_t point = inside[i], kept = length[point];
       if (!kept) continue;
       const std::size_t to = b.weight_start[row_of[point]];
-      std::copy(run.indices.begin() + std::ptrdiff_t(from), run.indices.begin() + std::ptrdiff_t(from + kept),
-                b.weight_vertex.begin() + std::ptrdiff_t(to));
+      b.weight_vertex.assign(to, run.indices.data() + from, kept);
       if (b.single_precision)
         for (std::size_t e = 0; e < kept; ++e) b.weight_value_f32[to + e] = float(run.values[from + e]);
       else
@@ -410,6 +409,19 @@ bool dynamic_offset(const Solved& s, const double* p, const double* disp, double
 
 }  // namespace
 }  // namespace harmonic
+
+WeightColumns::WeightColumns(std::size_t count, std::size_t vertex_count) {
+  if (vertex_count <= std::size_t(UINT8_MAX) + 1) storage_ = std::vector<std::uint8_t>(count);
+  else if (vertex_count <= std::size_t(UINT16_MAX) + 1) storage_ = std::vector<std::uint16_t>(count);
+  else storage_ = std::vector<std::uint32_t>(count);
+}
+
+void WeightColumns::assign(std::size_t at, const std::uint32_t* vertices, std::size_t count) {
+  std::visit([&](auto& c) {
+    using Index = typename std::decay_t<decltype(c)>::value_type;
+    for (std::size_t e = 0; e < count; ++e) c[at + e] = Index(vertices[e]);
+  }, storage_);
+}
 
 MeshDeform::MeshDeform(CageMesh cage, int precision, bool dynamic, int bvh_arity, GridSolver solver)
     : cage_(std::move(cage)), precision_(precision), dynamic_(dynamic), bvh_arity_(bvh_arity), solver_(solver),

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <variant>
 #include <vector>
 
 namespace deformkit {
@@ -112,7 +113,8 @@ bool MeshDeform::evaluate_bound(const MeshDeformBinding& b, T* out, bool offsets
     bool ok = true;
     for (std::size_t first = lo; first < hi; first += kChunk) {
       const std::size_t last = std::min(hi, first + kChunk);
-      harmonic::weighted_rows(start, b.weight_vertex.data(), weight, first, last, rows4.data(), acc);
+      std::visit([&](const auto& column) { harmonic::weighted_rows(start, column.data(), weight, first, last, rows4.data(), acc); },
+                 b.weight_vertex.storage());
       for (std::size_t r = first; r < last; ++r) {
         const std::size_t i = b.row_point[r];
         ok = finish(acc + 4 * (r - first), points + 3 * i, out + 3 * i, offsets, weight_of(i)) && ok;

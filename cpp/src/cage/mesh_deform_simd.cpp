@@ -1,10 +1,20 @@
 // Compiled once per x86 target by Highway and dispatched at run time: no -march needed.
 #include "cage/mesh_deform_simd.hpp"
 
+// Highway 1.0 exports plain functions only: one per column and weight type, each the one
+// template below (X is given the function's name, the column type and the weight type).
+#ifndef DEFORMKIT_WEIGHTED_ROWS_TYPES
+#define DEFORMKIT_WEIGHTED_ROWS_TYPES(X)                                                                      \
+  X(RowsU8F64, std::uint8_t, double) X(RowsU16F64, std::uint16_t, double) X(RowsU32F64, std::uint32_t, double) \
+  X(RowsU8F32, std::uint8_t, float) X(RowsU16F32, std::uint16_t, float) X(RowsU32F32, std::uint32_t, float)
+#endif
+
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "cage/mesh_deform_simd.cpp"
 #include "hwy/foreach_target.h"  // IWYU pragma: keep
 #include "hwy/highway.h"
+
+#include <type_traits>
 
 HWY_BEFORE_NAMESPACE();
 namespace deformkit::harmonic {
@@ -14,8 +24,8 @@ namespace hn = hwy::HWY_NAMESPACE;
 // A row of 4 values is one vector (AVX2 and wider for doubles, capped), two (SSE) or four: one
 // multiply-add per weight and part. Two accumulators (even and odd weights) halve the chain of
 // dependent adds.
-template <class T>
-void WeightedRowsOf(const std::uint32_t* start, const std::uint32_t* column, const T* weight, size_t begin, size_t end,
+template <class Column, class T>
+void WeightedRowsOf(const std::uint32_t* start, const Column* column, const T* weight, size_t begin, size_t end,
                     const T* rows4, T* acc) {
   const hn::CappedTag<T, 4> d;
   using V = hn::Vec<decltype(d)>;
@@ -45,15 +55,11 @@ void WeightedRowsOf(const std::uint32_t* start, const std::uint32_t* column, con
   }
 }
 
-void WeightedRowsT(const std::uint32_t* start, const std::uint32_t* column, const double* weight, size_t begin, size_t end,
-                   const double* rows4, double* acc) {
-  WeightedRowsOf(start, column, weight, begin, end, rows4, acc);
-}
-
 // Float rows of 4: two weights' rows side by side in one 8-lane vector where the target has
 // them (AVX2 and wider; two accumulators, then the halves and the last weights added), else
 // as the doubles.
-void WeightedRowsF32(const std::uint32_t* start, const std::uint32_t* column, const float* weight, size_t begin, size_t end,
+template <class Column>
+void WeightedRowsF32(const std::uint32_t* start, const Column* column, const float* weight, size_t begin, size_t end,
                      const float* rows4, float* acc) {
 #if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX2
   const hn::FixedTag<float, 8> d8;
@@ -80,6 +86,21 @@ void WeightedRowsF32(const std::uint32_t* start, const std::uint32_t* column, co
 #endif
 }
 
+template <class Column, class T>
+void WeightedRows(const std::uint32_t* start, const Column* column, const T* weight, size_t begin, size_t end,
+                  const T* rows4, T* acc) {
+  if constexpr (std::is_same_v<T, float>) WeightedRowsF32(start, column, weight, begin, end, rows4, acc);
+  else WeightedRowsOf(start, column, weight, begin, end, rows4, acc);
+}
+
+#define DEFORMKIT_TARGET_ROWS(Name, Column, T)                                                                  \
+  void Name(const std::uint32_t* start, const Column* column, const T* weight, size_t begin, size_t end,        \
+            const T* rows4, T* acc) {                                                                           \
+    WeightedRows(start, column, weight, begin, end, rows4, acc);                                                \
+  }
+DEFORMKIT_WEIGHTED_ROWS_TYPES(DEFORMKIT_TARGET_ROWS)
+#undef DEFORMKIT_TARGET_ROWS
+
 }  // namespace HWY_NAMESPACE
 }  // namespace deformkit::harmonic
 HWY_AFTER_NAMESPACE();
@@ -87,17 +108,14 @@ HWY_AFTER_NAMESPACE();
 #if HWY_ONCE
 namespace deformkit::harmonic {
 
-HWY_EXPORT(WeightedRowsT);
-HWY_EXPORT(WeightedRowsF32);
-
-void weighted_rows(const std::uint32_t* start, const std::uint32_t* column, const double* weight, std::size_t begin,
-                   std::size_t end, const double* rows4, double* acc) {
-  HWY_DYNAMIC_DISPATCH(WeightedRowsT)(start, column, weight, begin, end, rows4, acc);
-}
-void weighted_rows(const std::uint32_t* start, const std::uint32_t* column, const float* weight, std::size_t begin,
-                   std::size_t end, const float* rows4, float* acc) {
-  HWY_DYNAMIC_DISPATCH(WeightedRowsF32)(start, column, weight, begin, end, rows4, acc);
-}
+#define DEFORMKIT_DISPATCH_ROWS(Name, Column, T)                                                              \
+  HWY_EXPORT(Name);                                                                                            \
+  void weighted_rows(const std::uint32_t* start, const Column* column, const T* weight, std::size_t begin,      \
+                     std::size_t end, const T* rows4, T* acc) {                                                \
+    HWY_DYNAMIC_DISPATCH(Name)(start, column, weight, begin, end, rows4, acc);                                 \
+  }
+DEFORMKIT_WEIGHTED_ROWS_TYPES(DEFORMKIT_DISPATCH_ROWS)
+#undef DEFORMKIT_DISPATCH_ROWS
 
 }  // namespace deformkit::harmonic
 #endif  // HWY_ONCE

@@ -1,11 +1,15 @@
 #pragma once
-// Cages the cage tests share: a unit cube of quads, and a non-convex L-shaped prism whose caps are
-// hexagons (polygons of more than four corners).
+// Cages the cage tests share: a unit cube of quads (also with each side split into n x n quads),
+// and a non-convex L-shaped prism whose caps are hexagons (polygons of more than four corners).
 #include "deformkit/cage/cage_mesh.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cstdint>
+#include <map>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace deformkit::test {
@@ -41,6 +45,36 @@ inline PolygonSoup unit_cube() {
     for (int y = 0; y < 2; ++y)
       for (int z = 0; z < 2; ++z) s.points.insert(s.points.end(), {double(x), double(y), double(z)});
   s.faces = {{0, 1, 3, 2}, {4, 6, 7, 5}, {0, 4, 5, 1}, {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 5, 7, 3}};
+  return s;
+}
+
+// [0, 1]^3 with each side an n x n grid of outward quads: 6 n^2 + 2 vertices.
+inline PolygonSoup subdivided_cube(int n) {
+  PolygonSoup s;
+  std::map<std::array<int, 3>, int> index;
+  auto vertex = [&](std::array<int, 3> g) {
+    auto [at, added] = index.emplace(g, int(index.size()));
+    if (added)
+      for (int c : g) s.points.push_back(double(c) / n);
+    return at->second;
+  };
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side : {0, n}) {
+      const int u = (axis + 1) % 3, v = (axis + 2) % 3;  // e_u x e_v = e_axis: outward on side n
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+          std::vector<int> f;
+          for (auto [du, dv] : {std::pair{0, 0}, {1, 0}, {1, 1}, {0, 1}}) {
+            std::array<int, 3> g{};
+            g[std::size_t(axis)] = side;
+            g[std::size_t(u)] = i + du;
+            g[std::size_t(v)] = j + dv;
+            f.push_back(vertex(g));
+          }
+          if (side == 0) std::reverse(f.begin(), f.end());
+          s.faces.push_back(f);
+        }
+    }
   return s;
 }
 

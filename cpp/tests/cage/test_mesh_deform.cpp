@@ -241,17 +241,21 @@ TEST(CageMeshDeform, FilteredTurnEqualsTheExactPredicateOnNearlyCollinearPoints)
 }
 
 // The frame's weighted sums on every SIMD target this build has and this CPU runs (SSE4's and
-// AVX2's float paths differ), against the sums in long double: rows of 0 to 9 weights.
-TEST(CageMeshDeform, WeightedRowsAgreeOnEveryTarget) {
+// AVX2's float paths differ), for a column type holding indices below `cage`, against plain sums in
+// long double: rows of 0 to 9 weights, the columns reaching the largest index (the type's largest
+// for 1 and 2 bytes).
+template <class Column>
+void expect_weighted_rows_on_every_target(std::size_t cage) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> value(-1.0, 1.0);
-  const std::size_t cage = 37, rows = 200;
-  std::vector<std::uint32_t> start{0}, column;
+  const std::size_t rows = 200;
+  std::vector<std::uint32_t> start{0};
+  std::vector<Column> column;
   std::vector<double> weight, rows4(4 * cage);
   for (double& r : rows4) r = value(rng);
   for (std::size_t r = 0; r < rows; ++r) {
     for (std::size_t k = 0; k < r % 10; ++k) {
-      column.push_back(std::uint32_t(rng() % cage));
+      column.push_back(Column(k == 0 ? cage - 1 - r % 2 : rng() % cage));
       weight.push_back(value(rng));
     }
     start.push_back(std::uint32_t(column.size()));
@@ -260,7 +264,7 @@ TEST(CageMeshDeform, WeightedRowsAgreeOnEveryTarget) {
   std::vector<long double> expected(4 * rows, 0.0L);
   for (std::size_t r = 0; r < rows; ++r)
     for (std::uint32_t e = start[r]; e < start[r + 1]; ++e)
-      for (std::size_t c = 0; c < 4; ++c) expected[4 * r + c] += (long double)weight[e] * rows4[4 * column[e] + c];
+      for (std::size_t c = 0; c < 4; ++c) expected[4 * r + c] += (long double)weight[e] * rows4[4 * std::size_t(column[e]) + c];
   const std::vector<std::int64_t> targets = hwy::SupportedAndGeneratedTargets();
   ASSERT_FALSE(targets.empty());
   for (const std::int64_t target : targets) {
@@ -270,9 +274,81 @@ TEST(CageMeshDeform, WeightedRowsAgreeOnEveryTarget) {
     harmonic::weighted_rows(start.data(), column.data(), weight.data(), 0, rows, rows4.data(), acc.data());
     harmonic::weighted_rows(start.data(), column.data(), weight_f.data(), 0, rows, rows4_f.data(), acc_f.data());
     for (std::size_t i = 0; i < 4 * rows; ++i) {
-      EXPECT_NEAR(acc[i], double(expected[i]), 1e-14) << hwy::TargetName(target) << " row " << i / 4;
-      EXPECT_NEAR(acc_f[i], double(expected[i]), 5e-6) << hwy::TargetName(target) << " row " << i / 4;
+      EXPECT_NEAR(acc[i], double(expected[i]), 1e-14) << hwy::TargetName(target) << " " << sizeof(Column) << " row " << i / 4;
+      EXPECT_NEAR(acc_f[i], double(expected[i]), 5e-6) << hwy::TargetName(target) << " " << sizeof(Column) << " row " << i / 4;
     }
   }
   hwy::SetSupportedTargetsForTest(0);
+}
+
+TEST(CageMeshDeform, WeightedRowsAgreeOnEveryTarget) {
+  expect_weighted_rows_on_every_target<std::uint8_t>(std::size_t(UINT8_MAX) + 1);
+  expect_weighted_rows_on_every_target<std::uint16_t>(std::size_t(UINT16_MAX) + 1);
+  expect_weighted_rows_on_every_target<std::uint32_t>(std::size_t(UINT16_MAX) + 1000);
+}
+
+// A binding's column indices take the narrowest width that holds every vertex index of its cage: 1
+// byte up to 256 vertices, 2 up to 65536, else 4; the largest index reads back unchanged.
+TEST(CageMeshDeform, WeightColumnsTakeTheNarrowestWidthThatHoldsTheCage) {
+  const std::pair<std::size_t, std::size_t> cases[] = {{8, 1}, {256, 1}, {257, 2}, {65536, 2}, {65537, 4}, {1u << 20, 4}};
+  for (const auto& [vertices, bytes] : cases) {
+    WeightColumns c(3, vertices);
+    EXPECT_EQ(c.bytes_per_index(), bytes) << vertices << " vertices";
+    ASSERT_EQ(c.size(), 3u);
+    const std::uint32_t last[] = {std::uint32_t(vertices - 1), 0, std::uint32_t(vertices / 2)};
+    c.assign(0, last, 3);
+    for (std::size_t e = 0; e < 3; ++e) EXPECT_EQ(c[e], last[e]) << vertices << " vertices";
+  }
+}
+
+// Cages on either side of 256 vertices (cubes of 6 n^2 + 2 vertices: 1- and 2-byte columns),
+// float32 and float64 points. An affine move of the cage moves the deep inside points affinely
+// (the cut-edge Laplacian and the trilinear interpolation reproduce linear functions, as in
+// AffineMoveMovesInsidePointsAffinelyToTheGridsAccuracy; a weight read against another vertex
+// would not), up to the weights Blender drops (below 1e-5 each, m of them at most) and the solve's
+// 1e-7; and after a random move the float32 frame's displacements are the float64 frame's to
+// float rounding.
+TEST(CageMeshDeform, NarrowColumnsGiveTheDenseDisplacementsOnEitherSideOf256Vertices) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> deep(0.25, 0.75);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  for (const int n : {6, 7}) {
+    const CageMesh cage(test::polygon_mesh(test::subdivided_cube(n)));
+    const std::size_t m = cage.vertex_count();
+    ASSERT_EQ(m, std::size_t(6 * n * n + 2));
+    MeshDeform md(cage, 4, false);
+    std::vector<double> p(3 * 300);
+    for (double& x : p) x = deep(rng);
+    const std::vector<float> p_f(p.begin(), p.end());
+    const MeshDeformBinding b = md.bind(p.data(), 300), b_f = md.bind(p_f.data(), 300);
+    EXPECT_EQ(b.weight_vertex.bytes_per_index(), m <= 256 ? 1u : 2u);
+    EXPECT_EQ(b_f.weight_vertex.bytes_per_index(), m <= 256 ? 1u : 2u);
+    const Eigen::Matrix3d a = (Eigen::Matrix3d() << 1.1, 0.2, 0.0, -0.1, 0.9, 0.3, 0.05, 0.0, 1.2).finished();
+    const Eigen::Vector3d t(0.3, -0.2, 0.1);
+    std::vector<double> moved = md.rest_cage_points();
+    for (std::size_t j = 0; j < m; ++j) {
+      const Eigen::Vector3d c = a * Eigen::Vector3d(moved[3 * j], moved[3 * j + 1], moved[3 * j + 2]) + t;
+      for (int k = 0; k < 3; ++k) moved[3 * j + std::size_t(k)] = c[k];
+    }
+    md.set_cage_points(moved);
+    std::vector<double> out(p.size());
+    std::vector<float> out_f(p.size());
+    md.deform_bound(b, out.data());
+    md.deform_bound(b_f, out_f.data());
+    const double spread = (a - Eigen::Matrix3d::Identity()).norm() * std::sqrt(3.0) + t.norm();
+    const double dropped = double(m) * 1e-5 * spread + 1e-6;
+    for (std::size_t i = 0; i < 300; ++i) {
+      ASSERT_TRUE(b.inside[i] && b_f.inside[i]) << "point " << i;
+      const Eigen::Vector3d affine = a * Eigen::Vector3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]) + t;
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_NEAR(out[3 * i + std::size_t(k)], affine[k], dropped) << m << " vertices, point " << i;
+        EXPECT_NEAR(out_f[3 * i + std::size_t(k)], affine[k], dropped + 1e-6) << m << " vertices, float32 point " << i;
+      }
+    }
+    for (double& c : moved) c += noise(rng);
+    md.set_cage_points(moved);
+    md.displacement_bound(b, out.data());
+    md.displacement_bound(b_f, out_f.data());
+    for (std::size_t i = 0; i < out.size(); ++i) EXPECT_NEAR(out_f[i], out[i], 1e-6) << m << " vertices, coordinate " << i;
+  }
 }

@@ -10,9 +10,37 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <type_traits>
+#include <variant>
 #include <vector>
 
 namespace deformkit {
+
+// The cage vertex of each stored weight, in the narrowest unsigned type that holds the cage's
+// vertex indices (1 byte up to 256 vertices, 2 up to 65536, else 4): a static frame reads one per
+// weight and is bound by memory, and Mesh Deform cages are small. Exactly one vector is used.
+class WeightColumns {
+ public:
+  using Storage = std::variant<std::vector<std::uint8_t>, std::vector<std::uint16_t>, std::vector<std::uint32_t>>;
+  WeightColumns() = default;
+  // `count` entries, each to hold a vertex index below `vertex_count`.
+  WeightColumns(std::size_t count, std::size_t vertex_count);
+  std::size_t size() const {
+    return std::visit([](const auto& c) { return c.size(); }, storage_);
+  }
+  std::size_t bytes_per_index() const {
+    return std::visit([](const auto& c) { return sizeof(typename std::decay_t<decltype(c)>::value_type); }, storage_);
+  }
+  std::uint32_t operator[](std::size_t e) const {
+    return std::visit([e](const auto& c) { return std::uint32_t(c[e]); }, storage_);
+  }
+  // Entries [at, at + count) set to `vertices`, each below the vertex count given at construction.
+  void assign(std::size_t at, const std::uint32_t* vertices, std::size_t count);
+  const Storage& storage() const { return storage_; }
+
+ private:
+  Storage storage_;
+};
 
 struct MeshDeformBinding : PointBinding {
   bool dynamic = false;
@@ -21,10 +49,11 @@ struct MeshDeformBinding : PointBinding {
   // (row_point: its point), the rows ordered by length (a frame's loop then runs one length many
   // times over, which the branch predictor follows), CSR: row r's are [weight_start[r],
   // weight_start[r + 1]). The values in the points' precision: float for float32 points, as
-  // Blender stores them (8 bytes a weight, what a frame reads), double for float64 points.
+  // Blender stores them, double for float64 points; their cage vertices 1 or 2 bytes each for
+  // cages up to 256 or 65536 vertices (a float32 frame reads 5 or 6 bytes a weight, not 8).
   std::vector<std::uint32_t> row_point;
   std::vector<std::uint32_t> weight_start;
-  std::vector<std::uint32_t> weight_vertex;
+  WeightColumns weight_vertex;
   std::vector<double> weight_value;
   std::vector<float> weight_value_f32;
   // Dynamic: the cells the bound points reach, and per point its 8 cells (slots into cells) and
