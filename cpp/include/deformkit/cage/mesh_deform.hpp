@@ -17,8 +17,8 @@
 namespace deformkit {
 
 // The cage vertex of each stored weight, in the narrowest unsigned type that holds the cage's
-// vertex indices (1 byte up to 256 vertices, 2 up to 65536, else 4): a static frame reads one per
-// weight and is bound by memory, and Mesh Deform cages are small. Exactly one vector is used.
+// vertex indices (1 byte up to 256 vertices, 2 up to 65536, else 4): a binding holds and a static
+// frame reads one per weight, and Mesh Deform cages are small. Exactly one vector is used.
 class WeightColumns {
  public:
   using Storage = std::variant<std::vector<std::uint8_t>, std::vector<std::uint16_t>, std::vector<std::uint32_t>>;
