@@ -36,8 +36,9 @@ ECHO_WINDOW = 1.0    # seconds within which a depsgraph update of the mesh count
 class Reason(enum.Enum):
     """Why a caller asks for an evaluation: what may have changed, which says what of the last
     evaluation it may reuse (the sets below)."""
-    EDIT = enum.auto()       # a setting changed (property update, keyframe, driver), or a followed object alone
-    FOLLOWED = enum.auto()   # a followed object (lattice, handle) changed and the mesh may have too
+    EDIT = enum.auto()       # a setting changed (property update, keyframe, driver)
+    MOVED = enum.auto()      # a followed object (lattice, handle, cage) alone changed: not the stack nor the mesh
+    FOLLOWED = enum.auto()   # a followed object changed and the mesh may have too
     FRAME = enum.auto()      # the frame changed (animated shape keys: the input is read again)
     EDIT_MODE = enum.auto()  # the edit mesh changed in Edit Mode (the depsgraph holds the new input)
     MESH = enum.auto()       # the base mesh or a shape-key value may have changed; Edit Mode entered or left
@@ -51,9 +52,13 @@ class Reason(enum.Enum):
 
 # What a reason lets an evaluation do; the others read everything again and run only on a change.
 _FORCED = {Reason.STACK, Reason.SCRIPT}  # run even when the settings and input look unchanged
-_REUSES_INPUT = {Reason.EDIT}  # the last input positions, while the vertex count is unchanged
-_REUSES_WEIGHTS = {Reason.EDIT, Reason.FRAME, Reason.EDIT_MODE}  # the vertex-group weights read last time
-_ECHOED = {Reason.EDIT, Reason.FOLLOWED}  # the mesh update this write causes is its echo (is_echo_of_own_write)
+_REUSES_INPUT = {Reason.EDIT, Reason.MOVED}  # the last input positions, while the vertex count is unchanged
+_REUSES_WEIGHTS = {Reason.EDIT, Reason.MOVED, Reason.FRAME, Reason.EDIT_MODE}  # the vertex-group weights read last time
+_ECHOED = {Reason.EDIT, Reason.MOVED, Reason.FOLLOWED}  # the mesh update this write causes is its echo (is_echo_of_own_write)
+# Nothing in the stack changed, only what its entries follow: with the same entries shown as last
+# time (_same_layout), what the last evaluation pruned and discarded stays as it left it. A frame
+# of a cage or lattice drag then pays for the deformation, not for the bookkeeping.
+_KEEPS_LAYOUT = {Reason.MOVED}
 
 
 class Inputs(NamedTuple):
@@ -74,6 +79,7 @@ class Plan(NamedTuple):
     last: Optional[Built]  # the topology-changing entry, run on their result, or None
     key: tuple  # everything the result depends on besides `base`
     cached: Optional[Inputs]  # the last evaluation's
+    settled: bool  # what the last evaluation pruned and discarded holds for this one (_settled)
 
 
 def shared_mesh(obj):
@@ -151,15 +157,25 @@ def _plan(obj, uid, reason, depsgraph):
     per_object = editing or shared_mesh(obj)
     built, last, fingerprints = _setup_entries(obj, reason in _REUSES_WEIGHTS, editing)
     key = (len(base), stack.show_volume_ratio, editing, per_object, *fingerprints)
-    if not _same_stack(cached, key):  # what the kinds keep for entries gone: the same stack keeps it all
+    settled = _settled(cached, key, reason)
+    if not settled:  # what the kinds keep for entries gone: the same stack keeps it all
         entries.prune(uid, stack.entries)
-    return Plan(uid, editing, per_object, stack.show_volume_ratio, base, built, last, key, cached)
+    return Plan(uid, editing, per_object, stack.show_volume_ratio, base, built, last, key, cached, settled)
 
 
-def _same_stack(cached, key):
-    """Whether the last evaluation, published, ran the same entries with the same settings (its key):
-    what it pruned and the helpers it discarded are as it left them."""
-    return cached is not None and cached.key == key
+def _settled(cached, key, reason):
+    """Whether what the last evaluation (published) pruned and the helpers it discarded are as this
+    one would leave them: it ran the same entries with the same settings (its key), or (only what
+    the entries follow changed) the same entries, shown alike, in the same place."""
+    if cached is None:
+        return False
+    return cached.key == key or reason in _KEEPS_LAYOUT and _layout(cached.key) == _layout(key)
+
+
+def _layout(key):
+    """A plan key without what the entries' setups read (their fingerprints): the entries' types,
+    toggles and failures in order, and where the result goes."""
+    return key[:4] + tuple(f if isinstance(f[0], int) else (f[0][:3], f[1]) for f in key[4:])
 
 
 def _input(obj, cached, reason, depsgraph):
@@ -249,7 +265,7 @@ def _show_failures(stack, failures):
 def _write_helpers(obj, plan, finished):
     """The topology-changing entry's results into its helper objects, the others of obj deleted.
     Returns the helpers written, or None (nothing made)."""
-    if plan.last is None and _same_stack(plan.cached, plan.key):
+    if plan.last is None and plan.settled:
         return None  # as the last evaluation left them: none made, the others deleted then
     if plan.last is None:  # no such entry (any more): what its kind keeps to refine the mesh goes
         entries.forget_refined(plan.uid)
@@ -274,7 +290,7 @@ def _write_outputs(obj, plan, helpers, offsets, render_offsets, result):
         # Under a topology-changing entry's result too: the cage's offsets, for stored_positions.
         own = None if plan.per_object else (None if result.in_place else offsets, render_offsets)
         _write_own_mesh(obj, own, result.ratio)
-    if not plan.per_object:
+    if not plan.per_object and not plan.settled:
         outputs.discard_result_helper(obj)
 
 

@@ -77,8 +77,16 @@ def on_depsgraph_update(scene, depsgraph):
     if relinked:
         _remove_orphaned_helpers()
     _copies_let_go(updates)
-    schedule_lattice_check(_stack_objects(scene))
-    for obj in _stack_objects(scene):
+    objects = _stack_objects(scene)
+    schedule_lattice_check(objects)
+    for obj in objects:
+        mesh_changed = obj.data in changed or (obj.data.shape_keys is not None and obj.data.shape_keys in changed)
+        used = _followed(obj)
+        # Lattice edits show as an update of the Lattice object and of its data.
+        watched = {e.origin for e in obj.deformkit.entries if e.origin is not None} | used \
+            | {o.data for o in used if o.type == "LATTICE"}
+        if not (relinked or mesh_changed or obj in changed or watched & changed or evaluation.mode_changed(obj)):
+            continue  # nothing of its own nor anything it follows changed: the others of a cage drag
         if evaluation.modifier_gone(obj):
             continue  # applied, converted or removed: the entries were removed or turned off
         if relinked and any([common.clear_deleted(e) for e in obj.deformkit.entries]):
@@ -86,18 +94,13 @@ def on_depsgraph_update(scene, depsgraph):
             # each entry says which object it lost (the rest of the stack keeps evaluating).
             evaluation.evaluate(obj, Reason.LINKS)
             continue
-        used = _followed(obj)
-        # Lattice edits show as an update of the Lattice object and of its data.
-        watched = {e.origin for e in obj.deformkit.entries if e.origin is not None} | used \
-            | {o.data for o in used if o.type == "LATTICE"}
-        mesh_changed = obj.data in changed or (obj.data.shape_keys is not None and obj.data.shape_keys in changed)
         if evaluation.mode_changed(obj):
             evaluation.evaluate(obj, Reason.MESH)  # Edit Mode entered or left: the input and the result's place change
         elif watched & changed or (watched and obj in moved):
             # The origin frame, the lattice or a handle object changed (or the object moved, which
             # changes them in its space). The input is read again only if the mesh changed too (else
             # as for a setting's edit); either way the mesh update that this write causes needs no second look.
-            evaluation.evaluate(obj, Reason.FOLLOWED if mesh_changed else Reason.EDIT)
+            evaluation.evaluate(obj, Reason.FOLLOWED if mesh_changed else Reason.MOVED)
         elif obj.mode == "EDIT":
             if obj.data in reshaped:  # an edit, not a selection change
                 evaluation.evaluate(obj, Reason.EDIT_MODE, depsgraph)

@@ -26,7 +26,7 @@ from ..errors import EntryError
 from . import binding
 from .binding import is_bound, new_bind_id, signed
 from .common import (Prepared, affine_inverse, draw_vertex_group, evaluated_mesh_in, followed_mesh, forget_bindings,
-                     kept_binding, scaled_influence, stack_index, store_array, weights_crc)
+                     kept_binding, relative, scaled_influence, stack_index, store_array, weights_crc)
 
 ENTRY_TYPES = [  # saved as its number: listed before Subdivide, numbered after
     ("CAGE", "Cage", "A closed mesh object (the cage) deforms the mesh through mean value, Green or harmonic "
@@ -70,7 +70,8 @@ Frame = namedtuple("Frame", "now turn bound inside weights", defaults=(None, Non
 # (object cache key, bind id, method[, precision, dynamic]), points, binding); "cage_deformer", bind
 # key -> (crc of the per-point weights, deformer); "cage_bound", bind key -> the points bound at Bind;
 # "cage_inside", bind key -> a Dynamic bind's inside flags of Bind;
-# "cage_rest", bind key -> a Harmonic entry's rest cage in the cage's space.
+# "cage_rest", bind key -> a Harmonic entry's rest cage in the cage's space; "cage_towards", bind key
+# -> (the cage's place in this object's space, its inverse, its turn) last seen.
 
 
 UNSET = "no cage object set: pick a closed mesh object around the mesh"
@@ -81,12 +82,12 @@ def cage_object(entry, obj, unset=UNSET):
     return followed_mesh(entry, "cage", "cage", obj, unset)
 
 
-def evaluated_cage(obj, cage):
-    """The cage's evaluated mesh (its modifiers, shape keys and edits applied) in obj's space:
-    (points float64 (m, 3), its meshdata.Topology, topology fingerprint (vertices, faces, crc)). The
-    polygons are made from the topology only where a deformer is built: splitting a cage of mixed
-    polygons costs more than the rest of a frame."""
-    points, topo = evaluated_mesh_in(obj, cage, meshdata.topology)
+def evaluated_cage(obj, cage, now=None):
+    """The cage's evaluated mesh (its modifiers, shape keys and edits applied) in obj's space (now:
+    relative(obj, cage), if made already): (points float64 (m, 3), its meshdata.Topology, topology
+    fingerprint (vertices, faces, crc)). The polygons are made from the topology only where a
+    deformer is built: splitting a cage of mixed polygons costs more than the rest of a frame."""
+    points, topo = evaluated_mesh_in(obj, cage, meshdata.topology, now)
     return points, topo, (topo.vertices, topo.faces, signed(topo.crc))
 
 
@@ -123,16 +124,15 @@ def bind_key(obj, entry):
     return (meshdata.cache_key(obj),) + grid_tail(entry)
 
 
-def _deformer(obj, entry, topo, weights, rest=None):
+def _deformer(key, entry, topo, weights, rest=None):
     """The dk cage deformer of the rest cage (the saved one, or `rest`; its polygons from `topo`) with
-    these per-point weights, kept while the bind and the weights stay: checking the cage and building
-    its tables costs about as much as a frame."""
+    these per-point weights, kept under `key` (bind_key) while the bind and the weights stay:
+    checking the cage and building its tables costs about as much as a frame."""
     cls = _class(entry)
-    key = bind_key(obj, entry)
     crc = weights_crc(weights)
     cached = cache.get("cage_deformer", key)
     if cached is not None and cached[0] == crc:
-        return key, cached[1], crc
+        return cached[1], crc
     if rest is None:
         rest = np.asarray(entry[REST], np.float64).reshape(-1, 3)
     try:
@@ -140,7 +140,7 @@ def _deformer(obj, entry, topo, weights, rest=None):
     except ValueError as exc:
         raise EntryError(str(exc)) from exc
     cache.put("cage_deformer", key, (crc, deformer))
-    return key, deformer, crc
+    return deformer, crc
 
 
 def to_space(points, matrix):
@@ -153,39 +153,28 @@ def cage_space(points, to_cage):
     return to_space(points, to_cage).astype(np.float32)
 
 
-def relative(obj, cage):
-    """obj^-1 cage: the cage's local space in obj's."""
-    return np.array(obj.matrix_world.inverted() @ cage.matrix_world, np.float64)
-
-
 def saved_frame(entry):
     return np.array(entry[FRAME], np.float64).reshape(4, 4)
 
 
-def bound_points(obj, entry):
+def bound_points(key, entry):
     """(points bound at Bind, the same in the cage's space at bind) of a Harmonic entry that is not
-    Dynamic, or None; read from the entry once per bind (the cache's "cage_bound" space), not every
-    frame."""
-    if entry.cage_method != "HARMONIC" or entry.use_dynamic_bind or BOUND not in entry:
-        return None
-    key = bind_key(obj, entry)
+    Dynamic, or None; read from the entry once per bind (kept under its bind_key in the cache's
+    "cage_bound" space), not every frame."""
     kept = cache.get("cage_bound", key)
-    if kept is None:
-        points = np.array(entry[BOUND], np.float32).reshape(-1, 3)
-        kept = cache.put("cage_bound", key, (points, cage_space(points, affine_inverse(saved_frame(entry)))))
-    return kept
+    if kept is not None or entry.cage_method != "HARMONIC" or entry.use_dynamic_bind or BOUND not in entry:
+        return kept
+    points = np.array(entry[BOUND], np.float32).reshape(-1, 3)
+    return cache.put("cage_bound", key, (points, cage_space(points, affine_inverse(saved_frame(entry)))))
 
 
-def inside_at_bind(obj, entry):
+def inside_at_bind(key, entry):
     """A Dynamic Harmonic entry's inside flags of Bind (bool per point), or None (bound before the
     entry kept them: the points are then tested where they are); read once per bind."""
-    if entry.cage_method != "HARMONIC" or not entry.use_dynamic_bind or INSIDE not in entry:
-        return None
-    key = bind_key(obj, entry)
     kept = cache.get("cage_inside", key)
-    if kept is None:
-        kept = cache.put("cage_inside", key, np.array(entry[INSIDE], np.int32) != 0)
-    return kept
+    if kept is not None or entry.cage_method != "HARMONIC" or not entry.use_dynamic_bind or INSIDE not in entry:
+        return kept
+    return cache.put("cage_inside", key, np.array(entry[INSIDE], np.int32) != 0)
 
 
 def mesh_change(obj, entry, count):
@@ -201,19 +190,27 @@ def bound_count(frame):
     return len(frame.bound[0]) if frame.bound is not None else None if frame.inside is None else len(frame.inside)
 
 
-def harmonic_frame(obj, cage, entry, points):
-    """(Frame, the rest cage and the current cage in the cage's space) of a Harmonic entry."""
-    now = relative(obj, cage)
-    to_cage = affine_inverse(now)
-    turn = None if np.array_equal(now[:3, :3], np.eye(3)) else now[:3, :3]
-    frame = Frame(to_cage, turn, bound_points(obj, entry), inside_at_bind(obj, entry))
-    return frame, rest_in_cage(obj, entry), to_space(points, to_cage)
+def harmonic_frame(key, entry, now, points):
+    """(Frame, the rest cage and the current cage in the cage's space) of a Harmonic entry whose
+    cage stands at `now` (relative(obj, cage)) in this object's space."""
+    to_cage, turn = _towards_cage(key, now)
+    frame = Frame(to_cage, turn, bound_points(key, entry), inside_at_bind(key, entry))
+    return frame, rest_in_cage(key, entry), to_space(points, to_cage)
 
 
-def rest_in_cage(obj, entry):
+def _towards_cage(key, now):
+    """(now^-1, now's turn or None when it has none), kept while the two objects stand alike: on a
+    cage drag they do frame after frame."""
+    kept = cache.get("cage_towards", key)
+    if kept is None or not np.array_equal(kept[0], now):
+        turn = None if np.array_equal(now[:3, :3], np.eye(3)) else now[:3, :3]
+        kept = cache.put("cage_towards", key, (now, affine_inverse(now), turn))
+    return kept[1], kept[2]
+
+
+def rest_in_cage(key, entry):
     """A Harmonic entry's rest cage in the cage's space at bind, read from the entry once per bind
     (the cache's "cage_rest" space), not every frame."""
-    key = bind_key(obj, entry)
     rest = cache.get("cage_rest", key)
     if rest is None:
         at_bind = affine_inverse(saved_frame(entry))
@@ -225,24 +222,25 @@ def setup(obj, entry, reuse_weights=False):
     cage = cage_object(entry, obj, unset="")  # none picked yet: a hint in the panel, as Mesh Deform's
     if cage is None or not is_bound(entry) or REST not in entry:
         return Prepared(None, ("unbound",), None)  # as Mesh Deform before Bind: the mesh passes through
-    points, topology, topo = evaluated_cage(obj, cage)
-    harmonic, frame, rest = entry.cage_method == "HARMONIC", None, None
+    key, now = bind_key(obj, entry), relative(obj, cage)
+    points, topology, topo = evaluated_cage(obj, cage, now)
+    harmonic, frame, rest = key[2] == "HARMONIC", None, None
     # Bound with Mean Value or Green, a Harmonic entry lacks the frame of its grid.
     changed = "bound for another method: Rebind" if harmonic and FRAME not in entry else topology_change(entry, topo)
     if harmonic and not changed:
-        frame, rest, points = harmonic_frame(obj, cage, entry, points)
+        frame, rest, points = harmonic_frame(key, entry, now, points)
         changed = mesh_change(obj, entry, bound_count(frame))
     binding.require_current(entry, changed)
     weights = scaled_influence(obj, entry, reuse_weights)
     if frame is not None:
         frame = frame._replace(weights=weights)
-        key, deformer, _ = _deformer(obj, entry, topology, None, rest)
+        deformer, _ = _deformer(key, entry, topology, None, rest)
         crc = weights_crc(weights)
         if frame.turn is not None:  # R sum_a w_a d_a = sum_a w_a (R d_a): the offsets come out turned
             rest = deformer.rest_cage_points
             points = rest + (points - rest) @ frame.turn.T
     else:
-        key, deformer, crc = _deformer(obj, entry, topology, weights)
+        deformer, crc = _deformer(key, entry, topology, weights)
     deformer.cage_points = points
     fingerprint = (key, zlib.crc32(points.tobytes()), crc) + (() if frame is None else (frame.now.tobytes(),))
     return Prepared(deformer, fingerprint, Setup(deformer, key, fingerprint, frame))
@@ -367,7 +365,7 @@ def prune(object_key, entries):
     """Bindings of binds no entry has any more go."""
     forget_bindings(object_key, "cage_binding", entries, grid_tail)
     alive = {grid_tail(e) for e in entries}
-    for space in ("cage_deformer", "cage_bound", "cage_rest", "cage_inside"):
+    for space in ("cage_deformer", "cage_bound", "cage_rest", "cage_inside", "cage_towards"):
         cache.forget(object_key, space, keep=lambda k: k[1:] in alive)
 
 

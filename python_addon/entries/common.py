@@ -111,24 +111,36 @@ def determinant3(m):
     return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
 
 
-def in_space_of(obj, other, points):
-    """Points (m, 3) of other's local space in obj's, float64, rounded to float32 as the entries'
-    stored rests are: a shape as it was at bind is then its rest bit for bit."""
-    local = np.array(obj.matrix_world.inverted() @ other.matrix_world)
+def relative(obj, other):
+    """obj^-1 other: other's local space in obj's (4 x 4, float64)."""
+    return np.array(obj.matrix_world.inverted() @ other.matrix_world, np.float64)
+
+
+def in_space_of(obj, other, points, local=None):
+    """Points (m, 3) of other's local space in obj's (local: relative(obj, other), if made already),
+    float64, rounded to float32 as the entries' stored rests are: a shape as it was at bind is then
+    its rest bit for bit."""
+    local = relative(obj, other) if local is None else local
     return (np.asarray(points, np.float64) @ local[:3, :3].T + local[:3, 3]).astype(np.float32).astype(np.float64)
 
 
-def evaluated_mesh_in(obj, other, read=None):
+def evaluated_mesh_in(obj, other, read=None, local=None):
     """other's evaluated mesh (its modifiers, shape keys and Edit Mode edits applied): its points in
-    obj's space (in_space_of), and read(mesh) of that mesh (None without `read`)."""
+    obj's space (in_space_of, with `local` if given), and read(mesh) of that mesh (None without `read`)."""
     evaluated = other.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    mesh = evaluated.to_mesh()
+    if other.mode != "EDIT":
+        # The evaluated object's own mesh, its modifiers applied: to_mesh() would first copy it into
+        # a new datablock, a third of a cage frame's reading. In Edit Mode it may wrap the edit mesh.
+        return _read_mesh(obj, other, evaluated.data, read, local)
     try:
-        points = meshdata.base_positions(mesh)
-        extra = None if read is None else read(mesh)
+        return _read_mesh(obj, other, evaluated.to_mesh(), read, local)
     finally:
         evaluated.to_mesh_clear()
-    return in_space_of(obj, other, points), extra
+
+
+def _read_mesh(obj, other, mesh, read, local):
+    extra = None if read is None else read(mesh)
+    return in_space_of(obj, other, meshdata.base_positions(mesh), local), extra
 
 
 def influence_weights(obj, entry, reuse_weights=False):
