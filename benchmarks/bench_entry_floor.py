@@ -9,7 +9,7 @@ doing the same (Simple Deform TWIST / Lattice on a rotated 5x5x5 B-spline lattic
 cases weight both by the same vertex group). Each edit (a new angle on both / new co_deform on
 each lattice), alternating which side goes first: time = the edit (for A the add-on's property
 callback) + depsgraph update + a read of the evaluated positions. A's evaluate() is broken down
-into plan / run / publish (evaluation.py) by timers around them.
+into plan / run / publish (evaluation.py), or a drag's frame (follow.py), by timers around them.
 
 The floor of an entry: what no entry handing its offsets to the Geometry Nodes modifier can beat,
 measured in the same run: the depsgraph update minus the add-on's evaluate() (the modifier adding
@@ -38,7 +38,7 @@ args = ap.parse_args()
 busy = cpu_busy()
 blender_with_addon(args.addon)
 import bpy  # noqa: E402
-from deformkit_addon import api, evaluation, native, stack_run  # noqa: E402
+from deformkit_addon import api, evaluation, follow, native, stack_run  # noqa: E402
 
 dk = native.dk
 parts = collections.defaultdict(float)
@@ -57,7 +57,8 @@ def timed(owner, name, label):
 
 
 for owner, name, label in ((evaluation, "evaluate", "evaluate"), (evaluation, "_plan", "plan"),
-                           (stack_run, "run", "run"), (evaluation, "_publish", "publish")):
+                           (stack_run, "run", "run"), (evaluation, "_publish", "publish"),
+                           (follow, "step", "follow")):
     timed(owner, name, label)
 
 
@@ -166,7 +167,8 @@ def run_case(name):
     total, blender = med("deformkit", "total"), med("blender", "total")
     print(f"{name:14s}{total * 1e3:9.2f}{floor * 1e3:9.2f}{total / floor:9.2f}{blender * 1e3:10.2f}"
           f"{blender / total:9.2f}x{med('deformkit', 'plan') * 1e3:8.2f}{med('deformkit', 'run') * 1e3:8.2f}"
-          f"{med('deformkit', 'publish') * 1e3:9.2f}{gn * 1e3:8.2f}   |diff| {diff:.1e}")
+          f"{med('deformkit', 'publish') * 1e3:9.2f}{med('deformkit', 'follow') * 1e3:8.2f}{gn * 1e3:8.2f}"
+          f"   |diff| {diff:.1e}")
     for obj in (a, b):
         bpy.data.objects.remove(obj)
 
@@ -175,10 +177,10 @@ print(f"deformkit {dk.build_info()} | bpy {bpy.app.version_string} | add-on {arg
 print(f"{args.vertices:,} vertices, median of {args.repeats} edits per side after {args.warmup}; "
       f"CPU busy before the run: {busy:.0%}")
 print(f"{'case':14s}{'entry ms':>9s}{'floor':>9s}{'/floor':>9s}{'Blender':>10s}{'Bl/entry':>10s}"
-      f"{'plan':>8s}{'run':>8s}{'publish':>9s}{'GN+rest':>8s}")
+      f"{'plan':>8s}{'run':>8s}{'publish':>9s}{'follow':>8s}{'GN+rest':>8s}")
 with OtherLoad() as load:
     for name in args.cases.split(","):
         run_case(name)
 print(load.report())
 print("entry: edit + depsgraph update + read; floor: GN+rest (update minus evaluate) + the deformer alone + "
-      "the same read")
+      "the same read; plan / run / publish: a full evaluation's stages, follow: a drag's frame (follow.py) instead")

@@ -20,10 +20,10 @@ bl_info = {
 # module registers its `classes`, then runs its `register()` if it has one; unregistering reverses.
 MODULES = (
     "errors", "native", "cache", "panel_text", "recipe_schema", "node_builder", "outputs", "shapekeys", "meshdata",
-    "subdivision_order",
+    "subdivision_order", "echo",
     "entries.common", "entries.binding", "entries.barr", "entries.lattice", "entries.laplacian",
     "entries.cage", "entries.rbf", "entries.subdivide", "entries",
-    "properties", "stack_run", "entry_animation", "evaluation", "lattice_tools", "smoothness", "api",
+    "properties", "stack_run", "follow", "entry_animation", "evaluation", "lattice_tools", "smoothness", "api",
     "mesh_deform",
     "transfer.correspondence", "transfer.similarity", "transfer.storage", "transfer.keys", "transfer.system",
     "transfer.shape_keys", "transfer.bake", "transfer.markers", "transfer",

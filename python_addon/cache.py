@@ -5,7 +5,8 @@ the value belongs to (meshdata.cache_key), so one `forget` drops an object's val
 (api.evaluate, undo, file load) and nothing needs wiring by hand. Values are rebuilt from the file
 when missing: nothing here is ever the only copy of the user's data.
 
-Spaces: "inputs" and "echo" (evaluation: the last settings and base, the last write's time),
+Spaces: "inputs" (evaluation: the last settings and base), "echo" (echo.py: the last write's time),
+"follow" (follow.py: what a drag's steps reuse),
 "weights" (vertex-group weights read from the mesh), "lattice" (bindings, and each entry's lattice,
 moved to the new control points while nothing else changes), "barr" (each Barr entry's deformer,
 while its settings and weights stay), "laplacian" (factorised solvers), "subdivide" (refined

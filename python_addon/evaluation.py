@@ -15,22 +15,19 @@ entry through its kind, the volume ratio, the topology-changing entry) and publi
 outputs, modifier, cache). Its caller says why it asks (a Reason): what it may reuse follows.
 """
 import enum
-import time
 from typing import NamedTuple, Optional
 
 import bpy
 import numpy as np
 
-from . import cache, entries, entry_animation, outputs, stack_run
+from . import cache, echo, entries, entry_animation, follow, outputs, stack_run
 from .errors import EntryError
 from .meshdata import base_positions, cache_key, input_positions, object_problem
 from .outputs import ATTR_OFFSET, ATTR_OFFSET_RENDER, ATTR_VOLUME, MODIFIER_NAME, remove_outputs
 from .stack_run import Built, EntryFailed, shown
 
 _evaluating = set()  # session_uids being evaluated: writes below re-enter through handlers
-# In the cache: "inputs", (cache key,) -> Inputs last written; "echo", (cache key,) -> time of the
-# add-on's last write into the object's own mesh, whose depsgraph echo is expected.
-ECHO_WINDOW = 1.0    # seconds within which a depsgraph update of the mesh counts as that echo
+# In the cache: "inputs", (cache key,) -> Inputs last written (echo.py keeps its own space).
 
 
 class Reason(enum.Enum):
@@ -54,11 +51,10 @@ class Reason(enum.Enum):
 _FORCED = {Reason.STACK, Reason.SCRIPT}  # run even when the settings and input look unchanged
 _REUSES_INPUT = {Reason.EDIT, Reason.MOVED}  # the last input positions, while the vertex count is unchanged
 _REUSES_WEIGHTS = {Reason.EDIT, Reason.MOVED, Reason.FRAME, Reason.EDIT_MODE}  # the vertex-group weights read last time
-_ECHOED = {Reason.EDIT, Reason.MOVED, Reason.FOLLOWED}  # the mesh update this write causes is its echo (is_echo_of_own_write)
-# Nothing in the stack changed, only what its entries follow: with the same entries shown as last
-# time (_same_layout), what the last evaluation pruned and discarded stays as it left it. A frame
-# of a cage or lattice drag then pays for the deformation, not for the bookkeeping.
-_KEEPS_LAYOUT = {Reason.MOVED}
+_ECHOED = {Reason.EDIT, Reason.MOVED, Reason.FOLLOWED}  # the mesh update this write causes is its echo (echo.py)
+# The stack is as it was, only what it follows or the edit mesh changed: _settled.
+_KEEPS_LAYOUT = {Reason.MOVED, Reason.EDIT_MODE}
+_STEPS = {Reason.MOVED, Reason.EDIT}  # one entry's drag or edit: follow.py, when its Follow holds
 
 
 class Inputs(NamedTuple):
@@ -113,6 +109,9 @@ def evaluate(obj, reason, depsgraph=None):
         return False
     _evaluating.add(uid)
     try:
+        stepped = follow.step(obj, uid, reason is Reason.MOVED) if reason in _STEPS and not shared_mesh(obj) else None
+        if stepped is not None:
+            return stepped
         if not any(e.show_viewport or e.show_render for e in obj.deformkit.entries):
             _clear(obj, uid)
             return True
@@ -165,17 +164,12 @@ def _plan(obj, uid, reason, depsgraph):
 
 def _settled(cached, key, reason):
     """Whether what the last evaluation (published) pruned and the helpers it discarded are as this
-    one would leave them: it ran the same entries with the same settings (its key), or (only what
-    the entries follow changed) the same entries, shown alike, in the same place."""
-    if cached is None:
-        return False
-    return cached.key == key or reason in _KEEPS_LAYOUT and _layout(cached.key) == _layout(key)
-
-
-def _layout(key):
-    """A plan key without what the entries' setups read (their fingerprints): the entries' types,
-    toggles and failures in order, and where the result goes."""
-    return key[:4] + tuple(f if isinstance(f[0], int) else (f[0][:3], f[1]) for f in key[4:])
+    one would leave them: it ran the same entries with the same settings (its key), or (the stack as
+    it was: _KEEPS_LAYOUT) the same entries, shown and failing alike, with the result in the same
+    place. A drag's frames then pay for the deformation, not for this bookkeeping."""
+    def layout(k):  # the key without the setups' fingerprints
+        return k[:4] + tuple(f if isinstance(f[0], int) else (f[0][:3], f[1]) for f in k[4:])
+    return cached is not None and (cached.key == key or reason in _KEEPS_LAYOUT and layout(cached.key) == layout(key))
 
 
 def _input(obj, cached, reason, depsgraph):
@@ -251,10 +245,11 @@ def _publish(obj, plan, result, expect_echo):
     _write_outputs(obj, plan, helpers, offsets, render_offsets, result)
     outputs.follow_toggles(obj, stack.entries)
     cache.put("inputs", (plan.uid,), Inputs(plan.key, plan.base, result.failures))
+    follow.remember(obj, plan, result)
     cache.put("mode", (plan.uid,), obj.mode)
     _set_if_changed(stack, "notice", "")
     if expect_echo and not plan.editing:
-        cache.put("echo", (plan.uid,), time.monotonic())
+        echo.expect(plan.uid)
 
 
 def _show_failures(stack, failures):
@@ -389,25 +384,9 @@ def entry_input(obj, index, kind="viewport"):
 
 
 def is_echo_of_own_write(obj):
-    """True when a depsgraph update of obj's mesh is the echo of the add-on's own attribute write
-    (within ECHO_WINDOW of it, with the vertex count unchanged), so the base need not be re-read.
-
-    Any Python read of the positions makes Blender copy them out of their shared storage, which on
-    a large mesh costs as much as Blender's own Simple Deform, so the echo is judged without one.
-    The one case this misses: a script that changes a parameter and then edits base positions
-    before any depsgraph update. Such scripts should call api.evaluate(obj); api.evaluated_positions,
-    frame changes, undo, redo and file load compare every position anyway."""
-    uid = cache_key(obj)
-    written, cached = cache.pop("echo", (uid,)), cache.get("inputs", (uid,))
-    if written is None or cached is None or time.monotonic() - written > ECHO_WINDOW:
-        return False
-    return len(obj.data.vertices) == len(cached.base)
-
-
-def forget_echoes():
-    """A frame change evaluates without passing through depsgraph_update_post, so an echo still
-    expected then would be mistaken for the next real edit of the mesh."""
-    cache.forget(space="echo")
+    """echo.is_echo for obj's last evaluation (its vertex count)."""
+    cached = cache.get("inputs", (cache_key(obj),))
+    return echo.is_echo(obj, None if cached is None else len(cached.base))
 
 
 def request_update(obj):

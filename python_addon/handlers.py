@@ -7,7 +7,7 @@ are unchanged, which is also what stops the handlers from re-entering on their o
 import bpy
 from bpy.app.handlers import persistent
 
-from . import entries, evaluation, lattice_tools, outputs, properties
+from . import echo, entries, evaluation, lattice_tools, outputs, properties
 from .entries import common
 from .evaluation import Reason
 
@@ -23,7 +23,7 @@ def _stack_objects(scene):
 
 @persistent
 def on_frame_change(scene, depsgraph=None):
-    evaluation.forget_echoes()
+    echo.forget()
     for obj in _stack_objects(scene):
         evaluation.evaluate(obj, Reason.FRAME)
 

@@ -301,7 +301,8 @@ def result_helper(obj, create=True):
     obj (linked duplicate, Copy Modifiers) finds the original's on its modifier and makes its own."""
     helper = modifier_input(obj, RESULT_INPUT)
     if helper is not None and _owned_by(obj, helper):
-        helper[RESULT_OWNER] = obj.name_full  # adopted after a rename of obj
+        if helper.get(RESULT_OWNER) != obj.name_full:
+            helper[RESULT_OWNER] = obj.name_full  # adopted after a rename of obj
         return helper
     for candidate in bpy.data.objects:
         if candidate.get(RESULT_OWNER) == obj.name_full:

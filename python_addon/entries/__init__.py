@@ -30,6 +30,9 @@ type-info leaves a callback nullptr):
     displace(key, prepared, points, out) -> out holding w (F(x) - x) of the points, in one pass (the
                   offsets the modifier adds, when the entry deforms the base itself); None: deform
                   then subtract
+    refresh(obj, entry, prepared) -> common.Prepared: setup again where only what the entry follows
+                  changed (evaluation's Reason.MOVED: a frame of a cage or lattice drag), given its
+                  last setup, whose settings, bind and weights stand; None: setup runs whole
     MENU          (): (operator, icon) items below the Add menu's entry types
     NEW_ENTRY     {}: settings a new entry of the kind starts with (api.add_entry: the Add menu, the
                   scripting API, recipes; or a Type change, for the settings the entry never had
@@ -101,7 +104,8 @@ def _never_bound(entry_or_object):
 DEFAULTS = {"TYPE_LABEL": "Type", "STACKABLE": False, "LAST": False, "DEFORMS_INTO": False, "MENU": (), "NEW_ENTRY": {},
             "apply": _write_deformed, "followed": _follows_nothing, "volume_note": _no_note, "retyped": _nothing,
             "prune": _nothing, "bind": None, "unbind": None, "is_bound": _never_bound, "NOT_COPIED": (),
-            "copy_bind": _nothing, "loaded": _nothing, "owns": _never_bound, "displace": None}
+            "copy_bind": _nothing, "loaded": _nothing, "owns": _never_bound, "displace": None,
+            "refresh": None}
 
 
 class Kind:

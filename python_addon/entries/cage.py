@@ -222,25 +222,45 @@ def setup(obj, entry, reuse_weights=False):
     cage = cage_object(entry, obj, unset="")  # none picked yet: a hint in the panel, as Mesh Deform's
     if cage is None or not is_bound(entry) or REST not in entry:
         return Prepared(None, ("unbound",), None)  # as Mesh Deform before Bind: the mesh passes through
-    key, now = bind_key(obj, entry), relative(obj, cage)
-    points, topology, topo = evaluated_cage(obj, cage, now)
-    harmonic, frame, rest = key[2] == "HARMONIC", None, None
+    key = bind_key(obj, entry)
     # Bound with Mean Value or Green, a Harmonic entry lacks the frame of its grid.
-    changed = "bound for another method: Rebind" if harmonic and FRAME not in entry else topology_change(entry, topo)
-    if harmonic and not changed:
+    lacks_frame = key[2] == "HARMONIC" and FRAME not in entry
+    return _posed(obj, entry, cage, key, lambda: scaled_influence(obj, entry, reuse_weights), None, lacks_frame)
+
+
+def refresh(obj, entry, prepared):
+    """setup again where only the cage changed, or where it or this object stands, since `prepared`
+    (evaluation's Reason.MOVED): the entry's settings, its bind, the mesh and its weights are as they
+    were, so a frame of a cage drag reads the cage and nothing else."""
+    last = prepared.data
+    return prepared if last is None else _posed(obj, entry, entry.cage, last.bind, None, last)
+
+
+def _posed(obj, entry, cage, key, influence, last, lacks_frame=False):
+    """The rest of setup, from the cage on: its evaluated mesh and where it stands now, checked
+    against the bind, set on the deformer. The weights are influence()'s, or with `last` (a Setup:
+    refresh) its weights, deformer and the mesh's check."""
+    now = relative(obj, cage)
+    points, topology, topo = evaluated_cage(obj, cage, now)
+    frame, rest = None, None
+    changed = "bound for another method: Rebind" if lacks_frame else topology_change(entry, topo)
+    if key[2] == "HARMONIC" and not changed:
         frame, rest, points = harmonic_frame(key, entry, now, points)
-        changed = mesh_change(obj, entry, bound_count(frame))
+        changed = "" if last is not None else mesh_change(obj, entry, bound_count(frame))
     binding.require_current(entry, changed)
-    weights = scaled_influence(obj, entry, reuse_weights)
+    if last is not None:
+        deformer, crc = last.deformer, last.fingerprint[2]
+        weights = None if frame is None else last.harmonic.weights
+    elif frame is not None:
+        weights = influence()
+        deformer, crc = _deformer(key, entry, topology, None, rest)[0], weights_crc(weights)
+    else:
+        deformer, crc = _deformer(key, entry, topology, influence())
     if frame is not None:
         frame = frame._replace(weights=weights)
-        deformer, _ = _deformer(key, entry, topology, None, rest)
-        crc = weights_crc(weights)
         if frame.turn is not None:  # R sum_a w_a d_a = sum_a w_a (R d_a): the offsets come out turned
             rest = deformer.rest_cage_points
             points = rest + (points - rest) @ frame.turn.T
-    else:
-        deformer, crc = _deformer(key, entry, topology, weights)
     deformer.cage_points = points
     fingerprint = (key, zlib.crc32(points.tobytes()), crc) + (() if frame is None else (frame.now.tobytes(),))
     return Prepared(deformer, fingerprint, Setup(deformer, key, fingerprint, frame))

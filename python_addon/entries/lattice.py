@@ -162,6 +162,12 @@ def setup(obj, entry, reuse_weights=False):
     return Prepared(lattice.deformer, lattice.fingerprint, lattice)
 
 
+def refresh(obj, entry, prepared):
+    """setup again where only the lattice changed (a drag of its points or of the lattice object):
+    everything is read from the lattice again, the weights are those read last time."""
+    return setup(obj, entry, reuse_weights=True)
+
+
 def lattice_setup(obj, entry, weights=None, strength=None, kept=None):
     """The entry's deformkit lattice for `obj`. strength=None takes the entry's. kept: a key of the
     cache's "lattice" space under which the deformer is kept for the next setup, which then only

@@ -14,13 +14,13 @@ ADDON = REPO / "python_addon"
 LAYERS = (
     ("__init__", 4), ("ui", 4), ("ui_markers", 4), ("handlers", 4), ("batch", 4), ("batch_checks", 4),
     ("operators", 4), ("operators.cage_generation", 4), ("operators.*", 4),
-    ("api", 3), ("entry_animation", 3), ("evaluation", 3), ("stack_run", 3), ("properties", 3), ("lattice_tools", 3),
+    ("api", 3), ("entry_animation", 3), ("evaluation", 3), ("stack_run", 3), ("follow", 3), ("properties", 3), ("lattice_tools", 3),
     ("smoothness", 3), ("mesh_deform", 3), ("transfer", 3), ("transfer.*", 3),
     ("entries", 2),  # the registry
     ("entries.common", 1), ("entries.binding", 1),
     ("entries.*", 2),  # the kinds
     ("errors", 0), ("native", 0), ("cache", 0), ("meshdata", 0), ("shapekeys", 0), ("outputs", 0), ("node_builder", 0),
-    ("panel_text", 0), ("recipe_schema", 0), ("subdivision_order", 0),
+    ("panel_text", 0), ("recipe_schema", 0), ("subdivision_order", 0), ("echo", 0),
 )
 NAMES = {4: "UI and operators", 3: "api and evaluation", 2: "kinds", 1: "shared entry code", 0: "helpers"}
 

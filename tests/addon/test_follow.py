@@ -1,0 +1,180 @@
+"""A drag's frames (follow.py, issue 32): while only a Cage entry's cage changes, the frames take the
+short path (the cage read again through the kind's refresh), and each shows exactly what a full
+evaluation of the same inputs shows; a change of anything else goes through the full evaluation."""
+import numpy as np
+import pytest
+
+from addon_helpers import evaluated, make_object, update
+from test_mesh_deform_addon import MIN_PRECISION, cage_around, has_mesh_deform, shake
+
+METHODS = ["MEAN_VALUE", "GREEN", "HARMONIC"]
+
+
+@pytest.fixture
+def frames(monkeypatch):
+    """Counts of follow.step's outcomes: "short" (it deformed, or found nothing new), "full"
+    (it gave the step to the full evaluation)."""
+    from deformkit_addon import follow
+    seen = {"short": 0, "full": 0}
+    original = follow.step
+
+    def counted(*args):
+        done = original(*args)
+        seen["full" if done is None else "short"] += 1
+        return done
+
+    monkeypatch.setattr(follow, "step", counted)
+    return seen
+
+
+def rigged(bpy, method, strength=0.7):
+    """A sphere in a turned, moved cage, bound with `method`, its upper group at `strength`."""
+    from deformkit_addon import api
+    if method == "HARMONIC" and not has_mesh_deform():
+        pytest.skip("this build has no MeshDeform")
+    obj = make_object(bpy)
+    cage = cage_around(bpy, obj)
+    cage.rotation_euler = (0.2, -0.1, 0.3)
+    cage.location = (0.1, 0.05, -0.1)
+    update()
+    settings = {"precision": MIN_PRECISION} if method == "HARMONIC" else {}
+    api.add_entry(obj, "CAGE", cage=cage, cage_method=method, vertex_group="Upper", strength=strength, **settings)
+    api.bind_cage(obj, 0)
+    update()
+    return obj, cage
+
+
+def fresh(obj):
+    """What a full evaluation of the same inputs shows (nothing kept from before)."""
+    from deformkit_addon import api
+    api.evaluate(obj)
+    update()
+    return evaluated(obj)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_drag_of_the_cage_shows_what_a_full_evaluation_shows(scene, frames, method):
+    import bpy
+    obj, cage = rigged(bpy, method)
+    rest = evaluated(obj).copy()
+    frames.update(short=0, full=0)  # the set-up's own steps (add_entry's settings) are not the drag's
+    for step in range(4):
+        shake(cage, amount=0.05, seed=step)
+        if step == 2:
+            cage.location.x += 0.05  # the cage object itself moves: its place is read again too
+            update()
+        shown = evaluated(obj).copy()
+        assert not np.array_equal(shown, rest)
+        np.testing.assert_array_equal(shown, fresh(obj))
+    assert frames["short"] >= 4 and frames["full"] == 0, frames
+
+
+@pytest.mark.parametrize("method", ["MEAN_VALUE", "HARMONIC"])
+def test_a_setting_changed_between_frames_is_read_again(scene, frames, method):
+    """The strength changes (a property update: a full evaluation), then the drag goes on: the
+    frames use the new strength."""
+    import bpy
+    obj, cage = rigged(bpy, method)
+    shake(cage, amount=0.05, seed=1)
+    obj.deformkit.entries[0].strength = 0.3
+    shake(cage, amount=0.05, seed=2)
+    np.testing.assert_array_equal(evaluated(obj), fresh(obj))
+    twin, twin_cage = rigged(bpy, method, strength=0.3)  # the same rig made with 0.3 from the start
+    twin_cage.data.vertices.foreach_set("co", np.array([v.co for v in cage.data.vertices], np.float32).ravel())
+    twin_cage.data.update()
+    update()
+    np.testing.assert_allclose(evaluated(obj), evaluated(twin), atol=1e-6)
+
+
+def test_a_broken_node_group_is_repaired_on_the_next_frame(scene, frames):
+    import bpy
+    from deformkit_addon import outputs
+    obj, cage = rigged(bpy, "MEAN_VALUE")
+    shake(cage, amount=0.05, seed=1)
+    group = obj.modifiers[outputs.MODIFIER_NAME].node_group
+    group.links.remove(group.links[0])  # a stray click in the node editor
+    update()
+    shake(cage, amount=0.05, seed=2)
+    assert outputs.is_whole(obj.modifiers[outputs.MODIFIER_NAME].node_group)
+    np.testing.assert_array_equal(evaluated(obj), fresh(obj))
+
+
+def test_a_mesh_shared_since_goes_to_each_object(scene, frames):
+    """A linked duplicate made between frames: the next frame writes no offsets into the shared mesh,
+    which would show them on the duplicate (a full evaluation puts them per object)."""
+    import bpy
+    from deformkit_addon import outputs
+    obj, cage = rigged(bpy, "MEAN_VALUE")
+    other = bpy.data.objects.new("Other", bpy.data.meshes.new("Other"))
+    bpy.context.scene.collection.objects.link(other)
+    update()
+    shake(cage, amount=0.05, seed=1)
+    other.data = obj.data  # Link Object Data (Ctrl+L): obj's mesh is shared, obj itself not touched
+    update()
+    shake(cage, amount=0.05, seed=2)
+    assert outputs.modifier_kind(obj).startswith("per_object")
+    np.testing.assert_array_equal(evaluated(obj), fresh(obj))
+
+
+def test_a_cage_whose_topology_changed_asks_for_rebind(scene, frames):
+    import bpy
+    import bmesh
+    obj, cage = rigged(bpy, "MEAN_VALUE")
+    shake(cage, amount=0.05, seed=1)
+    mesh = bmesh.new()
+    mesh.from_mesh(cage.data)
+    bmesh.ops.triangulate(mesh, faces=mesh.faces[:1])
+    mesh.to_mesh(cage.data)
+    mesh.free()
+    cage.data.update()
+    update()
+    assert "Rebind" in obj.deformkit.entries[0].error
+    assert frames["full"] >= 1
+
+
+def test_a_drag_of_a_lattice_shows_what_a_full_evaluation_shows(scene, frames):
+    import bpy
+    from addon_helpers import make_lattice, perturb_lattice
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    lattice = make_lattice(bpy)
+    api.add_entry(obj, "LATTICE", lattice=lattice, vertex_group="Upper", strength=0.8)
+    update()
+    rest = evaluated(obj).copy()
+    perturb_lattice(lattice, amount=0.05, seed=9)  # the first frame after the modifier's group was made is full
+    update()
+    frames.update(short=0, full=0)
+    for step in range(3):
+        perturb_lattice(lattice, amount=0.05, seed=step)
+        update()
+        shown = evaluated(obj).copy()
+        assert not np.array_equal(shown, rest)
+        np.testing.assert_array_equal(shown, fresh(obj))
+    assert frames["short"] >= 3 and frames["full"] == 0, frames
+
+
+def test_an_edited_setting_steps_as_a_full_evaluation(scene, frames):
+    """A Twist angle dragged in the panel (Reason.EDIT): each step short, each as a full evaluation;
+    the entry hidden and shown again in between goes through the full evaluation."""
+    import bpy
+    from deformkit_addon import api
+    obj = make_object(bpy)
+    entry = api.add_entry(obj, "TWIST", angle=0.2, deform_axis="Z", vertex_group="Upper")
+    update()
+    entry.angle = 0.25  # the first step after the modifier's group was made is full
+    update()
+    frames.update(short=0, full=0)
+    for angle in (0.3, 0.5, 0.9):
+        entry.angle = angle
+        update()
+        np.testing.assert_array_equal(evaluated(obj), fresh(obj))
+    assert frames["short"] >= 3 and frames["full"] == 0, frames
+    base = evaluated(obj).copy()
+    entry.show_viewport = False
+    update()
+    assert frames["full"] >= 1
+    assert not np.array_equal(evaluated(obj), base)
+    entry.show_viewport = True
+    entry.angle = 1.1
+    update()
+    np.testing.assert_array_equal(evaluated(obj), fresh(obj))
