@@ -26,7 +26,7 @@ from ..errors import EntryError
 from . import binding
 from .binding import is_bound, new_bind_id, signed
 from .common import (Prepared, affine_inverse, draw_vertex_group, evaluated_mesh_in, followed_mesh, forget_bindings,
-                     kept_binding, relative, scaled_influence, stack_index, store_array, weights_crc)
+                     is_identity, kept_binding, relative, scaled_influence, stack_index, store_array, weights_crc)
 
 ENTRY_TYPES = [  # saved as its number: listed before Subdivide, numbered after
     ("CAGE", "Cage", "A closed mesh object (the cage) deforms the mesh through mean value, Green or harmonic "
@@ -144,6 +144,8 @@ def _deformer(key, entry, topo, weights, rest=None):
 
 
 def to_space(points, matrix):
+    if is_identity(matrix):
+        return np.array(points, np.float64)
     return np.asarray(points, np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
 
 

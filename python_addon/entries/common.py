@@ -121,7 +121,17 @@ def in_space_of(obj, other, points, local=None):
     float64, rounded to float32 as the entries' stored rests are: a shape as it was at bind is then
     its rest bit for bit."""
     local = relative(obj, other) if local is None else local
+    if is_identity(local):  # the same values (float32 already): objects that stand alike, as rigs' often do
+        return np.array(points, np.float64)
     return (np.asarray(points, np.float64) @ local[:3, :3].T + local[:3, 3]).astype(np.float32).astype(np.float64)
+
+
+_IDENTITY = np.eye(4)
+
+
+def is_identity(matrix):
+    """Whether a 4 x 4 transform is exactly the identity (x @ I + 0 is x, exactly)."""
+    return np.array_equal(matrix, _IDENTITY)
 
 
 def evaluated_mesh_in(obj, other, read=None, local=None):
