@@ -17,8 +17,42 @@ WATCHED = (bpy.types.Object, bpy.types.Mesh, bpy.types.Lattice, bpy.types.Collec
 LATTICE_CHECK_DELAY = 0.3
 
 
+# scene name -> the keys (bpy.data.objects' (name, library)) of its mesh objects that have entries.
+# Listing them reads every object of the scene, which every depsgraph update would pay (1 ms in a
+# scene of 1000 objects, as much again as Blender's own update for a moved object), so the list is
+# kept until objects come or go (a collection update: linked, unlinked, deleted, duplicated), a
+# file is loaded, undo or redo, or an object not listed gets entries (a setting of one changed, or
+# it was updated holding some).
+_listed = {}
+
+
+def _key(obj):
+    return obj.name, obj.library.filepath if obj.library else None
+
+
 def _stack_objects(scene):
-    return [o for o in scene.objects if o.type == "MESH" and len(o.deformkit.entries) > 0]
+    keys = _listed.get(scene.name_full)
+    if keys is not None:
+        listed = [bpy.data.objects.get(key) for key in keys]
+        if all(o is not None and _key(o) == key and o.type == "MESH" for o, key in zip(listed, keys)):
+            return [o for o in listed if len(o.deformkit.entries) > 0]
+        _listed.clear()  # one was renamed, removed or retyped: list them again
+    found = [o for o in scene.objects if o.type == "MESH" and len(o.deformkit.entries) > 0]
+    _listed[scene.name_full] = [_key(o) for o in found]
+    return found
+
+
+def _list_again_for(obj):
+    """obj has entries now and may not be listed (_listed)."""
+    if obj.type == "MESH" and not any(_key(obj) in keys for keys in _listed.values()):
+        _listed.clear()
+
+
+def _entry_changed(obj):
+    """A property update of obj's stack (properties.on_change): it may be the first entry it has."""
+    if isinstance(obj, bpy.types.Object):
+        _list_again_for(obj)
+    evaluation.request_update(obj)
 
 
 @persistent
@@ -75,7 +109,11 @@ def on_depsgraph_update(scene, depsgraph):
     reshaped = {u.id.original for u in updates if u.is_updated_geometry}
     relinked = any(isinstance(u.id, bpy.types.Collection) for u in updates)  # objects deleted or linked
     if relinked:
+        _listed.clear()
         _remove_orphaned_helpers()
+    for obj in changed:
+        if isinstance(obj, bpy.types.Object) and obj.type == "MESH" and len(obj.deformkit.entries) > 0:
+            _list_again_for(obj)
     _copies_let_go(updates)
     objects = _stack_objects(scene)
     schedule_lattice_check(objects)
@@ -136,6 +174,7 @@ def schedule_lattice_check(objects):
 @persistent
 def on_reload(*_args):
     evaluation.forget()
+    _listed.clear()
     for scene in bpy.data.scenes:
         objects = _stack_objects(scene)
         if any(e.origin is not None or any(t is not None for t, _ in entries.followed(e))
@@ -166,7 +205,7 @@ HANDLERS = (
 
 
 def register():
-    properties.on_change = evaluation.request_update  # property updates re-evaluate (properties._changed)
+    properties.on_change = _entry_changed  # property updates re-evaluate (properties._changed)
     for handler_list, fn in HANDLERS:
         if fn not in handler_list:
             handler_list.append(fn)
