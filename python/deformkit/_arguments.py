@@ -38,6 +38,14 @@ def _describe(value):
     return f"{type(value).__name__} {text}"
 
 
+def _array_problem(value):
+    """A scalar parameter given an array of one or more dimensions: NumPy turns a 1-element one into
+    a number with a DeprecationWarning (an error in later NumPy), so it is refused here, by name."""
+    if isinstance(value, np.ndarray) and value.ndim > 0:
+        return f"expected a single number, not an array of shape {value.shape} (for one element: a[0] or a.item())"
+    return None
+
+
 def _integer_problem(value, accepts):
     if isinstance(value, (float, np.floating)):
         return "expected an integer, not a float"
@@ -73,9 +81,9 @@ def _type_problem(accepts, value):
     if kind == "object":
         return None
     if kind == "real":
-        return _real_problem(value)
+        return _array_problem(value) or _real_problem(value)
     if kind == "integer":
-        return _integer_problem(value, accepts)
+        return _array_problem(value) or _integer_problem(value, accepts)
     if kind == "bool":
         return None if isinstance(value, (bool, np.bool_)) else "expected True or False"
     if kind == "str":
@@ -147,8 +155,19 @@ class Declared:
 
 
 def _wrap(function, declared):
+    # The scalar parameters (real, integer): pybind11 would take an array of one element for them
+    # (through NumPy's deprecated conversion), so an array there is refused before the call.
+    params = list(declared.signature.parameters.values())
+    scalars = [(i + declared.method, p.name) for i, p in enumerate(params)
+               if declared.accepts[p.name]["kind"] in ("real", "integer")]
+
     @functools.wraps(function)
     def checked(*args, **kwargs):
+        for at, name in scalars:
+            value = args[at] if at < len(args) else kwargs.get(name)
+            if isinstance(value, np.ndarray) and value.ndim > 0:
+                raise TypeError(f"{name}: {_array_problem(value)}, got {_describe(value)} "
+                                f"(accepts {_accepts(declared.accepts[name])})")
         try:
             return function(*args, **kwargs)
         except TypeError:

@@ -129,7 +129,9 @@ DOC_OWNER = {  # where each entry point's signature is documented
     "LimitSurface.smoothness_report": dk.LimitSurface.smoothness_report,
 }
 BAD_VALUES = [1j, "not-a-value", object(), 10**400, b"\x00", {"a": 1}]
-BAD_INTEGERS = [-(2**63) - 1, 2**64, 2.5, np.eye(2), np.array([np.nan]), np.array(["a"])]  # integer parameters
+BAD_INTEGERS = [-(2**63) - 1, 2**64, 2.5, np.eye(2), np.array([np.nan]), np.array(["a"]),  # integer parameters
+                np.array([3])]  # one element, but an array: NumPy's conversion of it is deprecated
+BAD_REALS = [np.array([0.5]), np.array([[0.5]])]  # real parameters: arrays, even of one element
 
 
 def parameters(entry):
@@ -175,7 +177,8 @@ def test_valid_calls_succeed():
 @pytest.mark.parametrize("entry, name", CASES, ids=[f"{e}-{n}" for e, n in CASES])
 def test_wrong_values_name_their_argument(entry, name):
     annotation = next(p.annotation for p in parameters(entry) if p.name == name)
-    for value in BAD_VALUES + (BAD_INTEGERS if "SupportsInt" in annotation else []):
+    scalars = BAD_INTEGERS if "SupportsInt" in annotation else BAD_REALS if "SupportsFloat" in annotation else []
+    for value in BAD_VALUES + scalars:
         try:
             call_with(entry, name, value)
         except (TypeError, ValueError, OverflowError) as exc:
