@@ -39,6 +39,19 @@ def remember(obj, plan, result):
                                             plan.key, plan.base))
 
 
+# Node groups may have changed (handlers: groups_touched) since generation `_touched`; "checked",
+# (object cache key,) in the cache: the generation a step last checked that object's modifier at.
+_touched = 0
+
+
+def groups_touched():
+    """The handlers saw an update of a node group, or of an object with entries (as an edit of its
+    modifier's group shows): each object's next drag step checks its modifier. A setting's step
+    always does."""
+    global _touched
+    _touched += 1
+
+
 def step(obj, uid, moved):
     """One step, on an object whose mesh only it uses: True if it wrote a new result, False if the
     result stands, None when the Follow does not hold for it (none, another evaluation since, Edit
@@ -76,9 +89,12 @@ def step(obj, uid, moved):
                            offsets_into=into)
     except EntryError:  # its failure: shown by the full evaluation, which also writes the offsets again
         return None
-    # The modifier as a full evaluation leaves it: its group repaired after a stray edit, On Cage.
-    outputs.ensure_modifier(obj, "offsets")
-    outputs.follow_toggles(obj, stack.entries)
+    if not moved or cache.get("checked", (uid,)) != _touched:
+        # The modifier as a full evaluation leaves it: its group repaired after a stray edit (which a
+        # drag's step knows of from the handlers: groups_touched), On Cage as the entry says.
+        outputs.ensure_modifier(obj, "offsets")
+        outputs.follow_toggles(obj, stack.entries)
+        cache.put("checked", (uid,), _touched)
     obj.data.update()
     cache.put("follow", (uid,), kept._replace(prepared=prepared, key=key))
     cache.put("inputs", (uid,), last._replace(key=key, failures={}))

@@ -7,7 +7,7 @@ are unchanged, which is also what stops the handlers from re-entering on their o
 import bpy
 from bpy.app.handlers import persistent
 
-from . import echo, entries, evaluation, lattice_tools, outputs, properties
+from . import echo, entries, evaluation, follow, lattice_tools, outputs, properties
 from .entries import common
 from .evaluation import Reason
 
@@ -101,7 +101,10 @@ def _remove_orphaned_helpers():
 
 @persistent
 def on_depsgraph_update(scene, depsgraph):
-    updates = [u for u in depsgraph.updates if isinstance(u.id, WATCHED)]
+    every = depsgraph.updates
+    if any(isinstance(u.id, bpy.types.NodeTree) for u in every):
+        follow.groups_touched()  # the modifier's group may be broken: the next step checks it
+    updates = [u for u in every if isinstance(u.id, WATCHED)]
     if not updates:
         return
     changed = {u.id.original for u in updates}
@@ -116,6 +119,8 @@ def on_depsgraph_update(scene, depsgraph):
             _list_again_for(obj)
     _copies_let_go(updates)
     objects = _stack_objects(scene)
+    if any(o in changed for o in objects):
+        follow.groups_touched()  # as an edit of its group may show: an update of the objects using it
     schedule_lattice_check(objects)
     for obj in objects:
         mesh_changed = obj.data in changed or (obj.data.shape_keys is not None and obj.data.shape_keys in changed)

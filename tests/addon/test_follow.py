@@ -178,3 +178,22 @@ def test_an_edited_setting_steps_as_a_full_evaluation(scene, frames):
     entry.angle = 1.1
     update()
     np.testing.assert_array_equal(evaluated(obj), fresh(obj))
+
+
+def test_each_object_checks_its_modifier_after_a_stray_edit(scene, frames):
+    """Two rigs; one's modifier loses its group (a stray click): the other's drag does not stand in
+    for it, its own next drag step puts the group back."""
+    import bpy
+    from deformkit_addon import outputs
+    first, first_cage = rigged(bpy, "MEAN_VALUE")
+    second, second_cage = rigged(bpy, "MEAN_VALUE")
+    shake(first_cage, amount=0.05, seed=1)
+    shake(second_cage, amount=0.05, seed=2)
+    second.modifiers[outputs.MODIFIER_NAME].node_group = None
+    update()
+    frames.update(short=0, full=0)
+    shake(first_cage, amount=0.05, seed=3)
+    shake(second_cage, amount=0.05, seed=4)
+    assert frames["short"] == 2, frames
+    assert outputs.modifier_kind(second) == "offsets"
+    np.testing.assert_array_equal(evaluated(second), fresh(second))
