@@ -137,6 +137,10 @@ def on_depsgraph_update(scene, depsgraph):
             # each entry says which object it lost (the rest of the stack keeps evaluating).
             evaluation.evaluate(obj, Reason.LINKS)
             continue
+        # The echo of the add-on's own last write is consumed whichever way the update goes on: left
+        # waiting, it would pass the next real edit of the mesh for itself. Only the base mesh's
+        # own branch trusts it; the others read what they read anyway.
+        echoed = mesh_changed and obj.mode != "EDIT" and evaluation.is_echo_of_own_write(obj)
         if evaluation.mode_changed(obj):
             evaluation.evaluate(obj, Reason.MESH)  # Edit Mode entered or left: the input and the result's place change
         elif watched & changed or (watched and obj in moved):
@@ -147,7 +151,7 @@ def on_depsgraph_update(scene, depsgraph):
         elif obj.mode == "EDIT":
             if obj.data in reshaped:  # an edit, not a selection change
                 evaluation.evaluate(obj, Reason.EDIT_MODE, depsgraph)
-        elif mesh_changed and not evaluation.is_echo_of_own_write(obj):
+        elif mesh_changed and not echoed:
             evaluation.evaluate(obj, Reason.MESH)  # the base mesh or a shape-key value may have changed
         elif relinked and _pointer_gone(obj):
             evaluation.evaluate(obj, Reason.LINKS)  # show (or clear) the entry's message
