@@ -51,7 +51,11 @@ class Reason(enum.Enum):
 _FORCED = {Reason.STACK, Reason.SCRIPT}  # run even when the settings and input look unchanged
 _REUSES_INPUT = {Reason.EDIT, Reason.MOVED}  # the last input positions, while the vertex count is unchanged
 _REUSES_WEIGHTS = {Reason.EDIT, Reason.MOVED, Reason.FRAME, Reason.EDIT_MODE}  # the vertex-group weights read last time
-_ECHOED = {Reason.EDIT, Reason.MOVED, Reason.FOLLOWED}  # the mesh update this write causes is its echo (echo.py)
+# The mesh update this write causes comes as an update of its own (echo.py): a write from a property
+# update. One from the handlers (a followed object's update) is evaluated again in the same update
+# by Blender, which does not call the handlers for it: its echo never comes, and an expected one
+# would take the next real edit of the mesh for itself.
+_ECHOED = {Reason.EDIT}
 # The stack is as it was, only what it follows or the edit mesh changed: _settled.
 _KEEPS_LAYOUT = {Reason.MOVED, Reason.EDIT_MODE}
 _STEPS = {Reason.MOVED, Reason.EDIT}  # one entry's drag or edit: follow.py, when its Follow holds
