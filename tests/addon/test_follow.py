@@ -364,3 +364,73 @@ def test_random_sequences_on_handles_shape_keys_and_frames(scene, seed):
         api.evaluate(twin[0])
         update()
         np.testing.assert_array_equal(evaluated(shown[0]), evaluated(twin[0]), err_msg=f"after '{name}'")
+
+
+@pytest.mark.parametrize("seed", [4, 5])
+def test_random_sequences_on_stacks_toggles_and_shared_meshes(scene, seed):
+    """As above, on a stack of a lattice, a Taper and a Bend: entries moved, hidden and shown, the
+    volume colors toggled, the lattice dragged, the mesh shared with a linked duplicate and let go,
+    Edit Mode entered with an edit and left; against a twin a full evaluation recomputes."""
+    import bpy
+    from addon_helpers import make_lattice, perturb_lattice
+    from deformkit_addon import api
+
+    def rig(name):
+        obj = make_object(bpy, name)
+        lattice = make_lattice(bpy, name + " lattice")
+        api.add_entry(obj, "LATTICE", lattice=lattice, vertex_group="Upper")
+        api.add_entry(obj, "TAPER", factor=0.3, deform_axis="Z")
+        api.add_entry(obj, "BEND", angle=0.4, deform_axis="Z")
+        update()
+        return obj, lattice
+
+    shown, twin = rig("Shown"), rig("Twin")
+    linked = {}
+    rng = np.random.default_rng(seed)
+
+    def act(name, rig_, draw):
+        obj, lattice = rig_
+        stack = obj.deformkit
+        if name == "lattice":
+            perturb_lattice(lattice, amount=0.05, seed=draw)
+        elif name == "move":
+            api.move_entry_to(obj, draw % 3, ("FIRST", "LAST")[draw % 2])
+        elif name == "toggle":
+            entry = stack.entries[draw % 3]
+            entry.show_viewport = not entry.show_viewport
+        elif name == "colors":
+            stack.show_volume_ratio = not stack.show_volume_ratio
+        elif name == "value":
+            entry = stack.entries[draw % 3]
+            if entry.type == "TAPER":
+                entry.factor = (draw % 100 - 50) / 100
+            elif entry.type == "BEND":
+                entry.angle = (draw % 100 - 50) / 50
+            else:
+                entry.strength = 0.3 + (draw % 70) / 100
+        elif name == "linked":
+            if obj.name in linked:
+                bpy.data.objects.remove(linked.pop(obj.name))
+            else:
+                copy = bpy.data.objects.new(obj.name + " linked", obj.data)
+                copy.location.x += 5.0
+                bpy.context.scene.collection.objects.link(copy)
+                linked[obj.name] = copy
+        elif name == "edit mode":  # this object alone: the others selected would be edited with it
+            for other in bpy.context.view_layer.objects:
+                other.select_set(other == obj)
+            bpy.context.view_layer.objects.active = obj
+            bpy.ops.object.mode_set(mode="EDIT")
+            bpy.ops.mesh.select_all(action="SELECT")
+            bpy.ops.transform.translate(value=(0.0, 0.0, (draw % 100 - 50) * 1e-3))
+            bpy.ops.object.mode_set(mode="OBJECT")
+        update()
+
+    actions = ["lattice", "lattice", "move", "toggle", "colors", "value", "value", "linked", "edit mode"]
+    for name in rng.choice(actions, size=24):
+        draw = int(rng.integers(1 << 30))
+        act(name, shown, draw)
+        act(name, twin, draw)
+        api.evaluate(twin[0])
+        update()
+        np.testing.assert_array_equal(evaluated(shown[0]), evaluated(twin[0]), err_msg=f"after '{name}'")
