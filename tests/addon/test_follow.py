@@ -434,3 +434,53 @@ def test_random_sequences_on_stacks_toggles_and_shared_meshes(scene, seed):
         api.evaluate(twin[0])
         update()
         np.testing.assert_array_equal(evaluated(shown[0]), evaluated(twin[0]), err_msg=f"after '{name}'")
+
+
+@pytest.mark.parametrize("seed", [6, 7])
+def test_random_sequences_on_an_rbf_and_a_cage_in_one_stack(scene, seed):
+    """As above, on a stack of an RBF entry on its controls and a Green cage: the controls' vertices
+    and object moved, the cage shaken, the kernel and its epsilon changed, a bind again, the strength
+    of each; against a twin a full evaluation recomputes."""
+    import bpy
+    from deformkit_addon import api
+    from test_rbf_addon import make_controls, move_vertices
+
+    def rig(name):
+        obj = make_object(bpy, name)
+        controls = make_controls(bpy, name + " controls")
+        api.add_entry(obj, "RBF", controls=controls, kernel="THIN_PLATE_SPLINE")
+        api.bind_rbf(obj, 0)
+        cage = cage_around(bpy, obj, name + " cage", margin=0.8)
+        api.add_entry(obj, "CAGE", cage=cage, cage_method="GREEN")
+        api.bind_cage(obj, 1)
+        update()
+        return obj, controls, cage
+
+    shown, twin = rig("Shown"), rig("Twin")
+    rng = np.random.default_rng(seed)
+
+    def act(name, rig_, draw):
+        obj, controls, cage = rig_
+        rbf, cage_entry = obj.deformkit.entries[0], obj.deformkit.entries[1]
+        if name == "controls":
+            move_vertices(controls, seed=draw, amount=0.05)
+        elif name == "controls object":
+            controls.location.x += (draw % 100 - 50) * 1e-3
+        elif name == "cage":
+            shake(cage, amount=0.03, seed=draw)
+        elif name == "kernel":
+            rbf.kernel = ("THIN_PLATE_SPLINE", "CUBIC", "LINEAR")[draw % 3]
+        elif name == "strength":
+            (rbf, cage_entry)[draw % 2].strength = 0.3 + (draw % 70) / 100
+        elif name == "bind":
+            api.bind_rbf(obj, 0)
+        update()
+
+    for name in rng.choice(["controls", "controls", "controls object", "cage", "cage", "kernel", "strength",
+                            "bind"], size=20):
+        draw = int(rng.integers(1 << 30))
+        act(name, shown, draw)
+        act(name, twin, draw)
+        api.evaluate(twin[0])
+        update()
+        np.testing.assert_array_equal(evaluated(shown[0]), evaluated(twin[0]), err_msg=f"after '{name}'")
