@@ -246,6 +246,23 @@ def test_a_shape_key_change_right_after_a_drag_is_shown(scene):
     np.testing.assert_array_equal(evaluated(obj), fresh(obj))
 
 
+def against_twin(shown, twin, act, actions, count, rng, objects=(0,), scene_wide=()):
+    """Drive two rigs built alike through `count` random actions (each drawn with one number that both
+    get); after each, a full evaluation recomputes the twin's objects (at `objects` in the rigs),
+    and the shown rig's, which took whatever path its steps took, must equal them bit for bit. An
+    action in scene_wide is done once, with rig None."""
+    from deformkit_addon import api
+    for name in rng.choice(actions, size=count):
+        draw = int(rng.integers(1 << 30))
+        for rig in (None,) if name in scene_wide else (shown, twin):
+            act(name, rig, draw)
+        for index in objects:
+            api.evaluate(twin[index])
+            update()
+            np.testing.assert_array_equal(evaluated(shown[index]), evaluated(twin[index]),
+                                          err_msg=f"after '{name}' on {shown[index].name}")
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_random_sequences_of_edits_show_what_a_full_evaluation_shows(scene, seed):
     """Random drags, setting edits, toggles and stack changes (fixed seeds) on a cage rig and a
@@ -299,14 +316,7 @@ def test_random_sequences_of_edits_show_what_a_full_evaluation_shows(scene, seed
 
     actions = ["cage", "cage", "cage object", "lattice", "lattice", "strength", "lattice strength", "toggle",
                "twist", "twist angle", "mesh"]
-    for name in rng.choice(actions, size=30):
-        draw = int(rng.integers(1 << 30))
-        act(name, shown, draw)
-        act(name, twin, draw)
-        for ours, full in ((shown[0], twin[0]), (shown[2], twin[2])):
-            api.evaluate(full)
-            update()
-            np.testing.assert_array_equal(evaluated(ours), evaluated(full), err_msg=f"after '{name}' on {ours.name}")
+    against_twin(shown, twin, act, actions, 30, rng, objects=(0, 2))
 
 
 @pytest.mark.parametrize("seed", [2, 3])
@@ -342,7 +352,7 @@ def test_random_sequences_on_handles_shape_keys_and_frames(scene, seed):
     rng = np.random.default_rng(seed)
 
     def act(name, rig_, draw):
-        tube, empty, key = rig_
+        tube, empty, key = rig_ or (None, None, None)
         if name == "handle":
             empty.location.x += (draw % 100 - 50) * 2e-3
             empty.rotation_euler.z += (draw % 30 - 15) * 1e-2
@@ -352,18 +362,12 @@ def test_random_sequences_on_handles_shape_keys_and_frames(scene, seed):
             tube.location.y += (draw % 100 - 50) * 1e-3
         elif name == "twist off":
             tube.deformkit.entries[1].show_viewport = not tube.deformkit.entries[1].show_viewport
+        elif name == "frame":
+            bpy.context.scene.frame_set(1 + draw % 20)  # both rigs at once
         update()
 
-    for name in rng.choice(["handle", "handle", "shape key", "object", "twist off", "frame"], size=20):
-        draw = int(rng.integers(1 << 30))
-        if name == "frame":
-            bpy.context.scene.frame_set(1 + draw % 20)  # both rigs at once
-        else:
-            act(name, shown, draw)
-            act(name, twin, draw)
-        api.evaluate(twin[0])
-        update()
-        np.testing.assert_array_equal(evaluated(shown[0]), evaluated(twin[0]), err_msg=f"after '{name}'")
+    against_twin(shown, twin, act, ["handle", "handle", "shape key", "object", "twist off", "frame"], 20, rng,
+                 scene_wide=("frame",))
 
 
 @pytest.mark.parametrize("seed", [4, 5])
@@ -426,14 +430,8 @@ def test_random_sequences_on_stacks_toggles_and_shared_meshes(scene, seed):
             bpy.ops.object.mode_set(mode="OBJECT")
         update()
 
-    actions = ["lattice", "lattice", "move", "toggle", "colors", "value", "value", "linked", "edit mode"]
-    for name in rng.choice(actions, size=24):
-        draw = int(rng.integers(1 << 30))
-        act(name, shown, draw)
-        act(name, twin, draw)
-        api.evaluate(twin[0])
-        update()
-        np.testing.assert_array_equal(evaluated(shown[0]), evaluated(twin[0]), err_msg=f"after '{name}'")
+    against_twin(shown, twin, act, ["lattice", "lattice", "move", "toggle", "colors", "value", "value", "linked",
+                                    "edit mode"], 24, rng)
 
 
 @pytest.mark.parametrize("seed", [6, 7])
@@ -476,11 +474,5 @@ def test_random_sequences_on_an_rbf_and_a_cage_in_one_stack(scene, seed):
             api.bind_rbf(obj, 0)
         update()
 
-    for name in rng.choice(["controls", "controls", "controls object", "cage", "cage", "kernel", "strength",
-                            "bind"], size=20):
-        draw = int(rng.integers(1 << 30))
-        act(name, shown, draw)
-        act(name, twin, draw)
-        api.evaluate(twin[0])
-        update()
-        np.testing.assert_array_equal(evaluated(shown[0]), evaluated(twin[0]), err_msg=f"after '{name}'")
+    against_twin(shown, twin, act, ["controls", "controls", "controls object", "cage", "cage", "kernel", "strength",
+                                    "bind"], 20, rng)
