@@ -476,3 +476,47 @@ def test_random_sequences_on_an_rbf_and_a_cage_in_one_stack(scene, seed):
 
     against_twin(shown, twin, act, ["controls", "controls", "controls object", "cage", "cage", "kernel", "strength",
                                     "bind"], 20, rng)
+
+
+@pytest.mark.parametrize("seed", [8, 9])
+def test_random_sequences_on_a_lattice_under_a_subdivide_entry(scene, seed):
+    """As above, on a lattice entry followed by a Subdivide entry (the result in helper objects): the
+    lattice dragged, the level and the limit surface changed, the lattice entry hidden and shown,
+    the mesh edited; against a twin a full evaluation recomputes."""
+    import bpy
+    from addon_helpers import make_lattice, perturb_lattice
+    from deformkit_addon import api
+
+    def rig(name, like=None):
+        obj = make_object(bpy, name)
+        if like is not None:  # the same mesh, element by element: Blender's primitives are not numbered alike
+            obj.data = like.data.copy()
+        lattice = make_lattice(bpy, name + " lattice")
+        api.add_entry(obj, "LATTICE", lattice=lattice)
+        api.add_entry(obj, "SUBDIVIDE", levels=1, use_limit_surface=False)
+        update()
+        return obj, lattice
+
+    shown = rig("Shown")
+    twin = rig("Twin", like=shown[0])
+    rng = np.random.default_rng(seed)
+
+    def act(name, rig_, draw):
+        obj, lattice = rig_
+        if name == "lattice":
+            perturb_lattice(lattice, amount=0.05, seed=draw)
+        elif name == "level":
+            obj.deformkit.entries[1].levels = 1 + draw % 2
+        elif name == "limit":
+            obj.deformkit.entries[1].use_limit_surface = not obj.deformkit.entries[1].use_limit_surface
+        elif name == "toggle":
+            obj.deformkit.entries[0].show_viewport = not obj.deformkit.entries[0].show_viewport
+        elif name == "mesh":
+            co = np.empty(len(obj.data.vertices) * 3, np.float32)
+            obj.data.vertices.foreach_get("co", co)
+            co[::5] += np.float32((draw % 100 - 50) * 2e-4)
+            obj.data.vertices.foreach_set("co", co)
+            obj.data.update()
+        update()
+
+    against_twin(shown, twin, act, ["lattice", "lattice", "level", "limit", "toggle", "mesh"], 16, rng)
