@@ -6,8 +6,8 @@ the value belongs to (meshdata.cache_key), so one `forget` drops an object's val
 when missing: nothing here is ever the only copy of the user's data.
 
 Spaces: "inputs" (evaluation: the last settings and base), "echo" (echo.py: the last write's time),
-"follow" (follow.py: what a drag's steps reuse),
-"weights" (vertex-group weights read from the mesh), "lattice" (bindings, and each entry's lattice,
+"follow" and "checked" (follow.py: what a drag's steps reuse; when each object's modifier was last
+checked), "weights" (vertex-group weights read from the mesh), "lattice" (bindings, and each entry's lattice,
 moved to the new control points while nothing else changes), "barr" (each Barr entry's deformer,
 while its settings and weights stay), "laplacian" (factorised solvers), "subdivide" (refined
 topologies) and "subdivide_written" (what each helper mesh holds).

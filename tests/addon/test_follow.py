@@ -27,6 +27,15 @@ def frames(monkeypatch):
     return seen
 
 
+def nudge(obj, every, by):
+    """An edit of the base mesh: every `every`-th coordinate moved by `by`."""
+    co = np.empty(len(obj.data.vertices) * 3, np.float32)
+    obj.data.vertices.foreach_get("co", co)
+    co[::every] += np.float32(by)
+    obj.data.vertices.foreach_set("co", co)
+    obj.data.update()
+
+
 def rigged(bpy, method, strength=0.7):
     """A sphere in a turned, moved cage, bound with `method`, its upper group at `strength`."""
     from deformkit_addon import api
@@ -214,11 +223,7 @@ def test_a_mesh_edit_right_after_a_setting_edit_is_shown(scene):
     update()
     api.add_entry(obj, "TWIST", angle=0.3, deform_axis="Z")
     update()
-    co = np.empty(len(obj.data.vertices) * 3, np.float32)
-    obj.data.vertices.foreach_get("co", co)
-    co[::7] += np.float32(0.01)
-    obj.data.vertices.foreach_set("co", co)
-    obj.data.update()
+    nudge(obj, 7, 0.01)
     update()
     shown = evaluated(obj).copy()
     np.testing.assert_array_equal(shown, fresh(obj))
@@ -307,11 +312,7 @@ def test_random_sequences_of_edits_show_what_a_full_evaluation_shows(scene, seed
         elif name == "twist angle" and len(other.deformkit.entries) == 2:
             other.deformkit.entries[1].angle = (draw % 200 - 100) / 100
         elif name == "mesh":
-            co = np.empty(len(other.data.vertices) * 3, np.float32)
-            other.data.vertices.foreach_get("co", co)
-            co[::7] += np.float32((draw % 100 - 50) * 2e-4)
-            other.data.vertices.foreach_set("co", co)
-            other.data.update()
+            nudge(other, 7, (draw % 100 - 50) * 2e-4)
         update()
 
     actions = ["cage", "cage", "cage object", "lattice", "lattice", "strength", "lattice strength", "toggle",
@@ -512,11 +513,7 @@ def test_random_sequences_on_a_lattice_under_a_subdivide_entry(scene, seed):
         elif name == "toggle":
             obj.deformkit.entries[0].show_viewport = not obj.deformkit.entries[0].show_viewport
         elif name == "mesh":
-            co = np.empty(len(obj.data.vertices) * 3, np.float32)
-            obj.data.vertices.foreach_get("co", co)
-            co[::5] += np.float32((draw % 100 - 50) * 2e-4)
-            obj.data.vertices.foreach_set("co", co)
-            obj.data.update()
+            nudge(obj, 5, (draw % 100 - 50) * 2e-4)
         update()
 
     against_twin(shown, twin, act, ["lattice", "lattice", "level", "limit", "toggle", "mesh"], 16, rng)
