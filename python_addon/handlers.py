@@ -34,9 +34,9 @@ def _stack_objects(scene):
     keys = _listed.get(scene.name_full)
     if keys is not None:
         listed = [bpy.data.objects.get(key) for key in keys]
-        if all(o is not None and _key(o) == key and o.type == "MESH" for o, key in zip(listed, keys)):
+        if None not in listed:
             return [o for o in listed if len(o.deformkit.entries) > 0]
-        _listed.clear()  # one was renamed, removed or retyped: list them again
+        _listed.clear()  # one was renamed or removed: list them again
     found = [o for o in scene.objects if o.type == "MESH" and len(o.deformkit.entries) > 0]
     _listed[scene.name_full] = [_key(o) for o in found]
     return found
@@ -101,7 +101,7 @@ def _remove_orphaned_helpers():
 
 @persistent
 def on_depsgraph_update(scene, depsgraph):
-    every = depsgraph.updates
+    every = list(depsgraph.updates)
     if any(isinstance(u.id, bpy.types.NodeTree) for u in every):
         follow.groups_touched()  # the modifier's group may be broken: the next step checks it
     updates = [u for u in every if isinstance(u.id, WATCHED)]
