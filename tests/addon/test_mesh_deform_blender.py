@@ -15,7 +15,7 @@ CAGES = pathlib.Path(__file__).resolve().parents[2].parent / "shared" / "cages"
 # (model, precision, dynamic): precisions 3 to 6, both bind modes; Ogre has vertices outside its
 # cage and rays that meet it several times (the inside test's hard cases).
 CASES = [("Ogre", 3, False), ("Ogre", 4, True), ("Ogre", 5, False), ("Ogre", 6, False),
-         ("ManHead", 5, True), ("FireHydrant", 4, False), ("Beast", 5, True)]
+         ("ManHead", 5, True), ("FireHydrant", 4, False), ("Beast", 5, True), ("WireSphere", 4, False)]
 
 
 def require_cages():

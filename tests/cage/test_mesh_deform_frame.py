@@ -16,10 +16,16 @@ CUBE = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], flo
 FACES = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
 
 
-def setting(dtype, dynamic, weighted, count=3000, seed=5):
+# Points around the cage (half of them outside: a float32 binding keeps rows) or close to it (most
+# inside: it keeps blocks of 8 points too, dense, which its frame reads), the latter with a last
+# block of 5 points.
+SPREADS = {"rows": (3000, 1.3), "blocks": (3005, 1.05)}
+
+
+def setting(dtype, dynamic, weighted, count=3000, seed=5, spread=1.3):
     """A cube cage bound at precision 4, with points inside and around it, and the cage moved."""
     rng = np.random.default_rng(seed)
-    pts = rng.uniform(-1.3, 1.3, (count, 3)).astype(dtype)
+    pts = rng.uniform(-spread, spread, (count, 3)).astype(dtype)
     weights = rng.uniform(0, 1, count) if weighted else None
     md = dk.MeshDeform(CUBE, FACES, precision=4, dynamic=dynamic, weights=weights)
     b = md.bind(pts)
@@ -30,8 +36,10 @@ def setting(dtype, dynamic, weighted, count=3000, seed=5):
 @pytest.mark.parametrize("dynamic", [False, True])
 @pytest.mark.parametrize("weighted", [False, True])
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
-def test_displacement_bound_is_the_bound_offset_in_one_pass(dtype, dynamic, weighted):
-    md, b, pts, weights = setting(dtype, dynamic, weighted)
+@pytest.mark.parametrize("layout", sorted(SPREADS))
+def test_displacement_bound_is_the_bound_offset_in_one_pass(dtype, dynamic, weighted, layout):
+    count, spread = SPREADS[layout]
+    md, b, pts, weights = setting(dtype, dynamic, weighted, count=count, spread=spread)
     disp, moved = md.displacement_bound(b), md.deform_bound(b)
     assert disp.dtype == dtype
     # deform_bound minus the points, to the rounding of the point's largest coordinate
@@ -92,20 +100,21 @@ SCRIPT = """
 import sys, numpy as np
 sys.path.insert(0, {here!r})
 from test_mesh_deform_frame import setting
-for dynamic in (False, True):
-    md, b, _, _ = setting(np.float32, dynamic, True, count=40000)
+for dynamic, spread in ((False, 1.3), (False, 1.05), (True, 1.3)):
+    md, b, _, _ = setting(np.float32, dynamic, True, count=40003, spread=spread)
     sys.stdout.buffer.write(md.displacement_bound(b).tobytes() + md.deform_bound(b).tobytes())
 """
 
 
 def test_the_same_bits_on_one_thread_as_on_the_pool():
-    """40 000 points: the pool splits them (a second thread from 16 384); each point's sum is its own."""
+    """40 003 points: the pool splits them (a second thread from 16 384); each point's sum is its own,
+    in rows or in blocks."""
     here = os.path.dirname(os.path.abspath(__file__))
     env = dict(os.environ, OMP_NUM_THREADS="1")
     one = subprocess.run([sys.executable, "-c", SCRIPT.format(here=here)], env=env, capture_output=True, check=True).stdout
     pooled = b""
-    for dynamic in (False, True):
-        md, b, _, _ = setting(np.float32, dynamic, True, count=40000)
+    for dynamic, spread in ((False, 1.3), (False, 1.05), (True, 1.3)):
+        md, b, _, _ = setting(np.float32, dynamic, True, count=40003, spread=spread)
         pooled += md.displacement_bound(b).tobytes() + md.deform_bound(b).tobytes()
     assert dk.build_info()["threads"] != "1" or os.cpu_count() == 1
     assert one == pooled

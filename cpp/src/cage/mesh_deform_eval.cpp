@@ -89,6 +89,19 @@ bool MeshDeform::evaluate_bound(const MeshDeformBinding& b, T* out, bool offsets
     });
     return finite;
   }
+  if constexpr (std::is_same<T, float>::value) {
+    if (!b.dense_weight.empty()) {  // blocks of 8 points, each task a run of them
+      const std::size_t blocks = (b.size() + 7) / 8;
+      const int tasks = b.size() < 2 * kParallelGrain || forked_after_threads() ? 1 : 4 * parallel_threads();
+      parallel_tasks(tasks, [&](int task) {
+        if (!harmonic::dense_blocks(b.dense_weight.data(), m, rows4.data(), offsets ? w : nullptr,
+                                    offsets ? nullptr : points, blocks * std::size_t(task) / std::size_t(tasks),
+                                    blocks * std::size_t(task + 1) / std::size_t(tasks), b.size(), out))
+          finite = false;
+      });
+      return finite;
+    }
+  }
   // Static: the points without a row stay (offset 0); then the rows, in their order.
   parallel_blocks(b.size(), [&](std::size_t lo, std::size_t hi) {
     for (std::size_t i = 3 * lo; i < 3 * hi; ++i) out[i] = offsets ? T(0) : points[i];

@@ -14,6 +14,7 @@
 #include "hwy/foreach_target.h"  // IWYU pragma: keep
 #include "hwy/highway.h"
 
+#include <algorithm>
 #include <type_traits>
 
 HWY_BEFORE_NAMESPACE();
@@ -113,6 +114,52 @@ void WeightedRows(const std::uint32_t* start, const Column* column, const T* wei
   else WeightedRowsOf(start, column, weight, begin, end, rows4, acc);
 }
 
+// Dense blocks (a small cage): lane k is point 8 block + k, so a cage vertex's weights for 8
+// points are one load and its displacement three broadcasts: 3 multiply-adds per weight and 8
+// points, no indices, no gather, and the results stored interleaved as x y z.
+bool DenseBlocksF32(const float* weight, size_t columns, const float* rows4, const double* scale, const float* points,
+                    size_t first, size_t last, size_t n, float* out) {
+  const hn::CappedTag<float, 8> d;
+  const size_t lanes = hn::Lanes(d), parts = 8 / lanes;
+  auto guard = hn::Zero(d);  // v - v is 0 for every finite v: it stays 0 unless a result is not
+  for (size_t block = first; block < last; ++block) {
+    const size_t base = 8 * block, count = n - base < 8 ? n - base : 8;
+    alignas(64) float scale8[8] = {0, 0, 0, 0, 0, 0, 0, 0}, from8[24] = {0}, to8[24];
+    if (scale)
+      for (size_t k = 0; k < count; ++k) scale8[k] = float(scale[base + k]);
+    const float* from = points ? points + 3 * base : nullptr;
+    if (points && count < 8) from = std::copy(from, from + 3 * count, from8) - 3 * count;
+    float* to = count < 8 ? to8 : out + 3 * base;
+    for (size_t p = 0; p < parts; ++p) {
+      const float* w = weight + 8 * columns * block + p * lanes;
+      auto x = hn::Zero(d), y = hn::Zero(d), z = hn::Zero(d);
+      for (size_t a = 0; a < columns; ++a) {
+        const auto wa = hn::LoadU(d, w + 8 * a);
+        x = hn::MulAdd(wa, hn::Set(d, rows4[4 * a]), x);
+        y = hn::MulAdd(wa, hn::Set(d, rows4[4 * a + 1]), y);
+        z = hn::MulAdd(wa, hn::Set(d, rows4[4 * a + 2]), z);
+      }
+      if (scale) {
+        const auto s = hn::LoadU(d, scale8 + p * lanes);
+        x = hn::Mul(x, s), y = hn::Mul(y, s), z = hn::Mul(z, s);
+      }
+      if (from) {
+        hn::Vec<decltype(d)> px, py, pz;
+        hn::LoadInterleaved3(d, from + 3 * p * lanes, px, py, pz);
+        x = hn::Add(px, x), y = hn::Add(py, y), z = hn::Add(pz, z);
+      }
+      guard = hn::Add(guard, hn::Add(hn::Sub(x, x), hn::Add(hn::Sub(y, y), hn::Sub(z, z))));
+      hn::StoreInterleaved3(x, y, z, d, to + 3 * p * lanes);
+    }
+    if (count < 8) std::copy(to8, to8 + 3 * count, out + 3 * base);
+  }
+  alignas(64) float left[8];
+  hn::StoreU(guard, d, left);
+  for (size_t k = 0; k < lanes; ++k)
+    if (left[k] != 0.0f) return false;
+  return true;
+}
+
 #define DEFORMKIT_TARGET_ROWS(Name, Column, T)                                                                  \
   void Name(const std::uint32_t* start, const Column* column, const T* weight, size_t begin, size_t end,        \
             const T* rows4, T* acc) {                                                                           \
@@ -136,6 +183,12 @@ namespace deformkit::harmonic {
   }
 DEFORMKIT_WEIGHTED_ROWS_TYPES(DEFORMKIT_DISPATCH_ROWS)
 #undef DEFORMKIT_DISPATCH_ROWS
+
+HWY_EXPORT(DenseBlocksF32);
+bool dense_blocks(const float* weight, std::size_t columns, const float* rows4, const double* scale,
+                  const float* points, std::size_t first, std::size_t last, std::size_t n, float* out) {
+  return HWY_DYNAMIC_DISPATCH(DenseBlocksF32)(weight, columns, rows4, scale, points, first, last, n, out);
+}
 
 }  // namespace deformkit::harmonic
 #endif  // HWY_ONCE

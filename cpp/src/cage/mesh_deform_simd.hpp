@@ -24,4 +24,11 @@ void weighted_rows(const std::uint32_t* start, const std::uint16_t* column, cons
 void weighted_rows(const std::uint32_t* start, const std::uint32_t* column, const float* weight, std::size_t begin,
                    std::size_t end, const float* rows4, float* acc);
 
+
+// Points [8 first, min(8 last, n)) of a dense float binding (MeshDeformBinding::dense_weight,
+// `columns` cage vertices): out = (points ? points : 0) + scale * sum_a w_a rows4[4 a .. 4 a + 2],
+// scale per point (null: 1), 3 floats per point. False if a result is not finite.
+bool dense_blocks(const float* weight, std::size_t columns, const float* rows4, const double* scale,
+                  const float* points, std::size_t first, std::size_t last, std::size_t n, float* out);
+
 }  // namespace deformkit::harmonic

@@ -352,3 +352,82 @@ TEST(CageMeshDeform, NarrowColumnsGiveTheDenseDisplacementsOnEitherSideOf256Vert
     for (std::size_t i = 0; i < out.size(); ++i) EXPECT_NEAR(out_f[i], out[i], 1e-6) << m << " vertices, coordinate " << i;
   }
 }
+
+// The dense frame (a small cage's float binding in blocks of 8 points) on every SIMD target,
+// against sums in long double: 1, 8 and 13 cage vertices, 45 points (a last block of 5), with and
+// without per-point scales and points; a result that is not finite is reported.
+TEST(CageMeshDeform, DenseBlocksAgreeOnEveryTarget) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> value(-1.0, 1.0);
+  const std::size_t n = 45, blocks = (n + 7) / 8;
+  for (const std::size_t m : {1, 8, 13}) {
+    std::vector<float> weight(8 * m * blocks, 0.0f), rows4(4 * m), points(3 * n);
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t a = 0; a < m; ++a) weight[8 * (m * (i / 8) + a) + i % 8] = float(value(rng));
+    for (float& r : rows4) r = float(value(rng));
+    for (float& p : points) p = float(value(rng));
+    std::vector<double> scale(n);
+    for (double& s : scale) s = 0.5 * (value(rng) + 1.0);
+    for (const std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
+      hwy::SetSupportedTargetsForTest(target);
+      for (const bool scaled : {false, true})
+        for (const bool offsets : {false, true}) {
+          std::vector<float> out(3 * n + 3, 7.0f);  // one point past the end stays
+          ASSERT_TRUE(harmonic::dense_blocks(weight.data(), m, rows4.data(), scaled ? scale.data() : nullptr,
+                                             offsets ? nullptr : points.data(), 0, blocks, n, out.data()));
+          for (std::size_t i = 0; i < n; ++i)
+            for (std::size_t c = 0; c < 3; ++c) {
+              long double sum = 0.0L;
+              for (std::size_t a = 0; a < m; ++a)
+                sum += (long double)weight[8 * (m * (i / 8) + a) + i % 8] * rows4[4 * a + c];
+              const long double expected = (offsets ? 0.0L : points[3 * i + c]) + (scaled ? scale[i] : 1.0) * sum;
+              EXPECT_NEAR(out[3 * i + c], double(expected), 4e-6)
+                  << hwy::TargetName(target) << " m " << m << " point " << i << " scaled " << scaled << " offsets " << offsets;
+            }
+          EXPECT_EQ(out[3 * n], 7.0f);
+        }
+      std::vector<float> out(3 * n), huge(rows4);
+      huge[0] = 3e38f;
+      weight[8 * (m * 5) + 2] = 10.0f;  // point 42's first weight: 3e39 overflows
+      EXPECT_FALSE(harmonic::dense_blocks(weight.data(), m, huge.data(), nullptr, nullptr, 0, blocks, n, out.data()))
+          << hwy::TargetName(target) << " m " << m;
+    }
+    hwy::SetSupportedTargetsForTest(0);
+  }
+}
+
+// A float binding on a cube cage (8 vertices, every inside point weighing all of them, most points
+// inside) holds its rows dense as well (fewer bytes), and the dense frame gives the rows' frame: deform_bound through the float64
+// binding of the same points (rows, double) to float rounding. A float64 binding keeps rows only.
+TEST(CageMeshDeform, SmallCagesBindDenseAndTheirFrameIsTheRowsFrame) {
+  const CageMesh cage(test::polygon_mesh(test::subdivided_cube(1)));
+  ASSERT_EQ(cage.vertex_count(), 8u);
+  MeshDeform md(cage, 4, false);
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<double> u(0.02, 0.98);
+  std::vector<double> p(3 * 1001);  // a last block of 1; every tenth point outside, right of the cage
+  for (double& x : p) x = u(rng);
+  for (std::size_t i = 0; i < 1001; i += 10) p[3 * i] += 1.5;
+  const std::vector<float> p_f(p.begin(), p.end());
+  const std::vector<double> p_back(p_f.begin(), p_f.end());
+  const MeshDeformBinding b = md.bind(p_back.data(), 1001), b_f = md.bind(p_f.data(), 1001);
+  EXPECT_TRUE(b.dense_weight.empty());
+  ASSERT_EQ(b_f.dense_weight.size(), 8u * 8u * 126u);
+  std::normal_distribution<double> noise(0.0, 0.1);
+  std::vector<double> moved = md.rest_cage_points();
+  for (double& c : moved) c += noise(rng);
+  md.set_cage_points(moved);
+  std::vector<double> out(p.size());
+  std::vector<float> out_f(p.size());
+  md.deform_bound(b, out.data());
+  md.deform_bound(b_f, out_f.data());
+  std::size_t outside = 0;
+  for (std::size_t i = 0; i < 1001; ++i) {
+    outside += !b_f.inside[i];
+    for (std::size_t c = 0; c < 3; ++c) {
+      EXPECT_NEAR(out_f[3 * i + c], out[3 * i + c], 2e-6) << "point " << i;
+      if (!b_f.inside[i]) EXPECT_EQ(out_f[3 * i + c], p_f[3 * i + c]) << "outside point " << i;
+    }
+  }
+  EXPECT_GT(outside, 0u);
+}

@@ -56,6 +56,12 @@ struct MeshDeformBinding : PointBinding {
   WeightColumns weight_vertex;
   std::vector<double> weight_value;
   std::vector<float> weight_value_f32;
+  // A float32 binding's rows once more, dense, where that takes not many more bytes than the rows
+  // (a cage of few vertices, each point weighing most of them): blocks of 8 points in point order,
+  // per block and cage vertex a its 8 points' weights side by side, dense_weight[8 (m block + a) +
+  // k], 0 where a weight was dropped or a point has none. A frame then reads no indices
+  // (harmonic::dense_blocks).
+  std::vector<float> dense_weight;
   // Dynamic: the cells the bound points reach, and per point its 8 cells (slots into cells) and
   // their trilinear weights, so a frame sums each cell's influences once.
   std::vector<std::int64_t> cells;
