@@ -96,25 +96,28 @@ def test_a_float32_binding_keeps_its_coordinates_as_blenders_floats():
     assert not np.array_equal(rounded, w64)
 
 
+# (dynamic, spread, points): rows; blocks, enough of them (8 cage vertices x 140 003 points, over
+# 4 MB of weights) for the pool to take them; a dynamic bind.
+CASES = ((False, 1.3, 40003), (False, 1.05, 140003), (True, 1.3, 40003))
 SCRIPT = """
 import sys, numpy as np
 sys.path.insert(0, {here!r})
-from test_mesh_deform_frame import setting
-for dynamic, spread in ((False, 1.3), (False, 1.05), (True, 1.3)):
-    md, b, _, _ = setting(np.float32, dynamic, True, count=40003, spread=spread)
+from test_mesh_deform_frame import setting, CASES
+for dynamic, spread, count in CASES:
+    md, b, _, _ = setting(np.float32, dynamic, True, count=count, spread=spread)
     sys.stdout.buffer.write(md.displacement_bound(b).tobytes() + md.deform_bound(b).tobytes())
 """
 
 
 def test_the_same_bits_on_one_thread_as_on_the_pool():
-    """40 003 points: the pool splits them (a second thread from 16 384); each point's sum is its own,
-    in rows or in blocks."""
+    """Enough points for the pool to split them (rows: a second thread from 16 384 points; blocks:
+    from 4 MB of weights); each point's sum is its own, in rows or in blocks."""
     here = os.path.dirname(os.path.abspath(__file__))
     env = dict(os.environ, OMP_NUM_THREADS="1")
     one = subprocess.run([sys.executable, "-c", SCRIPT.format(here=here)], env=env, capture_output=True, check=True).stdout
     pooled = b""
-    for dynamic, spread in ((False, 1.3), (False, 1.05), (True, 1.3)):
-        md, b, _, _ = setting(np.float32, dynamic, True, count=40003, spread=spread)
+    for dynamic, spread, count in CASES:
+        md, b, _, _ = setting(np.float32, dynamic, True, count=count, spread=spread)
         pooled += md.displacement_bound(b).tobytes() + md.deform_bound(b).tobytes()
     assert dk.build_info()["threads"] != "1" or os.cpu_count() == 1
     assert one == pooled
