@@ -2,7 +2,8 @@
 
 Each use has its own space (a name) and keys whose first element is the cache key of the object
 the value belongs to (meshdata.cache_key), so one `forget` drops an object's values of every space
-(api.evaluate, undo, file load) and nothing needs wiring by hand. Values are rebuilt from the file
+(api.evaluate, file load; undo and redo keep the spaces the kinds key by bind, forget_but) and
+nothing needs wiring by hand. Values are rebuilt from the file
 when missing: nothing here is ever the only copy of the user's data.
 
 Spaces: "inputs" (evaluation: the last settings and base), "echo" (echo.py: the last write's time),
@@ -40,3 +41,9 @@ def forget(object_key=None, space=None, keep=None):
                    and (object_key is None or k[1][0] == object_key)]:
         if keep is None or not keep(key):
             del _store[(s, key)]
+
+
+def forget_but(spaces, object_keys):
+    """Drop every value but those of `spaces` that belong to an object of `object_keys`."""
+    for s, key in [k for k in _store if not (k[0] in spaces and k[1][0] in object_keys)]:
+        del _store[(s, key)]

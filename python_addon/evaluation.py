@@ -402,9 +402,15 @@ def request_update(obj):
 
 def forget(obj=None):
     """Drop cached fingerprints, weights, lattice bindings, Laplacian solvers and refined
-    topologies (after undo or file load, when they may be stale; the solvers are built again from
-    the saved rest)."""
+    topologies (after a file load, when they may be stale; the solvers are built again from the
+    saved rest)."""
     cache.forget(None if obj is None else cache_key(obj))
+
+
+def forget_undone():
+    """forget() after undo or redo, but for the values the kinds keep by bind (KEPT_THROUGH_UNDO) of
+    the mesh objects still there: a bind undo brings back is the one they were made from."""
+    cache.forget_but(entries.kept_through_undo(), {cache_key(o) for o in bpy.data.objects if o.type == "MESH"})
 
 
 def apply_entry(obj, index):

@@ -182,7 +182,20 @@ def schedule_lattice_check(objects):
 
 @persistent
 def on_reload(*_args):
+    """Registration and file load: nothing kept is trusted; every stack is evaluated again."""
     evaluation.forget()
+    _evaluate_all()
+
+
+@persistent
+def on_undo(*_args):
+    """Undo and redo: as on_reload, but the kinds keep what they made of a bind (a Harmonic grid
+    solve: seconds at high precision, which an undo would otherwise cost every time)."""
+    evaluation.forget_undone()
+    _evaluate_all()
+
+
+def _evaluate_all():
     _listed.clear()
     for scene in bpy.data.scenes:
         objects = _stack_objects(scene)
@@ -207,8 +220,8 @@ def on_load(*args):
 HANDLERS = (
     (bpy.app.handlers.frame_change_post, on_frame_change),
     (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
-    (bpy.app.handlers.undo_post, on_reload),
-    (bpy.app.handlers.redo_post, on_reload),
+    (bpy.app.handlers.undo_post, on_undo),
+    (bpy.app.handlers.redo_post, on_undo),
     (bpy.app.handlers.load_post, on_load),
 )
 

@@ -46,6 +46,10 @@ type-info leaves a callback nullptr):
     prune(object_key, entries)  drop what it keeps for the object beyond these entries of its kind:
                   nothing
     loaded()      a file was loaded: drop what it keeps by name across files (file_loaded): nothing
+    KEPT_THROUGH_UNDO  (): the cache spaces whose values are keyed by the bind they were made from
+                  (its bind_id, which no later edit gives another bind), so that undo and redo,
+                  which may bring back an older bind but never change what a bind_id stands for,
+                  keep them (kept_through_undo): a Harmonic bind's grid is not solved again
     owns(obj) -> whether obj is one of the helper objects it writes (is_helper): False
 The bind protocol, for kinds that record something at Bind (Laplacian, Cage, RBF; Lattice binds
 again), all optional:
@@ -105,7 +109,7 @@ DEFAULTS = {"TYPE_LABEL": "Type", "STACKABLE": False, "LAST": False, "DEFORMS_IN
             "apply": _write_deformed, "followed": _follows_nothing, "volume_note": _no_note, "retyped": _nothing,
             "prune": _nothing, "bind": None, "unbind": None, "is_bound": _never_bound, "NOT_COPIED": (),
             "copy_bind": _nothing, "loaded": _nothing, "owns": _never_bound, "displace": None,
-            "refresh": None}
+            "refresh": None, "KEPT_THROUGH_UNDO": ()}
 
 
 class Kind:
@@ -232,6 +236,11 @@ def file_loaded():
     """Every kind drops what it keeps by name, which another file's objects may reuse."""
     for other in KINDS:
         other.loaded()
+
+
+def kept_through_undo():
+    """The cache spaces undo and redo keep (each kind's KEPT_THROUGH_UNDO)."""
+    return frozenset(space for other in KINDS for space in other.KEPT_THROUGH_UNDO)
 
 
 def is_helper(obj):

@@ -383,6 +383,10 @@ def grid_tail(entry):
                                                  if entry.cage_method == "HARMONIC" else ())
 
 
+# Keyed by bind_key (its bind_id) or checked against it and the bound points: undo keeps them.
+KEPT_THROUGH_UNDO = ("cage_deformer", "cage_binding", "cage_bound", "cage_rest", "cage_inside")
+
+
 def prune(object_key, entries):
     """Bindings of binds no entry has any more go."""
     forget_bindings(object_key, "cage_binding", entries, grid_tail)

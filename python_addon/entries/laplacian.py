@@ -337,6 +337,11 @@ def unanchored_vertices(obj, entry):
     return np.flatnonzero(~held[labels])
 
 
+# Keyed by the bind (bind_id) and checked against the settings, anchors and handles: undo keeps
+# the factorised solvers.
+KEPT_THROUGH_UNDO = ("laplacian",)
+
+
 def prune(object_key, entries):
     """Drop the solvers of binds that the object no longer has (removed, unbound, retyped)."""
     bind_ids = {e.bind_id for e in entries}

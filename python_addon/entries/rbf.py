@@ -272,6 +272,11 @@ def followed(entry):
     return [(entry.controls, entry.controls_name)]
 
 
+# Keyed by the bind (bind_id) and checked against the fit's settings, the weights and the points:
+# undo keeps them.
+KEPT_THROUGH_UNDO = ("rbf_deformer", "rbf_binding")
+
+
 def prune(object_key, entries):
     """The fits and bindings of binds no entry has any more go."""
     forget_bindings(object_key, "rbf_binding", entries, lambda e: (e.bind_id,) + kernel_settings(e))
