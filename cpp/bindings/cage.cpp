@@ -133,13 +133,56 @@ std::vector<std::uint8_t> inside_flags(const py::object& inside, std::size_t n) 
   return kept;
 }
 
+// A static bind's saved rows: (indptr, indices, data) as MeshDeformBinding.weights() gives them,
+// one-dimensional, indptr of n + 1 entries; the values are checked in C++ (MeshDeform::bind_rows).
+WeightTable rows_table(const py::object& rows, std::size_t n) {
+  const char* what = "(indptr, indices, data): binding.weights() of a static bind of these points";
+  if (!py::isinstance<py::tuple>(rows) && !py::isinstance<py::list>(rows))
+    throw py::type_error(std::string("rows: expected ") + what + ", got " +
+                         py::str(py::type::of(rows).attr("__name__")).cast<std::string>());
+  const py::sequence parts = rows.cast<py::sequence>();
+  if (py::len(parts) != 3)
+    throw py::value_error(std::string("rows: expected 3 arrays ") + what + ", got " + std::to_string(py::len(parts)));
+  auto one_dimensional = [](const char* name, py::ssize_t length) {
+    return [name, length](const py::array& a) {
+      if (a.ndim() != 1 || (length >= 0 && a.shape(0) != length))
+        throw py::value_error(std::string("rows: ") + name + ": expected shape (" +
+                              (length >= 0 ? std::to_string(length) : std::string("k")) + ",), got " +
+                              py::str(py::tuple(py::cast(std::vector<py::ssize_t>(a.shape(), a.shape() + a.ndim()))))
+                                  .cast<std::string>());
+    };
+  };
+  WeightTable t;
+  t.indptr = parse_index_array(parts[0], "rows: indptr", "integer row offsets", one_dimensional("indptr", py::ssize_t(n) + 1));
+  const std::vector<std::int64_t> indices =
+      parse_index_array(parts[1], "rows: indices", "integer cage vertex indices", one_dimensional("indices", -1));
+  t.indices.resize(indices.size());
+  for (std::size_t k = 0; k < indices.size(); ++k) {
+    if (indices[k] < 0 || indices[k] > INT32_MAX)
+      throw py::value_error("rows: indices: " + std::to_string(indices[k]) + " is no cage vertex index");
+    t.indices[k] = std::int32_t(indices[k]);
+  }
+  const auto data = real_array(parts[2], "rows: data");
+  one_dimensional("data", py::ssize_t(t.indices.size()))(data);
+  t.values.assign(data.data(), data.data() + data.size());
+  return t;
+}
+
 PyMeshDeformBinding py_md_bind(const std::shared_ptr<MeshDeform>& md, const py::object& points,
-                               const py::object& inside) {
+                               const py::object& inside, const py::object& rows) {
   const py::array pts = points_array(points, "points");
   const auto n = static_cast<std::size_t>(pts.shape(0));
   const std::vector<std::uint8_t> kept = inside_flags(inside, n);
   const std::uint8_t* flags = inside.is_none() ? nullptr : kept.data();
   auto b = std::make_shared<MeshDeformBinding>();
+  if (!rows.is_none()) {
+    const WeightTable table = rows_table(rows, n);
+    without_gil("the Mesh Deform binding from its rows", [&] {
+      if (is_float32(pts)) *b = md->bind_rows(static_cast<const float*>(pts.data()), n, flags, table);
+      else *b = md->bind_rows(static_cast<const double*>(pts.data()), n, flags, table);
+    });
+    return PyMeshDeformBinding{b, md};
+  }
   const double bytes = 8.0 * double(md->vertex_count()) + 40.0;
   without_gil("the Mesh Deform binding (" + working_size(n, bytes) + ")", [&] {
     if (is_float32(pts)) *b = md->bind(static_cast<const float*>(pts.data()), n, flags);
@@ -325,13 +368,16 @@ Blender keeps on a ray that meets the cage more than once, e.g. which points cou
       .def_property_readonly("grid_size", &MeshDeform::grid_size, "Cells a side: 2^precision + 2.")
       .def_property_readonly("flipped", [](const MeshDeform& c) { return c.cage().flipped(); },
                              "True when the cage's faces pointed inward (negative volume) and were flipped.")
-      .def("bind", &py_md_bind, "points"_a, py::kw_only(), "inside"_a = py::none(),
+      .def("bind", &py_md_bind, "points"_a, py::kw_only(), "inside"_a = py::none(), "rows"_a = py::none(),
            R"(Bind points as Blender's Bind button does (MeshDeformBinding).
 
-Static: solves the grid for every cage vertex and keeps each inside point's coordinates.
-Dynamic: finds which points are inside (the grid was solved by the constructor); or, with
-`inside` (one bool per point, e.g. binding.inside of the points at Bind), takes those flags as
-Blender's dynamic bind keeps them from Bind, wherever the points are now.)")
+Static: solves the grid for every cage vertex and keeps each inside point's coordinates; or,
+with `rows` ((indptr, indices, data): binding.weights() of an earlier static bind of these
+points to this cage, e.g. saved with a file), takes those coordinates without the solve (with
+`inside`, that bind's inside flags; without, the points with a row are inside). Dynamic: finds
+which points are inside (the grid was solved by the constructor); or, with `inside` (one bool per
+point, e.g. binding.inside of the points at Bind), takes those flags as Blender's dynamic bind
+keeps them from Bind, wherever the points are now.)")
       .def("deform_bound", &py_md_deform_bound, "binding"_a, py::kw_only(), "out"_a = py::none(),
            "Deform bound points with the current cage. The dtype is that of the bound points.")
       .def("displacement_bound", &py_md_displacement_bound, "binding"_a, py::kw_only(), "out"_a = py::none(),

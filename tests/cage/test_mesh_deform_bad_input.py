@@ -89,3 +89,49 @@ def test_bad_cage_points_points_and_bindings():
     weighted = dk.MeshDeform(CUBE, FACES, precision=3, weights=np.full(5, 0.5))
     assert message(lambda: weighted.deform_bound(weighted.bind(np.full((3, 3), 0.5)))).startswith(
         "weights: has 5 entries but the binding has 3 points")
+
+
+def saved_bind(dynamic=False):
+    """A static bind of points in and around the cube, and its rows (binding.weights())."""
+    md = dk.MeshDeform(CUBE, FACES, precision=3, dynamic=dynamic)
+    pts = np.random.default_rng(1).uniform(-0.2, 1.2, (200, 3)).astype(np.float32)
+    return md, pts, md.bind(pts)
+
+
+def with_value(rows, k, value):
+    indptr, indices, data = (np.array(a) for a in rows)
+    data[k] = value
+    return indptr, indices, data
+
+
+def test_rows_that_are_no_static_bind_of_the_points_are_refused():
+    md, pts, b = saved_bind()
+    indptr, indices, data = b.weights()
+    first = int(np.flatnonzero(np.diff(indptr) >= 2)[0])  # a point with two or more weights
+    at = int(indptr[first])
+    swapped = indices.copy()
+    swapped[[at, at + 1]] = swapped[[at + 1, at]]
+    outside = int(np.flatnonzero(~b.inside)[0])
+    flags = b.inside.copy()
+    flags[first] = False
+    cases = [
+        ((indptr[:-1], indices, data), None, "rows: indptr: expected shape (201,), got (200,)"),
+        ((indptr, indices, data[:-1]), None, f"rows: data: expected shape ({len(indices)},), got ({len(indices) - 1},)"),
+        ((indptr, indices.astype(float), data), None, "rows: indices: expected integer cage vertex indices"),
+        ((indptr, np.where(np.arange(len(indices)) == at, 8, indices), data), None, "rows: column 8 is outside 0..8 - 1"),
+        ((indptr, swapped, data), None, f"rows: the cage vertices of point {first}'s row do not rise"),
+        (with_value(b.weights(), at, 0.0), None, f"rows: weight {at} is 0.000000, not in (0, 1]"),
+        (with_value(b.weights(), at, 1.5), None, f"rows: weight {at} is 1.500000, not in (0, 1]"),
+        (with_value(b.weights(), at, np.nan), None, f"rows: weight {at} is not finite"),
+        (with_value(b.weights(), at, data[at] / 2), None, f"rows: point {first}'s weights sum to"),
+        ((indptr, indices, data), flags, f"rows: point {first} has a row but is outside the cage"),
+        ((indptr, indices), None, "rows: expected 3 arrays (indptr, indices, data)"),
+        ("rows", None, "rows: expected (indptr, indices, data)"),
+    ]
+    assert not b.inside[outside]
+    for rows, inside, words in cases:
+        assert message(lambda: md.bind(pts, rows=rows, inside=inside)).startswith(words), words
+    dynamic, _, _ = saved_bind(dynamic=True)
+    assert message(lambda: dynamic.bind(pts, rows=b.weights())).startswith("rows: a dynamic MeshDeform keeps no rows")
+    assert message(lambda: md.bind(pts, rows=b.weights(), inside=b.inside[:-1])).startswith(
+        "inside: expected one flag per point, shape (200,)")

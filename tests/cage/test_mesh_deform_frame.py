@@ -121,3 +121,21 @@ def test_the_same_bits_on_one_thread_as_on_the_pool():
         pooled += md.displacement_bound(b).tobytes() + md.deform_bound(b).tobytes()
     assert dk.build_info()["threads"] != "1" or os.cpu_count() == 1
     assert one == pooled
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("layout", sorted(SPREADS))
+def test_a_bind_from_its_rows_is_the_bind(dtype, layout):
+    """bind(points, rows=binding.weights(), inside=binding.inside) gives the bind without its solve:
+    the same coordinates, inside flags and frames, bit for bit (rows or dense blocks alike); without
+    `inside`, the points with a row are the inside ones."""
+    count, spread = SPREADS[layout]
+    md, b, pts, _ = setting(dtype, False, False, count=count, spread=spread)
+    again = md.bind(pts, rows=b.weights(), inside=b.inside)
+    implied = md.bind(pts, rows=b.weights())
+    for x, y in zip(again.weights(), b.weights()):
+        np.testing.assert_array_equal(x, y)
+    np.testing.assert_array_equal(again.inside, b.inside)
+    np.testing.assert_array_equal(implied.inside, np.diff(b.weights()[0]) > 0)
+    np.testing.assert_array_equal(md.deform_bound(again), md.deform_bound(b))
+    np.testing.assert_array_equal(md.displacement_bound(implied), md.displacement_bound(b))

@@ -295,6 +295,78 @@ void dense_rows(std::size_t m, MeshDeformBinding& b) {
   }
 }
 
+// The binding's rows for these lengths (per point: its kept coordinates), by length, points in
+// order within a length (a counting sort), their starts, and room for their weights. Returns each
+// point's row (valid where its length is not 0).
+std::vector<std::uint32_t> ordered_rows(const std::vector<std::uint32_t>& length, std::size_t m, MeshDeformBinding& b) {
+  const std::size_t n = length.size();
+  std::vector<std::size_t> of_length(m + 2, 0);
+  for (std::size_t i = 0; i < n; ++i) ++of_length[length[i] + 1];
+  for (std::size_t k = 1; k < of_length.size(); ++k) of_length[k] += of_length[k - 1];
+  const std::size_t empty = of_length[1];  // points without coordinates get no row
+  b.row_point.assign(n - empty, 0);
+  std::vector<std::uint32_t> row_of(n, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    if (length[i]) {
+      row_of[i] = std::uint32_t(of_length[length[i]]++ - empty);
+      b.row_point[row_of[i]] = std::uint32_t(i);
+    }
+  b.weight_start.assign(b.row_point.size() + 1, 0);
+  std::uint64_t total = 0;
+  for (std::size_t row = 0; row < b.row_point.size(); ++row) {
+    total += length[b.row_point[row]];
+    if (total >= std::uint64_t(UINT32_MAX)) throw std::bad_alloc();
+    b.weight_start[row + 1] = std::uint32_t(total);
+  }
+  b.weight_vertex = WeightColumns(std::size_t(total), m);
+  if (b.single_precision) b.weight_value_f32.resize(std::size_t(total));
+  else b.weight_value.resize(std::size_t(total));
+  return row_of;
+}
+
+// A saved bind's rows (point order, as weights_table exports them) checked as a static bind of
+// b's points to m cage vertices, then laid out as kept_rows lays out a solve's.
+void table_rows(const WeightTable& rows, std::size_t m, MeshDeformBinding& b) {
+  const std::size_t n = b.size();
+  rows.require_valid(m, "rows");
+  if (rows.rows() != n)
+    throw std::invalid_argument("rows: expected a row for each of the " + std::to_string(n) + " points, got " +
+                                std::to_string(rows.rows()));
+  std::vector<std::uint32_t> length(n, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto first = std::size_t(rows.indptr[i]), last = std::size_t(rows.indptr[i + 1]);
+    if (last > first && !b.inside[i])
+      throw std::invalid_argument("rows: point " + std::to_string(i) + " has a row but is outside the cage");
+    double sum = 0.0;
+    for (std::size_t e = first; e < last; ++e) {
+      if (e > first && rows.indices[e] <= rows.indices[e - 1])
+        throw std::invalid_argument("rows: the cage vertices of point " + std::to_string(i) + "'s row do not rise");
+      if (!(rows.values[e] > 0.0 && rows.values[e] <= 1.0))
+        throw std::invalid_argument("rows: weight " + std::to_string(e) + " is " + std::to_string(rows.values[e]) +
+                                    ", not in (0, 1] as a bind's kept coordinates are");
+      sum += rows.values[e];
+    }
+    if (last > first && std::abs(sum - 1.0) > 1e-4)
+      throw std::invalid_argument("rows: point " + std::to_string(i) + "'s weights sum to " + std::to_string(sum) +
+                                  ", not 1 as a bind's renormalised coordinates do");
+    length[i] = std::uint32_t(last - first);
+  }
+  const std::vector<std::uint32_t> row_of = ordered_rows(length, m, b);
+  std::vector<std::uint32_t> columns(m);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!length[i]) continue;
+    const auto first = std::size_t(rows.indptr[i]);
+    const std::size_t to = b.weight_start[row_of[i]];
+    for (std::size_t e = 0; e < length[i]; ++e) {
+      columns[e] = std::uint32_t(rows.indices[first + e]);
+      if (b.single_precision) b.weight_value_f32[to + e] = float(rows.values[first + e]);
+      else b.weight_value[to + e] = rows.values[first + e];
+    }
+    b.weight_vertex.assign(to, columns.data(), length[i]);
+  }
+  dense_rows(m, b);
+}
+
 // Blender's compaction of each inside point's row: weights above the threshold kept, scaled to
 // sum to 1; outside points get no row. Each task writes its run of points into one buffer (no
 // allocation per point), and the buffers are joined, then ordered by row length (the binding's
@@ -337,29 +409,8 @@ void kept_rows(const ReachedCells& r, const std::vector<std::size_t>& inside, Me
       length[inside[i]] = std::uint32_t(kept);
     }
   });
-  // The rows by length, points in order within a length (a counting sort), then each task's run
-  // copied to its rows' places.
-  std::vector<std::size_t> of_length(m + 2, 0);
-  for (std::size_t i = 0; i < n; ++i) ++of_length[length[i] + 1];
-  for (std::size_t k = 1; k < of_length.size(); ++k) of_length[k] += of_length[k - 1];
-  const std::size_t empty = of_length[1];  // points without coordinates get no row
-  b.row_point.assign(n - empty, 0);
-  std::vector<std::uint32_t> row_of(n, 0);
-  for (std::size_t i = 0; i < n; ++i)
-    if (length[i]) {
-      row_of[i] = std::uint32_t(of_length[length[i]]++ - empty);
-      b.row_point[row_of[i]] = std::uint32_t(i);
-    }
-  b.weight_start.assign(b.row_point.size() + 1, 0);
-  std::uint64_t total = 0;
-  for (std::size_t row = 0; row < b.row_point.size(); ++row) {
-    total += length[b.row_point[row]];
-    if (total >= std::uint64_t(UINT32_MAX)) throw std::bad_alloc();
-    b.weight_start[row + 1] = std::uint32_t(total);
-  }
-  b.weight_vertex = WeightColumns(std::size_t(total), m);
-  if (b.single_precision) b.weight_value_f32.resize(std::size_t(total));
-  else b.weight_value.resize(std::size_t(total));
+  // Each task's run copied to its rows' places.
+  const std::vector<std::uint32_t> row_of = ordered_rows(length, m, b);
   parallel_tasks(tasks, [&](int task) {
     const std::size_t lo = count * std::size_t(task) / std::size_t(tasks), hi = count * std::size_t(task + 1) / std::size_t(tasks);
     Run& run = runs[std::size_t(task)];
@@ -542,6 +593,35 @@ MeshDeformBinding MeshDeform::bind_points(const T* in, std::size_t n, const std:
     if (b.inside[i]) inside.push_back(i);
   harmonic::kept_rows(harmonic::reach_cells(s, precision_, points, inside, false), inside, b);
   return b;
+}
+
+template <class T>
+MeshDeformBinding MeshDeform::bound_rows(const T* in, std::size_t n, const std::uint8_t* inside,
+                                         const WeightTable& rows) const {
+  if (dynamic_)
+    throw std::invalid_argument("rows: a dynamic MeshDeform keeps no rows (its coordinates are the grid's, read "
+                                "where each point is): bind it without rows");
+  require_finite_rows(in, n, "points");
+  MeshDeformBinding b;
+  b.point_count = n;
+  b.single_precision = std::is_same<T, float>::value;
+  b.layout = layout();
+  if constexpr (std::is_same<T, float>::value) b.points_f32.assign(in, in + 3 * n);
+  else b.points_f64.assign(in, in + 3 * n);
+  b.inside.assign(n, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    b.inside[i] = inside ? inside[i] != 0 : rows.rows() == n && rows.indptr[i + 1] > rows.indptr[i];
+  harmonic::table_rows(rows, vertex_count(), b);
+  return b;
+}
+
+MeshDeformBinding MeshDeform::bind_rows(const double* points, std::size_t n, const std::uint8_t* inside,
+                                        const WeightTable& rows) const {
+  return bound_rows(points, n, inside, rows);
+}
+MeshDeformBinding MeshDeform::bind_rows(const float* points, std::size_t n, const std::uint8_t* inside,
+                                        const WeightTable& rows) const {
+  return bound_rows(points, n, inside, rows);
 }
 
 MeshDeformBinding MeshDeform::bind(const double* points, std::size_t n, const std::uint8_t* inside) const {

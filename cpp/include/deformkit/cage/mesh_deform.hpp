@@ -112,6 +112,17 @@ class MeshDeform : public BoundDeformer {
   // points where they are now; a kept point in cells without coordinates is not displaced.
   MeshDeformBinding bind(const double* points, std::size_t n, const std::uint8_t* inside = nullptr) const;
   MeshDeformBinding bind(const float* points, std::size_t n, const std::uint8_t* inside = nullptr) const;
+  // A static bind of these points from its coordinates as weights_table gives them (a row per point
+  // over the cage's vertices, each inside point's renormalised weights), without the grid solve: a
+  // saved bind loaded. `inside` (n flags; null: the points with a row). Throws
+  // std::invalid_argument naming `rows` for a dynamic deformer or a table that is no static bind
+  // of n points to this cage (not n rows, a vertex out of range or not rising along a row, a
+  // weight outside (0, 1] or a row not summing to 1 within 1e-4, a row of an outside point),
+  // naming `inside` for flags of another count, and `points` for a non-finite point.
+  MeshDeformBinding bind_rows(const double* points, std::size_t n, const std::uint8_t* inside,
+                              const WeightTable& rows) const;
+  MeshDeformBinding bind_rows(const float* points, std::size_t n, const std::uint8_t* inside,
+                              const WeightTable& rows) const;
   // The coordinates of the bound points (static: as stored; dynamic: interpolated at the bound
   // points), a point outside the cage an empty row.
   WeightTable weights_table(const MeshDeformBinding& binding) const;
@@ -121,6 +132,8 @@ class MeshDeform : public BoundDeformer {
  private:
   template <class T>
   MeshDeformBinding bind_points(const T* in, std::size_t n, const std::uint8_t* inside) const;
+  template <class T>
+  MeshDeformBinding bound_rows(const T* in, std::size_t n, const std::uint8_t* inside, const WeightTable& rows) const;
   template <class T>
   bool deform_points(const T* in, T* out, std::size_t n) const;
   // offsets: out = w_i o_i (w null: o_i), else out = x_i + o_i, o_i the point's displacement
