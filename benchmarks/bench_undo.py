@@ -1,4 +1,5 @@
-"""An undo of a cage move on a rig with a Harmonic Cage entry, against Mesh Deform's.
+"""An undo of a cage move on a rig with a Harmonic Cage entry, and the reopening of its file,
+against Mesh Deform's.
 
     .venv/bin/python benchmarks/bench_undo.py [--model Ogre] [--precisions 5,6,7] [--repeats 5]
         [--addon DIR]
@@ -9,12 +10,15 @@ and the model itself with Blender's Mesh Deform modifier, bound, both to their o
 cage. A step: the cage moved to its `_Cage_Deformed` pose, an undo step pushed, then
 `bpy.ops.ed.undo()` timed together with the depsgraph update that shows the undone rig (the
 add-on's undo handler evaluates its stacks there), then redo. Medians of R steps, each side alone
-(Mesh Deform's first, before the entry exists; then its modifier hidden). Skips with a message when ../shared/cages is absent.
+(Mesh Deform's first, before the entry exists; then its modifier hidden). Reopening: each rig
+saved alone in its own file (the other side removed), then `open_mainfile` and the depsgraph update
+that shows it timed, best of R. Skips with a message when ../shared/cages is absent.
 """
 import argparse
 import pathlib
 import statistics
 import sys
+import tempfile
 import time
 
 from bench_common import OtherLoad, blender_with_addon, cage_model, cpu_busy, mesh_deform_bind, set_positions, \
@@ -63,10 +67,30 @@ def undo_seconds(cage_name, m):
     return statistics.median(times)
 
 
+def reopen_seconds(path):
+    """Best of R: the file opened and its depsgraph evaluated."""
+    times = []
+    for _ in range(args.repeats):
+        t0 = time.perf_counter()
+        bpy.ops.wm.open_mainfile(filepath=path)
+        bpy.context.evaluated_depsgraph_get().update()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def saved_alone(keep, drop, path):
+    """The file with only `keep`'s rig: `drop` and its cage removed."""
+    for name in drop:
+        bpy.data.objects.remove(bpy.data.objects[name])
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    return path
+
+
+FOLDER = tempfile.mkdtemp()
 print(f"bpy {bpy.app.version_string} | add-on {args.addon} | CPUs busy before the run {busy:.0%}")
-print(f"undo of a cage move, with its depsgraph update; medians of {args.repeats}")
-print("| precision | Mesh Deform undo s | Harmonic entry undo s |")
-print("|---|---|---|")
+print(f"undo of a cage move, with its depsgraph update, medians of {args.repeats}; reopening, best of {args.repeats}")
+print("| precision | Mesh Deform undo s | Harmonic entry undo s | Mesh Deform reopen s | Harmonic entry reopen s |")
+print("|---|---|---|---|---|")
 with OtherLoad() as load:
     for precision in (int(p) for p in args.precisions.split(",")):
         bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -82,5 +106,12 @@ with OtherLoad() as load:
         api.bind_cage(ours, 0)
         bpy.ops.ed.undo_push(message="entry bound")
         our_seconds = undo_seconds("Our cage", m)
-        print(f"| {precision} | {md_seconds:.3f} | {our_seconds:.3f} |", flush=True)
+        bpy.data.objects[model].modifiers[modifier].show_viewport = True
+        base = f"{FOLDER}/p{precision}"
+        bpy.ops.wm.save_as_mainfile(filepath=base + ".blend")
+        md_file = saved_alone(model, ["Ours", "Our cage"], base + "_md.blend")
+        bpy.ops.wm.open_mainfile(filepath=base + ".blend")
+        ours_file = saved_alone("Ours", [model, cage], base + "_ours.blend")
+        md_open, our_open = reopen_seconds(md_file), reopen_seconds(ours_file)
+        print(f"| {precision} | {md_seconds:.3f} | {our_seconds:.3f} | {md_open:.3f} | {our_open:.3f} |", flush=True)
 print(load.report())

@@ -52,6 +52,11 @@ INSIDE = "deformkit_cage_inside"
 # Deform lays its grid along the cage object's own axes and turns the displacement by how the two
 # objects stand now, so the entry does too.
 FRAME = "deformkit_cage_frame"
+# Harmonic, not Dynamic: the bound points' coordinates as binding.weights() gives them (row starts
+# int32, cage vertices int32, weights float32, Blender's float), so that a reopened file binds from
+# them instead of solving the grid again (as Mesh Deform keeps its weights in the file).
+ROWS = ("deformkit_cage_row_starts", "deformkit_cage_row_vertices", "deformkit_cage_row_weights")
+SAVED = (REST, BOUND, FRAME, INSIDE) + ROWS  # what a bind writes on the entry
 NOT_COPIED = binding.NOT_COPIED  # a copy arrives unbound
 
 # deformer: the dk cage deformer with the current cage and the entry's influence; bind: the key its
@@ -61,8 +66,8 @@ Setup = namedtuple("Setup", "deformer bind fingerprint harmonic", defaults=(None
 # A Harmonic entry in the cage's own space: now, this object's space to the cage's (4 x 4); turn,
 # the cage's displacements into this object's space (3 x 3, None when that is the identity; setup
 # turns the cage's displacements, so the deformer's offsets are this object's);
-# bound, (points, in the cage's space as float32) of a bind that keeps its points (not Dynamic),
-# else None; inside, a Dynamic bind's flags of Bind (bool per point), else None; weights, the
+# bound, (points, in the cage's space as float32, their saved rows or None) of a bind that keeps
+# its points (not Dynamic), else None; inside, a Dynamic bind's flags of Bind (bool per point), else None; weights, the
 # per-point influence (vertex group, strength) scaling the displacement, or None: the grid is
 # solved without them, so a Strength drag never solves it again.
 Frame = namedtuple("Frame", "now turn bound inside weights", defaults=(None, None))
@@ -167,7 +172,8 @@ def bound_points(key, entry):
     if kept is not None or entry.cage_method != "HARMONIC" or entry.use_dynamic_bind or BOUND not in entry:
         return kept
     points = np.array(entry[BOUND], np.float32).reshape(-1, 3)
-    return cache.put("cage_bound", key, (points, cage_space(points, affine_inverse(saved_frame(entry)))))
+    rows = tuple(np.array(entry[name]) for name in ROWS) if all(name in entry for name in ROWS) else None
+    return cache.put("cage_bound", key, (points, cage_space(points, affine_inverse(saved_frame(entry))), rows))
 
 
 def inside_at_bind(key, entry):
@@ -314,7 +320,8 @@ def harmonic_offsets(key, setup_, points, out):
         bound = kept_binding("cage_binding", key, setup_.bind, local,
                              lambda p: setup_.deformer.bind(p, inside=frame.inside))
     else:
-        bound = kept_binding("cage_binding", key, setup_.bind, local, setup_.deformer.bind)
+        rows = frame.bound[2] if frame.bound is not None else None
+        bound = kept_binding("cage_binding", key, setup_.bind, local, lambda p: _bound(setup_.deformer, p, rows))
     moved = setup_.deformer.displacement_bound(bound, out=out)
     if frame.weights is not None:
         if len(frame.weights) != len(points):
@@ -322,6 +329,17 @@ def harmonic_offsets(key, setup_, points, out):
                              f"the entry has {len(points)}")
         np.multiply(moved, np.asarray(frame.weights)[:, None], out=moved, casting="same_kind")
     return moved
+
+
+def _bound(deformer, points, rows):
+    """The static bind of points: from its saved rows (a reopened file), else solved. Rows that are
+    no bind of these points (a damaged file) are solved again: the same result, only slower."""
+    if rows is not None:
+        try:
+            return deformer.bind(points, rows=rows)
+        except ValueError:
+            pass
+    return deformer.bind(points)
 
 
 def bind(obj, entry, incoming, rest=None):
@@ -346,13 +364,16 @@ def bind(obj, entry, incoming, rest=None):
         made = None if local is None else deformer.bind(local)  # Mesh Deform's solve: its failure leaves the entry
     except RuntimeError as exc:  # "cannot find a bind solution", naming the cage
         raise EntryError(str(exc)) from exc
-    inside = None
+    inside, rows = None, (None,) * len(ROWS)
     if made is not None and entry.use_dynamic_bind:  # only the flags are kept: the points are read as they come
         inside, mesh, made = made.inside, None, None
+    elif made is not None:
+        starts, vertices, weights = made.weights()
+        rows = (starts.astype(np.int32), vertices, weights.astype(np.float32))
     bind_id = new_bind_id(obj)
     store_array(entry, REST, points.astype(np.float32).ravel())
     flags = None if inside is None else inside.astype(np.int32)  # an ID property takes int32, not bytes
-    for name, values in ((BOUND, mesh), (FRAME, frame), (INSIDE, flags)):
+    for name, values in ((BOUND, mesh), (FRAME, frame), (INSIDE, flags)) + tuple(zip(ROWS, rows)):
         if values is not None:
             store_array(entry, name, values.ravel())
         elif name in entry:
@@ -362,7 +383,7 @@ def bind(obj, entry, incoming, rest=None):
     key = bind_key(obj, entry)
     cache.put("cage_deformer", key, (weights_crc(None), deformer))  # a Dynamic grid: solved once
     if made is not None:  # the first evaluation uses this binding, not a second solve
-        cache.put("cage_bound", key, (mesh, local))
+        cache.put("cage_bound", key, (mesh, local, None))
         index = stack_index(entry)
         for kind in ("viewport", "render"):
             cache.put("cage_binding", (meshdata.cache_key(obj), index, kind), (key, local, made))
@@ -370,7 +391,7 @@ def bind(obj, entry, incoming, rest=None):
 
 
 def unbind(obj, entry):
-    binding.forget(entry, (REST, BOUND, FRAME, INSIDE))
+    binding.forget(entry, SAVED)
 
 
 def followed(entry):
@@ -396,7 +417,7 @@ def prune(object_key, entries):
 
 
 def retyped(entry):
-    binding.forget(entry, (REST, BOUND, FRAME, INSIDE))
+    binding.forget(entry, SAVED)
 
 
 def draw(col, obj, entry):

@@ -22,21 +22,24 @@ def counted_binds(bpy_module):
         original = cls.bind
 
         def bind(self, *args, _original=original, _name=name, **kwargs):
-            calls.append(_name + ".bind")
+            calls.append(_name + (".bind(rows)" if kwargs.get("rows") is not None else ".bind"))
             return _original(self, *args, **kwargs)
+        patched.append((cls, "bind", original if "bind" in vars(cls) else None))  # None: inherited
         cls.bind = bind
-        patched.append((cls, "bind", original))
     for name in ("RBF", "SurfaceDeformer"):
         original = getattr(native.dk, name)
 
         def make(*args, _original=original, _name=name, **kwargs):
             calls.append(_name)
             return _original(*args, **kwargs)
-        setattr(native.dk, name, make)
         patched.append((native.dk, name, original))
+        setattr(native.dk, name, make)
     yield calls
     for owner, name, original in reversed(patched):
-        setattr(owner, name, original)
+        if original is None:
+            delattr(owner, name)
+        else:
+            setattr(owner, name, original)
 
 
 def fresh(obj):
@@ -122,9 +125,15 @@ def test_an_undone_rebind_shows_the_bind_before_it(scene, counted_binds):
     np.testing.assert_array_equal(evaluated(obj), fresh(obj))
 
 
-def test_a_file_load_binds_again(scene, counted_binds, tmp_path):
+@pytest.mark.parametrize("saved", ["rows", "no rows", "damaged rows"])
+def test_a_reopened_file_binds_from_its_saved_rows(scene, counted_binds, tmp_path, saved):
+    """A static Harmonic bind keeps its coordinates in the file (as Mesh Deform keeps its weights):
+    reopened, the entry binds from them without solving the grid, and shows what it showed. A file
+    without them (saved before they were kept) or with rows that are no bind of its points solves
+    again, to the same result."""
     import bpy
     from deformkit_addon import api
+    from deformkit_addon.entries import cage as kind
     obj = make_object(bpy, name="Ours")
     cage = cage_around(bpy, obj)
     api.add_entry(obj, "CAGE", cage=cage, cage_method="HARMONIC", precision=4)
@@ -132,10 +141,23 @@ def test_a_file_load_binds_again(scene, counted_binds, tmp_path):
     shake(cage, seed=6)
     update()
     shown = evaluated(obj).copy()
+    entry = obj.deformkit.entries[0]
+    assert all(name in entry for name in kind.ROWS)
+    if saved == "no rows":
+        for name in kind.ROWS:
+            del entry[name]
+    elif saved == "damaged rows":
+        weights = np.array(entry[kind.ROWS[2]])
+        weights[0] = 2.0  # not a coordinate: the rows are refused
+        kind.store_array(entry, kind.ROWS[2], weights)
     path = str(tmp_path / "bound.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)
-    binds = len(counted_binds)
+    counted_binds.clear()
     bpy.ops.wm.open_mainfile(filepath=path)
     update()
-    assert len(counted_binds) > binds  # nothing kept is trusted across files
+    expected = ["MeshDeform.bind(rows)"] if saved == "rows" else \
+        ["MeshDeform.bind"] if saved == "no rows" else ["MeshDeform.bind(rows)", "MeshDeform.bind"]
+    assert counted_binds == expected
     np.testing.assert_array_equal(evaluated(bpy.data.objects["Ours"]), shown)
+    api.unbind(bpy.data.objects["Ours"], 0)
+    assert not any(name in bpy.data.objects["Ours"].deformkit.entries[0] for name in kind.SAVED)
