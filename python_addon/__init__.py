@@ -21,7 +21,7 @@ bl_info = {
 MODULES = (
     "errors", "native", "cache", "panel_text", "recipe_schema", "node_builder", "outputs", "shapekeys", "meshdata",
     "subdivision_order", "echo",
-    "entries.common", "entries.binding", "entries.barr", "entries.lattice", "entries.laplacian",
+    "entries.common", "entries.binding", "entries.saved_rows", "entries.barr", "entries.lattice", "entries.laplacian",
     "entries.cage", "entries.rbf", "entries.subdivide", "entries",
     "properties", "stack_run", "follow", "entry_animation", "evaluation", "lattice_tools", "smoothness", "api",
     "mesh_deform",

@@ -23,7 +23,7 @@ import numpy as np
 
 from .. import cache, meshdata, native, panel_text
 from ..errors import EntryError
-from . import binding
+from . import binding, saved_rows
 from .binding import is_bound, new_bind_id, signed
 from .common import (Prepared, affine_inverse, draw_vertex_group, evaluated_mesh_in, followed_mesh, forget_bindings,
                      is_identity, kept_binding, relative, scaled_influence, stack_index, store_array, weights_crc)
@@ -52,12 +52,8 @@ INSIDE = "deformkit_cage_inside"
 # Deform lays its grid along the cage object's own axes and turns the displacement by how the two
 # objects stand now, so the entry does too.
 FRAME = "deformkit_cage_frame"
-# Harmonic, not Dynamic: the bound points' coordinates as binding.weights() gives them (row starts
-# int32, cage vertices int32, weights float32, Blender's float), so that a reopened file binds from
-# them instead of solving the grid again (as Mesh Deform keeps its weights in the file).
-ROWS = ("deformkit_cage_row_starts", "deformkit_cage_row_vertices", "deformkit_cage_row_weights")
-SAVED = (REST, BOUND, FRAME, INSIDE) + ROWS  # what a bind writes on the entry
-NOT_COPIED = binding.NOT_COPIED  # a copy arrives unbound
+SAVED = (REST, BOUND, FRAME, INSIDE)  # what a bind writes on the entry
+NOT_COPIED = binding.NOT_COPIED + ("harmonic_rows",)  # a copy arrives unbound
 
 # deformer: the dk cage deformer with the current cage and the entry's influence; bind: the key its
 # deformer and bindings are kept under; fingerprint: everything besides the incoming points;
@@ -172,7 +168,7 @@ def bound_points(key, entry):
     if kept is not None or entry.cage_method != "HARMONIC" or entry.use_dynamic_bind or BOUND not in entry:
         return kept
     points = np.array(entry[BOUND], np.float32).reshape(-1, 3)
-    rows = tuple(np.array(entry[name]) for name in ROWS) if all(name in entry for name in ROWS) else None
+    rows = saved_rows.read(entry)
     return cache.put("cage_bound", key, (points, cage_space(points, affine_inverse(saved_frame(entry))), rows))
 
 
@@ -321,7 +317,8 @@ def harmonic_offsets(key, setup_, points, out):
                              lambda p: setup_.deformer.bind(p, inside=frame.inside))
     else:
         rows = frame.bound[2] if frame.bound is not None else None
-        bound = kept_binding("cage_binding", key, setup_.bind, local, lambda p: _bound(setup_.deformer, p, rows))
+        bound = kept_binding("cage_binding", key, setup_.bind, local,
+                             lambda p: saved_rows.bind(setup_.deformer, p, rows))
     moved = setup_.deformer.displacement_bound(bound, out=out)
     if frame.weights is not None:
         if len(frame.weights) != len(points):
@@ -329,17 +326,6 @@ def harmonic_offsets(key, setup_, points, out):
                              f"the entry has {len(points)}")
         np.multiply(moved, np.asarray(frame.weights)[:, None], out=moved, casting="same_kind")
     return moved
-
-
-def _bound(deformer, points, rows):
-    """The static bind of points: from its saved rows (a reopened file), else solved. Rows that are
-    no bind of these points (a damaged file) are solved again: the same result, only slower."""
-    if rows is not None:
-        try:
-            return deformer.bind(points, rows=rows)
-        except ValueError:
-            pass
-    return deformer.bind(points)
 
 
 def bind(obj, entry, incoming, rest=None):
@@ -364,7 +350,7 @@ def bind(obj, entry, incoming, rest=None):
         made = None if local is None else deformer.bind(local)  # Mesh Deform's solve: its failure leaves the entry
     except RuntimeError as exc:  # "cannot find a bind solution", naming the cage
         raise EntryError(str(exc)) from exc
-    inside, rows = None, (None,) * len(ROWS)
+    inside, rows = None, (None,) * len(saved_rows.ROWS)
     if made is not None and entry.use_dynamic_bind:  # only the flags are kept: the points are read as they come
         inside, mesh, made = made.inside, None, None
     elif made is not None:
@@ -373,11 +359,12 @@ def bind(obj, entry, incoming, rest=None):
     bind_id = new_bind_id(obj)
     store_array(entry, REST, points.astype(np.float32).ravel())
     flags = None if inside is None else inside.astype(np.int32)  # an ID property takes int32, not bytes
-    for name, values in ((BOUND, mesh), (FRAME, frame), (INSIDE, flags)) + tuple(zip(ROWS, rows)):
+    for name, values in ((BOUND, mesh), (FRAME, frame), (INSIDE, flags)):
         if values is not None:
             store_array(entry, name, values.ravel())
         elif name in entry:
             del entry[name]
+    saved_rows.keep(entry, None if rows[0] is None else rows)
     entry.bind_vertices, entry.bind_faces, entry.bind_topology = topo
     entry.bind_id = bind_id  # a new bind key: the old bindings are not used again
     key = bind_key(obj, entry)
@@ -392,6 +379,7 @@ def bind(obj, entry, incoming, rest=None):
 
 def unbind(obj, entry):
     binding.forget(entry, SAVED)
+    saved_rows.keep(entry, None)
 
 
 def followed(entry):
@@ -418,6 +406,7 @@ def prune(object_key, entries):
 
 def retyped(entry):
     binding.forget(entry, SAVED)
+    saved_rows.keep(entry, None)
 
 
 def draw(col, obj, entry):

@@ -133,7 +133,7 @@ def test_a_reopened_file_binds_from_its_saved_rows(scene, counted_binds, tmp_pat
     again, to the same result."""
     import bpy
     from deformkit_addon import api
-    from deformkit_addon.entries import cage as kind
+    from deformkit_addon.entries import cage as kind, saved_rows
     obj = make_object(bpy, name="Ours")
     cage = cage_around(bpy, obj)
     api.add_entry(obj, "CAGE", cage=cage, cage_method="HARMONIC", precision=4)
@@ -142,14 +142,15 @@ def test_a_reopened_file_binds_from_its_saved_rows(scene, counted_binds, tmp_pat
     update()
     shown = evaluated(obj).copy()
     entry = obj.deformkit.entries[0]
-    assert all(name in entry for name in kind.ROWS)
+    kept = entry.harmonic_rows
+    assert kept.name.startswith(".") and all(name in kept for name in saved_rows.ROWS)
+    assert not any(name in entry for name in saved_rows.ROWS)  # not on the object: see saved_rows
     if saved == "no rows":
-        for name in kind.ROWS:
-            del entry[name]
+        entry.harmonic_rows = None
     elif saved == "damaged rows":
-        weights = np.array(entry[kind.ROWS[2]])
+        weights = np.array(kept[saved_rows.ROWS[2]])
         weights[0] = 2.0  # not a coordinate: the rows are refused
-        kind.store_array(entry, kind.ROWS[2], weights)
+        saved_rows.store_array(kept, saved_rows.ROWS[2], weights)
     path = str(tmp_path / "bound.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)
     counted_binds.clear()
@@ -159,5 +160,8 @@ def test_a_reopened_file_binds_from_its_saved_rows(scene, counted_binds, tmp_pat
         ["MeshDeform.bind"] if saved == "no rows" else ["MeshDeform.bind(rows)", "MeshDeform.bind"]
     assert counted_binds == expected
     np.testing.assert_array_equal(evaluated(bpy.data.objects["Ours"]), shown)
+    rows = bpy.data.objects["Ours"].deformkit.entries[0].harmonic_rows
     api.unbind(bpy.data.objects["Ours"], 0)
-    assert not any(name in bpy.data.objects["Ours"].deformkit.entries[0] for name in kind.SAVED)
+    entry = bpy.data.objects["Ours"].deformkit.entries[0]
+    assert not any(name in entry for name in kind.SAVED) and entry.harmonic_rows is None
+    assert rows is None or saved_rows.NAME not in [m.name for m in bpy.data.meshes if m.users]  # gone with the bind

@@ -17,7 +17,7 @@ LAYERS = (
     ("api", 3), ("entry_animation", 3), ("evaluation", 3), ("stack_run", 3), ("follow", 3), ("properties", 3), ("lattice_tools", 3),
     ("smoothness", 3), ("mesh_deform", 3), ("transfer", 3), ("transfer.*", 3),
     ("entries", 2),  # the registry
-    ("entries.common", 1), ("entries.binding", 1),
+    ("entries.common", 1), ("entries.binding", 1), ("entries.saved_rows", 1),
     ("entries.*", 2),  # the kinds
     ("errors", 0), ("native", 0), ("cache", 0), ("meshdata", 0), ("shapekeys", 0), ("outputs", 0), ("node_builder", 0),
     ("panel_text", 0), ("recipe_schema", 0), ("subdivision_order", 0), ("echo", 0),
