@@ -10,7 +10,7 @@ moving the cage object moves the mesh. The mesh is bound to the rest cage once p
 (kept in the cache's "cage" space), and each evaluation is one product of the bound coordinates
 with the current cage. Harmonic works as Mesh Deform does, in the cage object's own space at bind
 (FRAME): a moved cage object turns the displacement and does not carry the mesh. Without Dynamic
-it binds the points coming into the entry at Bind (kept on the entry, BOUND), whose coordinates
+it binds the points coming into the entry at Bind (kept with the file: saved_rows), whose coordinates
 later points of the same count keep (x + W (c - c at bind)); another vertex count asks for Rebind.
 
 Here too: the entry's settings and panel; its operators are in operators/cage.py.
@@ -44,7 +44,9 @@ FIELDS = ("cage", "cage_method", "precision", "use_dynamic_bind", "strength", "v
 CLASSES = {"MEAN_VALUE": "MeanValueCage", "GREEN": "GreenCage", "HARMONIC": "MeshDeform"}
 
 REST = "deformkit_cage_rest"  # the entry's ID property: the cage at bind, x y z per vertex, in this object's space
-BOUND = "deformkit_cage_bound"  # Harmonic, not Dynamic: the points that came into the entry at bind, x y z
+# Harmonic, not Dynamic: the points that came into the entry at bind, x y z: on the entry in
+# binds before saved_rows, which keeps them now
+BOUND = "deformkit_cage_bound"
 # Harmonic, Dynamic: which of the points that came into the entry at bind were inside the cage (1/0
 # per vertex): Mesh Deform's dynamic bind deforms those, wherever they are now (its dynverts).
 INSIDE = "deformkit_cage_inside"
@@ -165,9 +167,13 @@ def bound_points(key, entry):
     Dynamic, or None; read from the entry once per bind (kept under its bind_key in the cache's
     "cage_bound" space), not every frame."""
     kept = cache.get("cage_bound", key)
-    if kept is not None or entry.cage_method != "HARMONIC" or entry.use_dynamic_bind or BOUND not in entry:
+    if kept is not None or entry.cage_method != "HARMONIC" or entry.use_dynamic_bind:
         return kept
-    points = np.array(entry[BOUND], np.float32).reshape(-1, 3)
+    flat = saved_rows.points(entry)
+    flat = entry.get(BOUND) if flat is None else flat
+    if flat is None:
+        return None
+    points = np.array(flat, np.float32).reshape(-1, 3)
     rows = saved_rows.read(entry)
     return cache.put("cage_bound", key, (points, cage_space(points, affine_inverse(saved_frame(entry))), rows))
 
@@ -359,12 +365,12 @@ def bind(obj, entry, incoming, rest=None):
     bind_id = new_bind_id(obj)
     store_array(entry, REST, points.astype(np.float32).ravel())
     flags = None if inside is None else inside.astype(np.int32)  # an ID property takes int32, not bytes
-    for name, values in ((BOUND, mesh), (FRAME, frame), (INSIDE, flags)):
+    for name, values in ((BOUND, None), (FRAME, frame), (INSIDE, flags)):  # the points: saved_rows
         if values is not None:
             store_array(entry, name, values.ravel())
         elif name in entry:
             del entry[name]
-    saved_rows.keep(entry, None if rows[0] is None else rows)
+    saved_rows.keep(entry, None if mesh is None else mesh.ravel(), rows)
     entry.bind_vertices, entry.bind_faces, entry.bind_topology = topo
     entry.bind_id = bind_id  # a new bind key: the old bindings are not used again
     key = bind_key(obj, entry)
@@ -379,7 +385,7 @@ def bind(obj, entry, incoming, rest=None):
 
 def unbind(obj, entry):
     binding.forget(entry, SAVED)
-    saved_rows.keep(entry, None)
+    saved_rows.keep(entry, None, None)
 
 
 def followed(entry):
@@ -406,7 +412,7 @@ def prune(object_key, entries):
 
 def retyped(entry):
     binding.forget(entry, SAVED)
-    saved_rows.keep(entry, None)
+    saved_rows.keep(entry, None, None)
 
 
 def draw(col, obj, entry):

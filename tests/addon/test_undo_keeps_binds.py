@@ -145,7 +145,8 @@ def test_a_reopened_file_binds_from_its_saved_rows(scene, counted_binds, tmp_pat
     kept = entry.harmonic_rows
     assert kept.name.startswith(".") and all(name in kept for name in saved_rows.ROWS)
     assert not any(name in entry for name in saved_rows.ROWS)  # not on the object: see saved_rows
-    if saved == "no rows":
+    if saved == "no rows":  # a bind made before: the points on the entry, no rows
+        entry[kind.BOUND] = kept[saved_rows.POINTS]
         entry.harmonic_rows = None
     elif saved == "damaged rows":
         weights = np.array(kept[saved_rows.ROWS[2]])
