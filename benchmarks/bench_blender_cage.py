@@ -35,7 +35,7 @@ import time
 import numpy as np
 
 from bench_common import OtherLoad, blender_with_addon, cage_model, cpu_busy, mesh_deform_bind, set_positions, \
-    shared_cages_dir
+    shared_cages_or_exit, twin
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--models", default="Ogre,FireHydrant,Beast,WireSphere")
@@ -44,10 +44,7 @@ ap.add_argument("--precision", type=int, default=5)
 ap.add_argument("--no-shape-key", action="store_true")
 ap.add_argument("--addon", default=str(pathlib.Path(__file__).resolve().parents[1] / "python_addon"))
 args = ap.parse_args()
-CAGES = shared_cages_dir()
-if not CAGES.is_dir():
-    print(f"bench_blender_cage: {CAGES} is absent (the project's test data); nothing to measure")
-    sys.exit(0)
+CAGES = shared_cages_or_exit("bench_blender_cage")
 
 busy = cpu_busy()
 addon = blender_with_addon(args.addon)
@@ -70,15 +67,6 @@ class Side:
         self.bind = float("nan")
         self.frames = {}  # (setup, "moved" / "rest") -> [seconds]
         self.error = 0.0  # largest |evaluated - expected| seen
-
-
-def twin(source, name):
-    """A copy of `source` with a copy of its mesh, in the scene."""
-    obj = source.copy()
-    obj.data = source.data.copy()
-    obj.name = name
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
 
 
 def harmonic(cls):

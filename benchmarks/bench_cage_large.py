@@ -28,7 +28,7 @@ import time
 import numpy as np
 
 from bench_common import OtherLoad, blender_mesh, cage_model, cpu_busy, mesh_deform_bind, set_positions, \
-    shared_cages_dir
+    shared_cages_or_exit
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--model", default="Ogre")
@@ -37,10 +37,7 @@ ap.add_argument("--repeats", type=int, default=7)
 ap.add_argument("--precision", type=int, default=5)
 ap.add_argument("--storages", default="float32,float64")
 args = ap.parse_args()
-CAGES = shared_cages_dir()
-if not CAGES.is_dir():
-    print(f"bench_cage_large: {CAGES} is absent (the project's test data); nothing to measure")
-    sys.exit(0)
+CAGES = shared_cages_or_exit("bench_cage_large")
 
 busy = cpu_busy()
 import bpy  # noqa: E402

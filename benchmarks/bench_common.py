@@ -171,6 +171,16 @@ def shared_cages_dir():
     return pathlib.Path(__file__).resolve().parents[1].parent / "shared" / "cages"
 
 
+def shared_cages_or_exit(script):
+    """shared_cages_dir(), or exit 0 saying it is absent (`script`: the benchmark's name)."""
+    import sys
+    folder = shared_cages_dir()
+    if not folder.is_dir():
+        print(f"{script}: {folder} is absent (the project's test data); nothing to measure")
+        sys.exit(0)
+    return folder
+
+
 def cage_model(folder, name):
     """Model `name` of the shared cages imported into the current scene: a namespace with model
     (object), points, faces, cage (object), rest, cage_faces and moved (the deformed cage's points,
@@ -264,3 +274,13 @@ class PeakMemory:
     def __exit__(self, *exc):
         hwm = _status_kib("VmHWM") * 1024
         self.growth = max(0, hwm - (self.start_rss if self.exact else self.start_hwm))
+
+
+def twin(source, name):
+    """A copy of object `source` with a copy of its mesh, named `name`, in the scene."""
+    import bpy
+    obj = source.copy()
+    obj.data = source.data.copy()
+    obj.name = name
+    bpy.context.scene.collection.objects.link(obj)
+    return obj

@@ -29,7 +29,7 @@ import time
 import numpy as np
 
 from bench_common import OtherLoad, PeakMemory, cage_model, evaluated, mesh_deform_bind, set_positions, \
-    shared_cages_dir
+    shared_cages_or_exit
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--model", default="Ogre")
@@ -37,10 +37,7 @@ ap.add_argument("--precisions", default="5,6,7")
 ap.add_argument("--deformkit-only", default="8")
 ap.add_argument("--repeats", type=int, default=9)
 args = ap.parse_args()
-CAGES = shared_cages_dir()
-if not CAGES.is_dir():
-    print(f"bench_mesh_deform: {CAGES} is absent (the project's test data); nothing to measure")
-    sys.exit(0)
+CAGES = shared_cages_or_exit("bench_mesh_deform")
 
 import bpy  # noqa: E402
 

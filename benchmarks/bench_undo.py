@@ -17,12 +17,11 @@ that shows it timed, best of R. Skips with a message when ../shared/cages is abs
 import argparse
 import pathlib
 import statistics
-import sys
 import tempfile
 import time
 
 from bench_common import OtherLoad, blender_with_addon, cage_model, cpu_busy, mesh_deform_bind, set_positions, \
-    shared_cages_dir
+    shared_cages_or_exit, twin
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--model", default="Ogre")
@@ -30,23 +29,12 @@ ap.add_argument("--precisions", default="5,6,7")
 ap.add_argument("--repeats", type=int, default=5)
 ap.add_argument("--addon", default=str(pathlib.Path(__file__).resolve().parents[1] / "python_addon"))
 args = ap.parse_args()
-CAGES = shared_cages_dir()
-if not CAGES.is_dir():
-    print(f"bench_undo: {CAGES} is absent (the project's test data); nothing to measure")
-    sys.exit(0)
+CAGES = shared_cages_or_exit("bench_undo")
 
 busy = cpu_busy()
 blender_with_addon(args.addon)
 import bpy  # noqa: E402
 from deformkit_addon import api  # noqa: E402
-
-
-def twin(source, name):
-    obj = source.copy()
-    obj.data = source.data.copy()
-    obj.name = name
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
 
 
 def undo_seconds(cage_name, m):

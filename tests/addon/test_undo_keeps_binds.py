@@ -106,11 +106,8 @@ def test_an_undone_rebind_shows_the_bind_before_it(scene, counted_binds):
     result is that bind's, as a fresh evaluation makes it, not the later bind's kept one."""
     import bpy
     from deformkit_addon import api
-    obj = make_object(bpy, name="Ours")
-    cage = cage_around(bpy, obj)
-    api.add_entry(obj, "CAGE", cage=cage, cage_method="HARMONIC", precision=4)
-    api.bind_cage(obj, 0)
-    shake(cage, seed=5)
+    obj, move = rig(bpy, "HARMONIC")
+    move(5)
     update()
     bpy.ops.ed.undo_push(message="first bind, shaken")
     first = evaluated(obj).copy()
@@ -134,11 +131,8 @@ def test_a_reopened_file_binds_from_its_saved_rows(scene, counted_binds, tmp_pat
     import bpy
     from deformkit_addon import api
     from deformkit_addon.entries import cage as kind, saved_rows
-    obj = make_object(bpy, name="Ours")
-    cage = cage_around(bpy, obj)
-    api.add_entry(obj, "CAGE", cage=cage, cage_method="HARMONIC", precision=4)
-    api.bind_cage(obj, 0)
-    shake(cage, seed=6)
+    obj, move = rig(bpy, "HARMONIC")
+    move(6)
     update()
     shown = evaluated(obj).copy()
     entry = obj.deformkit.entries[0]
