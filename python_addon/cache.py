@@ -3,8 +3,8 @@
 Each use has its own space (a name) and keys whose first element is the cache key of the object
 the value belongs to (meshdata.cache_key), so one `forget` drops an object's values of every space
 (api.evaluate, file load; undo and redo keep the spaces the kinds key by bind, forget_but) and
-nothing needs wiring by hand. Values are rebuilt from the file
-when missing: nothing here is ever the only copy of the user's data.
+nothing needs wiring by hand. Values are rebuilt from the file when missing: nothing here is ever
+the only copy of the user's data.
 
 Spaces: "inputs" (evaluation: the last settings and base), "echo" (echo.py: the last write's time),
 "follow" and "checked" (follow.py: what a drag's steps reuse; when each object's modifier was last

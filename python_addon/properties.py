@@ -194,7 +194,7 @@ class DEFORMKIT_PG_entry(bpy.types.PropertyGroup):
                           description="Closed mesh object around the mesh whose shape deforms it (as Mesh Deform's "
                                       "Object)")
     cage_name: StringProperty(options={"HIDDEN"})
-    # A static Harmonic bind's coordinates, on a mesh datablock of their own (entries/cage.py, ROWS)
+    # A static Harmonic bind's points and coordinates, on a mesh datablock of their own (entries/saved_rows.py)
     harmonic_rows: PointerProperty(type=bpy.types.Mesh, options={"HIDDEN"})
     cage_method: EnumProperty(name="Method", items=CAGE_METHODS, default="MEAN_VALUE", update=_changed,
                               description="The coordinates that tie the mesh to the cage")

@@ -153,7 +153,8 @@ WeightTable rows_table(const py::object& rows, std::size_t n) {
     };
   };
   WeightTable t;
-  t.indptr = parse_index_array(parts[0], "rows: indptr", "integer row offsets", one_dimensional("indptr", py::ssize_t(n) + 1));
+  t.indptr = parse_index_array(parts[0], "rows: indptr", "integer row offsets",
+                               one_dimensional("indptr", py::ssize_t(n) + 1));
   const std::vector<std::int64_t> indices =
       parse_index_array(parts[1], "rows: indices", "integer cage vertex indices", one_dimensional("indices", -1));
   t.indices.resize(indices.size());

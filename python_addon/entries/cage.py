@@ -10,8 +10,9 @@ moving the cage object moves the mesh. The mesh is bound to the rest cage once p
 (kept in the cache's "cage" space), and each evaluation is one product of the bound coordinates
 with the current cage. Harmonic works as Mesh Deform does, in the cage object's own space at bind
 (FRAME): a moved cage object turns the displacement and does not carry the mesh. Without Dynamic
-it binds the points coming into the entry at Bind (kept with the file: saved_rows), whose coordinates
-later points of the same count keep (x + W (c - c at bind)); another vertex count asks for Rebind.
+it binds the points coming into the entry at Bind (kept with the file: saved_rows), whose
+coordinates later points of the same count keep (x + W (c - c at bind)); another vertex count
+asks for Rebind.
 
 Here too: the entry's settings and panel; its operators are in operators/cage.py.
 """
@@ -65,9 +66,9 @@ Setup = namedtuple("Setup", "deformer bind fingerprint harmonic", defaults=(None
 # the cage's displacements into this object's space (3 x 3, None when that is the identity; setup
 # turns the cage's displacements, so the deformer's offsets are this object's);
 # bound, (points, in the cage's space as float32, their saved rows or None) of a bind that keeps
-# its points (not Dynamic), else None; inside, a Dynamic bind's flags of Bind (bool per point), else None; weights, the
-# per-point influence (vertex group, strength) scaling the displacement, or None: the grid is
-# solved without them, so a Strength drag never solves it again.
+# its points (not Dynamic), else None; inside, a Dynamic bind's flags of Bind (bool per point),
+# else None; weights, the per-point influence (vertex group, strength) scaling the displacement,
+# or None: the grid is solved without them, so a Strength drag never solves it again.
 Frame = namedtuple("Frame", "now turn bound inside weights", defaults=(None, None))
 # In the cache: "cage_binding", (object cache key, entry index, "viewport"/"render") -> (bind key
 # (object cache key, bind id, method[, precision, dynamic]), points, binding); "cage_deformer", bind

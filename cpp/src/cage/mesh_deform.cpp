@@ -285,7 +285,8 @@ void trilinear_row(const ReachedCells& r, std::size_t i, double* w, double* dw) 
 void dense_rows(std::size_t m, MeshDeformBinding& b) {
   const std::size_t n = b.size(), blocks = (n + 7) / 8, rows = b.row_point.size();
   const double dense = 4.0 * double(m) * double(8 * blocks);
-  const double sparse = double(b.weight_vertex.size()) * double(4 + b.weight_vertex.bytes_per_index()) + 8.0 * double(rows);
+  const double sparse =
+      double(b.weight_vertex.size()) * double(4 + b.weight_vertex.bytes_per_index()) + 8.0 * double(rows);
   if (!b.single_precision || rows == 0 || dense > 1.5 * sparse) return;
   b.dense_weight.assign(8 * m * blocks, 0.0f);
   for (std::size_t r = 0; r < rows; ++r) {

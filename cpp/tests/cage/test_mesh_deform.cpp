@@ -382,7 +382,8 @@ TEST(CageMeshDeform, DenseBlocksAgreeOnEveryTarget) {
                 sum += (long double)weight[8 * (m * (i / 8) + a) + i % 8] * rows4[4 * a + c];
               const long double expected = (offsets ? 0.0L : points[3 * i + c]) + (scaled ? scale[i] : 1.0) * sum;
               EXPECT_NEAR(out[3 * i + c], double(expected), 4e-6)
-                  << hwy::TargetName(target) << " m " << m << " point " << i << " scaled " << scaled << " offsets " << offsets;
+                  << hwy::TargetName(target) << " m " << m << " point " << i << " scaled " << scaled
+                  << " offsets " << offsets;
             }
           EXPECT_EQ(out[3 * n], 7.0f);
         }
@@ -397,8 +398,9 @@ TEST(CageMeshDeform, DenseBlocksAgreeOnEveryTarget) {
 }
 
 // A float binding on a cube cage (8 vertices, every inside point weighing all of them, most points
-// inside) holds its rows dense as well (fewer bytes), and the dense frame gives the rows' frame: deform_bound through the float64
-// binding of the same points (rows, double) to float rounding. A float64 binding keeps rows only.
+// inside) holds its rows dense as well (fewer bytes), and the dense frame gives the rows' frame:
+// deform_bound through the float64 binding of the same points (rows, double) to float rounding. A
+// float64 binding keeps rows only.
 TEST(CageMeshDeform, SmallCagesBindDenseAndTheirFrameIsTheRowsFrame) {
   const CageMesh cage(test::polygon_mesh(test::subdivided_cube(1)));
   ASSERT_EQ(cage.vertex_count(), 8u);
