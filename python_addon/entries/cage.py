@@ -257,7 +257,8 @@ def _posed(obj, entry, cage, key, influence, last, lacks_frame=False):
     changed = "bound for another method: Rebind" if lacks_frame else topology_change(entry, topo)
     if key[2] == "HARMONIC" and not changed:
         frame, rest, points = harmonic_frame(key, entry, now, points)
-        changed = "" if last is not None else mesh_change(obj, entry, bound_count(frame))
+        changed = "" if last is not None else \
+            mesh_change(obj, entry, bound_count(frame)) or saved_rows.gone(entry, frame.bound)
     binding.require_current(entry, changed)
     if last is not None:
         deformer, crc = last.deformer, last.fingerprint[2]

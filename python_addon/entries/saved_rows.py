@@ -51,6 +51,15 @@ def read(entry):
     return tuple(np.array(kept[name]) for name in ROWS)  # copies: the datablock may go away
 
 
+def gone(entry, bound):
+    """What is wrong with a static Harmonic bind whose bound points are gone (`bound` None: their
+    datablock deleted by hand, or Dynamic turned off since Bind), or '': binding the points as they
+    come instead would deform otherwise than the bind did."""
+    if entry.use_dynamic_bind or bound is not None:
+        return ""
+    return f"the points bound at Bind are gone (their data, '{NAME}', was deleted, or Dynamic changed): Rebind"
+
+
 def bind(deformer, points, rows):
     """The static bind of points: from its kept rows, else solved. Rows that are no bind of these
     points (a damaged file) are solved again: the same result, only slower."""

@@ -160,3 +160,25 @@ def test_a_reopened_file_binds_from_its_saved_rows(scene, counted_binds, tmp_pat
     entry = bpy.data.objects["Ours"].deformkit.entries[0]
     assert not any(name in entry for name in kind.SAVED) and entry.harmonic_rows is None
     assert rows is None or saved_rows.NAME not in [m.name for m in bpy.data.meshes if m.users]  # gone with the bind
+
+
+def test_a_static_bind_whose_points_are_gone_asks_for_rebind(scene):
+    """The bind's datablock deleted by hand: the entry says so and offers Rebind (the mesh passes
+    through, as with any bind that no longer fits), instead of binding the points as they come;
+    Rebind makes it whole again."""
+    import bpy
+    from deformkit_addon import api, evaluation
+    obj, move = rig(bpy, "HARMONIC")
+    move(7)
+    update()
+    bpy.data.meshes.remove(obj.deformkit.entries[0].harmonic_rows)
+    evaluation.forget()
+    with pytest.raises(ValueError, match="the points bound at Bind are gone"):  # the api says what the entry says
+        api.evaluate(obj)
+    entry = obj.deformkit.entries[0]
+    assert entry.error.startswith("the points bound at Bind are gone") and entry.error.endswith(": Rebind")
+    assert entry.bind_outdated
+    np.testing.assert_array_equal(evaluated(obj), positions(obj.data))
+    api.bind_cage(obj, 0)
+    update()
+    assert entry.error == "" and entry.harmonic_rows is not None
