@@ -433,6 +433,20 @@ void kept_rows(const ReachedCells& r, const std::vector<std::size_t>& inside, Me
   dense_rows(m, b);
 }
 
+// A binding of these points (checked finite, kept in their precision) to a deformer of this
+// layout, before its inside flags and coordinates: what every way of binding starts from.
+template <class T>
+MeshDeformBinding binding_of(const T* in, std::size_t n, std::uint64_t layout) {
+  require_finite_rows(in, n, "points");
+  MeshDeformBinding b;
+  b.point_count = n;
+  b.single_precision = std::is_same<T, float>::value;
+  b.layout = layout;
+  if constexpr (std::is_same<T, float>::value) b.points_f32.assign(in, in + 3 * n);
+  else b.points_f64.assign(in, in + 3 * n);
+  return b;
+}
+
 template <class T>
 std::vector<double> as_doubles(const T* in, std::size_t n) {
   return std::vector<double>(in, in + 3 * n);
@@ -550,15 +564,9 @@ MeshDeformBinding MeshDeform::bind_points(const T* in, std::size_t n, const std:
   if (kept && !dynamic_)
     throw std::invalid_argument("inside: only a dynamic MeshDeform takes the points' inside flags from Bind; a static "
                                 "bind tests its points and keeps their coordinates");
-  require_finite_rows(in, n, "points");
   const harmonic::Solved& s = *solved_;
-  MeshDeformBinding b;
-  b.point_count = n;
-  b.single_precision = std::is_same<T, float>::value;
-  b.layout = layout();
+  MeshDeformBinding b = harmonic::binding_of(in, n, layout());
   b.dynamic = dynamic_;
-  if constexpr (std::is_same<T, float>::value) b.points_f32.assign(in, in + 3 * n);
-  else b.points_f64.assign(in, in + 3 * n);
   const std::vector<double> points = harmonic::as_doubles(in, n);
   b.inside.assign(n, 0);
   if (kept)  // Blender's dynverts: decided at Bind, not where the points are now
@@ -602,13 +610,7 @@ MeshDeformBinding MeshDeform::bound_rows(const T* in, std::size_t n, const std::
   if (dynamic_)
     throw std::invalid_argument("rows: a dynamic MeshDeform keeps no rows (its coordinates are the grid's, read "
                                 "where each point is): bind it without rows");
-  require_finite_rows(in, n, "points");
-  MeshDeformBinding b;
-  b.point_count = n;
-  b.single_precision = std::is_same<T, float>::value;
-  b.layout = layout();
-  if constexpr (std::is_same<T, float>::value) b.points_f32.assign(in, in + 3 * n);
-  else b.points_f64.assign(in, in + 3 * n);
+  MeshDeformBinding b = harmonic::binding_of(in, n, layout());
   b.inside.assign(n, 0);
   for (std::size_t i = 0; i < n; ++i)
     b.inside[i] = inside ? inside[i] != 0 : rows.rows() == n && rows.indptr[i + 1] > rows.indptr[i];
